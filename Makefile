@@ -1,0 +1,35 @@
+# The two commands a new user needs: `make demo` and `make test`.
+# Both create .venv at the repository root and install cfem_ros into it.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.cfem-installed
+
+.PHONY: demo test venv bench clean
+
+venv: $(STAMP)
+
+$(STAMP): setup.py setup.cfg package.xml
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "cfem_ros needs Python 3.10 or newer; set PYTHON=python3.x")'
+	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
+	  echo "python3 -m venv failed: installing the venv module (python3-venv) with apt-get"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
+	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
+	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[ros,test]'
+	@touch $(STAMP)
+
+demo: $(STAMP)
+	@mkdir -p runs
+	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q test
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_engine.py
+
+clean:
+	rm -rf $(VENV) build install log runs *.egg-info

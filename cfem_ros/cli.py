@@ -1,0 +1,201 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The ``cfem-sim`` command line (SPEC section 2): typed commands, exit codes."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import signal
+import sys
+import time
+from typing import Optional
+
+import numpy as np
+
+from cfem_ros import offline, rotations
+from cfem_ros.engine import Simulator
+from cfem_ros.errors import CfemError
+from cfem_ros.inputs import read_inputs
+from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros.scenario import load_scenario
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_BAD_INPUT = 2
+
+LOG = logging.getLogger('cfem_ros')
+
+
+def _error(message: str) -> int:
+    print(f'ERROR: {message}', file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def _vec(values, fmt='{:+.6g}') -> str:
+    return '[' + ', '.join(fmt.format(v) for v in values) + ']'
+
+
+def _describe_release(joint) -> str:
+    rel = joint.release
+    parts = []
+    if rel.time is not None:
+        parts.append(f'time {rel.time:g} s')
+    if rel.angle is not None:
+        parts.append(f'angle {math.degrees(rel.angle):g} deg')
+    if rel.distance is not None:
+        parts.append(f'distance {rel.distance:g} m')
+    if rel.force is not None:
+        parts.append(f'force {rel.force:g} N')
+    return ', '.join(parts) if parts else 'never (or on command)'
+
+
+def cmd_check(scenario: str) -> int:
+    """Validate a scenario and print a summary; exit status 0 or 2."""
+    try:
+        model = load_scenario(scenario)
+        sim = Simulator(model)
+    except CfemError as err:
+        return _error(str(err))
+    print(f'{scenario}: valid scenario {model.name!r}')
+    print(f'  world frame {model.frame_id!r}, gravity {_vec(model.gravity)} m/s^2, '
+          f'dt {model.dt:g} s, duration {model.duration:g} s, '
+          f'baumgarte {model.baumgarte:g} 1/s')
+    print(f'  bodies ({len(model.bodies)}):')
+    for body in model.bodies:
+        if body.fixed:
+            detail = 'fixed'
+        else:
+            detail = (f'{body.mass:g} kg, principal inertia '
+                      f'{_vec(np.linalg.eigvalsh(body.inertia), "{:.6g}")} kg m^2')
+        print(f'    {body.name:<16} {detail}; CG {_vec(body.position)} m')
+    print(f'  joints ({len(model.joints)}):')
+    for joint in model.joints:
+        trans, rot = joint.rows.dof
+        print(f'    {joint.name:<16} {joint.type:<11} '
+              f'{model.bodies[joint.parent].name} -> {model.bodies[joint.child].name}; '
+              f'frees {trans} translation(s), {rot} rotation(s); '
+              f'release: {_describe_release(joint)}')
+    free = sum(not b.fixed for b in model.bodies)
+    print(f'  degrees of freedom: {sim.dof} '
+          f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
+          f'removed by the joints)')
+    return EXIT_OK
+
+
+def _print_state(sim):
+    print(f'final state at t = {sim.t:.9g} s:')
+    position, quat = sim.position, sim.orientation
+    velocity, rates = sim.velocity, np.degrees(sim.rates)
+    rpy = rotations.to_rpy_deg(quat)
+    for i, body in enumerate(sim.model.bodies):
+        if body.fixed:
+            continue
+        print(f'  {body.name}: CG {_vec(position[i])} m, roll/pitch/yaw '
+              f'{_vec(rpy[i])} deg, velocity {_vec(velocity[i])} m/s (world), '
+              f'rates {_vec(rates[i])} deg/s (body)')
+
+
+def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[float] = None,
+            dt: Optional[float] = None, inputs: Optional[str] = None,
+            overwrite: bool = False) -> int:
+    """Run a scenario offline and record it; exit status 0, 1 or 2."""
+    if not (math.isfinite(rate) and rate > 0):
+        return _error(f'--rate: is {rate:g}; expected a sample rate > 0 Hz')
+    try:
+        model = load_scenario(scenario, duration=duration, dt=dt)
+        replay = read_inputs(inputs) if inputs else []
+        if os.path.exists(output) and not overwrite:
+            return _error(f'{output}: already exists; pass --overwrite to replace it')
+        sim = Simulator(model)
+    except CfemError as err:
+        return _error(str(err))
+    interactive = sys.stderr.isatty()
+
+    def progress(t):
+        if interactive:
+            print(f'\r  t = {t:.3f} / {model.duration:g} s', end='', file=sys.stderr)
+
+    started = time.monotonic()
+    try:
+        with Recorder(output, overwrite=overwrite, metadata={
+                'scenario': os.path.abspath(scenario), 'start_stamp_ns': 0,
+                'dt': repr(model.dt), 'rate_hz': repr(rate)}) as recorder:
+            state = StateRecorder(recorder, sim)
+            ok = offline.run(sim, state, rate_hz=rate, duration=model.duration,
+                             inputs=replay, progress=progress)
+    except CfemError as err:
+        return _error(str(err))
+    wall = time.monotonic() - started
+    if interactive:
+        print('\r' + ' ' * 40 + '\r', end='', file=sys.stderr)
+    print(f'{model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
+          f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
+    for event in sim.events:
+        print(f'release {event["joint"]} at t = {event["time"]:.9f} s ({event["cause"]})')
+    if not any(e['event'] == 'release' for e in sim.events):
+        print('no joint released')
+    _print_state(sim)
+    print(f'recording: {output} ({recorder.message_count} messages)')
+    if not ok:
+        print(f'ERROR: the run failed {sim.message}; the recording holds everything '
+              f'up to t = {sim.t:.9g} s', file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of cfem-sim."""
+    parser = argparse.ArgumentParser(
+        prog='cfem-sim',
+        description='Simulate rigid bodies joined by releasable joints (CFEM), no ROS needed.')
+    sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
+    run = sub.add_parser('run', help='run a scenario as fast as possible and record it',
+                         description='Run a scenario and record it to MCAP (SPEC section 4).')
+    run.add_argument('scenario', metavar='SCENARIO', help='scenario file (YAML)')
+    run.add_argument('-o', '--output', required=True, metavar='OUT.mcap',
+                     help='recording to write')
+    run.add_argument('--rate', type=float, default=100.0, metavar='HZ',
+                     help='sample rate of the recording (default 100 Hz)')
+    run.add_argument('--duration', type=float, metavar='S',
+                     help="run length, overriding the scenario's")
+    run.add_argument('--dt', type=float, metavar='S', help="RK4 step, overriding the scenario's")
+    run.add_argument('--inputs', metavar='LOG.mcap',
+                     help='replay the wrenches and release commands of a recording')
+    run.add_argument('--overwrite', action='store_true', help='replace OUT if it exists')
+    check = sub.add_parser('check', help='validate a scenario and summarize it',
+                           description='Validate a scenario and print its bodies, joints '
+                           'and degrees of freedom.')
+    check.add_argument('scenario', metavar='SCENARIO', help='scenario file (YAML)')
+    return parser
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt
+
+
+def main(argv=None) -> int:
+    """Entry point of the cfem-sim console script."""
+    args = build_parser().parse_args(argv)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter('WARNING: %(message)s'))
+    LOG.addHandler(handler)
+    LOG.propagate = False
+    # SIGTERM unwinds like Ctrl-C, so that an open recording is finished.
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        if args.command == 'check':
+            return cmd_check(args.scenario)
+        return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
+                       dt=args.dt, inputs=args.inputs, overwrite=args.overwrite)
+    except KeyboardInterrupt:
+        print('interrupted', file=sys.stderr)
+        return 130
+    finally:
+        LOG.removeHandler(handler)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,46 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""Exceptions of cfem_ros: one root, one class per kind of failure."""
+
+from __future__ import annotations
+
+
+class CfemError(Exception):
+    """Root of every error cfem_ros raises on purpose."""
+
+
+class ScenarioError(CfemError):
+    """A scenario (file or mapping) that cannot be simulated.
+
+    Parameters
+    ----------
+    source : str
+        The file name, or a description of where the scenario came from.
+    key : str
+        Dotted key path of the offending entry (``joints.pivot.axis``), or ''
+        for the document as a whole.
+    problem : str
+        What is wrong, with the value.
+    expected : str
+        What would be right.
+
+    """
+
+    def __init__(self, source: str, key: str, problem: str, expected: str = ''):
+        self.source = source
+        self.key = key
+        self.problem = problem
+        self.expected = expected
+        where = f'{source}: {key}' if key else source
+        message = f'{where}: {problem}'
+        if expected:
+            message += f'; expected {expected}'
+        super().__init__(message)
+
+
+class InputError(CfemError):
+    """A command-line argument or input log that cannot be used."""
+
+
+class RecordingError(CfemError):
+    """A recording that cannot be written or read."""

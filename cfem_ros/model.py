@@ -1,0 +1,225 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The model: bodies, joints and the joint table, built once from a scenario."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+#: Standard gravity, m/s^2.
+STANDARD_GRAVITY = 9.80665
+
+#: Baumgarte gain times dt used when the scenario gives none (eta = 0.05 / dt).
+DEFAULT_BAUMGARTE_DT = 0.05
+
+#: RK4's stability limit for the stabilized constraint error, eta * dt.
+BAUMGARTE_DT_LIMIT = 2.8
+
+
+@dataclass(frozen=True)
+class JointRows:
+    """The constraint rows of one joint type (paper Table 1, CFEM.md).
+
+    Axes are indices into the joint's triad (u1, u2, u3), u1 = the joint axis.
+
+    Attributes
+    ----------
+    translation : tuple of int
+        Directions u_k along which the joint point may not move (primitive 1).
+        The other directions carry no force (primitive 4).
+    rotation : tuple of (int, int)
+        Pairs (i, k) keeping u_i on the parent perpendicular to u_k on the
+        child (primitive 2 with lambda = 90 deg, which stays regular where
+        lambda = 0 is singular). Rotation about the remaining directions is
+        free and carries no moment (primitive 3).
+    dof : (int, int)
+        Translational and rotational degrees of freedom the joint leaves.
+
+    """
+
+    translation: tuple
+    rotation: tuple
+    dof: tuple
+
+
+_LOCK_ALL = ((0, 1), (1, 2), (2, 0))
+_KEEP_U1 = ((0, 1), (0, 2))
+
+#: The seven joint types as data: which rows each one contributes.
+JOINT_TABLE = {
+    'fixed': JointRows((0, 1, 2), _LOCK_ALL, (0, 0)),
+    'hinge': JointRows((0, 1, 2), _KEEP_U1, (0, 1)),
+    'universal': JointRows((0, 1, 2), ((0, 1),), (0, 2)),
+    'ball': JointRows((0, 1, 2), (), (0, 3)),
+    'slider': JointRows((1, 2), _LOCK_ALL, (1, 0)),
+    'planar': JointRows((0,), _KEEP_U1, (2, 1)),
+    'cylindrical': JointRows((1, 2), _KEEP_U1, (1, 1)),
+}
+
+#: Joint types whose ``axis`` must be given.
+AXIS_REQUIRED = frozenset({'hinge', 'universal', 'slider', 'planar', 'cylindrical'})
+
+
+@dataclass(frozen=True)
+class Release:
+    """Release triggers of a joint; the first one reached releases it.
+
+    ``None`` disables a trigger. Units: s, rad, m, N.
+    """
+
+    time: Optional[float] = None
+    angle: Optional[float] = None
+    distance: Optional[float] = None
+    force: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body and its state at t = 0.
+
+    Attributes
+    ----------
+    name : str
+    fixed : bool
+        A ground body: never moves, mass and inertia unused.
+    mass : float
+        kg.
+    inertia : ndarray, shape (3, 3)
+        kg m^2 about the CG, body axes.
+    position : ndarray, shape (3,)
+        CG in world, m.
+    orientation_xyzw : ndarray, shape (4,)
+        Unit quaternion, body to world, scalar last.
+    velocity_world : ndarray, shape (3,)
+        CG velocity, world axes, m/s.
+    rates_body : ndarray, shape (3,)
+        Angular velocity (P, Q, R), body axes, rad/s.
+
+    """
+
+    name: str
+    fixed: bool
+    mass: float
+    inertia: np.ndarray
+    position: np.ndarray
+    orientation_xyzw: np.ndarray
+    velocity_world: np.ndarray
+    rates_body: np.ndarray
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint between a parent body (A) and a child body (B).
+
+    Attributes
+    ----------
+    name : str
+    type : str
+        One of ``JOINT_TABLE``.
+    parent, child : int
+        Body indices.
+    anchor : ndarray, shape (3,)
+        The joint point in world at t = 0, m.
+    triad : ndarray, shape (3, 3)
+        Rows u1, u2, u3: orthonormal, right-handed, world axes at t = 0;
+        u1 is the joint axis; for a universal joint u2 is the child's axis.
+    release : Release
+
+    """
+
+    name: str
+    type: str
+    parent: int
+    child: int
+    anchor: np.ndarray
+    triad: np.ndarray
+    release: Release = field(default_factory=Release)
+
+    @property
+    def rows(self) -> JointRows:
+        """The rows of this joint's type."""
+        return JOINT_TABLE[self.type]
+
+
+@dataclass(frozen=True)
+class Model:
+    """Everything needed to simulate a scenario; built once, never mutated.
+
+    Attributes
+    ----------
+    name : str
+    frame_id : str
+        Name of the world frame.
+    gravity : ndarray, shape (3,)
+        World axes, m/s^2.
+    duration : float
+        Run length of ``cfem-sim run``, s.
+    dt : float
+        RK4 step, s.
+    baumgarte : float
+        Baumgarte gain eta, 1/s.
+    bodies : tuple of Body
+    joints : tuple of Joint
+
+    """
+
+    name: str
+    frame_id: str
+    gravity: np.ndarray
+    duration: float
+    dt: float
+    baumgarte: float
+    bodies: tuple
+    joints: tuple
+
+    def body_index(self, name: str) -> int:
+        """Return the index of the body called name (ValueError if none)."""
+        for i, body in enumerate(self.bodies):
+            if body.name == name:
+                return i
+        raise ValueError(f'no body named {name!r}')
+
+    def joint_index(self, name: str) -> int:
+        """Return the index of the joint called name (ValueError if none)."""
+        for i, joint in enumerate(self.joints):
+            if joint.name == name:
+                return i
+        raise ValueError(f'no joint named {name!r}')
+
+
+def triad_from_axes(axis, axis2=None) -> np.ndarray:
+    """Build the orthonormal triad (u1, u2, u3) of a joint.
+
+    Parameters
+    ----------
+    axis : array_like, shape (3,)
+        u1, any length > 0.
+    axis2 : array_like, shape (3,), optional
+        u2 (universal joints), perpendicular to axis. Without it, u2 is the
+        world axis least aligned with u1, made perpendicular.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rows u1, u2, u3 with u3 = u1 x u2.
+
+    """
+    u1 = np.asarray(axis, dtype=float)
+    u1 = u1 / np.linalg.norm(u1)
+    if axis2 is None:
+        helper = np.zeros(3)
+        helper[int(np.argmin(np.abs(u1)))] = 1.0
+        u2 = helper - u1 * (helper @ u1)
+    else:
+        u2 = np.asarray(axis2, dtype=float)
+        u2 = u2 - u1 * (u2 @ u1)
+    u2 = u2 / np.linalg.norm(u2)
+    return np.array([u1, u2, np.cross(u1, u2)])
+
+
+def default_baumgarte(dt: float) -> float:
+    """Return the Baumgarte gain used when a scenario gives none, 1/s."""
+    return DEFAULT_BAUMGARTE_DT / dt
