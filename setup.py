@@ -36,6 +36,7 @@ setup(
         'PyYAML>=6.0',
         'mcap>=1.1',
         'mcap-ros2-support>=0.5',
+        'numba>=0.59',
     ],
     extras_require={
         'ros': [
@@ -50,6 +51,7 @@ setup(
             'rosbags>=0.10',
             'ros-kilted-ament-flake8',
             'ros-kilted-ament-pep257',
+            'pydocstyle',
             'flake8-quotes',
             'flake8-import-order',
             'flake8-builtins',

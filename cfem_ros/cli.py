@@ -13,14 +13,13 @@ import sys
 import time
 from typing import Optional
 
-import numpy as np
-
 from cfem_ros import offline, rotations
 from cfem_ros.engine import Simulator
 from cfem_ros.errors import CfemError
 from cfem_ros.inputs import read_inputs
 from cfem_ros.recording import Recorder, StateRecorder
 from cfem_ros.scenario import load_scenario
+import numpy as np
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -74,7 +73,7 @@ def cmd_check(scenario: str) -> int:
     print(f'  joints ({len(model.joints)}):')
     for joint in model.joints:
         trans, rot = joint.rows.dof
-        print(f'    {joint.name:<16} {joint.type:<11} '
+        print(f'    {joint.name:<16} {joint.kind:<11} '
               f'{model.bodies[joint.parent].name} -> {model.bodies[joint.child].name}; '
               f'frees {trans} translation(s), {rot} rotation(s); '
               f'release: {_describe_release(joint)}')
@@ -147,7 +146,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of cfem-sim."""
+    """Build the argument parser of cfem-sim."""
     parser = argparse.ArgumentParser(
         prog='cfem-sim',
         description='Simulate rigid bodies joined by releasable joints (CFEM), no ROS needed.')

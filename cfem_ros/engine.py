@@ -1,6 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""The CFEM engine: Newton-Euler bodies, joint rows, Baumgarte, RK4, releases.
+"""
+The CFEM engine: Newton-Euler bodies, joint rows, Baumgarte, RK4, releases.
 
 The state of n bodies is one flat array ``y`` of 13 n numbers, in blocks:
 CG positions (world, m), CG velocities (world, m/s), quaternions (x, y, z, w,
@@ -26,11 +27,10 @@ import logging
 import math
 from typing import Optional
 
+from cfem_ros import kernel, rotations
+from cfem_ros.model import Model
 import numpy as np
 from scipy.optimize import brentq
-
-from cfem_ros import rotations
-from cfem_ros.model import Model
 
 LOG = logging.getLogger('cfem_ros')
 
@@ -51,7 +51,8 @@ class _NumericalFailure(Exception):
 
 def _cross(a, b):
     """Row-wise cross products of two (m, 3) arrays (faster than np.cross)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a, b = np.broadcast_arrays(a, b) if a.shape != b.shape else (a, b)
+    out = np.empty(a.shape)
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -69,7 +70,8 @@ def _apply(matrices, vectors):
 
 
 class _Rows:
-    """The constraint rows of the active joints, as flat arrays.
+    """
+    The constraint rows of the active joints, packed for ``kernel``.
 
     Translation rows (primitive 1) come first, then rotation rows (primitive
     2 with perpendicular vectors). Vectors are in the body axes of the body
@@ -77,36 +79,23 @@ class _Rows:
     """
 
     def __init__(self, tables: dict, active: np.ndarray, n_bodies: int):
-        t = active[tables['t_joint']]
-        r = active[tables['r_joint']]
-        self.t_joint = tables['t_joint'][t]
-        self.t_a = tables['t_a'][t]
-        self.t_b = tables['t_b'][t]
-        self.t_axis_a = tables['t_axis_a'][t]
-        self.t_anchor_a = tables['t_anchor_a'][t]
-        self.t_anchor_b = tables['t_anchor_b'][t]
-        self.r_joint = tables['r_joint'][r]
-        self.r_a = tables['r_a'][r]
-        self.r_b = tables['r_b'][r]
-        self.r_vec_a = tables['r_vec_a'][r]
-        self.r_vec_b = tables['r_vec_b'][r]
-        self.n_t = len(self.t_joint)
-        self.m = self.n_t + len(self.r_joint)
-        a = np.concatenate([self.t_a, self.r_a])
-        b = np.concatenate([self.t_b, self.r_b])
-        self.a = a
-        self.b = b
-        # Column indices of each row's two 6-blocks in the dense Jacobian.
+        keep = active[tables['joint']]
+        self.joint = tables['joint'][keep]
+        self.bodies = np.ascontiguousarray(tables['bodies'][keep])
+        self.vectors = np.ascontiguousarray(tables['vectors'][keep])
+        self.n_t = int(np.count_nonzero(tables['translation'][keep]))
+        self.m = len(self.joint)
         six = np.arange(6)
-        self.cols_a = 6 * a[:, None] + six
-        self.cols_b = 6 * b[:, None] + six
+        self.cols_a = 6 * self.bodies[:, :1] + six
+        self.cols_b = 6 * self.bodies[:, 1:] + six
         self.row_index = np.arange(self.m)[:, None]
         self.n_cols = 6 * n_bodies
         self.redundant = False
 
 
 class Simulator:
-    """Step a model's bodies and joints in time with RK4.
+    """
+    Step a model's bodies and joints in time with RK4.
 
     Parameters
     ----------
@@ -147,9 +136,11 @@ class Simulator:
         self.inv_inertia_body = np.array([
             np.zeros((3, 3)) if b.fixed else np.linalg.inv(b.inertia) for b in bodies])
         self.gravity = np.asarray(model.gravity, dtype=float)
-        self.force_ext = np.zeros((n, 3))
-        self.torque_ext = np.zeros((n, 3))
-        self.wrench_body_axes = np.zeros(n, dtype=bool)
+        self._bodies = np.column_stack([
+            self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
+            self.inv_inertia_body.reshape(n, 9)])
+        # external force (3), torque (3), 1.0 when in body axes
+        self._loads = np.zeros((n, 7))
 
         self.t = 0.0
         self.y = np.concatenate([
@@ -175,7 +166,7 @@ class Simulator:
     # ----------------------------------------------------------------- views
 
     def _split(self, y):
-        """Views (position, velocity, quaternion, rates) of a state vector."""
+        """Return views (position, velocity, quaternion, rates) of a state vector."""
         n = self.n
         return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
                 y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
@@ -192,7 +183,7 @@ class Simulator:
 
     @property
     def orientation(self) -> np.ndarray:
-        """Unit quaternions (x, y, z, w), body to world, shape (n, 4)."""
+        """Return unit quaternions (x, y, z, w), body to world, shape (n, 4)."""
         return self._split(self.y)[2].copy()
 
     @property
@@ -237,112 +228,24 @@ class Simulator:
         self.relative0 = rotations.multiply(
             rotations.conjugate(quat0[self.joint_parent]), quat0[self.joint_child])
 
-        def column(rows, i, shape):
-            return np.array([r[i] for r in rows], dtype=float).reshape(shape)
-
+        rows = t_rows + [(k, a, b, u, v, np.zeros(3)) for k, a, b, u, v in r_rows]
         self._tables = {
-            't_joint': np.array([r[0] for r in t_rows], dtype=int),
-            't_a': np.array([r[1] for r in t_rows], dtype=int),
-            't_b': np.array([r[2] for r in t_rows], dtype=int),
-            't_axis_a': column(t_rows, 3, (-1, 3)),
-            't_anchor_a': column(t_rows, 4, (-1, 3)),
-            't_anchor_b': column(t_rows, 5, (-1, 3)),
-            'r_joint': np.array([r[0] for r in r_rows], dtype=int),
-            'r_a': np.array([r[1] for r in r_rows], dtype=int),
-            'r_b': np.array([r[2] for r in r_rows], dtype=int),
-            'r_vec_a': column(r_rows, 3, (-1, 3)),
-            'r_vec_b': column(r_rows, 4, (-1, 3)),
+            'joint': np.array([r[0] for r in rows], dtype=np.int64),
+            'bodies': np.array([(r[1], r[2]) for r in rows], dtype=np.int64).reshape(-1, 2),
+            'vectors': np.array([np.concatenate(r[3:6]) for r in rows]).reshape(-1, 9),
+            'translation': np.arange(len(rows)) < len(t_rows),
         }
 
-    # ------------------------------------------------------------ kinematics
+    # ------------------------------------------------------------ hot path
 
-    def _kinematics(self, y):
-        """Rotation matrices, world rates and world inertias of a state."""
-        pos, vel, quat, rates = self._split(y)
-        rot = rotations.matrices(quat)
-        omega = _apply(rot, rates)
-        inv_inertia = rot @ self.inv_inertia_body @ rot.transpose(0, 2, 1)
-        return pos, vel, rot, omega, inv_inertia
-
-    def _constraint_terms(self, pos, vel, rot, omega):
-        """Jacobian blocks, values, velocities and gamma of the active rows.
-
-        Returns
-        -------
-        jac_a, jac_b : ndarray, shape (m, 6)
-            d(row rate)/d(V, w) of the parent and of the child, world axes.
-        value : ndarray, shape (m,)
-            g (m) for translation rows, e_A . e_B for rotation rows.
-        rate : ndarray, shape (m,)
-            dg/dt = J v.
-        gamma : ndarray, shape (m,)
-            (dJ/dt) v, the part of d2g/dt2 free of accelerations.
-        directions : ndarray, shape (m, 3)
-            World direction of each row's load: the force direction e for
-            translation rows, the moment direction f x e for rotation rows.
-
-        """
+    def _kernel_args(self):
         rows = self._rows
-        m = rows.m
-        jac_a = np.zeros((m, 6))
-        jac_b = np.zeros((m, 6))
-        value = np.empty(m)
-        rate = np.empty(m)
-        gamma = np.empty(m)
-        directions = np.empty((m, 3))
-        nt = rows.n_t
-        if nt:
-            a, b = rows.t_a, rows.t_b
-            e = _apply(rot[a], rows.t_axis_a)
-            rho_a = _apply(rot[a], rows.t_anchor_a)
-            rho_b = _apply(rot[b], rows.t_anchor_b)
-            w_a, w_b = omega[a], omega[b]
-            point_b = pos[b] + rho_b
-            d = point_b - pos[a] - rho_a
-            d_dot = vel[b] + _cross(w_b, rho_b) - vel[a] - _cross(w_a, rho_a)
-            w_a_e = _cross(w_a, e)
-            jac_a[:nt, :3] = -e
-            jac_a[:nt, 3:] = -_cross(point_b - pos[a], e)
-            jac_b[:nt, :3] = e
-            jac_b[:nt, 3:] = _cross(rho_b, e)
-            value[:nt] = _dot(d, e)
-            rate[:nt] = _dot(e, d_dot) + _dot(d, w_a_e)
-            centripetal = _cross(w_b, _cross(w_b, rho_b)) - _cross(w_a, _cross(w_a, rho_a))
-            gamma[:nt] = (2.0 * _dot(w_a_e, d_dot) + _dot(e, centripetal)
-                          + _dot(d, _cross(w_a, w_a_e)))
-            directions[:nt] = e
-        if m > nt:
-            a, b = rows.r_a, rows.r_b
-            e = _apply(rot[a], rows.r_vec_a)
-            f = _apply(rot[b], rows.r_vec_b)
-            c = _cross(f, e)
-            w_a, w_b = omega[a], omega[b]
-            relative = w_b - w_a
-            jac_a[nt:, 3:] = -c
-            jac_b[nt:, 3:] = c
-            value[nt:] = _dot(e, f)
-            rate[nt:] = _dot(relative, c)
-            gamma[nt:] = _dot(relative, _cross(_cross(w_b, f), e) + _cross(f, _cross(w_a, e)))
-            directions[nt:] = c
-        return jac_a, jac_b, value, rate, gamma, directions
-
-    def _dense(self, block_a, block_b):
-        """Scatter per-row 6-blocks into a dense (m, 6 n) matrix."""
-        rows = self._rows
-        out = np.zeros((rows.m, rows.n_cols))
-        out[rows.row_index, rows.cols_a] = block_a
-        out[rows.row_index, rows.cols_b] = block_b
-        return out
-
-    def _weighted(self, jac, bodies, inv_inertia):
-        """Rows of J M^-1 for one side of each row: (m, 6)."""
-        out = np.empty_like(jac)
-        out[:, :3] = jac[:, :3] * self.inv_mass[bodies][:, None]
-        out[:, 3:] = _apply(inv_inertia[bodies], jac[:, 3:])
-        return out
+        return (self._bodies, self.gravity, self._loads, rows.bodies, rows.vectors,
+                rows.n_t, self.eta, rows.redundant)
 
     def _solve(self, y):
-        """Accelerations and joint loads at a state.
+        """
+        Accelerations and joint loads at a state.
 
         Returns
         -------
@@ -358,79 +261,48 @@ class Simulator:
             Constraint values at the state.
 
         """
-        pos, vel, rot, omega, inv_inertia = self._kinematics(y)
-        inertia = rot @ self.inertia_body @ rot.transpose(0, 2, 1)
-        force = self.mass[:, None] * self.gravity + self._external(self.force_ext, rot)
-        torque = self._external(self.torque_ext, rot) - _cross(omega, _apply(inertia, omega))
-        acc = force * self.inv_mass[:, None]
-        alpha = _apply(inv_inertia, torque)
-        rows = self._rows
-        if rows.m == 0:
-            empty = np.empty(0)
-            return acc, alpha, empty, np.empty((0, 3)), empty
-        jac_a, jac_b, value, rate, gamma, directions = self._constraint_terms(
-            pos, vel, rot, omega)
-        a, b = rows.a, rows.b
-        free_rate = (_dot(jac_a[:, :3], acc[a]) + _dot(jac_a[:, 3:], alpha[a])
-                     + _dot(jac_b[:, :3], acc[b]) + _dot(jac_b[:, 3:], alpha[b]))
-        rhs = -gamma - 2.0 * self.eta * rate - self.eta ** 2 * value - free_rate
-        jac = self._dense(jac_a, jac_b)
-        weighted = self._dense(self._weighted(jac_a, a, inv_inertia),
-                               self._weighted(jac_b, b, inv_inertia))
-        schur = weighted @ jac.T
+        n, m = self.n, self._rows.m
+        acc, alpha = np.empty((n, 3)), np.empty((n, 3))
+        rot = np.empty((n, 3, 3))
+        lam, directions, value = np.empty(m), np.empty((m, 3)), np.empty(m)
         try:
-            if rows.redundant:
-                lam = np.linalg.lstsq(schur, rhs, rcond=1e-10)[0]
-            else:
-                lam = np.linalg.solve(schur, rhs)
+            kernel.solve_state(y, *self._kernel_args(), acc, alpha, rot, lam, directions,
+                               value)
         except np.linalg.LinAlgError as err:
             raise _NumericalFailure('the constraint system is singular') from err
-        generalized = (weighted.T @ lam).reshape(self.n, 6)
-        acc += generalized[:, :3]
-        alpha += generalized[:, 3:]
         return acc, alpha, lam, directions, value
-
-    def _external(self, load, rot):
-        """External force or torque in world axes, rotating body-axis loads."""
-        if not self.wrench_body_axes.any():
-            return load
-        return np.where(self.wrench_body_axes[:, None], _apply(rot, load), load)
 
     def derivative(self, y: np.ndarray) -> np.ndarray:
         """Return dy/dt at state y (external wrenches held constant)."""
-        acc, alpha, _, _, value = self._solve(y)
-        _, vel, quat, rates = self._split(y)
-        rot = rotations.matrices(quat)
-        if value.size:
-            self._stage_violation = max(self._stage_violation, float(np.abs(value).max()))
-        return np.concatenate([
-            vel.ravel(), acc.ravel(),
-            rotations.rate_of_change(quat, rates).ravel(),
-            np.einsum('nji,nj->ni', rot, alpha).ravel(),
-        ])
+        out = np.empty_like(y)
+        kernel.derivative(y, out, *self._kernel_args())
+        return out
 
     def _rk4(self, y, h):
         """One classical RK4 step of length h from y, quaternions normalized."""
-        k1 = self.derivative(y)
-        k2 = self.derivative(y + 0.5 * h * k1)
-        k3 = self.derivative(y + 0.5 * h * k2)
-        k4 = self.derivative(y + h * k3)
-        out = y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        quat = self._split(out)[2]
-        quat /= np.linalg.norm(quat, axis=1)[:, None]
+        out = np.empty_like(y)
+        try:
+            worst = kernel.rk4_step(y, h, out, *self._kernel_args())
+        except np.linalg.LinAlgError as err:
+            raise _NumericalFailure('the constraint system is singular') from err
+        self._stage_violation = max(self._stage_violation, worst)
         return out
 
     # ------------------------------------------------------- starting checks
 
     def _jacobian(self, y):
-        """Dense Jacobian (m, 6 n) of the active rows and M^-1 blocks."""
-        pos, vel, rot, omega, inv_inertia = self._kinematics(y)
-        jac_a, jac_b = self._constraint_terms(pos, vel, rot, omega)[:2]
+        """Dense Jacobian J and J M^-1, (m, 6 n), of the active rows at y."""
         rows = self._rows
-        jac = self._dense(jac_a, jac_b)
-        weighted = self._dense(self._weighted(jac_a, rows.a, inv_inertia),
-                               self._weighted(jac_b, rows.b, inv_inertia))
-        return jac, weighted, rot
+        jac, weighted, _ = kernel.jacobian(y, self._bodies, rows.bodies, rows.vectors, rows.n_t)
+        return self._dense(jac), self._dense(weighted)
+
+    def _dense(self, blocks):
+        """Scatter per-row (parent, child) 6-blocks into a dense (m, 6 n) matrix."""
+        rows = self._rows
+        out = np.zeros((rows.m, rows.n_cols))
+        out[rows.row_index, rows.cols_a] = blocks[:, :6]
+        out[rows.row_index, rows.cols_b] = blocks[:, 6:]
+        return out
 
     def _check_redundancy(self) -> int:
         """Detect redundant rows; warn once; return the remaining DOF."""
@@ -438,14 +310,13 @@ class Simulator:
         rows = self._rows
         if rows.m == 0:
             return free_dof
-        jac, weighted, _ = self._jacobian(self.y)
+        jac, weighted = self._jacobian(self.y)
         schur = weighted @ jac.T
         scale = 1.0 / np.sqrt(np.maximum(np.diag(schur), 1e-300))
         rank = np.linalg.matrix_rank(schur * scale[:, None] * scale[None, :], tol=1e-9)
         if rank < rows.m:
             if not rows.redundant and not getattr(self, '_warned_redundant', False):
-                names = sorted({self.model.joints[k].name
-                                for k in np.concatenate([rows.t_joint, rows.r_joint])})
+                names = sorted({self.model.joints[k].name for k in rows.joint})
                 self.log.warning(
                     'the joints %s constrain %d direction(s) more than once (redundant '
                     'joints or a closed loop): the motion is exact, the loads of the '
@@ -460,8 +331,9 @@ class Simulator:
         rows = self._rows
         if rows.m == 0:
             return
-        _, vel, _, rates = self._split(self.y)
-        jac, weighted, rot = self._jacobian(self.y)
+        _, vel, quat, rates = self._split(self.y)
+        jac, weighted = self._jacobian(self.y)
+        rot = rotations.matrices(quat)
         omega = _apply(rot, rates)
         v = np.concatenate([vel, omega], axis=1).ravel()
         schur = weighted @ jac.T
@@ -481,7 +353,8 @@ class Simulator:
     # -------------------------------------------------------------- outputs
 
     def joint_wrenches(self):
-        """Loads of the joints on their children at the current state.
+        """
+        Return the loads of the joints on their children at the current state.
 
         Returns
         -------
@@ -501,12 +374,13 @@ class Simulator:
         moment = np.zeros((n_j, 3))
         rows = self._rows
         nt = rows.n_t
-        np.add.at(force, rows.t_joint, lam[:nt, None] * directions[:nt])
-        np.add.at(moment, rows.r_joint, lam[nt:, None] * directions[nt:])
+        np.add.at(force, rows.joint[:nt], lam[:nt, None] * directions[:nt])
+        np.add.at(moment, rows.joint[nt:], lam[nt:, None] * directions[nt:])
         return force, moment
 
     def joint_points(self, y: Optional[np.ndarray] = None):
-        """Each joint's point as carried by its parent and by its child.
+        """
+        Each joint's point as carried by its parent and by its child.
 
         Returns
         -------
@@ -538,16 +412,19 @@ class Simulator:
     # --------------------------------------------------------------- inputs
 
     def set_wrench(self, body, force, torque, body_axes: bool = False):
-        """Hold an external force and moment at a body's CG until replaced.
+        """
+        Hold an external force and moment at a body's CG until replaced.
 
         Parameters
         ----------
         body : str or int
+            Name or index of a body that is not fixed.
         force : array_like, shape (3,)
             N, world axes, or body axes if body_axes.
         torque : array_like, shape (3,)
             N m, same axes as force.
         body_axes : bool
+            True: force and torque are in body axes and turn with the body.
 
         """
         i = self._body(body)
@@ -559,9 +436,7 @@ class Simulator:
             raise ValueError('force and torque must be finite')
         if not self.free[i]:
             raise ValueError(f'body {self.model.bodies[i].name!r} is fixed and cannot be loaded')
-        self.force_ext[i] = force
-        self.torque_ext[i] = torque
-        self.wrench_body_axes[i] = bool(body_axes)
+        self._loads[i] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
@@ -601,7 +476,8 @@ class Simulator:
     # ------------------------------------------------------------- stepping
 
     def advance_to(self, t_target: float) -> bool:
-        """Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
+        """
+        Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
 
         Steps are also cut at release times, and a step in which a release
         condition is crossed is cut at the crossing, located on the step's own

@@ -10,7 +10,8 @@ class CfemError(Exception):
 
 
 class ScenarioError(CfemError):
-    """A scenario (file or mapping) that cannot be simulated.
+    """
+    A scenario (file or mapping) that cannot be simulated.
 
     Parameters
     ----------

@@ -8,12 +8,11 @@ from dataclasses import dataclass
 import re
 from typing import Optional
 
+from cfem_ros.errors import InputError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
-
-from cfem_ros.errors import InputError
 
 WRENCH_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/wrench$')
 RELEASE_TOPIC = re.compile(r'^(?P<ns>.*)/release$')
@@ -22,7 +21,8 @@ POSE_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/[^/]+/pose$')
 
 @dataclass(frozen=True)
 class Input:
-    """One input message, at simulated time ``time`` (s).
+    """
+    One input message, at simulated time ``time`` (s).
 
     ``kind`` is 'wrench' (body, force, torque, frame_id) or 'release' (joint).
     """
@@ -37,7 +37,8 @@ class Input:
 
 
 def read_inputs(path: str) -> list:
-    """Read the wrench and release topics of a recording, in time order.
+    """
+    Read the wrench and release topics of a recording, in time order.
 
     Simulated time 0 is the stamp the recording says it started at (its
     ``cfem_ros`` metadata), else its first ``bodies/*/pose`` message (a
@@ -96,9 +97,9 @@ def _start_ns(reader) -> Optional[int]:
     return None
 
 
-
 def apply_wrench(sim, body: str, force, torque, frame_id: str):
-    """Hold an external wrench on a body, in world or body axes by frame_id.
+    """
+    Hold an external wrench on a body, in world or body axes by frame_id.
 
     Raises
     ------

@@ -21,7 +21,8 @@ BAUMGARTE_DT_LIMIT = 2.8
 
 @dataclass(frozen=True)
 class JointRows:
-    """The constraint rows of one joint type (paper Table 1, CFEM.md).
+    """
+    The constraint rows of one joint type (paper Table 1, CFEM.md).
 
     Axes are indices into the joint's triad (u1, u2, u3), u1 = the joint axis.
 
@@ -65,7 +66,8 @@ AXIS_REQUIRED = frozenset({'hinge', 'universal', 'slider', 'planar', 'cylindrica
 
 @dataclass(frozen=True)
 class Release:
-    """Release triggers of a joint; the first one reached releases it.
+    """
+    Release triggers of a joint; the first one reached releases it.
 
     ``None`` disables a trigger. Units: s, rad, m, N.
     """
@@ -78,7 +80,8 @@ class Release:
 
 @dataclass(frozen=True)
 class Body:
-    """A rigid body and its state at t = 0.
+    """
+    A rigid body and its state at t = 0.
 
     Attributes
     ----------
@@ -112,13 +115,14 @@ class Body:
 
 @dataclass(frozen=True)
 class Joint:
-    """A joint between a parent body (A) and a child body (B).
+    """
+    A joint between a parent body (A) and a child body (B).
 
     Attributes
     ----------
     name : str
-    type : str
-        One of ``JOINT_TABLE``.
+    kind : str
+        The joint type (the scenario's ``type``), one of ``JOINT_TABLE``.
     parent, child : int
         Body indices.
     anchor : ndarray, shape (3,)
@@ -131,7 +135,7 @@ class Joint:
     """
 
     name: str
-    type: str
+    kind: str
     parent: int
     child: int
     anchor: np.ndarray
@@ -140,13 +144,14 @@ class Joint:
 
     @property
     def rows(self) -> JointRows:
-        """The rows of this joint's type."""
-        return JOINT_TABLE[self.type]
+        """Return the rows of this joint's type."""
+        return JOINT_TABLE[self.kind]
 
 
 @dataclass(frozen=True)
 class Model:
-    """Everything needed to simulate a scenario; built once, never mutated.
+    """
+    Everything needed to simulate a scenario; built once, never mutated.
 
     Attributes
     ----------
@@ -191,7 +196,8 @@ class Model:
 
 
 def triad_from_axes(axis, axis2=None) -> np.ndarray:
-    """Build the orthonormal triad (u1, u2, u3) of a joint.
+    """
+    Build the orthonormal triad (u1, u2, u3) of a joint.
 
     Parameters
     ----------

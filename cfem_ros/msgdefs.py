@@ -1,6 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""ros2msg definitions of the recorded types, each with every nested type.
+"""
+ros2msg definitions of the recorded types, each with every nested type.
 
 Field lines of the ROS 2 Kilted interface files (comments dropped), joined as
 rosbag2 writes them into MCAP schemas: the top type, then each dependency after

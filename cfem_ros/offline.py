@@ -13,19 +13,22 @@ from cfem_ros.inputs import apply_input
 
 
 def sample_times(rate_hz: float, duration: float) -> int:
-    """Number of samples after t = 0 on the grid k / rate_hz up to duration."""
+    """Count the samples after t = 0 on the grid k / rate_hz up to duration."""
     return int(math.floor(duration * rate_hz * (1.0 + 1e-12)))
 
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
         log: Optional[logging.Logger] = None,
         progress: Optional[Callable[[float], None]] = None) -> bool:
-    """Run sim to duration, recording a sample at every multiple of 1/rate_hz.
+    """
+    Run sim to duration, recording a sample at every multiple of 1/rate_hz.
 
     Parameters
     ----------
     sim : Simulator
+        The simulation, at t = 0.
     recorder : StateRecorder or None
+        Where samples, inputs and events go; None records nothing.
     rate_hz : float
         Sample rate, Hz; sample k is at exactly k / rate_hz s.
     duration : float
@@ -33,6 +36,8 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     inputs : sequence of Input
         Applied at their times; an input at or before a sample time is applied
         before that sample is taken. A bad input is skipped with a warning.
+    log : logging.Logger, optional
+        Where those warnings go.
     progress : callable, optional
         Called now and then with the simulated time.
 

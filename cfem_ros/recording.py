@@ -1,6 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""MCAP recordings in the ros2 profile (SPEC section 4), without rclpy.
+"""
+MCAP recordings in the ros2 profile (SPEC section 4), without rclpy.
 
 ``Recorder`` is the container layer (schemas, channels with their QoS,
 messages, statistics and indexes through the ``mcap`` writer, CDR through
@@ -14,14 +15,13 @@ import json
 import os
 from typing import Optional
 
+from cfem_ros import __version__
+from cfem_ros.errors import RecordingError
+from cfem_ros.msgdefs import DEFINITIONS
 import mcap
 from mcap.writer import CompressionType, Writer
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
-
-from cfem_ros import __version__
-from cfem_ros.errors import RecordingError
-from cfem_ros.msgdefs import DEFINITIONS
 
 POSE = 'geometry_msgs/msg/PoseStamped'
 TWIST = 'geometry_msgs/msg/TwistStamped'
@@ -61,7 +61,11 @@ def _vector(v) -> dict:
 
 
 class Recorder:
-    """Write one MCAP file in the ros2 profile.
+    """
+    Write one MCAP file in the ros2 profile.
+
+    The file is complete (summary, statistics, indexes) once ``finish`` has
+    run; use the recorder as a context manager so that it runs on errors too.
 
     Parameters
     ----------
@@ -72,8 +76,6 @@ class Recorder:
     metadata : dict of str to str, optional
         Written as an MCAP metadata record named ``cfem_ros``.
 
-    The file is complete (summary, statistics, indexes) once ``finish`` has
-    run; use the recorder as a context manager so that it runs on errors too.
     """
 
     def __init__(self, path: str, *, overwrite: bool = False,
@@ -143,7 +145,8 @@ class Recorder:
 
 
 class StateRecorder:
-    """Record a simulator's outputs and inputs as the node publishes them.
+    """
+    Record a simulator's outputs and inputs as the node publishes them.
 
     Parameters
     ----------

@@ -9,11 +9,13 @@ from scipy.spatial.transform import Rotation
 
 
 def matrices(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Rotation matrices of a stack of quaternions, normalizing them.
+    """
+    Rotation matrices of a stack of quaternions, normalizing them.
 
     Parameters
     ----------
     quat_xyzw : ndarray, shape (n, 4)
+        Quaternions, scalar last, of any non-zero norm.
 
     Returns
     -------
@@ -78,7 +80,8 @@ def from_rpy_deg(roll_pitch_yaw_deg) -> np.ndarray:
 
 
 def to_rpy_deg(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Z-Y-X Euler angles (roll, pitch, yaw), deg, of quaternions, shape (..., 3).
+    """
+    Z-Y-X Euler angles (roll, pitch, yaw), deg, of quaternions, shape (..., 3).
 
     At pitch = +-90 deg roll and yaw are not unique; scipy's convention then
     puts the whole rotation about the vertical into yaw.

@@ -1,6 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""Scenario files (SPEC section 1): YAML in, a validated ``Model`` out.
+"""
+Scenario files (SPEC section 1): YAML in, a validated ``Model`` out.
 
 Every mistake is refused before anything runs, with a ``ScenarioError`` that
 names the file, the key path, the value and what would be right.
@@ -13,14 +14,13 @@ import os
 import re
 from typing import Any, Optional
 
-import numpy as np
-import yaml
-
 from cfem_ros import rotations
 from cfem_ros.errors import ScenarioError
 from cfem_ros.model import (
     AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
     Model, Release, STANDARD_GRAVITY, triad_from_axes)
+import numpy as np
+import yaml
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
@@ -60,7 +60,8 @@ _UniqueKeyLoader.add_constructor(
 
 def load_scenario(path: str, *, duration: Optional[float] = None,
                   dt: Optional[float] = None) -> Model:
-    """Read and validate a scenario file.
+    """
+    Read and validate a scenario file.
 
     Parameters
     ----------
@@ -152,7 +153,8 @@ def _show(value: Any) -> str:
 
 def parse_scenario(document: Any, *, source: str = '<scenario>',
                    duration: Optional[float] = None, dt: Optional[float] = None) -> Model:
-    """Validate a scenario already loaded from YAML and build the model.
+    """
+    Validate a scenario already loaded from YAML and build the model.
 
     Parameters
     ----------
@@ -256,7 +258,8 @@ def _parse_body(check: _Checker, name, spec) -> Body:
 
 
 def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
-    """Inertia tensor from [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz].
+    """
+    Inertia tensor from [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz].
 
     The products are the tensor's off-diagonal elements (as in URDF and
     MuJoCo's fullinertia), not the integrals of x y dm.
@@ -320,7 +323,7 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
     elif 'axis2' in spec:
         check.fail(f'{key}.axis2', f'given for a {kind} joint', 'axis2 only on universal joints')
     release = _parse_release(check, spec.get('release'), f'{key}.release')
-    return Joint(name=name, type=kind, parent=parent, child=child, anchor=anchor,
+    return Joint(name=name, kind=kind, parent=parent, child=child, anchor=anchor,
                  triad=triad_from_axes(axis, axis2), release=release)
 
 
