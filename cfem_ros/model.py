@@ -12,8 +12,8 @@ import numpy as np
 #: Standard gravity, m/s^2.
 STANDARD_GRAVITY = 9.80665
 
-#: Baumgarte gain times dt used when the scenario gives none (eta = 0.05 / dt).
-DEFAULT_BAUMGARTE_DT = 0.05
+#: Baumgarte gain times dt used when the scenario gives none (eta = 0.02 / dt).
+DEFAULT_BAUMGARTE_DT = 0.02
 
 #: RK4's stability limit for the stabilized constraint error, eta * dt.
 BAUMGARTE_DT_LIMIT = 2.8
