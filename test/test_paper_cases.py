@@ -56,15 +56,22 @@ def test_fixed_joint_spin_matches_the_composite_body_then_separates():
             moments.append(np.linalg.norm(moment))
     assert min(moments) > 1e-3
     assert sim.events == [{'event': 'release', 'joint': 'weld', 'time': 10.0, 'cause': 'time'}]
-    rates_at_release = sim.rates
-    assert sim.advance_to(20.0)
-    change = np.linalg.norm(sim.rates - rates_at_release, axis=1)
-    # after the release B's rates change, A's hardly (paper Figs. 3-4)
-    assert change[1] > 0.1 and change[0] < 0.2 * change[1]
-    # and each body now tumbles torque-free: compare A with the exact solution
-    rots_a, rates_a = torque_free(a.inertia, quat_matrix(sim.orientation[0]), sim.rates[0],
-                                  [20.0, 20.0])
-    assert normalized_error(rates_a[-1], sim.rates[0]) < 1e-12
+    # after the release B, the light body, leaves the welded motion; A hardly
+    # does (paper Figs. 3-4): compare both with the pair still welded
+    later = np.linspace(10.5, 20.0, 20)
+    _, welded = torque_free(composite, rots[-1], rates[-1], np.concatenate([[10.0], later]))
+    for t, w in zip(later, welded[1:]):
+        assert sim.advance_to(t)
+        off_a = np.linalg.norm(sim.rates[0] - w)
+        off_b = np.linalg.norm(sim.rates[1] - w)
+        assert off_a < 0.05 * off_b and off_b > 0.5
+    # each body now tumbles torque-free: its angular momentum is constant
+    momenta = [quat_matrix(sim.orientation[i]) @ body.inertia @ sim.rates[i]
+               for i, body in enumerate((a, b))]
+    assert sim.advance_to(25.0)
+    for i, body in enumerate((a, b)):
+        now = quat_matrix(sim.orientation[i]) @ body.inertia @ sim.rates[i]
+        assert normalized_error(now, momenta[i], np.linalg.norm(momenta[i])) < 1e-9
 
 
 def test_double_pendulum_keeps_its_joint_points_together():
@@ -209,5 +216,5 @@ def test_redundant_hinges_move_exactly_and_share_the_loads(caplog):
             f2, m2 = sim2.joint_wrenches()
             assert normalized_error(f2.sum(axis=0), f1[0], np.linalg.norm(f1[0])) < 1e-9
             assert normalized_error(f2[0], f2[1], np.linalg.norm(f1[0])) < 1e-9  # least norm
-    assert caplog.text.count('redundant') == 1
+    assert sum('more than once' in r.getMessage() for r in caplog.records) == 1
     assert sim2.dof == 1
