@@ -1,0 +1,208 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+cfem-sim run and its recordings (SPEC sections 2 and 4).
+
+Every recording is read back twice, with the mcap reader (and mcap_ros2's
+decoder) and with rosbags' own MCAP reader and CDR deserializer, and the two
+must agree message by message.
+"""
+
+import json
+import pathlib
+import subprocess
+import sys
+
+from cfem_ros import cli, load_scenario, Simulator
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+import numpy as np
+import pytest
+from rosbags.rosbag2.storage_mcap import McapReader
+from rosbags.typesys import get_types_from_msg, get_typestore, Stores
+import yaml
+
+CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+
+
+def read_mcap(path):
+    """Return header, summary and decoded messages with the mcap library."""
+    with open(path, 'rb') as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        header = reader.get_header()
+        summary = reader.get_summary()
+        messages = [(channel.topic, message.log_time, message.publish_time, decoded)
+                    for _, channel, message, decoded in reader.iter_decoded_messages()]
+    return header, summary, messages
+
+
+def read_rosbags(path):
+    """Return (topic, time, message) with rosbags, types built from the file's schemas."""
+    reader = McapReader(pathlib.Path(path))
+    reader.open()
+    try:
+        store = get_typestore(Stores.EMPTY)
+        for connection in reader.connections:
+            parts = connection.msgdef.data.split('=' * 80 + '\n')
+            types = get_types_from_msg(parts[0], connection.msgtype)
+            for part in parts[1:]:
+                name, text = part.split('\n', 1)
+                types.update(get_types_from_msg(text, name.replace('MSG: ', '').strip()))
+            store.register(types)
+        return [(c.topic, t, store.deserialize_cdr(data, c.msgtype))
+                for c, t, data in reader.messages(reader.connections)], reader.connections
+    finally:
+        reader.close()
+
+
+def fields(message):
+    """Flatten a decoded message of either library into comparable values."""
+    if hasattr(message, 'data') and isinstance(message.data, str):
+        return [message.data]
+    header = [message.header.stamp.sec, message.header.stamp.nanosec, message.header.frame_id]
+    if hasattr(message, 'pose'):
+        p, q = message.pose.position, message.pose.orientation
+        return header + [p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+    if hasattr(message, 'twist'):
+        a, b = message.twist.linear, message.twist.angular
+        return header + [a.x, a.y, a.z, b.x, b.y, b.z]
+    a, b = message.wrench.force, message.wrench.torque
+    return header + [a.x, a.y, a.z, b.x, b.y, b.z]
+
+
+@pytest.fixture(scope='module')
+def store_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp('run') / 'store.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out),
+                     '--rate', '30']) == 0
+    return out
+
+
+def test_recording_follows_the_ros2_profile(store_run):
+    header, summary, messages = read_mcap(store_run)
+    assert header.profile == 'ros2'
+    assert summary.statistics.message_count == len(messages) > 0
+    assert summary.chunk_indexes, 'indexed'
+    for schema in summary.schemas.values():
+        assert schema.encoding == 'ros2msg'
+    for channel in summary.channels.values():
+        assert channel.message_encoding == 'cdr'
+        qos = yaml.safe_load(channel.metadata['offered_qos_profiles'])
+        assert qos[0]['reliability'] == 'reliable'
+    topics = {c.topic for c in summary.channels.values()}
+    assert topics == {'/cfem/bodies/pylon/pose', '/cfem/bodies/pylon/twist',
+                      '/cfem/bodies/store/pose', '/cfem/bodies/store/twist',
+                      '/cfem/joints/pivot/wrench', '/cfem/events'}
+
+
+def test_both_readers_agree_message_by_message(store_run):
+    _, _, ours = read_mcap(store_run)
+    theirs, connections = read_rosbags(store_run)
+    assert len(ours) == len(theirs)
+    for (topic, log_time, publish_time, a), (topic_b, time_b, b) in zip(ours, theirs):
+        assert topic == topic_b and log_time == time_b == publish_time
+        assert fields(a) == fields(b)
+        if hasattr(a, 'header'):
+            assert a.header.stamp.sec * 10 ** 9 + a.header.stamp.nanosec == log_time
+    assert {c.msgtype for c in connections} == {
+        'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/TwistStamped',
+        'geometry_msgs/msg/WrenchStamped', 'std_msgs/msg/String'}
+
+
+def test_samples_lie_on_exact_multiples_of_the_period(store_run):
+    _, _, messages = read_mcap(store_run)
+    stamps = [t for topic, t, _, _ in messages if topic == '/cfem/bodies/store/pose']
+    expected = [round(k * 1e9 / 30) for k in range(int(1.5 * 30) + 1)]
+    assert stamps == expected
+    # and the state at each stamp is the state at that exact time
+    sim = Simulator(load_scenario(str(CONFIG / 'store_separation.yaml')))
+    poses = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/pose']
+    for k in (7, 8, 44):
+        assert sim.advance_to(k / 30)
+        p = poses[k].pose.position
+        assert np.allclose([p.x, p.y, p.z], sim.position[1], rtol=0, atol=1e-12)
+
+
+def test_event_and_wrench_topics(store_run):
+    _, _, messages = read_mcap(store_run)
+    events = [(t, json.loads(m.data)) for topic, t, _, m in messages if topic == '/cfem/events']
+    assert len(events) == 1
+    stamp, event = events[0]
+    assert event['joint'] == 'pivot' and event['cause'] == 'angle'
+    assert stamp == round(event['time'] * 1e9)
+    wrenches = [t for topic, t, _, _ in messages if topic == '/cfem/joints/pivot/wrench']
+    assert wrenches and max(wrenches) < stamp          # published while active only
+    poses = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/pose']
+    assert poses[0].header.frame_id == 'world'
+    twists = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/twist']
+    assert twists[0].header.frame_id == 'store'
+
+
+def test_existing_output_is_not_overwritten(store_run, capsys):
+    before = store_run.read_bytes()
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(store_run)]) == 2
+    assert 'already exists' in capsys.readouterr().err
+    assert store_run.read_bytes() == before
+
+
+def test_overwrite_replaces(tmp_path):
+    out = tmp_path / 'x.mcap'
+    out.write_bytes(b'old')
+    assert cli.main(['run', str(CONFIG / 'joints' / 'fixed.yaml'), '-o', str(out),
+                     '--duration', '0.1', '--overwrite']) == 0
+    assert read_mcap(out)[0].profile == 'ros2'
+
+
+def test_failed_run_exits_1_and_keeps_a_complete_recording(tmp_path, capsys):
+    doc = yaml.safe_load((CONFIG / 'joints' / 'hinge.yaml').read_text())
+    doc['bodies']['rod']['angular_velocity'] = [0, 100.0, 0]
+    doc['bodies']['rod']['velocity'] = [0, 0, -50.0]
+    doc['dt'] = 0.05
+    doc['baumgarte'] = 1.0
+    scenario = tmp_path / 'diverge.yaml'
+    scenario.write_text(yaml.safe_dump(doc))
+    out = tmp_path / 'diverge.mcap'
+    assert cli.main(['run', str(scenario), '-o', str(out)]) == 1
+    err = capsys.readouterr().err
+    assert 'run failed at t = ' in err and ('diverged' in err or 'singular' in err)
+    _, summary, messages = read_mcap(out)
+    assert summary.statistics.message_count == len(messages) > 0
+    assert len(read_rosbags(out)[0]) == len(messages)
+
+
+def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
+    # a recording with inputs: the spec's own topics, from a cfem-sim run
+    from cfem_ros.recording import Recorder, StateRecorder
+    model = load_scenario(str(CONFIG / 'store_separation.yaml'))
+    log = tmp_path / 'inputs.mcap'
+    with Recorder(str(log)) as recorder:
+        state = StateRecorder(recorder, Simulator(model))
+        state.input_wrench('store', [0, 0, 5000.0], [0, 0, 0], 'world', 50_000_000)
+        state.input_release('pivot', 100_000_000)
+    out = tmp_path / 'replay.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out),
+                     '--inputs', str(log), '--duration', '0.5']) == 0
+    _, _, messages = read_mcap(out)
+    events = [json.loads(m.data) for topic, _, _, m in messages if topic == '/cfem/events']
+    assert events == [{'event': 'release', 'joint': 'pivot', 'time': 0.1, 'cause': 'command'}]
+    topics = {topic for topic, _, _, _ in messages}
+    assert {'/cfem/bodies/store/wrench', '/cfem/release'} <= topics
+    # the same inputs through the API give the same final state
+    sim = Simulator(model)
+    assert sim.advance_to(0.05)
+    sim.set_wrench('store', [0, 0, 5000.0], [0, 0, 0])
+    assert sim.advance_to(0.1)
+    sim.release('pivot')
+    assert sim.advance_to(0.5)
+    last = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/pose'][-1]
+    p = last.pose.position
+    assert np.allclose([p.x, p.y, p.z], sim.position[1], rtol=0, atol=1e-12)
+
+
+def test_console_script_and_help():
+    exe = pathlib.Path(sys.executable).parent / 'cfem-sim'
+    result = subprocess.run([str(exe), 'run', '--help'], capture_output=True, text=True,
+                            timeout=60)
+    assert result.returncode == 0 and '--overwrite' in result.stdout
+    result = subprocess.run([str(exe), 'run'], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and 'Traceback' not in result.stderr
