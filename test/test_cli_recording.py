@@ -49,8 +49,9 @@ def read_rosbags(path):
                 name, text = part.split('\n', 1)
                 types.update(get_types_from_msg(text, name.replace('MSG: ', '').strip()))
             store.register(types)
-        return [(c.topic, t, store.deserialize_cdr(data, c.msgtype))
-                for c, t, data in reader.messages(reader.connections)], reader.connections
+        messages = [(c.topic, t, store.deserialize_cdr(data, c.msgtype))
+                    for c, t, data in reader.messages(reader.connections)]
+        return messages, {c.msgtype for c in reader.connections}
     finally:
         reader.close()
 
@@ -97,14 +98,14 @@ def test_recording_follows_the_ros2_profile(store_run):
 
 def test_both_readers_agree_message_by_message(store_run):
     _, _, ours = read_mcap(store_run)
-    theirs, connections = read_rosbags(store_run)
+    theirs, msgtypes = read_rosbags(store_run)
     assert len(ours) == len(theirs)
     for (topic, log_time, publish_time, a), (topic_b, time_b, b) in zip(ours, theirs):
         assert topic == topic_b and log_time == time_b == publish_time
         assert fields(a) == fields(b)
         if hasattr(a, 'header'):
             assert a.header.stamp.sec * 10 ** 9 + a.header.stamp.nanosec == log_time
-    assert {c.msgtype for c in connections} == {
+    assert msgtypes == {
         'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/TwistStamped',
         'geometry_msgs/msg/WrenchStamped', 'std_msgs/msg/String'}
 
@@ -175,7 +176,7 @@ def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
     from cfem_ros.recording import Recorder, StateRecorder
     model = load_scenario(str(CONFIG / 'store_separation.yaml'))
     log = tmp_path / 'inputs.mcap'
-    with Recorder(str(log)) as recorder:
+    with Recorder(str(log), metadata={'start_stamp_ns': 0}) as recorder:
         state = StateRecorder(recorder, Simulator(model))
         state.input_wrench('store', [0, 0, 5000.0], [0, 0, 0], 'world', 50_000_000)
         state.input_release('pivot', 100_000_000)

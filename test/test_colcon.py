@@ -1,0 +1,40 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The package builds with colcon in a workspace, and what it installs runs."""
+
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.slow
+def test_colcon_build_installs_a_working_package(tmp_path):
+    source = tmp_path / 'src' / 'cfem_ros'
+    ignore = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'runs',
+                                    '__pycache__', '*.egg-info', '.pytest_cache')
+    shutil.copytree(ROOT, source, ignore=ignore)
+    colcon = pathlib.Path(sys.executable).parent / 'colcon'
+    build = subprocess.run([str(colcon), 'build'], cwd=tmp_path, capture_output=True,
+                           text=True, timeout=600)
+    assert build.returncode == 0, build.stdout + build.stderr
+    prefix = tmp_path / 'install' / 'cfem_ros'
+    share = prefix / 'share' / 'cfem_ros'
+    assert (share / 'package.xml').is_file()
+    assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages'
+            / 'cfem_ros').is_file()
+    assert (share / 'config' / 'joints' / 'universal.yaml').is_file()
+    script = prefix / 'lib' / 'cfem_ros' / 'cfem-sim'
+    assert script.is_file()
+    site = next(prefix.glob('lib/python3*/site-packages'))
+    env = dict(os.environ, PYTHONPATH=str(site))
+    check = subprocess.run([sys.executable, str(script), 'check',
+                            str(share / 'config' / 'store_separation.yaml')],
+                           capture_output=True, text=True, env=env, timeout=120)
+    assert check.returncode == 0, check.stderr
+    assert 'degrees of freedom: 1' in check.stdout
