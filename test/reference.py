@@ -125,7 +125,8 @@ class PivotChain:
                          events=events, dense_output=True)
 
     def state(self, q, qd):
-        """Return CG, R, rates (body axes), and the joint wrench on the body.
+        """
+        Return CG, R, rates (body axes), and the joint wrench on the body.
 
         The wrench is the force and the moment about the pivot that the
         joint must apply for this motion (inverse dynamics about the CG).
