@@ -218,3 +218,43 @@ def test_redundant_hinges_move_exactly_and_share_the_loads(caplog):
             assert normalized_error(f2[0], f2[1], np.linalg.norm(f1[0])) < 1e-9  # least norm
     assert sum('more than once' in r.getMessage() for r in caplog.records) == 1
     assert sim2.dof == 1
+
+
+def test_distance_trigger_releases_the_slider_at_the_exact_time():
+    doc = yaml.safe_load((CONFIG / 'joints' / 'slider.yaml').read_text())
+    doc['joints']['rail']['release'] = {'distance': 0.1}
+    sim = Simulator(parse_scenario(doc))
+    axis = sim.model.joints[0].triad[0]
+    accel = abs(sim.model.gravity @ axis)
+    t_release = np.sqrt(2 * 0.1 / accel)          # 0.1 = a t^2 / 2
+    assert sim.advance_to(0.5)
+    (event,) = sim.events
+    assert event['cause'] == 'distance'
+    assert abs(event['time'] - t_release) < 1e-9
+    # free fall afterwards from the release state
+    tau = 0.5 - t_release
+    v = accel * t_release * np.sign(sim.model.gravity @ axis) * axis
+    p = sim.model.bodies[1].position + 0.5 * accel * t_release ** 2 * (v / np.linalg.norm(v))
+    expected = p + v * tau + 0.5 * sim.model.gravity * tau ** 2
+    assert normalized_error(sim.position[1], expected) < 1e-9
+
+
+def test_force_trigger_releases_the_pendulum_when_the_pin_load_reaches_it():
+    m = load_scenario(str(CONFIG / 'joints' / 'hinge.yaml'))
+    body, joint = m.bodies[1], m.joints[0]
+    chain = PivotChain(body.mass, body.inertia, np.eye(3), body.position, joint.anchor,
+                       [joint.triad[0]], m.gravity)
+    limit = 40.0                                  # N; the weight is 19.6 N
+
+    def load_reaches(_, s):
+        return np.linalg.norm(chain.state(s[:1], s[1:])[3]) - limit
+    load_reaches.terminal = True
+    solution = chain.solve(np.zeros(1), [0.0, 2.0], events=load_reaches)
+    t_release = solution.t_events[0][0]
+    doc = yaml.safe_load((CONFIG / 'joints' / 'hinge.yaml').read_text())
+    doc['joints']['pin']['release'] = {'force': limit}
+    sim = Simulator(parse_scenario(doc))
+    assert sim.advance_to(1.0)
+    (event,) = sim.events
+    assert event['cause'] == 'force'
+    assert abs(event['time'] - t_release) < 1e-6
