@@ -475,14 +475,17 @@ class Simulator:
 
     # ------------------------------------------------------------- stepping
 
-    def advance_to(self, t_target: float) -> bool:
+    def advance_to(self, t_target: float, limit: Optional[float] = None) -> bool:
         """
         Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
 
         Steps are also cut at release times, and a step in which a release
         condition is crossed is cut at the crossing, located on the step's own
-        RK4 map. Returns False (and sets ``status`` and ``message``) if the
-        run failed; the state is then the last good one.
+        RK4 map. With ``limit``, stop before the first step that would end
+        after it: the steps taken are the same as those toward t_target
+        without a limit, so a run paced by a clock is the run without one.
+        Returns False (and sets ``status`` and ``message``) if the run failed;
+        the state is then the last good one.
         """
         if self.status != 'running':
             return False
@@ -496,6 +499,8 @@ class Simulator:
                 due = self._next_time_trigger()
                 if due is not None and due < t_end:
                     h, t_end = due - self.t, due
+                if limit is not None and t_end > limit:
+                    break
                 self._step(h, t_end)
         except _NumericalFailure as err:
             self.status = 'failed'

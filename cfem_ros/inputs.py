@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import re
 from typing import Optional
 
@@ -22,18 +22,51 @@ POSE_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/[^/]+/pose$')
 @dataclass(frozen=True)
 class Input:
     """
-    One input message, at simulated time ``time`` (s).
+    One input message: an external wrench or a release command.
 
-    ``kind`` is 'wrench' (body, force, torque, frame_id) or 'release' (joint).
+    Attributes
+    ----------
+    time : float or None
+        Simulated time at which it takes effect, s; None: as soon as it is
+        received.
+    kind : str
+        'wrench' or 'release'.
+    target : str
+        The body (wrench) or joint (release) it names.
+    force, torque : ndarray, shape (3,), or None
+        N and N m (wrench only).
+    frame_id : str
+        The world frame (world axes) or the body (body axes); wrench only.
+    header_ns : int or None
+        The message's own header stamp as received, ns (wrench only).
+
     """
 
-    time: float
-    stamp_ns: int
+    time: Optional[float]
     kind: str
     target: str
     force: Optional[np.ndarray] = None
     torque: Optional[np.ndarray] = None
     frame_id: str = ''
+    header_ns: Optional[int] = None
+
+
+def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[float] = None,
+                 header_ns: Optional[int] = None) -> Input:
+    """Build an external wrench input (arrays copied as floats)."""
+    return Input(time=time, kind='wrench', target=body,
+                 force=np.array(force, dtype=float), torque=np.array(torque, dtype=float),
+                 frame_id=frame_id, header_ns=header_ns)
+
+
+def release_input(joint: str, *, time: Optional[float] = None) -> Input:
+    """Build a release command."""
+    return Input(time=time, kind='release', target=joint)
+
+
+def input_topic(item: Input) -> str:
+    """Topic of an input, relative to the namespace."""
+    return 'release' if item.kind == 'release' else f'bodies/{item.target}/wrench'
 
 
 def read_inputs(path: str) -> list:
@@ -60,13 +93,13 @@ def read_inputs(path: str) -> list:
                 wrench = WRENCH_TOPIC.match(channel.topic)
                 if wrench:
                     w = decoded.wrench
-                    found.append((message.log_time, 'wrench', wrench['body'],
-                                  np.array([w.force.x, w.force.y, w.force.z]),
-                                  np.array([w.torque.x, w.torque.y, w.torque.z]),
-                                  decoded.header.frame_id))
+                    header = decoded.header
+                    found.append((message.log_time, wrench_input(
+                        wrench['body'], [w.force.x, w.force.y, w.force.z],
+                        [w.torque.x, w.torque.y, w.torque.z], header.frame_id,
+                        header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
                 elif RELEASE_TOPIC.match(channel.topic):
-                    found.append((message.log_time, 'release', decoded.data.strip(),
-                                  None, None, ''))
+                    found.append((message.log_time, release_input(decoded.data.strip())))
     except OSError as err:
         raise InputError(f'{path}: cannot read ({err.strerror})') from err
     except (McapError, ValueError, KeyError, AttributeError) as err:
@@ -77,9 +110,8 @@ def read_inputs(path: str) -> list:
     if start_ns is None:
         start_ns = min(f[0] for f in found)
     found.sort(key=lambda f: f[0])
-    return [Input(time=max(0.0, (stamp_ns - start_ns) * 1e-9), stamp_ns=stamp_ns, kind=kind,
-                  target=target, force=force, torque=torque, frame_id=frame)
-            for stamp_ns, kind, target, force, torque, frame in found]
+    return [replace(item, time=max(0.0, (stamp_ns - start_ns) * 1e-9))
+            for stamp_ns, item in found]
 
 
 def _start_ns(reader) -> Optional[int]:
@@ -97,26 +129,43 @@ def _start_ns(reader) -> Optional[int]:
     return None
 
 
-def apply_wrench(sim, body: str, force, torque, frame_id: str):
+def validate_input(sim, item: Input):
     """
-    Hold an external wrench on a body, in world or body axes by frame_id.
+    Check that an input can take effect on sim now.
 
     Raises
     ------
     ValueError
-        With the reason: unknown body, unknown frame, non-finite numbers.
+        With the reason: unknown body, frame or joint, a fixed body,
+        non-finite numbers, a joint already released.
 
     """
-    world = sim.model.frame_id
-    if frame_id not in (world, body):
-        raise ValueError(f'frame_id {frame_id!r} is neither the world frame {world!r} '
-                         f'nor the body {body!r}')
-    sim.set_wrench(body, force, torque, body_axes=(frame_id == body))
+    model = sim.model
+    if item.kind == 'release':
+        names = [joint.name for joint in model.joints]
+        if item.target not in names:
+            raise ValueError(f'unknown joint {item.target!r} '
+                             f'(joints: {", ".join(names) or "none"})')
+        if not sim.active[names.index(item.target)]:
+            raise ValueError(f'joint {item.target!r} is already released')
+        return
+    names = [body.name for body in model.bodies]
+    if item.target not in names:
+        raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
+    if item.frame_id not in (model.frame_id, item.target):
+        raise ValueError(f'frame_id {item.frame_id!r} is neither the world frame '
+                         f'{model.frame_id!r} nor the body {item.target!r}')
+    if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
+        raise ValueError('force and torque must be finite')
+    if model.bodies[names.index(item.target)].fixed:
+        raise ValueError(f'body {item.target!r} is fixed and cannot be loaded')
 
 
 def apply_input(sim, item: Input):
     """Apply one input now (ValueError with the reason if it cannot be)."""
+    validate_input(sim, item)
     if item.kind == 'wrench':
-        apply_wrench(sim, item.target, item.force, item.torque, item.frame_id)
+        sim.set_wrench(item.target, item.force, item.torque,
+                       body_axes=(item.frame_id == item.target))
     else:
         sim.release(item.target, cause='command')

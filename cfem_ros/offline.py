@@ -5,16 +5,11 @@
 from __future__ import annotations
 
 import logging
-import math
 import time
 from typing import Callable, Optional
 
-from cfem_ros.inputs import apply_input
-
-
-def sample_times(rate_hz: float, duration: float) -> int:
-    """Count the samples after t = 0 on the grid k / rate_hz up to duration."""
-    return int(math.floor(duration * rate_hz * (1.0 + 1e-12)))
+from cfem_ros.inputs import input_topic
+from cfem_ros.session import Session
 
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
@@ -48,50 +43,18 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
 
     """
     log = log or logging.getLogger('cfem_ros')
-    pending = list(inputs)
-    cursor = 0
-
-    def feed(t_limit):
-        nonlocal cursor
-        while cursor < len(pending) and pending[cursor].time <= t_limit:
-            item = pending[cursor]
-            cursor += 1
-            if not sim.advance_to(item.time):
-                return False
-            if recorder is not None:
-                if item.kind == 'wrench':
-                    recorder.input_wrench(item.target, item.force, item.torque,
-                                          item.frame_id, item.stamp_ns)
-                else:
-                    recorder.input_release(item.target, item.stamp_ns)
-            try:
-                apply_input(sim, item)
-            except ValueError as err:
-                topic = 'release' if item.kind == 'release' else f'bodies/{item.target}/wrench'
-                log.warning('input on %s at t = %.9g s not applied: %s', topic, item.time, err)
-        return True
-
-    def take_sample():
-        if recorder is not None:
-            recorder.events()
-            recorder.sample()
-
-    n_samples = sample_times(rate_hz, duration)
-    if not feed(0.0):
-        return False
-    take_sample()
+    session = Session(sim, rate_hz=rate_hz, duration=duration,
+                      outputs=[recorder] if recorder is not None else [], warn=log.warning)
+    for item in inputs:
+        try:
+            session.submit(item, check=False)
+        except ValueError as err:
+            log.warning('%s: input at t = 0 s not applied: %s', input_topic(item), err)
+    session.start()
     wall = time.monotonic()
-    for k in range(1, n_samples + 1):
-        t_k = k / rate_hz
-        if not (feed(t_k) and sim.advance_to(t_k)):
-            if recorder is not None:
-                recorder.events()
-            return False
-        take_sample()
+    while not session.finished:
+        session.advance(session.next_sample_time)
         if progress is not None and time.monotonic() - wall > 1.0:
             wall = time.monotonic()
             progress(sim.t)
-    ok = feed(duration) and sim.advance_to(duration)
-    if recorder is not None:
-        recorder.events()
-    return ok
+    return not session.failed

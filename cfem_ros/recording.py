@@ -212,13 +212,20 @@ class StateRecorder:
                                 {'data': json.dumps(event)}, self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
 
-    def input_wrench(self, body: str, force, torque, frame_id: str, stamp_ns: int):
-        """Record an external wrench input as received."""
-        self.recorder.write(self.topic(f'bodies/{body}/wrench'), WRENCH, {
-            'header': {'stamp': stamp(stamp_ns), 'frame_id': frame_id},
-            'wrench': {'force': _vector(force), 'torque': _vector(torque)},
-        }, stamp_ns)
+    def received(self, item, t: float):
+        """
+        Record an input as received, logged at the simulated time t it took effect.
 
-    def input_release(self, joint: str, stamp_ns: int):
-        """Record a release command as received."""
-        self.recorder.write(self.topic('release'), STRING, {'data': joint}, stamp_ns)
+        The log time is what ``cfem-sim run --inputs`` replays it at; a
+        wrench's header keeps the stamp it arrived with (the log time if it
+        had none).
+        """
+        stamp_ns = self.stamp_ns(t)
+        if item.kind == 'release':
+            self.recorder.write(self.topic('release'), STRING, {'data': item.target}, stamp_ns)
+            return
+        header_ns = stamp_ns if item.header_ns is None else item.header_ns
+        self.recorder.write(self.topic(f'bodies/{item.target}/wrench'), WRENCH, {
+            'header': {'stamp': stamp(header_ns), 'frame_id': item.frame_id},
+            'wrench': {'force': _vector(item.force), 'torque': _vector(item.torque)},
+        }, stamp_ns)

@@ -14,6 +14,7 @@ import subprocess
 import sys
 
 from cfem_ros import cli, load_scenario, Simulator
+from cfem_ros.inputs import release_input, wrench_input
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
@@ -188,8 +189,8 @@ def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
     log = tmp_path / 'inputs.mcap'
     with Recorder(str(log), metadata={'start_stamp_ns': 0}) as recorder:
         state = StateRecorder(recorder, Simulator(model))
-        state.input_wrench('store', [0, 0, 5000.0], [0, 0, 0], 'world', 50_000_000)
-        state.input_release('pivot', 100_000_000)
+        state.received(wrench_input('store', [0, 0, 5000.0], [0, 0, 0], 'world'), 0.05)
+        state.received(release_input('pivot'), 0.1)
     read_checked(log)
     out = tmp_path / 'replay.mcap'
     assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out),

@@ -1,0 +1,182 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+One run of a simulator on its sample grid, fed with inputs, paced by anyone.
+
+``Session`` is the stepping logic shared by ``cfem-sim run`` and the ROS
+node, so that a recording of the node replays offline to the same numbers:
+
+- samples lie on k / rate_hz, inputs at their own times; these are the only
+  points where integration steps are cut (with the engine's release times);
+- ``advance(limit)`` walks that fixed sequence of steps and stops at the
+  last step ending at or before ``limit``: whoever paces the run (a wall
+  clock, ``/clock``, nothing) changes when steps are taken, never which;
+- an input is recorded at the simulated time it took effect, so replaying
+  the recording applies it at that same time.
+
+Outputs are duck-typed sinks with ``sample()``, ``events()`` and
+``received(item, t)``; ``recording.StateRecorder`` is one, the node's
+publishers are another. This module never imports rclpy.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import math
+from typing import Callable, Optional
+
+from cfem_ros.inputs import apply_input, Input, input_topic, validate_input
+
+LOG = logging.getLogger('cfem_ros')
+
+
+class Session:
+    """
+    Step a simulator from t = 0 to ``duration`` over the sample grid.
+
+    Parameters
+    ----------
+    sim : Simulator
+        The simulation, at t = 0.
+    rate_hz : float
+        Sample rate; sample k is taken at exactly k / rate_hz s.
+    duration : float
+        Where the run ends, s; ``math.inf`` runs until the caller stops.
+    outputs : sequence of sinks
+        Each gets ``received(item, t)`` for every input as it takes effect (or is
+        refused), then ``events()`` and ``sample()`` at every sample time.
+    warn : callable, optional
+        Takes the message of an input that could not be applied; the
+        ``cfem_ros`` logger's warning by default.
+
+    """
+
+    def __init__(self, sim, *, rate_hz: float, duration: float = math.inf, outputs=(),
+                 warn: Optional[Callable[[str], None]] = None):
+        if not (math.isfinite(rate_hz) and rate_hz > 0):
+            raise ValueError(f'rate_hz is {rate_hz!r}; expected a rate > 0')
+        self.sim = sim
+        self.rate_hz = float(rate_hz)
+        self.duration = float(duration)
+        self.outputs = list(outputs)
+        self.warn = warn or LOG.warning
+        self.samples = 0
+        self.started = False
+        self._queue = []
+        self._order = itertools.count()
+
+    @property
+    def next_sample_time(self) -> float:
+        """Return the simulated time of the next sample, s."""
+        return self.samples / self.rate_hz
+
+    @property
+    def failed(self) -> bool:
+        """Tell whether the simulation stopped on a failure; ``sim.message`` says why."""
+        return self.sim.status != 'running'
+
+    @property
+    def finished(self) -> bool:
+        """Tell whether the run reached its duration or failed."""
+        return self.failed or self.sim.t >= self.duration
+
+    def start(self):
+        """Apply the inputs due at t = 0 and take the first sample."""
+        if self.started:
+            return
+        self.started = True
+        self._apply_due()
+        self._sample()
+
+    def submit(self, item: Input, *, check: bool = True):
+        """
+        Take an input: apply it now, or at its time if that is still ahead.
+
+        An input whose ``time`` is None or already past takes effect at the
+        current simulated time. Every input reaches the outputs, as received,
+        when it takes effect or is refused.
+
+        Parameters
+        ----------
+        item : Input
+            The input.
+        check : bool
+            Refuse an input held for later at once if it can never apply
+            (unknown frame or body, non-finite numbers); without it, it is
+            refused (with a warning) when its time comes.
+
+        Raises
+        ------
+        ValueError
+            If it is refused now; nothing changes in the simulation.
+
+        """
+        if item.time is not None and item.time > self.sim.t:
+            if check:
+                try:
+                    validate_input(self.sim, item)
+                except ValueError:
+                    self._record(item)
+                    raise
+            heapq.heappush(self._queue, (item.time, next(self._order), item))
+            return
+        self._apply(item)
+
+    def advance(self, limit: float):
+        """
+        Run on up to simulated time ``limit`` (never beyond it, nor the duration).
+
+        Samples and inputs met on the way are taken and applied; the state
+        is left at the last integration step that ends at or before limit.
+        """
+        if not self.started:
+            self.start()
+        sim = self.sim
+        while not self.finished:
+            target = min(self.next_sample_time, self.duration)
+            if self._queue:
+                target = min(target, self._queue[0][0])
+            ok = sim.advance_to(target, limit=limit)
+            if not ok:
+                self._emit_events()
+                return
+            if sim.t < target:
+                return
+            self._apply_due()
+            if sim.t >= self.next_sample_time:
+                self._sample()
+            if sim.t >= self.duration:
+                self._emit_events()
+
+    # ------------------------------------------------------------- internals
+
+    def _apply_due(self):
+        while self._queue and self._queue[0][0] <= self.sim.t:
+            item = heapq.heappop(self._queue)[2]
+            try:
+                self._apply(item)
+            except ValueError as err:
+                self.warn(f'{input_topic(item)}: input for t = {item.time:.9g} s '
+                          f'not applied: {err}')
+
+    def _record(self, item: Input):
+        for sink in self.outputs:
+            sink.received(item, self.sim.t)
+
+    def _apply(self, item: Input):
+        self._record(item)
+        apply_input(self.sim, item)
+        if item.kind == 'release':
+            self._emit_events()
+
+    def _emit_events(self):
+        for sink in self.outputs:
+            sink.events()
+
+    def _sample(self):
+        self._emit_events()
+        for sink in self.outputs:
+            sink.sample()
+        self.samples += 1
