@@ -8,7 +8,6 @@ import logging
 import time
 from typing import Callable, Optional
 
-from cfem_ros.inputs import input_topic
 from cfem_ros.session import Session
 
 
@@ -29,8 +28,8 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     duration : float
         s.
     inputs : sequence of Input
-        Applied at their times; an input at or before a sample time is applied
-        before that sample is taken. A bad input is skipped with a warning.
+        Applied at their times; an input at a sample time takes effect after
+        that sample is taken. A bad input is skipped with a warning.
     log : logging.Logger, optional
         Where those warnings go.
     progress : callable, optional
@@ -46,10 +45,7 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     session = Session(sim, rate_hz=rate_hz, duration=duration,
                       outputs=[recorder] if recorder is not None else [], warn=log.warning)
     for item in inputs:
-        try:
-            session.submit(item, check=False)
-        except ValueError as err:
-            log.warning('%s: input at t = 0 s not applied: %s', input_topic(item), err)
+        session.submit(item, check=False)
     session.start()
     wall = time.monotonic()
     while not session.finished:

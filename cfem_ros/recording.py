@@ -40,6 +40,10 @@ OFFERED_QOS = (
     '  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n'
     '  avoid_ros_namespace_conventions: false'
 )
+#: What the node offers on its events topic: transient local, keep last 100,
+#: so that a late subscriber asking for it still gets the releases.
+EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
+    'durability: volatile', 'durability: transient_local')
 
 #: Chunk size in bytes: small, so that a hard kill loses little.
 CHUNK_SIZE = 64 * 1024
@@ -100,10 +104,14 @@ class Recorder:
         self.message_count = 0
         self._finished = False
         if metadata:
-            self._writer.add_metadata('cfem_ros', {k: str(v) for k, v in metadata.items()})
+            self.add_metadata(metadata)
 
-    def channel(self, topic: str, msgtype: str) -> tuple:
-        """Register a topic's channel once; return (channel id, type)."""
+    def add_metadata(self, metadata: dict):
+        """Write a metadata record named ``cfem_ros`` (values as strings)."""
+        self._writer.add_metadata('cfem_ros', {k: str(v) for k, v in metadata.items()})
+
+    def channel(self, topic: str, msgtype: str, qos: str = OFFERED_QOS) -> tuple:
+        """Register a topic's channel once, with its offered QoS; return (channel id, type)."""
         channel = self._channels.get(topic)
         if channel is not None:
             return channel
@@ -114,7 +122,7 @@ class Recorder:
             self._encoders[msgtype] = serialize_dynamic(msgtype, text)[msgtype]
         channel = self._writer.register_channel(
             topic=topic, message_encoding='cdr', schema_id=self._schemas[msgtype],
-            metadata={'offered_qos_profiles': OFFERED_QOS})
+            metadata={'offered_qos_profiles': qos})
         self._channels[topic] = (channel, msgtype)
         return self._channels[topic]
 
@@ -207,8 +215,10 @@ class StateRecorder:
 
     def events(self):
         """Record the simulator's events not yet recorded, at their own times."""
+        topic = self.topic('events')
         for event in self.sim.events[self._events_written:]:
-            self.recorder.write(self.topic('events'), STRING,
+            self.recorder.channel(topic, STRING, qos=EVENTS_QOS)
+            self.recorder.write(topic, STRING,
                                 {'data': json.dumps(event)}, self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
 

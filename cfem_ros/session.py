@@ -8,6 +8,9 @@ node, so that a recording of the node replays offline to the same numbers:
 
 - samples lie on k / rate_hz, inputs at their own times; these are the only
   points where integration steps are cut (with the engine's release times);
+- a sample at time t shows the state and loads before any input at t takes
+  effect (the node cannot do otherwise: when a message arrives, the sample
+  at the current time has already been published);
 - ``advance(limit)`` walks that fixed sequence of steps and stops at the
   last step ending at or before ``limit``: whoever paces the run (a wall
   clock, ``/clock``, nothing) changes when steps are taken, never which;
@@ -83,19 +86,20 @@ class Session:
         return self.failed or self.sim.t >= self.duration
 
     def start(self):
-        """Apply the inputs due at t = 0 and take the first sample."""
+        """Take the first sample, then apply the inputs due at t = 0."""
         if self.started:
             return
         self.started = True
-        self._apply_due()
         self._sample()
+        self._apply_due()
 
     def submit(self, item: Input, *, check: bool = True):
         """
         Take an input: apply it now, or at its time if that is still ahead.
 
         An input whose ``time`` is None or already past takes effect at the
-        current simulated time. Every input reaches the outputs, as received,
+        current simulated time (before the run starts: at t = 0, after the
+        first sample). Every input reaches the outputs, as received,
         when it takes effect or is refused.
 
         Parameters
@@ -113,6 +117,9 @@ class Session:
             If it is refused now; nothing changes in the simulation.
 
         """
+        if not self.started:
+            heapq.heappush(self._queue, (item.time or 0.0, next(self._order), item))
+            return
         if item.time is not None and item.time > self.sim.t:
             if check:
                 try:
@@ -144,9 +151,9 @@ class Session:
                 return
             if sim.t < target:
                 return
-            self._apply_due()
             if sim.t >= self.next_sample_time:
                 self._sample()
+            self._apply_due()
             if sim.t >= self.duration:
                 self._emit_events()
 

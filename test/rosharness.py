@@ -1,0 +1,171 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Drive a cfem_node in its own process over real DDS, from the test process.
+
+``NodeProcess`` starts the console script with ROS arguments and keeps its
+output; ``Peer`` is an rclpy node in the test process that publishes inputs
+and ``/clock`` and collects everything the node publishes. Every wait has a
+deadline: a test fails, it never hangs on discovery.
+"""
+
+import json
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import String
+
+BIN = pathlib.Path(sys.executable).parent
+RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+#: Like ros2 bag play --clock.
+CLOCK = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def stamp_ns(header) -> int:
+    """Nanoseconds of a header's stamp."""
+    return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+
+
+class NodeProcess:
+    """A cfem_node process; its stdout and stderr go to a file under directory."""
+
+    def __init__(self, directory, scenario, executable=None, env=None, **parameters):
+        self.log_path = pathlib.Path(directory) / 'node.log'
+        args = [str(executable or BIN / 'cfem_node'), '--ros-args']
+        if scenario is not None:
+            args += ['-p', f'scenario:={scenario}']
+        for name, value in parameters.items():
+            if isinstance(value, bool):
+                value = str(value).lower()
+            args += ['-p', f'{name}:={value}']
+        self._log = open(self.log_path, 'w')
+        self.process = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT,
+                                        env=env)
+
+    @property
+    def output(self) -> str:
+        """Everything the node printed so far."""
+        if not self._log.closed:
+            self._log.flush()
+        return self.log_path.read_text()
+
+    def alive(self) -> bool:
+        """Tell whether the process is still running."""
+        return self.process.poll() is None
+
+    def stop(self, sig=signal.SIGINT, timeout=20.0) -> int:
+        """Send sig and return the exit status (kill after timeout)."""
+        if self.alive():
+            self.process.send_signal(sig)
+        try:
+            return self.process.wait(timeout=timeout)
+        finally:
+            if self.alive():
+                self.process.kill()
+                self.process.wait()
+            self._log.close()
+
+    def wait(self, timeout=60.0) -> int:
+        """Wait for the process to end by itself; return its exit status."""
+        try:
+            return self.process.wait(timeout=timeout)
+        finally:
+            if self.alive():
+                self.process.kill()
+                self.process.wait()
+            self._log.close()
+
+
+class Peer:
+    """The other side: publishes inputs and /clock, records what the node publishes."""
+
+    def __init__(self, scenario_bodies, scenario_joints, namespace='/cfem'):
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node('test_peer', context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.ns = namespace
+        self.received = {}
+        for body in scenario_bodies:
+            self._collect(PoseStamped, f'bodies/{body}/pose')
+            self._collect(TwistStamped, f'bodies/{body}/twist')
+        for joint in scenario_joints:
+            self._collect(WrenchStamped, f'joints/{joint}/wrench')
+        self._collect(String, 'events')
+        self.wrench_pubs = {b: self.node.create_publisher(
+            WrenchStamped, f'{namespace}/bodies/{b}/wrench', RELIABLE) for b in scenario_bodies}
+        self.release_pub = self.node.create_publisher(String, f'{namespace}/release', RELIABLE)
+        self.clock_pub = self.node.create_publisher(Clock, '/clock', CLOCK)
+
+    def _collect(self, kind, relative):
+        topic = f'{self.ns}/{relative}'
+        self.received[relative] = []
+        self.node.create_subscription(kind, topic, self.received[relative].append, RELIABLE)
+
+    def spin_until(self, condition, timeout=20.0, what='a condition'):
+        """Spin until condition() is true; fail the test after timeout seconds."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                raise AssertionError(f'timed out after {timeout:g} s waiting for {what}')
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def spin_for(self, seconds):
+        """Spin for a while."""
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def connected(self, timeout=20.0):
+        """Wait until the node and this peer see each other's topics."""
+        pubs = list(self.wrench_pubs.values()) + [self.release_pub]
+        self.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs)
+                        and all(self.node.count_publishers(f'{self.ns}/{topic}') > 0
+                                for topic in self.received if topic != 'events'),
+                        timeout, 'discovery between the node and the test')
+
+    def send(self, publisher, msg):
+        """Publish (reliable: delivered while this peer lives) and spin a moment."""
+        publisher.publish(msg)
+        self.spin_for(0.05)
+
+    def wrench(self, body, force, torque=(0.0, 0.0, 0.0), frame_id='world', stamp=0):
+        """Send a wrench on bodies/<body>/wrench with a header stamp in ns."""
+        msg = WrenchStamped()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
+        msg.header.frame_id = frame_id
+        f, m = msg.wrench.force, msg.wrench.torque
+        f.x, f.y, f.z = map(float, force)
+        m.x, m.y, m.z = map(float, torque)
+        self.send(self.wrench_pubs[body], msg)
+
+    def release(self, joint):
+        """Send a release command."""
+        self.send(self.release_pub, String(data=joint))
+
+    def clock(self, clock_ns):
+        """Publish /clock at clock_ns (best effort, as ros2 bag play does)."""
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(int(clock_ns), 1_000_000_000)
+        self.clock_pub.publish(msg)
+
+    def events(self):
+        """Return the events received so far, decoded."""
+        return [json.loads(m.data) for m in self.received['events']]
+
+    def close(self):
+        """Destroy the peer and its context."""
+        self.node.destroy_node()
+        self.executor.shutdown()
+        rclpy.try_shutdown(context=self.context)
