@@ -44,6 +44,7 @@ setup(
             'ros-kilted-std-msgs',
             'ros-kilted-geometry-msgs',
             'ros-kilted-rosgraph-msgs',
+            'ros-kilted-rcl-interfaces',
             'ros-kilted-rmw-fastrtps-cpp',
         ],
         'test': [

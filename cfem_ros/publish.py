@@ -9,20 +9,27 @@ equivalent of ``ros2 topic pub --once`` for the node's two input topics::
     cfem_pub release pivot
     cfem_pub wrench store --force 0 0 -5000 --frame world
 
-It waits (``--wait`` seconds) for the node's subscription to match, publishes
-once with the node's QoS and waits until the message is acknowledged.
+It waits (``--wait`` seconds) for the node's subscription to match and
+publishes once with the node's QoS. A release waits for the node's event on
+``events`` and prints it (exit status 1 if none comes: the node refused it).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import time
 
 from cfem_ros.node import TOPIC_QOS
 from geometry_msgs.msg import WrenchStamped
 import rclpy
-from rclpy.duration import Duration
 from std_msgs.msg import String
+
+#: Seconds to stay after publishing a wrench (ros2 topic pub --once keeps 0.1 s).
+KEEP_ALIVE = 0.3
+#: Seconds to wait for the node's release event.
+RELEASE_CONFIRMATION = 3.0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -64,31 +71,47 @@ def _message(args):
 
 
 def main(argv=None) -> int:
-    """Publish once; return 0, or 1 if no node listened within --wait seconds."""
+    """Publish once; return 0, or 1 if no node listened or a release had no event."""
     args = build_parser().parse_args(argv)
     kind, relative, msg = _message(args)
-    topic = f'{args.ns.rstrip("/")}/{relative}'
+    namespace = args.ns.rstrip('/')
+    topic = f'{namespace}/{relative}'
     rclpy.init()
     try:
         node = rclpy.create_node('cfem_pub')
         publisher = node.create_publisher(kind, topic, TOPIC_QOS)
-        clock = node.get_clock()
-        deadline = clock.now() + Duration(seconds=args.wait)
-        while publisher.get_subscription_count() == 0:
-            if clock.now() > deadline:
-                print(f'ERROR: nothing subscribes to {topic} after {args.wait:g} s; is cfem_node '
-                      'running, with the same ROS_DOMAIN_ID and namespace?', file=sys.stderr)
-                return 1
-            rclpy.spin_once(node, timeout_sec=0.05)
-        publisher.publish(msg)
-        if not publisher.wait_for_all_acked(Duration(seconds=5.0)):
-            print(f'ERROR: {topic}: the message was not acknowledged within 5 s',
-                  file=sys.stderr)
+        events = []
+        if args.command == 'release':
+            node.create_subscription(String, f'{namespace}/events',
+                                     lambda m: events.append(json.loads(m.data)), TOPIC_QOS)
+        if not _spin_until(node, lambda: publisher.get_subscription_count() > 0, args.wait):
+            print(f'ERROR: nothing subscribes to {topic} after {args.wait:g} s; is cfem_node '
+                  'running, with the same ROS_DOMAIN_ID and namespace?', file=sys.stderr)
             return 1
+        publisher.publish(msg)
         print(f'published on {topic}: {msg}')
-        return 0
+        if args.command != 'release':
+            # like ros2 topic pub --once: stay a moment so that the message leaves
+            _spin_until(node, lambda: False, KEEP_ALIVE)
+            return 0
+        if _spin_until(node, lambda: any(e.get('joint') == args.joint for e in events),
+                       RELEASE_CONFIRMATION):
+            print(f'{namespace}/events: {json.dumps(events[-1])}')
+            return 0
+        print(f'ERROR: no release event for {args.joint!r} within {RELEASE_CONFIRMATION:g} s; '
+              "the node's log says why (unknown joint, or already released)", file=sys.stderr)
+        return 1
     finally:
         rclpy.try_shutdown()
+
+
+def _spin_until(node, condition, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        rclpy.spin_once(node, timeout_sec=0.02)
+    return True
 
 
 def entry_point():

@@ -37,11 +37,19 @@ def stamp_ns(header) -> int:
 
 
 class NodeProcess:
-    """A cfem_node process; its stdout and stderr go to a file under directory."""
+    """
+    A cfem_node process; its stdout and stderr go to a file under directory.
 
-    def __init__(self, directory, scenario, executable=None, env=None, **parameters):
+    Parameters go after ``--params-file`` (which they override) as ``-p``
+    arguments; booleans are written as ROS expects them.
+    """
+
+    def __init__(self, directory, scenario, executable=None, env=None, params_file=None,
+                 **parameters):
         self.log_path = pathlib.Path(directory) / 'node.log'
         args = [str(executable or BIN / 'cfem_node'), '--ros-args']
+        if params_file is not None:
+            args += ['--params-file', str(params_file)]
         if scenario is not None:
             args += ['-p', f'scenario:={scenario}']
         for name, value in parameters.items():

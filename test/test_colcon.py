@@ -38,3 +38,14 @@ def test_colcon_build_installs_a_working_package(tmp_path):
                            capture_output=True, text=True, env=env, timeout=120)
     assert check.returncode == 0, check.stderr
     assert 'degrees of freedom: 1' in check.stdout
+    # ros2 run cfem_ros cfem_node, and what ros2 launch needs
+    assert (share / 'launch' / 'cfem_sim.launch.py').is_file()
+    assert (share / 'config' / 'cfem_node.params.yaml').is_file()
+    node = prefix / 'lib' / 'cfem_ros' / 'cfem_node'
+    run = subprocess.run([str(node), '--ros-args',
+                          '--params-file', str(share / 'config' / 'cfem_node.params.yaml'),
+                          '-p', f'scenario:={share / "config" / "store_separation.yaml"}',
+                          '-p', 'real_time_factor:=0.0', '-p', 'duration:=0.2'],
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert 'run complete at t = 0.2 s' in run.stdout + run.stderr

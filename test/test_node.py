@@ -343,3 +343,37 @@ def test_node_runs_the_scenario_to_its_end_and_exits_0(tmp_path):
     assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out)]) == 0
     _, _, offline = read_checked(out)
     assert [json.loads(m.data) for topic, _, _, m in offline if topic == '/cfem/events'] == events
+
+
+def test_node_says_when_it_falls_behind_real_time(tmp_path):
+    # 10^4 x real time is beyond any machine for a 1 ms step: the lag must be reported
+    node = NodeProcess(tmp_path, CONFIG / 'double_pendulum.yaml', real_time_factor=1e4,
+                       duration=0.0)
+    try:
+        start = time.monotonic()
+        while 'falling behind real time' not in node.output:
+            assert time.monotonic() - start < 60 and node.alive(), node.output
+            time.sleep(0.1)
+        assert 'lags the clock by' in node.output
+    finally:
+        assert node.stop(signal.SIGINT) == 0, node.output
+
+
+def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
+    node = NodeProcess(tmp_path, CONFIG / 'store_release_on_command.yaml')
+    pub = str(pathlib.Path(sys.executable).parent / 'cfem_pub')
+    try:
+        result = subprocess.run([pub, 'wrench', 'store', '--force', '0', '0', '-100'],
+                                capture_output=True, text=True, timeout=60)
+        assert result.returncode == 0, result.stderr
+        result = subprocess.run([pub, 'release', 'pivot'], capture_output=True, text=True,
+                                timeout=60)
+        assert result.returncode == 0, result.stderr
+        event = json.loads(result.stdout.splitlines()[-1].split(': ', 1)[1])
+        assert (event['joint'], event['cause']) == ('pivot', 'command')
+        result = subprocess.run([pub, 'release', 'pivot'], capture_output=True, text=True,
+                                timeout=60)
+        assert result.returncode == 1 and 'no release event' in result.stderr
+        assert "joint 'pivot' is already released" in node.output
+    finally:
+        assert node.stop(signal.SIGINT) == 0, node.output
