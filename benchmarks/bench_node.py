@@ -1,0 +1,106 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+CPU use and publish-period jitter of cfem_node in real-time mode.
+
+For each paper scenario (dt = 1 ms, rate_hz 100, real_time_factor 1) the node
+runs in its own process over Fast DDS; this process subscribes to a body's
+pose. It prints the node's CPU seconds per simulated second (user + system,
+from /proc, start-up excluded) and the deviation of the pose arrival period
+from 1/rate_hz (median and 99th percentile), as a subscriber sees it.
+
+Usage: .venv/bin/python benchmarks/bench_node.py [--seconds 10]
+"""
+
+import argparse
+import os
+import pathlib
+import random
+import statistics
+import subprocess
+import sys
+import time
+
+CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+SCENARIOS = (('fixed_joint_spin', 'B'), ('double_pendulum', 'B'), ('store_separation', 'store'))
+RATE_HZ = 100.0
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process so far, s."""
+    fields = pathlib.Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def percentile(values, q):
+    """Return the q-th percentile (q from 0 to 100) by nearest rank."""
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
+
+
+def measure(name, body, seconds):
+    import rclpy
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    node_process = subprocess.Popen(
+        [str(pathlib.Path(sys.executable).parent / 'cfem_node'), '--ros-args',
+         '-p', f'scenario:={CONFIG / f"{name}.yaml"}', '-p', f'rate_hz:={RATE_HZ}',
+         '-p', 'real_time_factor:=1.0', '-p', f'duration:={seconds + 1.0}'],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    peer = rclpy.create_node('bench_peer', context=context)
+    arrivals, cpu = [], {}
+
+    def on_pose(msg):
+        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        arrivals.append((time.monotonic(), t))
+        if len(arrivals) == 1:
+            cpu['start'] = (cpu_seconds(node_process.pid), t)
+        elif t - arrivals[0][1] >= seconds and 'end' not in cpu:
+            cpu['end'] = (cpu_seconds(node_process.pid), t)
+
+    peer.create_subscription(PoseStamped, f'/cfem/bodies/{body}/pose', on_pose,
+                             QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
+    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor.add_node(peer)
+    deadline = time.monotonic() + seconds + 60
+    try:
+        while 'end' not in cpu and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        node_process.terminate()
+        node_process.wait(timeout=30)
+        peer.destroy_node()
+        rclpy.try_shutdown(context=context)
+    if 'end' not in cpu:
+        raise RuntimeError(f'{name}: the node did not publish for {seconds} s')
+    (cpu0, t0), (cpu1, t1) = cpu['start'], cpu['end']
+    # skip the first second: discovery and the subscriber's own warm-up
+    received = [a for a, t in arrivals if t0 + 1.0 <= t <= t1]
+    periods = [b - a for a, b in zip(received, received[1:])]
+    deviations = [abs(p - 1.0 / RATE_HZ) * 1e3 for p in periods]
+    return {'cpu': (cpu1 - cpu0) / (t1 - t0), 'median': statistics.median(deviations),
+            'p99': percentile(deviations, 99), 'period': statistics.median(periods) * 1e3,
+            'n': len(periods)}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
+    parser.add_argument('--seconds', type=float, default=10.0,
+                        help='simulated (= wall) seconds measured per scenario')
+    args = parser.parse_args()
+    os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(101, 200)))
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    print(f'cfem_node, real time, dt = 1 ms, rate_hz {RATE_HZ:g}, {args.seconds:g} s each; '
+          'jitter = |arrival period - 10 ms| at a subscriber in another process')
+    print(f'{"scenario":<18} {"CPU s per sim s":>16} {"period median ms":>17} '
+          f'{"jitter median ms":>17} {"jitter p99 ms":>14} {"periods":>8}')
+    for name, body in SCENARIOS:
+        r = measure(name, body, args.seconds)
+        print(f'{name:<18} {r["cpu"]:>16.3f} {r["period"]:>17.3f} {r["median"]:>17.3f} '
+              f'{r["p99"]:>14.3f} {r["n"]:>8d}')
+
+
+if __name__ == '__main__':
+    main()
