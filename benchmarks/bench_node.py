@@ -33,7 +33,7 @@ def cpu_seconds(pid: int) -> float:
 
 
 def percentile(values, q):
-    """Return the q-th percentile (q from 0 to 100) by nearest rank."""
+    """Return the nearest-rank percentile q (0 to 100) of some values."""
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
 
