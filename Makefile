@@ -30,6 +30,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_engine.py
+	$(BIN)/python benchmarks/bench_node.py
 
 clean:
 	rm -rf $(VENV) build install log runs *.egg-info
