@@ -37,6 +37,7 @@ setup(
         'mcap>=1.1',
         'mcap-ros2-support>=0.5',
         'numba>=0.59',
+        'matplotlib>=3.6',
     ],
     extras_require={
         'ros': [

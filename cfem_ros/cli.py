@@ -13,11 +13,11 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros import offline, rotations
+from cfem_ros import analysis, offline, plots, rotations
 from cfem_ros.engine import Simulator
 from cfem_ros.errors import CfemError
 from cfem_ros.inputs import read_inputs
-from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros.recording import Recorder, run_metadata, StateRecorder
 from cfem_ros.scenario import load_scenario
 import numpy as np
 
@@ -119,9 +119,8 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
 
     started = time.monotonic()
     try:
-        with Recorder(output, overwrite=overwrite, metadata={
-                'scenario': os.path.abspath(scenario), 'start_stamp_ns': 0,
-                'dt': repr(model.dt), 'rate_hz': repr(rate)}) as recorder:
+        with Recorder(output, overwrite=overwrite,
+                      metadata=run_metadata(model, scenario, rate, 0)) as recorder:
             state = StateRecorder(recorder, sim)
             ok = offline.run(sim, state, rate_hz=rate, duration=model.duration,
                              inputs=replay, progress=progress)
@@ -142,6 +141,77 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         print(f'ERROR: the run failed {sim.message}; the recording holds everything '
               f'up to t = {sim.t:.9g} s', file=sys.stderr)
         return EXIT_FAILED
+    return EXIT_OK
+
+
+def cmd_info(recording: str) -> int:
+    """Print a recording's topics, message counts, duration and events; exit 0 or 2."""
+    try:
+        run = analysis.open_run(recording)
+    except CfemError as err:
+        return _error(str(err))
+    print(f'{recording}: namespace {run.namespace!r}, {run.duration:.6g} s '
+          f'(t = 0 at stamp {run.start_ns} ns)')
+    if run.metadata:
+        print('  ' + ', '.join(f'{k} {v}' for k, v in sorted(run.metadata.items())))
+    width = max(len(topic) for topic in run.topics)
+    print(f'  {"topic":<{width}}  {"messages":>8}  type')
+    for topic, (kind, count) in sorted(run.topics.items()):
+        print(f'  {topic:<{width}}  {count:>8}  {kind}')
+    moving = [b.name for b in run.moving_bodies()]
+    print(f'  bodies: {", ".join(run.bodies)} (moving: {", ".join(moving) or "none"}); '
+          f'joints: {", ".join(run.joints) or "none"}')
+    releases = run.releases()
+    for t, joint, cause in releases:
+        print(f'  release {joint} at t = {t:.9f} s ({cause})')
+    if not releases:
+        print('  no release')
+    return EXIT_OK
+
+
+def cmd_plot(recording: str, directory: str) -> int:
+    """Write the figures of a recording under directory; exit 0 or 2."""
+    try:
+        run = analysis.open_run(recording)
+    except CfemError as err:
+        return _error(str(err))
+    try:
+        paths = plots.write_figures(run, directory)
+    except OSError as err:
+        return _error(f'{directory}: cannot write ({err.strerror or err})')
+    for path in paths:
+        print(path)
+    return EXIT_OK
+
+
+def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int:
+    """Print the largest differences of two recordings (and overlay figures); exit 0 or 2."""
+    try:
+        a, b = analysis.open_run(first), analysis.open_run(second)
+    except CfemError as err:
+        return _error(str(err))
+    rows, only_a, only_b = analysis.compare_runs(a, b)
+    if not rows:
+        return _error(f'{first} and {second} share no body or joint; nothing to compare')
+    print(f'A = {first}')
+    print(f"B = {second} (interpolated onto A's sample times)")
+    width = max(len(r.quantity) for r in rows)
+    print(f'{"quantity":<{width}}  {"max |A - B|":>12}  {"unit":<5}  {"at t [s]":>10}  '
+          f'{"max |A|":>12}  {"samples":>7}')
+    for r in rows:
+        print(f'{r.quantity:<{width}}  {r.max_abs:>12.4g}  {r.unit:<5}  {r.at_time:>10.4f}  '
+              f'{r.scale:>12.4g}  {r.samples:>7d}')
+    for name in only_a:
+        print(f'only in A: {name}')
+    for name in only_b:
+        print(f'only in B: {name}')
+    if directory:
+        try:
+            paths = plots.write_comparison(a, b, directory)
+        except OSError as err:
+            return _error(f'{directory}: cannot write ({err.strerror or err})')
+        for path in paths:
+            print(path)
     return EXIT_OK
 
 
@@ -168,6 +238,22 @@ def build_parser() -> argparse.ArgumentParser:
                            description='Validate a scenario and print its bodies, joints '
                            'and degrees of freedom.')
     check.add_argument('scenario', metavar='SCENARIO', help='scenario file (YAML)')
+    plot = sub.add_parser('plot', help='draw the figures of a recording',
+                          description='Write PNG figures of a recording: per body CG, '
+                          'attitude and rates; per joint force and moment; a 3D view.')
+    plot.add_argument('recording', metavar='RUN.mcap', help='recording to read')
+    plot.add_argument('-o', '--output', required=True, metavar='DIR',
+                      help='folder to write the PNG files to')
+    info = sub.add_parser('info', help='summarize a recording',
+                          description='Print topics, message counts, duration and events.')
+    info.add_argument('recording', metavar='RUN.mcap', help='recording to read')
+    compare = sub.add_parser('compare', help='compare two recordings',
+                             description='Print the largest difference of each quantity '
+                             'between two recordings of the same topics (B resampled onto '
+                             "A's times), and optionally overlay them.")
+    compare.add_argument('first', metavar='A.mcap', help='reference recording')
+    compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
+    compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
     return parser
 
 
@@ -187,6 +273,12 @@ def main(argv=None) -> int:
     try:
         if args.command == 'check':
             return cmd_check(args.scenario)
+        if args.command == 'info':
+            return cmd_info(args.recording)
+        if args.command == 'plot':
+            return cmd_plot(args.recording, args.output)
+        if args.command == 'compare':
+            return cmd_compare(args.first, args.second, args.output)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
                        dt=args.dt, inputs=args.inputs, overwrite=args.overwrite)
     except KeyboardInterrupt:

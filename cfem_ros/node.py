@@ -23,7 +23,6 @@ from dataclasses import replace
 import json
 import logging
 import math
-import os
 import signal
 import sys
 import time
@@ -32,7 +31,7 @@ from typing import Optional
 from cfem_ros.engine import Simulator
 from cfem_ros.errors import CfemError
 from cfem_ros.inputs import release_input, wrench_input
-from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros.recording import Recorder, run_metadata, StateRecorder
 from cfem_ros.scenario import load_scenario
 from cfem_ros.session import Session
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
@@ -314,11 +313,9 @@ class CfemNode(Node):
         self._publishers_sink.start_ns = self.start_ns
         if self.state_recorder is not None:
             self.state_recorder.start_ns = self.start_ns
-            self.recorder.add_metadata({
-                'scenario': os.path.abspath(self.scenario_path),
-                'start_stamp_ns': self.start_ns, 'dt': repr(self.sim.dt),
-                'rate_hz': repr(self.rate_hz), 'node': self.get_fully_qualified_name(),
-                'use_sim_time': str(self.sim_time).lower()})
+            self.recorder.add_metadata(run_metadata(
+                self.sim.model, self.scenario_path, self.rate_hz, self.start_ns,
+                node=self.get_fully_qualified_name(), use_sim_time=str(self.sim_time).lower()))
         for item in self._early:
             self._submit(*item)
         self._early.clear()

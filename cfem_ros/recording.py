@@ -60,6 +60,14 @@ def seconds_to_ns(t: float) -> int:
     return int(round(t * 1e9))
 
 
+def run_metadata(model, scenario: str, rate_hz: float, start_ns: int, **extra) -> dict:
+    """Describe a run for its ``cfem_ros`` metadata record (what it is, where t = 0 is)."""
+    return {'scenario': os.path.abspath(scenario), 'name': model.name,
+            'start_stamp_ns': int(start_ns), 'dt': repr(model.dt), 'rate_hz': repr(rate_hz),
+            'frame_id': model.frame_id,
+            'gravity': '[' + ', '.join(repr(float(g)) for g in model.gravity) + ']', **extra}
+
+
 def _vector(v) -> dict:
     return {'x': float(v[0]), 'y': float(v[1]), 'z': float(v[2])}
 

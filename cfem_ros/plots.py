@@ -1,0 +1,206 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The figures a flight-dynamics engineer looks at, from recordings (``cfem-sim plot``).
+
+Every function returns a matplotlib Figure (Agg backend, no display needed);
+``write_figures`` saves them as PNG. Release events are marked on every time
+axis and in the 3D view.
+"""
+
+from __future__ import annotations
+
+import os
+
+from cfem_ros.analysis import Run
+import matplotlib
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
+import numpy as np  # noqa: E402, I100
+
+AXES = ('x', 'y', 'z')
+EULER = ('roll', 'pitch', 'yaw')
+RATES = ('p', 'q', 'r')
+COLORS = ('tab:blue', 'tab:orange', 'tab:green', 'black')
+DPI = 110
+
+
+def _mark_releases(ax, run: Run, label: bool):
+    for t, joint, cause in run.releases():
+        ax.axvline(t, color='tab:red', linestyle='--', linewidth=1.0, alpha=0.8)
+        if label:
+            ax.annotate(f'{joint} released ({cause}) t = {t:.4f} s', xy=(t, 1.0),
+                        xycoords=('data', 'axes fraction'), xytext=(3, -12),
+                        textcoords='offset points', color='tab:red', fontsize=8)
+
+
+def _time_axes(fig, run: Run, rows: int):
+    axes = fig.subplots(rows, 1, sharex=True)
+    for i, ax in enumerate(axes):
+        ax.grid(True, alpha=0.3)
+        _mark_releases(ax, run, label=(i == 0))
+        ax.set_xlim(0.0, max(run.duration, 1e-9))
+    axes[-1].set_xlabel('time [s]')
+    return axes
+
+
+def _lines(ax, series, names, unit, title):
+    """Plot component k of every (time, values, style, suffix) series in color k."""
+    for k, name in enumerate(names):
+        for t, values, style, suffix in series:
+            ax.plot(t, values[:, k], style, color=COLORS[k], label=f'{name}{suffix}')
+    ax.set_ylabel(unit)
+    ax.set_title(title, fontsize=10, loc='left')
+    ax.legend(loc='best', fontsize=8, ncol=len(names) * len(series))
+
+
+def _one(t, values):
+    return [(t, values, '-', '')]
+
+
+def _two(ta, va, tb, vb, labels):
+    return [(ta, va, '-', f' {labels[0]}'), (tb, vb, '--', f' {labels[1]}')]
+
+
+def body_figure(run: Run, name: str):
+    """CG position, attitude (continuous Z-Y-X angles) and body rates of one body."""
+    track = run.bodies[name]
+    fig = plt.figure(figsize=(10, 9), layout='constrained')
+    fig.suptitle(f'{name}: motion of the CG and attitude ({os.path.basename(run.path)})')
+    axes = _time_axes(fig, run, 3)
+    t = track.time
+    _lines(axes[0], _one(t, track.position), AXES, 'position [m]', 'CG position, world axes')
+    _lines(axes[1], _one(t, track.euler_continuous_deg), EULER, 'angle [deg]',
+           'attitude: roll, pitch, yaw (Z-Y-X, continuous)')
+    _lines(axes[2], _one(t, np.degrees(track.rates)), RATES, 'rate [deg/s]',
+           'body rates p, q, r (body axes)')
+    return fig
+
+
+def joint_figure(run: Run, name: str):
+    """Constraint force and moment of one joint (on its child), with magnitudes."""
+    track = run.joints[name]
+    fig = plt.figure(figsize=(10, 7), layout='constrained')
+    fig.suptitle(f'joint {name}: load on the child, world axes '
+                 f'({os.path.basename(run.path)})')
+    axes = _time_axes(fig, run, 2)
+    for ax, values, unit, title in ((axes[0], track.force, 'force [N]', 'constraint force'),
+                                    (axes[1], track.moment, 'moment [N m]',
+                                     'constraint moment about the joint point')):
+        with_norm = np.column_stack([values, np.linalg.norm(values, axis=1)])
+        _lines(ax, _one(track.time, with_norm), AXES + ('magnitude',), unit, title)
+    return fig
+
+
+def _at(track, t):
+    return np.array([np.interp(t, track.time, track.position[:, k]) for k in range(3)])
+
+
+def _z_down(run: Run) -> bool:
+    gravity = run.metadata.get('gravity', '')
+    try:
+        return float(gravity.strip('[]').split(',')[2]) > 0
+    except (IndexError, ValueError):
+        return False
+
+
+def trajectory_figure(run: Run):
+    """3D CG trajectories of the moving bodies, with start, release and end points."""
+    fig = plt.figure(figsize=(8, 8), layout='constrained')
+    ax = fig.add_subplot(projection='3d')
+    points = []
+    for k, track in enumerate(run.moving_bodies()):
+        color = f'C{k}'
+        p = track.position
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], color=color, label=f'{track.name} CG')
+        ax.scatter(*p[0], color=color, marker='o', s=30)
+        ax.scatter(*p[-1], color=color, marker='s', s=30)
+        points.append(p)
+        for t, joint, _ in run.releases():
+            if track.time[0] <= t <= track.time[-1]:
+                ax.scatter(*_at(track, t), color='tab:red', marker='*', s=120)
+    for t, joint, cause in run.releases():
+        ax.scatter([], [], [], color='tab:red', marker='*', s=120,
+                   label=f'{joint} released ({cause}), t = {t:.4f} s')
+    ax.scatter([], [], [], color='gray', marker='o', label='start')
+    ax.scatter([], [], [], color='gray', marker='s', label='end')
+    if points:
+        every = np.vstack(points)
+        center = (every.max(axis=0) + every.min(axis=0)) / 2
+        half = max(np.ptp(every, axis=0).max() / 2, 1e-3) * 1.05
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), center):
+            setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel('x [m]')
+    ax.set_ylabel('y [m]')
+    ax.set_zlabel('z [m]')
+    down = _z_down(run)
+    if down:
+        ax.invert_zaxis()
+    ax.set_title(f'CG trajectories, world frame, equal scales{" (z down)" if down else ""}')
+    ax.legend(loc='upper left', fontsize=8)
+    return fig
+
+
+def compare_body_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
+    """Overlay one body's motion from two runs (A solid, B dashed)."""
+    ta, tb = a.bodies[name], b.bodies[name]
+    fig = plt.figure(figsize=(10, 9), layout='constrained')
+    fig.suptitle(f'{name}: {labels[0]} (solid) against {labels[1]} (dashed)')
+    axes = _time_axes(fig, a, 3)
+    _lines(axes[0], _two(ta.time, ta.position, tb.time, tb.position, labels), AXES,
+           'position [m]', 'CG position, world axes')
+    _lines(axes[1], _two(ta.time, ta.euler_continuous_deg, tb.time, tb.euler_continuous_deg,
+                         labels), EULER, 'angle [deg]',
+           'attitude: roll, pitch, yaw (Z-Y-X, continuous)')
+    _lines(axes[2], _two(ta.time, np.degrees(ta.rates), tb.time, np.degrees(tb.rates),
+                         labels), RATES, 'rate [deg/s]', 'body rates p, q, r (body axes)')
+    return fig
+
+
+def compare_joint_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
+    """Overlay one joint's load from two runs (A solid, B dashed)."""
+    ja, jb = a.joints[name], b.joints[name]
+    fig = plt.figure(figsize=(10, 7), layout='constrained')
+    fig.suptitle(f'joint {name}: {labels[0]} (solid) against {labels[1]} (dashed)')
+    axes = _time_axes(fig, a, 2)
+    _lines(axes[0], _two(ja.time, ja.force, jb.time, jb.force, labels), AXES, 'force [N]',
+           'constraint force')
+    _lines(axes[1], _two(ja.time, ja.moment, jb.time, jb.moment, labels), AXES,
+           'moment [N m]', 'constraint moment about the joint point')
+    return fig
+
+
+def save(fig, path: str) -> str:
+    """Write a figure as PNG and close it; return the path."""
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def write_figures(run: Run, directory: str) -> list:
+    """Write every figure of a run under directory; return the paths."""
+    os.makedirs(directory, exist_ok=True)
+    paths = []
+    for track in run.moving_bodies():
+        paths.append(save(body_figure(run, track.name),
+                          os.path.join(directory, f'body_{track.name}.png')))
+    for name in run.joints:
+        paths.append(save(joint_figure(run, name), os.path.join(directory, f'joint_{name}.png')))
+    paths.append(save(trajectory_figure(run), os.path.join(directory, 'trajectories_3d.png')))
+    return paths
+
+
+def write_comparison(a: Run, b: Run, directory: str, labels=('A', 'B')) -> list:
+    """Write overlay figures of the bodies and joints two runs share; return the paths."""
+    os.makedirs(directory, exist_ok=True)
+    paths = []
+    for track in a.moving_bodies():
+        if track.name in b.bodies:
+            paths.append(save(compare_body_figure(a, b, track.name, labels),
+                              os.path.join(directory, f'compare_body_{track.name}.png')))
+    for name in a.joints:
+        if name in b.joints:
+            paths.append(save(compare_joint_figure(a, b, name, labels),
+                              os.path.join(directory, f'compare_joint_{name}.png')))
+    return paths
