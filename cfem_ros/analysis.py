@@ -371,7 +371,10 @@ def compare_runs(a: Run, b: Run) -> tuple:
     Compare the bodies and joints two runs share, quantity by quantity.
 
     B is interpolated linearly onto A's sample times where they differ (only
-    inside B's time span). Returns (differences, only_in_a, only_in_b), where
+    inside B's time span). Quantities: ``<body> position`` (m, world),
+    ``attitude`` (continuous roll, pitch, yaw, deg), ``rates`` (body, deg/s),
+    ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
+    ``release`` (time, s). Returns (differences, only_in_a, only_in_b), where
     the last two list body and joint names present in one run only.
     """
     rows = []
@@ -391,11 +394,11 @@ def compare_runs(a: Run, b: Run) -> tuple:
         if tb is None:
             continue
         add(f'{name} position', 'm', ta.time, ta.position, tb.time, tb.position)
-        add(f'{name} attitude (roll, pitch, yaw)', 'deg', ta.time, ta.euler_continuous_deg,
+        add(f'{name} attitude', 'deg', ta.time, ta.euler_continuous_deg,
             tb.time, tb.euler_continuous_deg)
-        add(f'{name} body rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
+        add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
             np.degrees(tb.rates))
-        add(f'{name} velocity (body axes)', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)
+        add(f'{name} velocity', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)
     for name, ja in a.joints.items():
         jb = b.joints.get(name)
         if jb is None:
@@ -406,7 +409,7 @@ def compare_runs(a: Run, b: Run) -> tuple:
     releases_b = {joint: t for t, joint, _ in b.releases()}
     for joint in sorted(set(releases_a) & set(releases_b)):
         gap = abs(releases_a[joint] - releases_b[joint])
-        rows.append(Difference(f'{joint} release time', 's', gap, releases_a[joint],
+        rows.append(Difference(f'{joint} release', 's', gap, releases_a[joint],
                                releases_a[joint], 1))
     names_a = set(a.bodies) | set(a.joints) | {f'{j} release' for j in releases_a}
     names_b = set(b.bodies) | set(b.joints) | {f'{j} release' for j in releases_b}

@@ -18,7 +18,7 @@ import subprocess
 import sys
 import time
 
-from cfem_ros import cli
+from cfem_ros import analysis, cli
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
@@ -343,6 +343,15 @@ def test_node_runs_the_scenario_to_its_end_and_exits_0(tmp_path):
     assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out)]) == 0
     _, _, offline = read_checked(out)
     assert [json.loads(m.data) for topic, _, _, m in offline if topic == '/cfem/events'] == events
+    # and the reading API gives the same arrays for both, times from each run's start
+    node_run, offline_run = analysis.open_run(str(recording)), analysis.open_run(str(out))
+    assert node_run.start_ns > 0 and offline_run.start_ns == 0
+    for name, track in offline_run.bodies.items():
+        other = node_run.bodies[name]
+        assert np.array_equal(track.time, other.time)
+        assert np.array_equal(track.position, other.position)
+        assert np.array_equal(track.rates, other.rates)
+    assert node_run.releases() == offline_run.releases()
 
 
 def test_node_says_when_it_falls_behind_real_time(tmp_path):

@@ -1,0 +1,291 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Reading recordings as arrays, and cfem-sim info, plot and compare.
+
+Known motions (a free body in uniform gravity with a constant spin) give
+exact arrays to compare with; a third-party writer (rosbags) writes the same
+topics to check the reader does not depend on how cfem_ros writes them.
+"""
+
+import math
+import pathlib
+import subprocess
+import sys
+
+from cfem_ros import analysis, cli, load_scenario, plots, Simulator
+from cfem_ros.errors import RecordingError
+from cfem_ros.inputs import release_input
+from cfem_ros.recording import Recorder, StateRecorder
+import matplotlib.image
+import numpy as np
+import pytest
+from recordings import read_mcap
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import get_typestore, Stores
+from scipy.spatial.transform import Rotation
+import yaml
+
+CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+G = 9.80665
+
+TUMBLER = {
+    'name': 'tumbler', 'gravity': [0, 0, -G], 'duration': 2.5, 'dt': 0.001,
+    'bodies': {
+        'ground': {'fixed': True},
+        'store': {'mass': 10.0, 'inertia': [1.0, 2.0, 2.0], 'velocity': [3.0, 0.0, 4.0],
+                  'angular_velocity_deg': [0, 60, 0]},
+    },
+}
+
+
+def run_to(tmp_path, document, name, *extra):
+    """Write a scenario, run cfem-sim on it, return the recording's path."""
+    scenario = tmp_path / f'{name}.yaml'
+    scenario.write_text(yaml.safe_dump(document, sort_keys=False))
+    out = tmp_path / f'{name}.mcap'
+    assert cli.main(['run', str(scenario), '-o', str(out), *extra]) == 0
+    return out
+
+
+@pytest.fixture(scope='module')
+def tumbler(tmp_path_factory):
+    return run_to(tmp_path_factory.mktemp('tumbler'), TUMBLER, 'tumbler')
+
+
+@pytest.fixture(scope='module')
+def store(tmp_path_factory):
+    out = tmp_path_factory.mktemp('store') / 'store.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out)]) == 0
+    return out
+
+
+def test_arrays_of_a_known_motion(tumbler):
+    run = analysis.open_run(str(tumbler))
+    assert run.namespace == '/cfem' and run.start_ns == 0
+    assert list(run.bodies) == ['ground', 'store'] and run.joints == {} and run.events == []
+    assert [b.name for b in run.moving_bodies()] == ['store']
+    track = run.bodies['store']
+    n = 251
+    assert track.time.shape == (n,) and track.position.shape == (n, 3)
+    assert track.quaternion.shape == (n, 4) and track.euler_deg.shape == (n, 3)
+    assert track.rates.shape == track.velocity.shape == track.velocity_world.shape == (n, 3)
+    t = track.time
+    assert np.array_equal(track.stamp_ns, np.arange(n) * 10_000_000)
+    assert np.allclose(t, np.arange(n) / 100.0, rtol=0, atol=1e-15)
+    # ballistic CG (RK4 is exact for a quadratic, up to rounding: 2500 steps of a few
+    # ulps of 20 m is ~1e-11 m) and a constant spin about y
+    expected = np.column_stack([3.0 * t, 0 * t, 4.0 * t - G * t ** 2 / 2])
+    assert np.allclose(track.position, expected, rtol=0, atol=1e-10)
+    assert np.allclose(track.velocity_world, np.column_stack([3.0 + 0 * t, 0 * t, 4.0 - G * t]),
+                       rtol=0, atol=1e-10)
+    assert np.allclose(track.rates, [0, math.radians(60), 0], rtol=0, atol=1e-12)
+    # pitch through 90 deg and on to 150 deg: continuous angles are exactly 60 t
+    continuous = track.euler_continuous_deg
+    assert np.allclose(continuous[:, 1], 60.0 * t, rtol=0, atol=1e-8)
+    assert np.allclose(continuous[:, [0, 2]], 0.0, rtol=0, atol=1e-8)
+    # the principal angles hold pitch within +-90 deg, roll and yaw flip to 180 deg
+    principal = track.euler_deg
+    beyond = 60.0 * t > 90.0 + 1e-6
+    assert np.allclose(principal[beyond, 1], 180.0 - 60.0 * t[beyond], rtol=0, atol=1e-8)
+    assert np.allclose(np.abs(principal[beyond][:, [0, 2]]), 180.0, rtol=0, atol=1e-8)
+    # both are the recorded attitude
+    for angles in (principal, continuous):
+        rebuilt = Rotation.from_euler('ZYX', angles[:, ::-1], degrees=True).as_quat()
+        assert np.allclose(np.abs(np.sum(rebuilt * track.quaternion, axis=1)), 1.0,
+                           rtol=0, atol=1e-12)
+    # body-axes velocity is the world velocity turned into the body
+    body = Rotation.from_quat(track.quaternion).inv().apply(track.velocity_world)
+    assert np.allclose(track.velocity, body, rtol=0, atol=1e-12)
+
+
+def test_euler_continuous_unwraps_yaw_and_pitch():
+    yaw = np.linspace(0, 400, 81)
+    pitch = np.concatenate([np.linspace(0, 89, 40), np.linspace(89, 0, 41)])
+    principal = Rotation.from_euler('ZYX', np.column_stack(
+        [yaw, pitch, 0 * yaw]), degrees=True).as_euler('ZYX', degrees=True)[:, ::-1]
+    continuous = analysis.euler_continuous(principal)
+    assert np.allclose(continuous[:, 2], yaw, atol=1e-9)
+    assert np.allclose(continuous[:, 1], pitch, atol=1e-9)
+
+
+def test_joints_and_events_of_the_store(store):
+    run = analysis.open_run(str(store))
+    (t_release, joint, cause), = run.releases()
+    assert (joint, cause) == ('pivot', 'angle') and 0.27 < t_release < 0.29
+    pivot = run.joints['pivot']
+    assert pivot.force.shape == pivot.moment.shape == (len(pivot.time), 3)
+    assert pivot.time[-1] <= t_release < pivot.time[-1] + 0.01
+    # before the release the pivot carries the weight's share: |F| near m g at t = 0
+    assert abs(np.linalg.norm(pivot.force[0]) - 907.1848 * G) < 0.25 * 907.1848 * G
+    assert run.duration == 1.5
+    assert not run.bodies['pylon'].moves
+
+
+def _rosbags_copy(source, directory, plant=None):
+    """Write the messages of a recording with rosbags' MCAP writer (a third party)."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types = store.types
+    Time, Header = types['builtin_interfaces/msg/Time'], types['std_msgs/msg/Header']
+    Vector3 = types['geometry_msgs/msg/Vector3']
+
+    def convert(msgtype, m):
+        if msgtype == 'std_msgs/msg/String':
+            return types[msgtype](data=m.data)
+        header = Header(stamp=Time(sec=m.header.stamp.sec, nanosec=m.header.stamp.nanosec),
+                        frame_id=m.header.frame_id)
+        if msgtype.endswith('PoseStamped'):
+            p, q = m.pose.position, m.pose.orientation
+            pose = types['geometry_msgs/msg/Pose'](
+                position=types['geometry_msgs/msg/Point'](x=p.x, y=p.y, z=p.z),
+                orientation=types['geometry_msgs/msg/Quaternion'](x=q.x, y=q.y, z=q.z, w=q.w))
+            return types[msgtype](header=header, pose=pose)
+        if msgtype.endswith('TwistStamped'):
+            a, b = m.twist.linear, m.twist.angular
+            return types[msgtype](header=header, twist=types['geometry_msgs/msg/Twist'](
+                linear=Vector3(x=a.x, y=a.y, z=a.z), angular=Vector3(x=b.x, y=b.y, z=b.z)))
+        a, b = m.wrench.force, m.wrench.torque
+        return types[msgtype](header=header, wrench=types['geometry_msgs/msg/Wrench'](
+            force=Vector3(x=a.x, y=a.y, z=a.z), torque=Vector3(x=b.x, y=b.y, z=b.z)))
+
+    _, summary, messages = read_mcap(source)
+    kinds = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+    bag = pathlib.Path(directory) / 'bag'
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connections = {topic: writer.add_connection(topic, kind, typestore=store)
+                       for topic, kind in sorted(kinds.items())}
+        for topic, log_time, _, m in messages:
+            msg = convert(kinds[topic], m)
+            if plant is not None:
+                msg = plant(topic, log_time, msg)
+            writer.write(connections[topic], log_time,
+                         store.serialize_cdr(msg, kinds[topic]))
+    return next(bag.glob('*.mcap'))
+
+
+def test_a_third_party_recording_reads_the_same(store, tmp_path):
+    ours = analysis.open_run(str(store))
+    theirs = analysis.open_run(str(_rosbags_copy(store, tmp_path)))
+    assert list(theirs.bodies) == sorted(ours.bodies)
+    assert theirs.metadata == {} and theirs.start_ns == ours.start_ns == 0
+    for name, track in ours.bodies.items():
+        other = theirs.bodies[name]
+        for attribute in ('time', 'position', 'quaternion', 'euler_continuous_deg', 'rates',
+                          'velocity'):
+            assert np.array_equal(getattr(track, attribute), getattr(other, attribute))
+    assert np.array_equal(ours.joints['pivot'].force, theirs.joints['pivot'].force)
+    assert ours.events == theirs.events
+
+
+def test_reading_needs_no_rclpy(store, tmp_path):
+    code = (
+        "import sys; sys.modules['rclpy'] = None\n"
+        'from cfem_ros import analysis, cli\n'
+        f'run = analysis.open_run({str(store)!r})\n'
+        "assert run.releases()[0][1] == 'pivot'\n"
+        f"assert cli.main(['plot', {str(store)!r}, '-o', {str(tmp_path / 'plots')!r}]) == 0\n"
+        "assert not [m for m in sys.modules if m.startswith('rcl') and sys.modules[m]]\n"
+    )
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / 'plots' / 'body_store.png').is_file()
+
+
+def test_plot_writes_every_figure_with_labelled_axes(store, tmp_path, capsys):
+    out = tmp_path / 'figures'
+    assert cli.main(['plot', str(store), '-o', str(out)]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ['body_store.png', 'joint_pivot.png', 'trajectories_3d.png']
+    for path in out.iterdir():
+        image = matplotlib.image.imread(path)
+        assert image.shape[0] > 400 and image.shape[1] > 400
+        assert image[..., :3].std() > 0.05  # not blank
+    run = analysis.open_run(str(store))
+    release = run.releases()[0][0]
+    fig = plots.body_figure(run, 'store')
+    axes = fig.axes
+    assert [ax.get_ylabel() for ax in axes] == ['position [m]', 'angle [deg]', 'rate [deg/s]']
+    assert axes[-1].get_xlabel() == 'time [s]'
+    for ax in axes:
+        assert ax.get_title(loc='left') and ax.get_legend() is not None
+        marks = [line for line in ax.get_lines() if line.get_linestyle() == '--']
+        assert [line.get_xdata()[0] for line in marks] == [release]
+    labels = [t.get_text() for t in axes[1].get_legend().get_texts()]
+    assert labels == ['roll', 'pitch', 'yaw']
+    fig = plots.joint_figure(run, 'pivot')
+    assert [ax.get_ylabel() for ax in fig.axes] == ['force [N]', 'moment [N m]']
+    fig = plots.trajectory_figure(run)
+    ax = fig.axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()) == ('x [m]', 'y [m]', 'z [m]')
+    assert ax.zaxis_inverted()  # gravity +z: z down
+    assert any('pivot released' in t.get_text() for t in ax.get_legend().get_texts())
+
+
+def test_info_lists_topics_counts_and_events(store, capsys):
+    assert cli.main(['info', str(store)]) == 0
+    out = capsys.readouterr().out
+    assert '/cfem/bodies/store/pose' in out and '151' in out
+    assert 'release pivot at t = 0.28' in out and '(angle)' in out and '1.5 s' in out
+
+
+def test_compare_finds_a_planted_difference(store, tmp_path, capsys):
+    assert cli.main(['compare', str(store), str(store)]) == 0
+    same = capsys.readouterr().out
+    rows = [line for line in same.splitlines() if line.startswith('store position')]
+    assert rows and float(rows[0].split()[2]) == 0.0
+
+    def plant(topic, log_time, msg):
+        if topic == '/cfem/bodies/store/pose' and log_time == 500_000_000:
+            msg.pose.position.x += 0.01
+        return msg
+    planted = _rosbags_copy(store, tmp_path, plant)
+    assert cli.main(['compare', str(store), str(planted), '-o', str(tmp_path / 'cmp')]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith('store position'))
+    fields = row.split()
+    assert math.isclose(float(fields[2]), 0.01, rel_tol=1e-6) and fields[3] == 'm'
+    assert float(fields[4]) == 0.5
+    attitude = next(line for line in out.splitlines() if line.startswith('store attitude'))
+    assert float(attitude.split()[4]) == 0.0
+    assert (tmp_path / 'cmp' / 'compare_body_store.png').is_file()
+    assert (tmp_path / 'cmp' / 'compare_joint_pivot.png').is_file()
+
+
+def test_compare_resamples_other_sample_times(store, tmp_path, capsys):
+    coarse = tmp_path / 'coarse.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(coarse),
+                     '--rate', '30']) == 0
+    capsys.readouterr()
+    rows, only_a, only_b = analysis.compare_runs(analysis.open_run(str(store)),
+                                                 analysis.open_run(str(coarse)))
+    assert only_a == only_b == []
+    position = next(r for r in rows if r.quantity == 'store position')
+    # the same motion; linear interpolation of 30 Hz samples errs by ~ a dt^2 / 8
+    assert 0 < position.max_abs < 12.5 * (1 / 30) ** 2 / 8 * 1.5
+    release = next(r for r in rows if r.quantity == 'pivot release')
+    # other sample times cut the steps elsewhere: the same release to rounding
+    assert release.max_abs < 1e-9
+
+
+@pytest.mark.parametrize('command', ['info', 'plot', 'compare'])
+def test_bad_files_exit_2_with_a_clear_message(store, tmp_path, capsys, command):
+    text = tmp_path / 'notes.mcap'
+    text.write_text('not a recording\n')
+    cut = tmp_path / 'cut.mcap'
+    data = store.read_bytes()
+    cut.write_bytes(data[:len(data) // 2])
+    inputs_only = tmp_path / 'inputs.mcap'
+    with Recorder(str(inputs_only)) as recorder:
+        StateRecorder(recorder, Simulator(load_scenario(str(CONFIG / 'store_separation.yaml')))
+                      ).received(release_input('pivot'), 0.1)
+    cases = {text: 'not an MCAP file', cut: 'truncated', inputs_only: 'no <namespace>/bodies',
+             tmp_path / 'missing.mcap': 'cannot read'}
+    for path, reason in cases.items():
+        args = {'info': ['info', str(path)], 'plot': ['plot', str(path), '-o', str(tmp_path)],
+                'compare': ['compare', str(store), str(path)]}[command]
+        assert cli.main(args) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f'ERROR: {path}: ') and reason in err, err
+    with pytest.raises(RecordingError):
+        analysis.open_run(str(cut))
