@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.cfem-installed
 
-.PHONY: demo test venv bench clean
+.PHONY: demo test venv bench figures clean
 
 venv: $(STAMP)
 
@@ -31,6 +31,14 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py
+
+# The paper's figures in docs/verification.md, regenerated.
+figures: $(STAMP)
+	@mkdir -p runs
+	for s in fixed_joint_spin double_pendulum store_separation; do \
+	  $(BIN)/cfem-sim run config/$$s.yaml -o runs/$$s.mcap --overwrite && \
+	  rm -rf docs/figures/$$s && $(BIN)/cfem-sim plot runs/$$s.mcap -o docs/figures/$$s || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) build install log runs *.egg-info

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import os
 
+from cfem_ros import rotations
 from cfem_ros.analysis import Run
+from cfem_ros.errors import CfemError
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -104,8 +106,33 @@ def _z_down(run: Run) -> bool:
         return False
 
 
+def joint_points(run: Run) -> dict:
+    """
+    Return each joint's point, carried by its child body, over the run (world, m).
+
+    The joint's anchor comes from the scenario named in the recording's
+    metadata; without a readable scenario there are none (an empty dict).
+    """
+    try:
+        from cfem_ros.scenario import load_scenario
+        model = load_scenario(run.metadata['scenario'])
+    except (KeyError, CfemError):
+        return {}
+    out = {}
+    for joint in model.joints:
+        child = model.bodies[joint.child]
+        track = run.bodies.get(child.name)
+        if track is None or not len(track.time):
+            continue
+        local = rotations.matrices(child.orientation_xyzw[None])[0].T @ (
+            joint.anchor - child.position)
+        out[joint.name] = (track.position
+                           + np.einsum('nij,j->ni', rotations.matrices(track.quaternion), local))
+    return out
+
+
 def trajectory_figure(run: Run):
-    """3D CG trajectories of the moving bodies, with start, release and end points."""
+    """3D CG trajectories of the moving bodies and joint points; start, release, end marked."""
     fig = plt.figure(figsize=(8, 8), layout='constrained')
     ax = fig.add_subplot(projection='3d')
     points = []
@@ -119,6 +146,10 @@ def trajectory_figure(run: Run):
         for t, joint, _ in run.releases():
             if track.time[0] <= t <= track.time[-1]:
                 ax.scatter(*_at(track, t), color='tab:red', marker='*', s=120)
+    for k, (name, path) in enumerate(joint_points(run).items()):
+        ax.plot(path[:, 0], path[:, 1], path[:, 2], ':', color=f'C{k + 5}', linewidth=1.5,
+                label=f'joint {name} point (on its child)')
+        points.append(path)
     for t, joint, cause in run.releases():
         ax.scatter([], [], [], color='tab:red', marker='*', s=120,
                    label=f'{joint} released ({cause}), t = {t:.4f} s')
