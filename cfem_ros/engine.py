@@ -69,28 +69,94 @@ def _apply(matrices, vectors):
     return np.einsum('mij,mj->mi', matrices, vectors)
 
 
-class _Rows:
+class _Topology:
     """
-    The constraint rows of the active joints, packed for ``kernel``.
+    The constraint rows of the active joints and how to solve them, for ``kernel``.
 
-    Translation rows (primitive 1) come first, then rotation rows (primitive
-    2 with perpendicular vectors). Vectors are in the body axes of the body
-    that carries them.
+    Rows come grouped by joint, translation rows (primitive 1) before
+    rotation rows (primitive 2 with perpendicular vectors); vectors are in
+    the body axes of the body that carries them. When the joints form a
+    forest (all fixed bodies counted as one ground), ``plan`` lists them
+    leaves first for the kernel's linear-time tree solve; otherwise (closed
+    loops, two joints on one pair) the dense form is used.
     """
 
-    def __init__(self, tables: dict, active: np.ndarray, n_bodies: int):
+    def __init__(self, tables: dict, active: np.ndarray, free: np.ndarray):
         keep = active[tables['joint']]
         self.joint = tables['joint'][keep]
-        self.bodies = np.ascontiguousarray(tables['bodies'][keep])
-        self.vectors = np.ascontiguousarray(tables['vectors'][keep])
-        self.n_t = int(np.count_nonzero(tables['translation'][keep]))
+        self.rows_i = np.ascontiguousarray(tables['rows_i'][keep])
+        self.rows_f = np.ascontiguousarray(tables['vectors'][keep])
+        self.translation = self.rows_i[:, 2].astype(bool)
         self.m = len(self.joint)
-        six = np.arange(6)
-        self.cols_a = 6 * self.bodies[:, :1] + six
-        self.cols_b = 6 * self.bodies[:, 1:] + six
-        self.row_index = np.arange(self.m)[:, None]
-        self.n_cols = 6 * n_bodies
-        self.redundant = False
+        joints = np.flatnonzero(active)
+        first = np.searchsorted(self.joint, joints)
+        counts = np.array([[np.count_nonzero(self.translation[self.joint == k]),
+                            np.count_nonzero(~self.translation[self.joint == k])]
+                           for k in joints], dtype=np.int64).reshape(-1, 2)
+        ends = tables['ends'][joints]
+        lines = self._forest(joints, ends, free)
+        self.dense = 0 if lines is not None else 1
+        if lines is None:   # closed loops: every joint as written, no tree
+            lines = [(i, ends[i, 1], ends[i, 0], 1) for i in range(len(joints))]
+        self.plan = np.array(
+            [(first[i], counts[i, 0], counts[i, 1], child, parent, sign, joints[i])
+             for i, child, parent, sign in lines], dtype=np.int64).reshape(-1, 7)
+        self.roots = np.where(free, 0, -1).astype(np.int64)
+        held = set(self.plan[:, kernel.P_CHILD].tolist())
+        touched = held | set(self.plan[:, kernel.P_PARENT].tolist())
+        for i in np.flatnonzero(free):
+            if i not in held:
+                self.roots[i] = 1 if i in touched else 2
+        # plan line of each model joint (-1 if released)
+        self.line = np.full(len(active), -1, dtype=np.int64)
+        self.line[self.plan[:, kernel.P_JOINT]] = np.arange(len(self.plan))
+        n = len(free)
+        self.work = np.zeros(kernel.workspace_size(n, self.m, len(self.plan)))
+
+    @staticmethod
+    def _forest(joints, ends, free):
+        """
+        Orient the joints as a forest, leaves first; None if they close a loop.
+
+        Returns lines (index into joints, tree child, tree parent, +1 if the
+        tree child is the joint's child else -1). Trees hang from the ground
+        first, then from the lowest-numbered body of each floating group.
+        """
+        ground = -1
+        node = [i if free[i] else ground for i in range(len(free))]
+        edges = {}
+        for i, (a, b) in enumerate(ends):
+            edges.setdefault(node[a], []).append(i)
+            edges.setdefault(node[b], []).append(i)
+        seen, used, lines = set(), set(), []
+        starts = [ground] + [i for i in range(len(free)) if free[i]]
+        for start in starts:
+            if start in seen or start not in edges:
+                continue
+            seen.add(start)
+            queue = [start]
+            while queue:
+                here = queue.pop(0)
+                for i in edges[here]:
+                    if i in used:
+                        continue
+                    used.add(i)
+                    a, b = ends[i]
+                    child = b if node[a] == here else a
+                    if node[a] == here and node[b] == here:
+                        return None
+                    if node[child] in seen:
+                        return None
+                    seen.add(node[child])
+                    queue.append(node[child])
+                    parent = a if child == b else b
+                    lines.append((i, child, parent, 1 if child == b else -1))
+        return lines[::-1]
+
+    def kernel_args(self, sim):
+        """Arguments of the kernel's solve functions after y."""
+        return (sim._bodies, sim.gravity, sim._loads, self.rows_i, self.rows_f, self.plan,
+                self.roots, sim.eta, self.dense, self.work)
 
 
 class Simulator:
@@ -155,11 +221,11 @@ class Simulator:
         self.steps = 0
         self.max_violation = 0.0
         self._stage_violation = 0.0
+        self._info = np.zeros(6)
 
         self._build_joint_tables()
         self.active = np.ones(len(model.joints), dtype=bool)
-        self._rows = _Rows(self._tables, self.active, n)
-        self.dof = self._check_redundancy()
+        self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
 
@@ -228,63 +294,79 @@ class Simulator:
         self.relative0 = rotations.multiply(
             rotations.conjugate(quat0[self.joint_parent]), quat0[self.joint_child])
 
-        rows = t_rows + [(k, a, b, u, v, np.zeros(3)) for k, a, b, u, v in r_rows]
+        rows = sorted(t_rows + [(k, a, b, u, v, None) for k, a, b, u, v in r_rows],
+                      key=lambda row: (row[0], row[5] is None))
         self._tables = {
             'joint': np.array([r[0] for r in rows], dtype=np.int64),
-            'bodies': np.array([(r[1], r[2]) for r in rows], dtype=np.int64).reshape(-1, 2),
-            'vectors': np.array([np.concatenate(r[3:6]) for r in rows]).reshape(-1, 9),
-            'translation': np.arange(len(rows)) < len(t_rows),
+            'rows_i': np.array([(r[1], r[2], r[5] is not None) for r in rows],
+                               dtype=np.int64).reshape(-1, 3),
+            'vectors': np.array([np.concatenate([r[3], r[4], np.zeros(3) if r[5] is None
+                                                 else r[5]]) for r in rows]).reshape(-1, 9),
+            'ends': np.column_stack([self.joint_parent, self.joint_child]).reshape(-1, 2),
         }
+        # for the release conditions: anchors and relative attitude at t = 0
+        self._joints_i = np.ascontiguousarray(self._tables['ends'])
+        self._joints_f = np.ascontiguousarray(np.column_stack([
+            self.joint_anchor_a, self.joint_anchor_b, self.relative0]).reshape(-1, 10))
 
     # ------------------------------------------------------------ hot path
 
-    def _kernel_args(self):
-        rows = self._rows
-        return (self._bodies, self.gravity, self._loads, rows.bodies, rows.vectors,
-                rows.n_t, self.eta, rows.redundant)
+    def _set_topology(self):
+        """Rebuild the rows, the solve plan and the workspace for the active joints."""
+        self._topology = _Topology(self._tables, self.active, self.free)
+        self.dof = self._check_redundancy()
+        top = self._topology
+        watched = np.flatnonzero(self.active & np.isfinite(self.triggers[:, 1:]).any(axis=1))
+        self._watch = watched.astype(np.int64)
+        limits = self.triggers[watched, 1:]
+        self._watch_limits = np.ascontiguousarray(np.where(np.isfinite(limits), limits, np.inf))
+        self._watch_lines = np.ascontiguousarray(top.line[watched])
 
-    def _solve(self, y):
+    def _joint_loads(self, y):
         """
-        Accelerations and joint loads at a state.
+        Each joint's load on its child at a state, and the constraint values.
 
         Returns
         -------
-        acc : ndarray, shape (n, 3)
-            CG accelerations, world, m/s^2.
-        alpha : ndarray, shape (n, 3)
-            Angular accelerations, world axes, rad/s^2.
-        lam : ndarray, shape (m,)
-            Row loads: N for translation rows, N m for rotation rows.
-        directions : ndarray, shape (m, 3)
-            World directions of the row loads.
+        force, moment : ndarray, shape (n_joints, 3)
+            World axes, N and N m about the joint point; zero for released joints.
         value : ndarray, shape (m,)
-            Constraint values at the state.
+            Constraint values of the active rows (m, or rad).
 
         """
-        n, m = self.n, self._rows.m
-        acc, alpha = np.empty((n, 3)), np.empty((n, 3))
-        rot = np.empty((n, 3, 3))
-        lam, directions, value = np.empty(m), np.empty((m, 3)), np.empty(m)
+        top = self._topology
+        n_j = len(self.model.joints)
+        force, moment = np.zeros((n_j, 3)), np.zeros((n_j, 3))
+        lines = len(top.plan)
+        f_line, m_line = np.empty((lines, 3)), np.empty((lines, 3))
         try:
-            kernel.solve_state(y, *self._kernel_args(), acc, alpha, rot, lam, directions,
-                               value)
-        except np.linalg.LinAlgError as err:
-            raise _NumericalFailure('the constraint system is singular') from err
-        return acc, alpha, lam, directions, value
+            ok = kernel.joint_loads(np.ascontiguousarray(y), *top.kernel_args(self),
+                                    f_line, m_line)
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            raise _NumericalFailure('the constraint system is singular')
+        force[top.plan[:, kernel.P_JOINT]] = f_line
+        moment[top.plan[:, kernel.P_JOINT]] = m_line
+        value = kernel.constraint_values(top.work, self.n, top.m, lines).copy()
+        return force, moment, value
 
     def derivative(self, y: np.ndarray) -> np.ndarray:
         """Return dy/dt at state y (external wrenches held constant)."""
         out = np.empty_like(y)
-        kernel.derivative(y, out, *self._kernel_args())
+        if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
+            raise _NumericalFailure('the constraint system is singular')
         return out
 
     def _rk4(self, y, h):
         """One classical RK4 step of length h from y, quaternions normalized."""
         out = np.empty_like(y)
         try:
-            worst = kernel.rk4_step(y, h, out, *self._kernel_args())
-        except np.linalg.LinAlgError as err:
-            raise _NumericalFailure('the constraint system is singular') from err
+            worst = kernel.rk4_step(y, h, out, *self._topology.kernel_args(self))
+        except np.linalg.LinAlgError:
+            worst = -1.0
+        if worst < 0.0:
+            raise _NumericalFailure('the constraint system is singular')
         self._stage_violation = max(self._stage_violation, worst)
         return out
 
@@ -292,57 +374,56 @@ class Simulator:
 
     def _jacobian(self, y):
         """Dense Jacobian J and J M^-1, (m, 6 n), of the active rows at y."""
-        rows = self._rows
-        jac, weighted, _ = kernel.jacobian(y, self._bodies, rows.bodies, rows.vectors, rows.n_t)
-        return self._dense(jac), self._dense(weighted)
+        top = self._topology
+        kernel.row_jacobian(y, *top.kernel_args(self))
+        views = kernel.carve(top.work, self.n, top.m, len(top.plan))
+        return self._dense(views[6]), self._dense(views[7])
 
     def _dense(self, blocks):
         """Scatter per-row (parent, child) 6-blocks into a dense (m, 6 n) matrix."""
-        rows = self._rows
-        out = np.zeros((rows.m, rows.n_cols))
-        out[rows.row_index, rows.cols_a] = blocks[:, :6]
-        out[rows.row_index, rows.cols_b] = blocks[:, 6:]
+        top = self._topology
+        out = np.zeros((top.m, 6 * self.n))
+        rows = np.arange(top.m)[:, None]
+        six = np.arange(6)
+        out[rows, 6 * top.rows_i[:, :1] + six] = blocks[:, :6]
+        out[rows, 6 * top.rows_i[:, 1:2] + six] = blocks[:, 6:]
         return out
 
     def _check_redundancy(self) -> int:
         """Detect redundant rows; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
-        rows = self._rows
-        if rows.m == 0:
-            return free_dof
+        top = self._topology
+        if top.m == 0 or not top.dense:
+            # a forest: each joint's rows are independent, and so are the joints
+            return free_dof - top.m
         jac, weighted = self._jacobian(self.y)
         schur = weighted @ jac.T
         scale = 1.0 / np.sqrt(np.maximum(np.diag(schur), 1e-300))
         rank = np.linalg.matrix_rank(schur * scale[:, None] * scale[None, :], tol=1e-9)
-        if rank < rows.m:
-            if not rows.redundant and not getattr(self, '_warned_redundant', False):
-                names = sorted({self.model.joints[k].name for k in rows.joint})
+        if rank < top.m:
+            if not getattr(self, '_warned_redundant', False):
+                names = sorted({self.model.joints[k].name for k in top.joint})
                 self.log.warning(
                     'the joints %s constrain %d direction(s) more than once (redundant '
                     'joints or a closed loop): the motion is exact, the loads of the '
                     'redundant directions are shared in the least-norm sense',
-                    ', '.join(names), rows.m - rank)
+                    ', '.join(names), top.m - rank)
                 self._warned_redundant = True
-            rows.redundant = True
+            top.dense = 2
         return free_dof - rank
 
     def _project_velocities(self):
         """Make the initial velocities consistent with the joints (mass weighted)."""
-        rows = self._rows
-        if rows.m == 0:
+        top = self._topology
+        if top.m == 0:
             return
-        _, vel, quat, rates = self._split(self.y)
-        jac, weighted = self._jacobian(self.y)
-        rot = rotations.matrices(quat)
-        omega = _apply(rot, rates)
-        v = np.concatenate([vel, omega], axis=1).ravel()
-        schur = weighted @ jac.T
-        lam = np.linalg.lstsq(schur, jac @ v, rcond=1e-10)[0]
-        delta = -(weighted.T @ lam).reshape(self.n, 6)
+        delta = np.zeros((self.n, 6))
+        kernel.project(self.y, *top.kernel_args(self), delta)
         if not np.abs(delta).max() > PROJECTION_REPORT:
             return
+        _, vel, quat, rates = self._split(self.y)
         vel += delta[:, :3]
-        rates += np.einsum('nji,nj->ni', rot, delta[:, 3:])
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
         for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
             self.log.warning(
                 'initial velocities of body %r are inconsistent with its joints; '
@@ -365,18 +446,7 @@ class Simulator:
             Released joints have zero force and moment.
 
         """
-        _, _, lam, directions, _ = self._solve(self.y)
-        return self._wrenches(lam, directions)
-
-    def _wrenches(self, lam, directions):
-        n_j = len(self.model.joints)
-        force = np.zeros((n_j, 3))
-        moment = np.zeros((n_j, 3))
-        rows = self._rows
-        nt = rows.n_t
-        np.add.at(force, rows.joint[:nt], lam[:nt, None] * directions[:nt])
-        np.add.at(moment, rows.joint[nt:], lam[nt:, None] * directions[nt:])
-        return force, moment
+        return self._joint_loads(self.y)[:2]
 
     def joint_points(self, y: Optional[np.ndarray] = None):
         """
@@ -405,9 +475,9 @@ class Simulator:
 
     def constraint_violation(self) -> float:
         """Largest |g| of the active rows now (m, or rad for rotation rows)."""
-        if self._rows.m == 0:
+        if self._topology.m == 0:
             return 0.0
-        return float(np.abs(self._solve(self.y)[4]).max())
+        return float(np.abs(self._joint_loads(self.y)[2]).max())
 
     # --------------------------------------------------------------- inputs
 
@@ -453,8 +523,7 @@ class Simulator:
                      'time': self.t, 'cause': cause}
             events.append(event)
             self.events.append(event)
-        self._rows = _Rows(self._tables, self.active, self.n)
-        self.dof = self._check_redundancy()
+        self._set_topology()
         return events
 
     def _body(self, body) -> int:
@@ -489,24 +558,57 @@ class Simulator:
         """
         if self.status != 'running':
             return False
+        limit = math.inf if limit is None else limit
         try:
             while self.t < t_target:
-                remaining = t_target - self.t
-                if remaining <= self.dt * (1.0 + 1e-9):
-                    h, t_end = remaining, t_target
-                else:
-                    h, t_end = self.dt, self.t + self.dt
                 due = self._next_time_trigger()
-                if due is not None and due < t_end:
-                    h, t_end = due - self.t, due
-                if limit is not None and t_end > limit:
-                    break
-                self._step(h, t_end)
+                due = math.inf if due is None else due
+                result = self._run(t_target, due, limit)
+                if result == kernel.CONDITION:
+                    # a release condition is reached within the next step: locate it
+                    remaining = t_target - self.t
+                    if remaining <= self.dt * (1.0 + 1e-9):
+                        h, t_end = remaining, t_target
+                    else:
+                        h, t_end = self.dt, self.t + self.dt
+                    if due < t_end:
+                        h, t_end = due - self.t, due
+                    self._step(h, t_end)
+                    continue
+                self._fire_time_triggers()
+                if self.t < t_target and self.t < due:
+                    break   # the next step would end after limit
         except _NumericalFailure as err:
             self.status = 'failed'
             self.message = f'at t = {self.t:.9g} s: {err}'
             return False
         return True
+
+    def _run(self, t_target, due, limit):
+        """Take steps in the kernel until a target, a release time, limit or a condition."""
+        top = self._topology
+        info = self._info
+        info[:] = (self.t, 0.0, self.max_violation, kernel.REACHED, DIVERGENCE_VIOLATION, 0.0)
+        try:
+            kernel.advance(self.y, info, t_target, due, limit, self.dt, *top.kernel_args(self),
+                           self._joints_i, self._joints_f, self._watch, self._watch_limits,
+                           self._watch_lines)
+        except np.linalg.LinAlgError:
+            info[3] = kernel.SINGULAR
+        finally:
+            self.t = float(info[0])
+            self.steps += int(info[1])
+            self.max_violation = float(info[2])
+        result = int(info[3])
+        if result == kernel.NOT_FINITE:
+            raise _NumericalFailure('the state is no longer finite (the system diverged)')
+        if result == kernel.VIOLATION:
+            raise _NumericalFailure(
+                f'constraint violation {info[5]:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
+                '(the system diverged; try a smaller dt)')
+        if result == kernel.SINGULAR:
+            raise _NumericalFailure('the constraint system is singular')
+        return result
 
     def _next_time_trigger(self) -> Optional[float]:
         times = self.triggers[self.active, 0]
@@ -520,15 +622,11 @@ class Simulator:
 
     def _condition_values(self, y, joints):
         """Angle (rad), distance (m) and force (N) of some joints at y, (k, 3)."""
-        out = np.empty((len(joints), 3))
-        out[:, 0] = self.joint_angles(y)[joints]
-        on_a, on_b = self.joint_points(y)
-        out[:, 1] = np.linalg.norm(on_b - on_a, axis=1)[joints]
+        out = np.zeros((len(joints), 3))
+        kernel.conditions(np.ascontiguousarray(y), self._joints_i, self._joints_f,
+                          np.asarray(joints, dtype=np.int64), out)
         if np.isfinite(self.triggers[joints, 3]).any():
-            _, _, lam, directions, _ = self._solve(y)
-            out[:, 2] = np.linalg.norm(self._wrenches(lam, directions)[0], axis=1)[joints]
-        else:
-            out[:, 2] = 0.0
+            out[:, 2] = np.linalg.norm(self._joint_loads(y)[0], axis=1)[joints]
         return out
 
     def _step(self, h, t_end):

@@ -1,9 +1,11 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The compiled hot path: state derivative and RK4 step (numba, cached).
+The compiled hot path: state derivative, RK4 and the step loop (numba, cached).
 
-The arrays are laid out by ``engine.Simulator``; this module only computes.
+The arrays are laid out by ``engine.Simulator``; this module only computes,
+and never allocates inside the step loop: every scratch array is carved out
+of one workspace (``workspace_size``) made once per set of active joints.
 
 State ``y`` (13 n): positions (3 n, world, m), velocities (3 n, world, m/s),
 quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
@@ -11,10 +13,32 @@ quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 ``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
 the CG), inverse inertia (9; 0 for ground).
 ``loads`` (n, 7): external force (3), torque (3), 1.0 if in body axes.
-``rows_i`` (m, 2): parent and child body of each row.
-``rows_f`` (m, 9): translation rows (the first ``n_t``): axis on the parent,
-anchor on the parent, anchor on the child (body axes); rotation rows: vector
-on the parent, vector on the child, unused.
+``rows_i`` (m, 3): parent body, child body, 1 for a translation row (0 for a
+rotation row). Rows come grouped by joint.
+``rows_f`` (m, 9): translation rows: axis on the parent, anchor on the
+parent, anchor on the child (body axes); rotation rows: vector on the parent,
+vector on the child, unused.
+``plan`` (J, 7), one line per active joint, leaves of the joint tree first:
+first row, translation rows, rotation rows, tree child body, tree parent body,
++1 if the tree child is the joint's child (-1 if it is its parent), model
+joint index. ``roots`` (n,): -1 for a fixed body, 0 for a free body held to
+its tree parent, 1 for the free root of a tree, 2 for a free body without
+joints.
+
+The joint loads are solved in one of two ways (``engine`` says which):
+
+- tree (``dense`` = 0), when the joints form a tree or a forest: the
+  articulated recursion of the Lagrange-multiplier system. A joint's rows
+  J_c on its tree child c and J_p on its tree parent p satisfy
+  J_p = -J_c Phi(r_pc) exactly (Phi shifts a rigid motion from p's CG to
+  c's), so eliminating the child's free motions G (null space of J_c) passes
+  the child's articulated inertia M^ and force f^ on to the parent:
+  M^_p += Phi^T (M^ - M^ G D^-1 G^T M^) Phi and f^_p += Phi^T (I - M^ G D^-1
+  G^T) (f^ - M^ s), with D = G^T M^ G and s any acceleration with J_c s =
+  the rows' right-hand side. Cost and memory linear in the number of bodies,
+  the same accelerations and loads as the dense form to rounding.
+- dense (1, or 2 with redundant rows): the Schur complement J M^-1 J^T
+  solved as one matrix (least squares when redundant); for closed loops.
 """
 
 from __future__ import annotations
@@ -24,6 +48,14 @@ import numpy as np
 
 _JIT = {'cache': True, 'nogil': True, 'fastmath': False, 'error_model': 'numpy'}
 
+#: ``advance`` results in ``info[3]``.
+REACHED, CONDITION, NOT_FINITE, VIOLATION, SINGULAR = 0, 1, 2, 3, 4
+
+#: Columns of ``plan``.
+P_ROW, P_NT, P_NR, P_CHILD, P_PARENT, P_SIGN, P_JOINT = range(7)
+
+
+# ------------------------------------------------------------ small algebra
 
 @numba.njit(**_JIT)
 def _cross(a, b, out):
@@ -60,160 +92,531 @@ def _quat_matrix(x, y, z, w, out):
 
 
 @numba.njit(**_JIT)
-def _congruence(rot, body, out):
-    """Set out to rot @ body @ rot.T (body given as 9 numbers, row major)."""
-    tmp = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            tmp[i, j] = rot[i, 0] * body[j] + rot[i, 1] * body[3 + j] + rot[i, 2] * body[6 + j]
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = tmp[i, 0] * rot[j, 0] + tmp[i, 1] * rot[j, 1] + tmp[i, 2] * rot[j, 2]
+def _normalize(v):
+    norm = np.sqrt(_dot(v, v))
+    for k in range(3):
+        v[k] /= norm
+    return norm
 
 
 @numba.njit(**_JIT)
-def _body_terms(y, bodies, gravity, loads, acc, alpha, rot, omega, inv_inertia):
-    """Per body: rotation, world rates and inverse inertia, unconstrained accelerations."""
+def _complement(vectors, first, count, stride_sign, base, out):
+    """
+    Fill out[0:3 - count] with unit vectors spanning what is orthogonal to some rows.
+
+    The rows are ``stride_sign * vectors[first + i, base:base + 3]`` for i < count.
+    """
+    if count == 0:
+        for i in range(3):
+            for k in range(3):
+                out[i, k] = 1.0 if i == k else 0.0
+    elif count == 1:
+        v0 = vectors[first, base] * stride_sign
+        v1 = vectors[first, base + 1] * stride_sign
+        v2 = vectors[first, base + 2] * stride_sign
+        # the world axis least aligned with v, crossed with v
+        a0, a1, a2 = abs(v0), abs(v1), abs(v2)
+        if a0 <= a1 and a0 <= a2:
+            out[0, 0], out[0, 1], out[0, 2] = 0.0, v2, -v1
+        elif a1 <= a2:
+            out[0, 0], out[0, 1], out[0, 2] = -v2, 0.0, v0
+        else:
+            out[0, 0], out[0, 1], out[0, 2] = v1, -v0, 0.0
+        _normalize(out[0])
+        out[1, 0] = v1 * out[0, 2] - v2 * out[0, 1]
+        out[1, 1] = v2 * out[0, 0] - v0 * out[0, 2]
+        out[1, 2] = v0 * out[0, 1] - v1 * out[0, 0]
+        _normalize(out[1])
+    elif count == 2:
+        _cross(vectors[first, base:base + 3], vectors[first + 1, base:base + 3], out[0])
+        _normalize(out[0])
+
+
+@numba.njit(**_JIT)
+def _cholesky(a, k, out):
+    """Lower Cholesky factor of a[:k, :k] into out; False if not positive definite."""
+    for i in range(k):
+        for j in range(i + 1):
+            total = a[i, j]
+            for s in range(j):
+                total -= out[i, s] * out[j, s]
+            if i == j:
+                if not total > 0.0:
+                    return False
+                out[i, i] = np.sqrt(total)
+            else:
+                out[i, j] = total / out[j, j]
+    return True
+
+
+@numba.njit(**_JIT)
+def _cholesky_solve(chol, k, x):
+    """Solve (L L^T) x = b in place for the first k entries of x."""
+    for i in range(k):
+        total = x[i]
+        for s in range(i):
+            total -= chol[i, s] * x[s]
+        x[i] = total / chol[i, i]
+    for i in range(k - 1, -1, -1):
+        total = x[i]
+        for s in range(i + 1, k):
+            total -= chol[s, i] * x[s]
+        x[i] = total / chol[i, i]
+
+
+@numba.njit(**_JIT)
+def _inverse(a, k, out):
+    """Inverse of the symmetric a[:k, :k] (k <= 3, lower part used) into out; False if singular."""
+    if k == 0:
+        return True
+    if k == 1:
+        if not a[0, 0] > 0.0:
+            return False
+        out[0, 0] = 1.0 / a[0, 0]
+        return True
+    if k == 2:
+        det = a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]
+        if not det > 0.0:
+            return False
+        out[0, 0] = a[1, 1] / det
+        out[1, 1] = a[0, 0] / det
+        out[0, 1] = out[1, 0] = -a[1, 0] / det
+        return True
+    c00 = a[1, 1] * a[2, 2] - a[2, 1] * a[2, 1]
+    c01 = a[2, 1] * a[2, 0] - a[1, 0] * a[2, 2]
+    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    det = a[0, 0] * c00 + a[1, 0] * c01 + a[2, 0] * c02
+    if not det > 0.0:
+        return False
+    out[0, 0] = c00 / det
+    out[0, 1] = out[1, 0] = c01 / det
+    out[0, 2] = out[2, 0] = c02 / det
+    out[1, 1] = (a[0, 0] * a[2, 2] - a[2, 0] * a[2, 0]) / det
+    out[1, 2] = out[2, 1] = (a[1, 0] * a[2, 0] - a[0, 0] * a[2, 1]) / det
+    out[2, 2] = (a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]) / det
+    return True
+
+
+# ---------------------------------------------------------------- workspace
+
+@numba.njit(**_JIT)
+def workspace_size(n, m, nj):
+    """Length of the float workspace for n bodies, m rows and nj joints."""
+    return (n * (9 + 3 + 9 + 36 + 6 + 6) + m * (12 + 12 + 4) + nj * (18 + 18 + 9 + 3 + 6 + 6)
+            + 6 * 13 * n + 4 * 36 + 4 * 9 + 8 * 3)
+
+
+@numba.njit(**_JIT)
+def carve(work, n, m, nj):
+    """
+    Cut the workspace into views (see ``workspace_size``), once per call from Python.
+
+    0 rot, 1 omega, 2 inv_inertia, 3 mhat, 4 fhat, 5 acc, 6 jac, 7 weighted,
+    8 rate, 9 gamma, 10 value, 11 rhs, 12 basis, 13 weighted_basis, 14 chol,
+    15 projected, 16 particular, 17 wrench, 18 stages, 19 six (4, 6, 6),
+    20 three (4, 3, 3), 21 vec (8, 3).
+    """
+    o = 0
+    rot = work[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    omega = work[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    inv_inertia = work[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    mhat = work[o:o + 36 * n].reshape((n, 6, 6))
+    o += 36 * n
+    fhat = work[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    acc = work[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    jac = work[o:o + 12 * m].reshape((m, 12))
+    o += 12 * m
+    weighted = work[o:o + 12 * m].reshape((m, 12))
+    o += 12 * m
+    rate = work[o:o + m]
+    o += m
+    gamma = work[o:o + m]
+    o += m
+    value = work[o:o + m]
+    o += m
+    rhs = work[o:o + m]
+    o += m
+    basis = work[o:o + 18 * nj].reshape((nj, 6, 3))
+    o += 18 * nj
+    weighted_basis = work[o:o + 18 * nj].reshape((nj, 6, 3))
+    o += 18 * nj
+    chol = work[o:o + 9 * nj].reshape((nj, 3, 3))
+    o += 9 * nj
+    projected = work[o:o + 3 * nj].reshape((nj, 3))
+    o += 3 * nj
+    particular = work[o:o + 6 * nj].reshape((nj, 6))
+    o += 6 * nj
+    wrench = work[o:o + 6 * nj].reshape((nj, 6))
+    o += 6 * nj
+    stages = work[o:o + 6 * 13 * n].reshape((6, 13 * n))
+    o += 6 * 13 * n
+    six = work[o:o + 4 * 36].reshape((4, 6, 6))
+    o += 4 * 36
+    three = work[o:o + 4 * 9].reshape((4, 3, 3))
+    o += 4 * 9
+    vec = work[o:o + 8 * 3].reshape((8, 3))
+    return (rot, omega, inv_inertia, mhat, fhat, acc, jac, weighted, rate, gamma, value, rhs,
+            basis, weighted_basis, chol, projected, particular, wrench, stages, six, three, vec)
+
+
+# --------------------------------------------------------------- the system
+
+@numba.njit(**_JIT)
+def _rotate(rot, i, x, y, z):
+    """rot[i] @ (x, y, z) as a tuple."""
+    return (rot[i, 0, 0] * x + rot[i, 0, 1] * y + rot[i, 0, 2] * z,
+            rot[i, 1, 0] * x + rot[i, 1, 1] * y + rot[i, 1, 2] * z,
+            rot[i, 2, 0] * x + rot[i, 2, 1] * y + rot[i, 2, 2] * z)
+
+
+@numba.njit(**_JIT)
+def _x(a, b):
+    """Cross product of two 3-tuples."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@numba.njit(**_JIT)
+def _d(a, b):
+    """Dot product of two 3-tuples."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@numba.njit(**_JIT)
+def _body_congruence(rot, i, src, col, out, row0):
+    """Set out[row0:row0+3, row0:row0+3] to rot[i] @ B @ rot[i].T, B = src[i, col:col+9]."""
+    for r in range(3):
+        t0 = rot[i, r, 0] * src[i, col] + rot[i, r, 1] * src[i, col + 3] \
+            + rot[i, r, 2] * src[i, col + 6]
+        t1 = rot[i, r, 0] * src[i, col + 1] + rot[i, r, 1] * src[i, col + 4] \
+            + rot[i, r, 2] * src[i, col + 7]
+        t2 = rot[i, r, 0] * src[i, col + 2] + rot[i, r, 1] * src[i, col + 5] \
+            + rot[i, r, 2] * src[i, col + 8]
+        for c in range(3):
+            out[row0 + r, row0 + c] = t0 * rot[i, c, 0] + t1 * rot[i, c, 1] + t2 * rot[i, c, 2]
+
+
+@numba.njit(**_JIT)
+def _body_terms(y, bodies, gravity, loads, v, need_inverse):
+    """Per body: rotation, world rates, mass matrix, free load and inverse inertia (world)."""
+    rot, omega, inv_inertia, mhat, fhat = v[0], v[1], v[2], v[3], v[4]
     n = bodies.shape[0]
-    inertia = np.empty((3, 3))
-    tmp = np.empty(3)
-    tmp2 = np.empty(3)
-    torque = np.empty(3)
     for i in range(n):
-        q = y[6 * n + 4 * i:6 * n + 4 * i + 4]
-        norm = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-        _quat_matrix(q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm, rot[i])
-        _matvec(rot[i], y[10 * n + 3 * i:10 * n + 3 * i + 3], omega[i])
-        _congruence(rot[i], bodies[i, 2:11], inertia)
-        _congruence(rot[i], bodies[i, 11:20], inv_inertia[i])
-        mass, inv_mass = bodies[i, 0], bodies[i, 1]
+        o = 6 * n + 4 * i
+        norm = np.sqrt(y[o] * y[o] + y[o + 1] * y[o + 1] + y[o + 2] * y[o + 2]
+                       + y[o + 3] * y[o + 3])
+        _quat_matrix(y[o] / norm, y[o + 1] / norm, y[o + 2] / norm, y[o + 3] / norm, rot[i])
+        o = 10 * n + 3 * i
+        w = _rotate(rot, i, y[o], y[o + 1], y[o + 2])
+        omega[i, 0], omega[i, 1], omega[i, 2] = w
+        if need_inverse:
+            _body_congruence(rot, i, bodies, 11, inv_inertia[i], 0)
+        mh = mhat[i]
+        mh[:, :] = 0.0
+        mass = bodies[i, 0]
+        mh[0, 0] = mh[1, 1] = mh[2, 2] = mass
+        _body_congruence(rot, i, bodies, 2, mh, 3)
+        force = (loads[i, 0], loads[i, 1], loads[i, 2])
+        torque = (loads[i, 3], loads[i, 4], loads[i, 5])
         if loads[i, 6] > 0.0:
-            _matvec(rot[i], loads[i, 0:3], tmp)
-        else:
-            tmp[:] = loads[i, 0:3]
+            force = _rotate(rot, i, force[0], force[1], force[2])
+            torque = _rotate(rot, i, torque[0], torque[1], torque[2])
+        spin = (mh[3, 3] * w[0] + mh[3, 4] * w[1] + mh[3, 5] * w[2],
+                mh[4, 3] * w[0] + mh[4, 4] * w[1] + mh[4, 5] * w[2],
+                mh[5, 3] * w[0] + mh[5, 4] * w[1] + mh[5, 5] * w[2])
+        gyro = _x(w, spin)
         for k in range(3):
-            acc[i, k] = inv_mass * (mass * gravity[k] + tmp[k])
-        if loads[i, 6] > 0.0:
-            _matvec(rot[i], loads[i, 3:6], tmp)
-        else:
-            tmp[:] = loads[i, 3:6]
-        _matvec(inertia, omega[i], tmp2)
-        _cross(omega[i], tmp2, torque)
-        for k in range(3):
-            torque[k] = tmp[k] - torque[k]
-        _matvec(inv_inertia[i], torque, alpha[i])
+            fhat[i, k] = mass * gravity[k] + force[k]
+            fhat[i, 3 + k] = torque[k] - gyro[k]
 
 
 @numba.njit(**_JIT)
-def _row_terms(y, bodies, rows_i, rows_f, n_t, rot, omega, inv_inertia,
-               jac, weighted, rate, gamma, value, directions):
-    """Per row: Jacobian blocks J and J M^-1, value g, rate J v, gamma, load direction."""
+def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
+    """Per row: Jacobian blocks J (and J M^-1 if dense), value g, right-hand side."""
+    rot, omega, inv_inertia = v[0], v[1], v[2]
+    jac, weighted, rate, gamma, value, rhs = v[6], v[7], v[8], v[9], v[10], v[11]
     n = bodies.shape[0]
     m = rows_i.shape[0]
-    jac[:, :] = 0.0
-    e = np.empty(3)
-    f = np.empty(3)
-    c = np.empty(3)
-    rho_a = np.empty(3)
-    rho_b = np.empty(3)
-    d = np.empty(3)
-    d_dot = np.empty(3)
-    wa_e = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
     for r in range(m):
         a, b = rows_i[r, 0], rows_i[r, 1]
-        wa, wb = omega[a], omega[b]
-        _matvec(rot[a], rows_f[r, 0:3], e)
-        if r < n_t:
-            _matvec(rot[a], rows_f[r, 3:6], rho_a)
-            _matvec(rot[b], rows_f[r, 6:9], rho_b)
-            for k in range(3):
-                point_b = y[3 * b + k] + rho_b[k]
-                d[k] = point_b - y[3 * a + k] - rho_a[k]
-                t1[k] = point_b - y[3 * a + k]
-            _cross(wb, rho_b, t2)
-            for k in range(3):
-                d_dot[k] = y[3 * n + 3 * b + k] + t2[k] - y[3 * n + 3 * a + k]
-            _cross(wa, rho_a, t2)
-            for k in range(3):
-                d_dot[k] -= t2[k]
-            _cross(wa, e, wa_e)
-            _cross(t1, e, t2)
+        wa = (omega[a, 0], omega[a, 1], omega[a, 2])
+        wb = (omega[b, 0], omega[b, 1], omega[b, 2])
+        e = _rotate(rot, a, rows_f[r, 0], rows_f[r, 1], rows_f[r, 2])
+        if rows_i[r, 2]:
+            rho_a = _rotate(rot, a, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
+            rho_b = _rotate(rot, b, rows_f[r, 6], rows_f[r, 7], rows_f[r, 8])
+            pa = (y[3 * a], y[3 * a + 1], y[3 * a + 2])
+            t1 = (y[3 * b] + rho_b[0] - pa[0], y[3 * b + 1] + rho_b[1] - pa[1],
+                  y[3 * b + 2] + rho_b[2] - pa[2])
+            d = (t1[0] - rho_a[0], t1[1] - rho_a[1], t1[2] - rho_a[2])
+            vb = _x(wb, rho_b)
+            va = _x(wa, rho_a)
+            o = 3 * n
+            d_dot = (y[o + 3 * b] + vb[0] - y[o + 3 * a] - va[0],
+                     y[o + 3 * b + 1] + vb[1] - y[o + 3 * a + 1] - va[1],
+                     y[o + 3 * b + 2] + vb[2] - y[o + 3 * a + 2] - va[2])
+            wa_e = _x(wa, e)
+            t1e = _x(t1, e)
+            rbe = _x(rho_b, e)
             for k in range(3):
                 jac[r, k] = -e[k]
-                jac[r, 3 + k] = -t2[k]
+                jac[r, 3 + k] = -t1e[k]
                 jac[r, 6 + k] = e[k]
-            _cross(rho_b, e, t2)
-            for k in range(3):
-                jac[r, 9 + k] = t2[k]
-            value[r] = _dot(d, e)
-            rate[r] = _dot(e, d_dot) + _dot(d, wa_e)
+                jac[r, 9 + k] = rbe[k]
+            value[r] = _d(d, e)
+            rate[r] = _d(e, d_dot) + _d(d, wa_e)
             # centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
-            _cross(wb, rho_b, t1)
-            _cross(wb, t1, t2)
-            g = _dot(e, t2)
-            _cross(wa, rho_a, t1)
-            _cross(wa, t1, t2)
-            g -= _dot(e, t2)
-            _cross(wa, wa_e, t1)
-            gamma[r] = 2.0 * _dot(wa_e, d_dot) + g + _dot(d, t1)
-            directions[r, :] = e
+            gamma[r] = (2.0 * _d(wa_e, d_dot) + _d(e, _x(wb, vb)) - _d(e, _x(wa, va))
+                        + _d(d, _x(wa, wa_e)))
         else:
-            _matvec(rot[b], rows_f[r, 3:6], f)
-            _cross(f, e, c)
+            f = _rotate(rot, b, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
+            c = _x(f, e)
+            rel = (wb[0] - wa[0], wb[1] - wa[1], wb[2] - wa[2])
             for k in range(3):
+                jac[r, k] = 0.0
                 jac[r, 3 + k] = -c[k]
+                jac[r, 6 + k] = 0.0
                 jac[r, 9 + k] = c[k]
-                t1[k] = wb[k] - wa[k]
-            value[r] = _dot(e, f)
-            rate[r] = _dot(t1, c)
-            _cross(wb, f, t2)
-            _cross(t2, e, d)
-            _cross(wa, e, t2)
-            _cross(f, t2, d_dot)
-            gamma[r] = _dot(t1, d) + _dot(t1, d_dot)
-            directions[r, :] = c
-        for side in range(2):
-            body = a if side == 0 else b
-            base = 6 * side
-            for k in range(3):
-                weighted[r, base + k] = bodies[body, 1] * jac[r, base + k]
-            _matvec(inv_inertia[body], jac[r, base + 3:base + 6], t1)
-            for k in range(3):
-                weighted[r, base + 3 + k] = t1[k]
+            value[r] = _d(e, f)
+            rate[r] = _d(rel, c)
+            gamma[r] = _d(rel, _x(_x(wb, f), e)) + _d(rel, _x(f, _x(wa, e)))
+        rhs[r] = -gamma[r] - 2.0 * eta * rate[r] - eta * eta * value[r]
+        if dense:
+            for side in range(2):
+                body = a if side == 0 else b
+                base = 6 * side
+                for k in range(3):
+                    weighted[r, base + k] = bodies[body, 1] * jac[r, base + k]
+                for k in range(3):
+                    weighted[r, base + 3 + k] = (
+                        inv_inertia[body, k, 0] * jac[r, base + 3]
+                        + inv_inertia[body, k, 1] * jac[r, base + 4]
+                        + inv_inertia[body, k, 2] * jac[r, base + 5])
 
 
 @numba.njit(**_JIT)
-def solve_state(y, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant,
-                acc, alpha, rot, lam, directions, value):
+def _tree_solve(y, plan, roots, rows_f, v):
     """
-    Accelerations (world) and row loads at state y.
+    Accelerations of a joint forest (the module docstring); False if singular.
 
-    Fills acc (n, 3), alpha (n, 3, world axes), rot (n, 3, 3), and for the m
-    rows lam (m,), directions (m, 3, world) and value (m,).
+    mhat and fhat hold each body's own mass matrix and load on entry and
+    are overwritten by the articulated ones. acc (n, 6) gets (linear,
+    angular) accelerations in world axes.
     """
+    rot, mhat, fhat, acc, jac, rhs = v[0], v[3], v[4], v[5], v[6], v[11]
+    basis, weighted_basis, chol, projected, particular = v[12], v[13], v[14], v[15], v[16]
+    scratch, x, full = v[19][0], v[19][1], v[19][2]
+    free_t, free_r, gram = v[20][0], v[20][1], v[20][2]
+    vec, t1 = v[21][0:2].reshape(6), v[21][2]
+    n_j = plan.shape[0]
+    n = roots.shape[0]
+    # leaves first: pass each child's articulated inertia on to its parent
+    for j in range(n_j):
+        r0, nt, nr = plan[j, P_ROW], plan[j, P_NT], plan[j, P_NR]
+        c, p, sign = plan[j, P_CHILD], plan[j, P_PARENT], float(plan[j, P_SIGN])
+        off = 6 if sign > 0 else 0
+        # the joint point on the joint's child, relative to the tree child's CG
+        b = c if sign > 0 else p
+        rho = _rotate(rot, b, rows_f[r0, 6], rows_f[r0, 7], rows_f[r0, 8])
+        rho = (rho[0] + y[3 * b] - y[3 * c], rho[1] + y[3 * b + 1] - y[3 * c + 1],
+               rho[2] + y[3 * b + 2] - y[3 * c + 2])
+        # free motions G of the tree child: translations off the rows, rotations
+        # off the rows with the joint point carried along
+        _complement(jac, r0, nt, sign, off, free_t)
+        _complement(jac, r0 + nt, nr, sign, off + 3, free_r)
+        k_t, k_r = 3 - nt, 3 - nr
+        g = basis[j]
+        for col in range(k_t):
+            for k in range(3):
+                g[k, col] = free_t[col, k]
+                g[3 + k, col] = 0.0
+        for col in range(k_r):
+            w = (free_r[col, 0], free_r[col, 1], free_r[col, 2])
+            rw = _x(rho, w)
+            for k in range(3):
+                g[k, k_t + col] = rw[k]
+                g[3 + k, k_t + col] = w[k]
+        k_free = k_t + k_r
+        # a particular acceleration s with J_c s = rhs: rotation by least norm,
+        # translation along the (orthonormal) row axes
+        s = particular[j]
+        for k in range(6):
+            s[k] = 0.0
+        if nr > 0:
+            for i in range(nr):
+                vec[i] = rhs[r0 + nt + i]
+                for i2 in range(i + 1):
+                    total = 0.0
+                    for k in range(3):
+                        total += jac[r0 + nt + i, off + 3 + k] * jac[r0 + nt + i2, off + 3 + k]
+                    scratch[i, i2] = total
+            if not _inverse(scratch, nr, gram):
+                return False
+            for i in range(nr):
+                total = 0.0
+                for i2 in range(nr):
+                    total += gram[i, i2] * vec[i2]
+                for k in range(3):
+                    s[3 + k] += total * jac[r0 + nt + i, off + 3 + k]
+        ws = _x((s[3], s[4], s[5]), rho)
+        for i in range(nt):
+            for k in range(3):
+                s[k] += rhs[r0 + i] * jac[r0 + i, off + k]
+        for k in range(3):
+            s[k] -= ws[k]
+        # U = M^ G, D = G^T M^ G, q = G^T (f^ - M^ s)
+        mh = mhat[c]
+        u = weighted_basis[j]
+        for col in range(k_free):
+            for row in range(6):
+                total = 0.0
+                for k in range(6):
+                    total += mh[row, k] * g[k, col]
+                u[row, col] = total
+        for row in range(6):
+            total = fhat[c, row]
+            for k in range(6):
+                total -= mh[row, k] * s[k]
+            vec[row] = total
+        for col in range(k_free):
+            total = 0.0
+            for k in range(6):
+                total += g[k, col] * vec[k]
+            projected[j, col] = total
+            for col2 in range(col + 1):
+                total = 0.0
+                for k in range(6):
+                    total += g[k, col] * u[k, col2]
+                scratch[col, col2] = total
+        d_inv = chol[j]
+        if not _inverse(scratch, k_free, d_inv):
+            return False
+        if roots[p] < 0:
+            continue
+        # what the parent feels: M^' = M^ - V U^T and z' = z - V q, V = U D^-1
+        for row in range(6):
+            for i in range(k_free):
+                total = 0.0
+                for k in range(k_free):
+                    total += u[row, k] * d_inv[k, i]
+                scratch[i, row] = total
+        for row in range(6):
+            total = 0.0
+            for i in range(k_free):
+                total += scratch[i, row] * projected[j, i]
+            vec[row] -= total
+        for i in range(6):
+            for k in range(i, 6):
+                total = mh[i, k]
+                for q in range(k_free):
+                    total -= scratch[q, i] * u[k, q]
+                x[i, k] = total
+                x[k, i] = total
+        _shift_add(x, vec, y, c, p, mhat[p], fhat[p])
+    # roots: a = M^-1 f
+    for i in range(n):
+        if roots[i] != 1:
+            continue
+        for k in range(6):
+            acc[i, k] = fhat[i, k]
+        if not _cholesky(mhat[i], 6, full):
+            return False
+        _cholesky_solve(full, 6, acc[i])
+    # root first: each child's acceleration from its parent's
+    for j in range(n_j - 1, -1, -1):
+        c, p = plan[j, P_CHILD], plan[j, P_PARENT]
+        k_free = 6 - plan[j, P_NT] - plan[j, P_NR]
+        g, u, s = basis[j], weighted_basis[j], particular[j]
+        if roots[p] >= 0:
+            # Phi a_p: the parent's acceleration carried to the child's CG
+            r = (y[3 * c] - y[3 * p], y[3 * c + 1] - y[3 * p + 1], y[3 * c + 2] - y[3 * p + 2])
+            ar = _x((acc[p, 3], acc[p, 4], acc[p, 5]), r)
+            for k in range(3):
+                acc[c, k] = acc[p, k] + ar[k]
+                acc[c, 3 + k] = acc[p, 3 + k]
+        else:
+            for k in range(6):
+                acc[c, k] = 0.0
+        for col in range(k_free):
+            total = projected[j, col]
+            for k in range(6):
+                total -= u[k, col] * acc[c, k]
+            t1[col] = total
+        d_inv = chol[j]
+        for col in range(k_free):
+            total = 0.0
+            for k in range(k_free):
+                total += d_inv[col, k] * t1[k]
+            vec[col] = total
+        for k in range(6):
+            total = acc[c, k] + s[k]
+            for col in range(k_free):
+                total += g[k, col] * vec[col]
+            acc[c, k] = total
+    return True
+
+
+@numba.njit(**_JIT)
+def _shift_add(x, z, y, c, p, mhat_p, fhat_p):
+    """Add Phi^T x Phi to mhat_p and Phi^T z to fhat_p (x symmetric, Phi from c to p)."""
+    r0, r1, r2 = y[3 * c] - y[3 * p], y[3 * c + 1] - y[3 * p + 1], y[3 * c + 2] - y[3 * p + 2]
+    # x = [[A, B], [B^T, C]], S = [r]x: Phi^T x Phi = [[A, B'], [B'^T, C']] with
+    # B' = B - A S and C' = C + S B' + (S B)^T; the columns of S M are r x M[:, j]
+    for j in range(3):
+        b = (x[0, 3 + j], x[1, 3 + j], x[2, 3 + j])
+        sb = (r1 * b[2] - r2 * b[1], r2 * b[0] - r0 * b[2], r0 * b[1] - r1 * b[0])
+        for i in range(3):
+            mhat_p[3 + j, 3 + i] += sb[i]
+    for i in range(3):
+        as0 = x[i, 1] * r2 - x[i, 2] * r1
+        as1 = x[i, 2] * r0 - x[i, 0] * r2
+        as2 = x[i, 0] * r1 - x[i, 1] * r0
+        x[i, 3] -= as0
+        x[i, 4] -= as1
+        x[i, 5] -= as2
+    for j in range(3):
+        b = (x[0, 3 + j], x[1, 3 + j], x[2, 3 + j])
+        sbp = (r1 * b[2] - r2 * b[1], r2 * b[0] - r0 * b[2], r0 * b[1] - r1 * b[0])
+        for i in range(3):
+            mhat_p[3 + i, 3 + j] += x[3 + i, 3 + j] + sbp[i]
+    for i in range(3):
+        for j in range(3):
+            mhat_p[i, j] += x[i, j]
+            mhat_p[i, 3 + j] += x[i, 3 + j]
+            mhat_p[3 + j, i] += x[i, 3 + j]
+    fhat_p[0] += z[0]
+    fhat_p[1] += z[1]
+    fhat_p[2] += z[2]
+    fhat_p[3] += z[3] + r1 * z[2] - r2 * z[1]
+    fhat_p[4] += z[4] + r2 * z[0] - r0 * z[2]
+    fhat_p[5] += z[5] + r0 * z[1] - r1 * z[0]
+
+
+@numba.njit(**_JIT)
+def _dense_solve(bodies, rows_i, plan, v, redundant):
+    """Accelerations and joint loads from the whole Schur complement (closed loops)."""
+    inv_inertia, fhat, acc, jac, weighted, rhs, wrench = v[2], v[4], v[5], v[6], v[7], v[11], \
+        v[17]
     n = bodies.shape[0]
     m = rows_i.shape[0]
-    omega = np.empty((n, 3))
-    inv_inertia = np.empty((n, 3, 3))
-    _body_terms(y, bodies, gravity, loads, acc, alpha, rot, omega, inv_inertia)
+    for i in range(n):
+        for k in range(3):
+            acc[i, k] = bodies[i, 1] * fhat[i, k]
+            acc[i, 3 + k] = (inv_inertia[i, k, 0] * fhat[i, 3] + inv_inertia[i, k, 1] * fhat[i, 4]
+                             + inv_inertia[i, k, 2] * fhat[i, 5])
     if m == 0:
         return
-    jac = np.empty((m, 12))       # [parent V, parent w, child V, child w]
-    weighted = np.empty((m, 12))  # the same rows times M^-1
-    rate = np.empty(m)
-    gamma = np.empty(m)
-    _row_terms(y, bodies, rows_i, rows_f, n_t, rot, omega, inv_inertia,
-               jac, weighted, rate, gamma, value, directions)
-    rhs = np.empty(m)
+    right = np.empty(m)
     for r in range(m):
         a, b = rows_i[r, 0], rows_i[r, 1]
         free = 0.0
-        for k in range(3):
-            free += (jac[r, k] * acc[a, k] + jac[r, 3 + k] * alpha[a, k]
-                     + jac[r, 6 + k] * acc[b, k] + jac[r, 9 + k] * alpha[b, k])
-        rhs[r] = -gamma[r] - 2.0 * eta * rate[r] - eta * eta * value[r] - free
+        for k in range(6):
+            free += jac[r, k] * acc[a, k] + jac[r, 6 + k] * acc[b, k]
+        right[r] = rhs[r] - free
     schur = np.zeros((m, m))
     for r in range(m):
         for s in range(r, m):
@@ -227,79 +630,186 @@ def solve_state(y, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant,
             schur[r, s] = total
             schur[s, r] = total
     if redundant:
-        lam[:] = np.linalg.lstsq(schur, rhs, 1e-10)[0]
+        lam = np.linalg.lstsq(schur, right, 1e-10)[0]
     else:
-        lam[:] = np.linalg.solve(schur, rhs)
+        lam = np.linalg.solve(schur, right)
     for r in range(m):
         a, b = rows_i[r, 0], rows_i[r, 1]
-        for k in range(3):
+        for k in range(6):
             acc[a, k] += lam[r] * weighted[r, k]
-            alpha[a, k] += lam[r] * weighted[r, 3 + k]
             acc[b, k] += lam[r] * weighted[r, 6 + k]
-            alpha[b, k] += lam[r] * weighted[r, 9 + k]
+    # each joint's load on its tree child, as the tree solve reports it
+    for j in range(plan.shape[0]):
+        off = 6 if plan[j, P_SIGN] > 0 else 0
+        for k in range(6):
+            wrench[j, k] = 0.0
+        for r in range(plan[j, P_ROW], plan[j, P_ROW] + plan[j, P_NT] + plan[j, P_NR]):
+            for k in range(6):
+                wrench[j, k] += lam[r] * jac[r, off + k]
 
 
 @numba.njit(**_JIT)
-def derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant):
-    """Fill dy with dy/dt at y; return the largest |constraint value|."""
+def _solve(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+    """Accelerations (``acc`` of the views) and joint loads at y; False if singular."""
+    _body_terms(y, bodies, gravity, loads, v, dense > 0)
+    _row_terms(y, bodies, rows_i, rows_f, eta, v, dense > 0)
+    if dense > 0:
+        _dense_solve(bodies, rows_i, plan, v, dense > 1)
+        return True
+    acc, fhat, inv_inertia = v[5], v[4], v[2]
+    for i in range(bodies.shape[0]):
+        if roots[i] == 2:   # a free body on its own: a = M^-1 f directly
+            _body_congruence(v[0], i, bodies, 11, inv_inertia[i], 0)
+            for k in range(3):
+                acc[i, k] = bodies[i, 1] * fhat[i, k]
+                acc[i, 3 + k] = (inv_inertia[i, k, 0] * fhat[i, 3]
+                                 + inv_inertia[i, k, 1] * fhat[i, 4]
+                                 + inv_inertia[i, k, 2] * fhat[i, 5])
+    return _tree_solve(y, plan, roots, rows_f, v)
+
+
+@numba.njit(**_JIT)
+def _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                 force, moment):
+    if not _solve(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+        return False
+    rot, mhat, fhat, acc, wrench = v[0], v[3], v[4], v[5], v[17]
+    for j in range(plan.shape[0]):
+        c, sign = plan[j, P_CHILD], float(plan[j, P_SIGN])
+        b = c if sign > 0 else plan[j, P_PARENT]
+        if dense == 0:
+            # the tree child's balance: load = M^ a - f^ (articulated)
+            for k in range(6):
+                total = -fhat[c, k]
+                for i in range(6):
+                    total += mhat[c, k, i] * acc[c, i]
+                wrench[j, k] = total
+        r0 = plan[j, P_ROW]
+        rho = _rotate(rot, b, rows_f[r0, 6], rows_f[r0, 7], rows_f[r0, 8])
+        rho = (rho[0] + y[3 * b] - y[3 * c], rho[1] + y[3 * b + 1] - y[3 * c + 1],
+               rho[2] + y[3 * b + 2] - y[3 * c + 2])
+        f = (sign * wrench[j, 0], sign * wrench[j, 1], sign * wrench[j, 2])
+        arm = _x(rho, f)
+        for k in range(3):
+            force[j, k] = f[k]
+            moment[j, k] = sign * wrench[j, 3 + k] - arm[k]
+    return True
+
+
+@numba.njit(**_JIT)
+def joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
+                force, moment):
+    """
+    Each active joint's load on its child at y; False if the system is singular.
+
+    force, moment (J, 3): world axes, N and N m about the joint point, in
+    ``plan`` order. Also leaves the constraint values in the workspace.
+    """
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    return _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                        force, moment)
+
+
+@numba.njit(**_JIT)
+def row_jacobian(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work):
+    """Fill the workspace's J and J M^-1 blocks at y (``carve`` items 6 and 7)."""
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    _body_terms(y, bodies, gravity, loads, v, True)
+    _row_terms(y, bodies, rows_i, rows_f, eta, v, True)
+
+
+@numba.njit(**_JIT)
+def project(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work, delta):
+    """
+    Find the mass-weighted velocity correction that satisfies the joints at y.
+
+    delta (n, 6): (linear, angular) world axes, the least M-norm change
+    with J (v + delta) = 0; solved like the accelerations, with no loads.
+    """
+    n, m = bodies.shape[0], rows_i.shape[0]
+    v = carve(work, n, m, plan.shape[0])
+    omega, fhat, acc, jac, rhs = v[1], v[4], v[5], v[6], v[11]
+    _body_terms(y, bodies, gravity, loads, v, True)
+    _row_terms(y, bodies, rows_i, rows_f, eta, v, dense > 0)
+    fhat[:, :] = 0.0
+    for r in range(m):
+        a, b = rows_i[r, 0], rows_i[r, 1]
+        total = 0.0
+        for k in range(3):
+            total += (jac[r, k] * y[3 * n + 3 * a + k] + jac[r, 3 + k] * omega[a, k]
+                      + jac[r, 6 + k] * y[3 * n + 3 * b + k] + jac[r, 9 + k] * omega[b, k])
+        rhs[r] = -total
+    if dense > 0:
+        _dense_solve(bodies, rows_i, plan, v, True)
+    else:
+        acc[:, :] = 0.0
+        if not _tree_solve(y, plan, roots, rows_f, v):
+            return False
+    delta[:, :] = acc
+    return True
+
+
+@numba.njit(**_JIT)
+def constraint_values(work, n, m, n_j):
+    """Return the constraint values of the last solve (a view of the workspace)."""
+    return carve(work, n, m, n_j)[10]
+
+
+@numba.njit(**_JIT)
+def _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
     n = bodies.shape[0]
-    m = rows_i.shape[0]
-    acc = np.empty((n, 3))
-    alpha = np.empty((n, 3))
-    rot = np.empty((n, 3, 3))
-    lam = np.empty(m)
-    directions = np.empty((m, 3))
-    value = np.empty(m)
-    solve_state(y, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant,
-                acc, alpha, rot, lam, directions, value)
+    if not _solve(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+        return -1.0
+    rot, acc, value = v[0], v[5], v[10]
     for i in range(n):
-        q = y[6 * n + 4 * i:6 * n + 4 * i + 4]
-        w = y[10 * n + 3 * i:10 * n + 3 * i + 3]
+        o = 6 * n + 4 * i
+        w = (y[10 * n + 3 * i], y[10 * n + 3 * i + 1], y[10 * n + 3 * i + 2])
         for k in range(3):
             dy[3 * i + k] = y[3 * n + 3 * i + k]
             dy[3 * n + 3 * i + k] = acc[i, k]
             # body-axis angular acceleration: R^T alpha_world
-            dy[10 * n + 3 * i + k] = (rot[i, 0, k] * alpha[i, 0] + rot[i, 1, k] * alpha[i, 1]
-                                      + rot[i, 2, k] * alpha[i, 2])
-        o = 6 * n + 4 * i
+            dy[10 * n + 3 * i + k] = (rot[i, 0, k] * acc[i, 3] + rot[i, 1, k] * acc[i, 4]
+                                      + rot[i, 2, k] * acc[i, 5])
         # dq/dt = q * (w, 0) / 2, scalar last
-        dy[o + 0] = 0.5 * (q[3] * w[0] + q[1] * w[2] - q[2] * w[1])
-        dy[o + 1] = 0.5 * (q[3] * w[1] + q[2] * w[0] - q[0] * w[2])
-        dy[o + 2] = 0.5 * (q[3] * w[2] + q[0] * w[1] - q[1] * w[0])
-        dy[o + 3] = -0.5 * (q[0] * w[0] + q[1] * w[1] + q[2] * w[2])
+        dy[o + 0] = 0.5 * (y[o + 3] * w[0] + y[o + 1] * w[2] - y[o + 2] * w[1])
+        dy[o + 1] = 0.5 * (y[o + 3] * w[1] + y[o + 2] * w[0] - y[o + 0] * w[2])
+        dy[o + 2] = 0.5 * (y[o + 3] * w[2] + y[o + 0] * w[1] - y[o + 1] * w[0])
+        dy[o + 3] = -0.5 * (y[o + 0] * w[0] + y[o + 1] * w[1] + y[o + 2] * w[2])
     worst = 0.0
-    for r in range(m):
+    for r in range(rows_i.shape[0]):
         worst = max(worst, abs(value[r]))
     return worst
 
 
 @numba.njit(**_JIT)
-def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant):
-    """
-    One classical RK4 step of length h from y into out, quaternions normalized.
+def derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work):
+    """Fill dy with dy/dt at y; return the largest |constraint value| (-1 if singular)."""
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    return _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
+                       v)
 
-    Returns the largest |constraint value| at y (the stages are not states of
-    the solution, so their values say nothing about drift).
-    """
+
+@numba.njit(**_JIT)
+def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
     size = y.shape[0]
-    k1 = np.empty(size)
-    k2 = np.empty(size)
-    k3 = np.empty(size)
-    k4 = np.empty(size)
-    stage = np.empty(size)
-    worst = derivative(y, k1, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redundant)
+    stages = v[18]
+    k1, k2, k3, k4, stage = stages[0], stages[1], stages[2], stages[3], stages[4]
+    worst = _derivative(y, k1, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
+                        v)
     for j in range(size):
         stage[j] = y[j] + 0.5 * h * k1[j]
-    derivative(stage, k2, bodies, gravity, loads, rows_i, rows_f,
-               n_t, eta, redundant)
+    ok = _derivative(stage, k2, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                     dense, v)
     for j in range(size):
         stage[j] = y[j] + 0.5 * h * k2[j]
-    derivative(stage, k3, bodies, gravity, loads, rows_i, rows_f,
-               n_t, eta, redundant)
+    ok = min(ok, _derivative(stage, k3, bodies, gravity, loads, rows_i, rows_f, plan, roots,
+                             eta, dense, v))
     for j in range(size):
         stage[j] = y[j] + h * k3[j]
-    derivative(stage, k4, bodies, gravity, loads, rows_i, rows_f,
-               n_t, eta, redundant)
+    ok = min(ok, _derivative(stage, k4, bodies, gravity, loads, rows_i, rows_f, plan, roots,
+                             eta, dense, v))
+    if worst < 0.0 or ok < 0.0:
+        return -1.0
     for j in range(size):
         out[j] = y[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
     n = bodies.shape[0]
@@ -312,22 +822,141 @@ def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, n_t, eta, redund
 
 
 @numba.njit(**_JIT)
-def jacobian(y, bodies, rows_i, rows_f, n_t):
-    """Row Jacobian blocks J and J M^-1 (m, 12) and values g (m,) at y."""
-    n = bodies.shape[0]
-    m = rows_i.shape[0]
-    rot = np.empty((n, 3, 3))
-    omega = np.empty((n, 3))
-    inv_inertia = np.empty((n, 3, 3))
-    acc = np.empty((n, 3))
-    alpha = np.empty((n, 3))
-    _body_terms(y, bodies, np.zeros(3), np.zeros((n, 7)), acc, alpha, rot, omega, inv_inertia)
-    jac = np.empty((m, 12))
-    weighted = np.empty((m, 12))
-    rate = np.empty(m)
-    gamma = np.empty(m)
-    value = np.empty(m)
-    directions = np.empty((m, 3))
-    _row_terms(y, bodies, rows_i, rows_f, n_t, rot, omega, inv_inertia,
-               jac, weighted, rate, gamma, value, directions)
-    return jac, weighted, value
+def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
+             work):
+    """
+    One classical RK4 step of length h from y into out, quaternions normalized.
+
+    Returns the largest |constraint value| at y (the stages are not states of
+    the solution, so their values say nothing about drift), -1 if singular.
+    """
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    return _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v)
+
+
+# ------------------------------------------------------------ release tests
+
+@numba.njit(**_JIT)
+def conditions(y, joints_i, joints_f, watch, out):
+    """
+    Angle (rad) and distance (m) of the watched joints at y, into out[:, 0:2].
+
+    joints_i (n_joints, 2): parent, child; joints_f (n_joints, 10): anchor on
+    the parent, anchor on the child (body axes), relative attitude at t = 0
+    (x y z w). watch: model joint indices.
+    """
+    n = y.shape[0] // 13
+    rot = np.empty((3, 3))
+    pa = np.empty(3)
+    pb = np.empty(3)
+    for w in range(watch.shape[0]):
+        k = watch[w]
+        a, b = joints_i[k, 0], joints_i[k, 1]
+        qa = y[6 * n + 4 * a:6 * n + 4 * a + 4]
+        qb = y[6 * n + 4 * b:6 * n + 4 * b + 4]
+        na = np.sqrt(_dot4(qa, qa))
+        nb = np.sqrt(_dot4(qb, qb))
+        # relative = conj(q0) * conj(qa) * qb, angle = 2 atan2(|v|, |w|)
+        rx, ry, rz, rw = _qmul(-qa[0] / na, -qa[1] / na, -qa[2] / na, qa[3] / na,
+                               qb[0] / nb, qb[1] / nb, qb[2] / nb, qb[3] / nb)
+        q0 = joints_f[k, 6:10]
+        rx, ry, rz, rw = _qmul(-q0[0], -q0[1], -q0[2], q0[3], rx, ry, rz, rw)
+        out[w, 0] = 2.0 * np.arctan2(np.sqrt(rx * rx + ry * ry + rz * rz), abs(rw))
+        _quat_matrix(qa[0] / na, qa[1] / na, qa[2] / na, qa[3] / na, rot)
+        _matvec(rot, joints_f[k, 0:3], pa)
+        _quat_matrix(qb[0] / nb, qb[1] / nb, qb[2] / nb, qb[3] / nb, rot)
+        _matvec(rot, joints_f[k, 3:6], pb)
+        total = 0.0
+        for i in range(3):
+            gap = y[3 * b + i] + pb[i] - y[3 * a + i] - pa[i]
+            total += gap * gap
+        out[w, 1] = np.sqrt(total)
+
+
+@numba.njit(**_JIT)
+def _dot4(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
+@numba.njit(**_JIT)
+def _qmul(ax, ay, az, aw, bx, by, bz, bw):
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+# --------------------------------------------------------------- step loop
+
+@numba.njit(**_JIT)
+def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, rows_f, plan,
+            roots, eta, dense, work, joints_i, joints_f, watch, limits, watch_plan):
+    """
+    Take RK4 steps of dt toward t_target, as ``Simulator.advance_to`` defines them.
+
+    info = [t, steps, largest violation, result, violation limit]: t, y and
+    the violation are updated after every step, so they hold the last good
+    step whatever happens. Stops on
+    reaching t_target or the release time ``due``, before a step that would
+    end after ``limit``, before a step in which a watched condition (angle,
+    distance, force at ``limits``; inf for none) is reached (CONDITION: the
+    caller locates the crossing), or on a failure (NOT_FINITE, VIOLATION,
+    SINGULAR).
+    """
+    size = y.shape[0]
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    out = v[18][5]
+    values = np.empty((watch.shape[0], 2))
+    force = np.empty((plan.shape[0], 3))
+    moment = np.empty((plan.shape[0], 3))
+    need_force = False
+    for w in range(watch.shape[0]):
+        if limits[w, 2] < np.inf:
+            need_force = True
+    t = info[0]
+    info[3] = REACHED
+    while t < t_target:
+        remaining = t_target - t
+        if remaining <= dt * (1.0 + 1e-9):
+            h, t_end = remaining, t_target
+        else:
+            h, t_end = dt, t + dt
+        if due < t_end:
+            h, t_end = due - t, due
+        if t_end > limit:
+            return
+        worst = _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                     dense, v)
+        if worst < 0.0:
+            info[3] = SINGULAR
+            return
+        if watch.shape[0] > 0:
+            conditions(out, joints_i, joints_f, watch, values)
+            if need_force and not _joint_loads(out, bodies, gravity, loads, rows_i, rows_f,
+                                               plan, roots, eta, dense, v, force, moment):
+                info[3] = SINGULAR
+                return
+            for w in range(watch.shape[0]):
+                magnitude = 0.0
+                if need_force:
+                    magnitude = np.sqrt(_dot(force[watch_plan[w]], force[watch_plan[w]]))
+                if (values[w, 0] >= limits[w, 0] or values[w, 1] >= limits[w, 1]
+                        or magnitude >= limits[w, 2]):
+                    info[3] = CONDITION
+                    return
+        for j in range(size):
+            if not np.isfinite(out[j]):
+                info[3] = NOT_FINITE
+                return
+        if worst > info[4]:
+            info[3] = VIOLATION
+            info[5] = worst
+            return
+        info[2] = max(info[2], worst)
+        for j in range(size):
+            y[j] = out[j]
+        t = t_end
+        info[0] = t
+        info[1] += 1
+        if t_end >= due:
+            return
