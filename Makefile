@@ -29,6 +29,8 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q test
 
 bench: $(STAMP)
+	$(BIN)/pip install -q -e '.[bench]'
+	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py
 

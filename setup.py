@@ -48,6 +48,8 @@ setup(
             'ros-kilted-rcl-interfaces',
             'ros-kilted-rmw-fastrtps-cpp',
         ],
+        # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros
+        'bench': ['mujoco'],
         'test': [
             'pytest',
             'rosbags>=0.10',

@@ -341,24 +341,36 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
     jac, weighted, rate, gamma, value, rhs = v[6], v[7], v[8], v[9], v[10], v[11]
     n = bodies.shape[0]
     m = rows_i.shape[0]
+    zero = (0.0, 0.0, 0.0)
+    rho_b, t1, d, d_dot, centripetal = zero, zero, zero, zero, zero
+    same_point = False
     for r in range(m):
         a, b = rows_i[r, 0], rows_i[r, 1]
         wa = (omega[a, 0], omega[a, 1], omega[a, 2])
         wb = (omega[b, 0], omega[b, 1], omega[b, 2])
         e = _rotate(rot, a, rows_f[r, 0], rows_f[r, 1], rows_f[r, 2])
         if rows_i[r, 2]:
-            rho_a = _rotate(rot, a, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
-            rho_b = _rotate(rot, b, rows_f[r, 6], rows_f[r, 7], rows_f[r, 8])
-            pa = (y[3 * a], y[3 * a + 1], y[3 * a + 2])
-            t1 = (y[3 * b] + rho_b[0] - pa[0], y[3 * b + 1] + rho_b[1] - pa[1],
-                  y[3 * b + 2] + rho_b[2] - pa[2])
-            d = (t1[0] - rho_a[0], t1[1] - rho_a[1], t1[2] - rho_a[2])
-            vb = _x(wb, rho_b)
-            va = _x(wa, rho_a)
-            o = 3 * n
-            d_dot = (y[o + 3 * b] + vb[0] - y[o + 3 * a] - va[0],
-                     y[o + 3 * b + 1] + vb[1] - y[o + 3 * a + 1] - va[1],
-                     y[o + 3 * b + 2] + vb[2] - y[o + 3 * a + 2] - va[2])
+            if not (same_point and r > 0 and rows_i[r - 1, 2] and a == rows_i[r - 1, 0]
+                    and b == rows_i[r - 1, 1] and rows_f[r, 3] == rows_f[r - 1, 3]
+                    and rows_f[r, 4] == rows_f[r - 1, 4] and rows_f[r, 5] == rows_f[r - 1, 5]
+                    and rows_f[r, 6] == rows_f[r - 1, 6] and rows_f[r, 7] == rows_f[r - 1, 7]
+                    and rows_f[r, 8] == rows_f[r - 1, 8]):
+                # the joint point's terms, shared by a joint's translation rows
+                rho_a = _rotate(rot, a, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
+                rho_b = _rotate(rot, b, rows_f[r, 6], rows_f[r, 7], rows_f[r, 8])
+                pa = (y[3 * a], y[3 * a + 1], y[3 * a + 2])
+                t1 = (y[3 * b] + rho_b[0] - pa[0], y[3 * b + 1] + rho_b[1] - pa[1],
+                      y[3 * b + 2] + rho_b[2] - pa[2])
+                d = (t1[0] - rho_a[0], t1[1] - rho_a[1], t1[2] - rho_a[2])
+                vb = _x(wb, rho_b)
+                va = _x(wa, rho_a)
+                o = 3 * n
+                d_dot = (y[o + 3 * b] + vb[0] - y[o + 3 * a] - va[0],
+                         y[o + 3 * b + 1] + vb[1] - y[o + 3 * a + 1] - va[1],
+                         y[o + 3 * b + 2] + vb[2] - y[o + 3 * a + 2] - va[2])
+                cb, ca = _x(wb, vb), _x(wa, va)
+                centripetal = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
+            same_point = True
             wa_e = _x(wa, e)
             t1e = _x(t1, e)
             rbe = _x(rho_b, e)
@@ -370,9 +382,9 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
             value[r] = _d(d, e)
             rate[r] = _d(e, d_dot) + _d(d, wa_e)
             # centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
-            gamma[r] = (2.0 * _d(wa_e, d_dot) + _d(e, _x(wb, vb)) - _d(e, _x(wa, va))
-                        + _d(d, _x(wa, wa_e)))
+            gamma[r] = 2.0 * _d(wa_e, d_dot) + _d(e, centripetal) + _d(d, _x(wa, wa_e))
         else:
+            same_point = False
             f = _rotate(rot, b, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
             c = _x(f, e)
             rel = (wb[0] - wa[0], wb[1] - wa[1], wb[2] - wa[2])
