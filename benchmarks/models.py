@@ -54,7 +54,7 @@ def chain(n, spatial=False, dt=0.001):
 
 
 def tree(branches=4, links=25, dt=0.001):
-    """A hub on a hinge with several spatial chains hanging from it."""
+    """Build a hub on a hinge with several spatial chains hanging from it."""
     spec = _spec(dt)
     hub = spec.worldbody.add_body(pos=[0.0, 0.0, 0.0])
     hub.mass = 4.0
@@ -69,7 +69,7 @@ def tree(branches=4, links=25, dt=0.001):
 
 
 def double_pendulum(dt=0.001):
-    """The paper's double pendulum (config/double_pendulum.yaml) in MuJoCo."""
+    """Build the paper's double pendulum (config/double_pendulum.yaml) in MuJoCo."""
     spec = _spec(dt)
     a = spec.worldbody.add_body(pos=[0.0, 0.0, 0.0])
     a.mass, a.ipos, a.inertia = 3900.0, [1.0, 0.0, 0.0], [162.5, 1381.25, 1381.25]
@@ -87,7 +87,7 @@ def double_pendulum(dt=0.001):
 
 
 def store(dt=0.001, free=False):
-    """The store on its aft pivot (a hinge), or free after the release."""
+    """Build the store on its aft pivot (a hinge), or free after the release."""
     spec = _spec(dt, gravity=(0.0, 0.0, 9.80665))
     body = spec.worldbody.add_body(pos=[0.0, 0.0, 0.0])
     body.mass, body.ipos, body.inertia = 907.1848, [0.0, 0.0, 0.0], [27.1164, 488.0944, 488.0944]
@@ -109,7 +109,7 @@ def compile_tilted(spec, tilt):
 
 
 def scenario(model, data, name, duration):
-    """The cfem_ros scenario of a MuJoCo model of bodies on hinges, at data's state."""
+    """Write the cfem_ros scenario of a MuJoCo model of bodies on hinges, at data's state."""
     bodies = {'ground': {'fixed': True}}
     names = ['ground'] + [f'b{i}' for i in range(1, model.nbody)]
     for i in range(1, model.nbody):
