@@ -260,7 +260,7 @@ class Simulator:
     def velocity_body(self) -> np.ndarray:
         """CG velocities in body axes, m/s, shape (n, 3)."""
         _, vel, quat, _ = self._split(self.y)
-        return np.einsum('nji,nj->ni', rotations.matrices(quat), vel)
+        return rotations.to_body(quat, vel)
 
     # ------------------------------------------------------------- the model
 
@@ -321,6 +321,12 @@ class Simulator:
         limits = self.triggers[watched, 1:]
         self._watch_limits = np.ascontiguousarray(np.where(np.isfinite(limits), limits, np.inf))
         self._watch_lines = np.ascontiguousarray(top.line[watched])
+        times = self.triggers[self.active, 0]
+        times = times[np.isfinite(times)]
+        self._due = float(times.min()) if times.size else None
+        active = np.flatnonzero(self.active)
+        self._outputs_key = tuple(active.tolist())
+        self._outputs_order = np.ascontiguousarray(top.line[active], dtype=np.int64)
 
     def _joint_loads(self, y):
         """
@@ -447,6 +453,31 @@ class Simulator:
 
         """
         return self._joint_loads(self.y)[:2]
+
+    def outputs(self):
+        """
+        Return what a sample publishes at the current state, in one kernel call.
+
+        Returns
+        -------
+        active : tuple of int
+            The active joints (model indices, ascending).
+        values : ndarray, shape (13 n + 6 len(active),)
+            Per body its pose (CG position, m; quaternion x y z w, body to
+            world) and twist (CG velocity, m/s, and angular velocity, rad/s,
+            both in body axes); then per active joint its force and moment on
+            the child (world axes, N and N m about the joint point).
+
+        """
+        values = np.empty(13 * self.n + 6 * len(self._outputs_key))
+        try:
+            ok = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
+                                       self._outputs_order, values)
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            raise _NumericalFailure('the constraint system is singular')
+        return self._outputs_key, values
 
     def joint_points(self, y: Optional[np.ndarray] = None):
         """
@@ -611,11 +642,11 @@ class Simulator:
         return result
 
     def _next_time_trigger(self) -> Optional[float]:
-        times = self.triggers[self.active, 0]
-        times = times[np.isfinite(times)]
-        return float(times.min()) if times.size else None
+        return self._due   # set with the topology: active joints' time triggers change with it
 
     def _fire_time_triggers(self):
+        if self._due is None or self.t < self._due:
+            return
         due = self.active & (self.triggers[:, 0] <= self.t)
         if due.any():
             self._release(np.flatnonzero(due), 'time')

@@ -723,6 +723,51 @@ def joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, den
 
 
 @numba.njit(**_JIT)
+def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
+                   order, out):
+    """
+    Write what a sample publishes at y into out; False if the system is singular.
+
+    Per body 13 numbers: CG position, quaternion (x y z w, as in y), CG
+    velocity in body axes, angular velocity (body axes); then per plan line
+    in ``order`` 6: the joint's force and moment on its child (world axes,
+    N and N m about the joint point).
+    """
+    n = bodies.shape[0]
+    for i in range(n):
+        o, q = 13 * i, 6 * n + 4 * i
+        norm = np.sqrt(y[q] ** 2 + y[q + 1] ** 2 + y[q + 2] ** 2 + y[q + 3] ** 2)
+        x, yy, z, w = y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm
+        # R^T v with R the body-to-world matrix of the unit quaternion
+        v0, v1, v2 = y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2]
+        for k in range(3):
+            out[o + k] = y[3 * i + k]
+            out[o + 10 + k] = y[10 * n + 3 * i + k]
+        for k in range(4):
+            out[o + 3 + k] = y[q + k]
+        out[o + 7] = ((1 - 2 * (yy * yy + z * z)) * v0 + 2 * (x * yy + w * z) * v1
+                      + 2 * (x * z - w * yy) * v2)
+        out[o + 8] = (2 * (x * yy - w * z) * v0 + (1 - 2 * (x * x + z * z)) * v1
+                      + 2 * (yy * z + w * x) * v2)
+        out[o + 9] = (2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
+                      + (1 - 2 * (x * x + yy * yy)) * v2)
+    if order.shape[0] == 0:
+        return True
+    force = np.empty((plan.shape[0], 3))
+    moment = np.empty((plan.shape[0], 3))
+    v = carve(work, n, rows_i.shape[0], plan.shape[0])
+    if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                        force, moment):
+        return False
+    for j in range(order.shape[0]):
+        o = 13 * n + 6 * j
+        for k in range(3):
+            out[o + k] = force[order[j], k]
+            out[o + 3 + k] = moment[order[j], k]
+    return True
+
+
+@numba.njit(**_JIT)
 def row_jacobian(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work):
     """Fill the workspace's J and J M^-1 blocks at y (``carve`` items 6 and 7)."""
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])

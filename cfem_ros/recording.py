@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 from typing import Optional
 
 from cfem_ros import __version__
 from cfem_ros.errors import RecordingError
+from cfem_ros.mcapfile import ChunkedWriter, message_record_fields
 from cfem_ros.msgdefs import DEFINITIONS
 import mcap
-from mcap.writer import CompressionType, Writer
+from mcap.opcode import Opcode
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
 
@@ -47,6 +49,8 @@ EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
 
 #: Chunk size in bytes: small, so that a hard kill loses little.
 CHUNK_SIZE = 64 * 1024
+#: CDR encapsulation header: plain CDR, little endian.
+CDR_LE = b'\x00\x01\x00\x00'
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -76,8 +80,13 @@ class Recorder:
     """
     Write one MCAP file in the ros2 profile.
 
-    The file is complete (summary, statistics, indexes) once ``finish`` has
-    run; use the recorder as a context manager so that it runs on errors too.
+    Messages given as dicts are encoded with ``mcap_ros2``; the messages of
+    a sample (fixed-size CDR, see ``SampleLayout``) are kept as rows of
+    numbers and turned into Message records a chunk at a time. The file is
+    complete (summary, statistics, indexes) once ``finish`` has run; use
+    the recorder as a context manager so that it runs on errors too. Every
+    closed chunk is on disk, so a hard kill loses at most the chunk in
+    progress (``CHUNK_SIZE``).
 
     Parameters
     ----------
@@ -102,13 +111,14 @@ class Recorder:
                 f'{path}: already exists; pass --overwrite to replace it') from None
         except OSError as err:
             raise RecordingError(f'{path}: cannot write ({err.strerror})') from err
-        self._writer = Writer(self._stream, chunk_size=CHUNK_SIZE,
-                              compression=CompressionType.NONE)
-        self._writer.start(profile='ros2',
-                           library=f'cfem_ros {__version__}; mcap {mcap.__version__}')
+        self._writer = ChunkedWriter(
+            self._stream, profile='ros2', chunk_size=CHUNK_SIZE,
+            library=f'cfem_ros {__version__}; mcap {mcap.__version__}')
         self._schemas = {}
         self._encoders = {}
         self._channels = {}
+        self._pending = None    # the layout of the samples waiting in its buffer
+        #: Messages written so far.
         self.message_count = 0
         self._finished = False
         if metadata:
@@ -116,10 +126,11 @@ class Recorder:
 
     def add_metadata(self, metadata: dict):
         """Write a metadata record named ``cfem_ros`` (values as strings)."""
+        self._flush_samples()
         self._writer.add_metadata('cfem_ros', {k: str(v) for k, v in metadata.items()})
 
-    def channel(self, topic: str, msgtype: str, qos: str = OFFERED_QOS) -> tuple:
-        """Register a topic's channel once, with its offered QoS; return (channel id, type)."""
+    def channel(self, topic: str, msgtype: str, qos: str = OFFERED_QOS) -> int:
+        """Register a topic's channel once, with its offered QoS; return its id."""
         channel = self._channels.get(topic)
         if channel is not None:
             return channel
@@ -127,21 +138,50 @@ class Recorder:
             text = DEFINITIONS[msgtype]
             self._schemas[msgtype] = self._writer.register_schema(
                 name=msgtype, encoding='ros2msg', data=text.encode())
-            self._encoders[msgtype] = serialize_dynamic(msgtype, text)[msgtype]
         channel = self._writer.register_channel(
             topic=topic, message_encoding='cdr', schema_id=self._schemas[msgtype],
             metadata={'offered_qos_profiles': qos})
-        self._channels[topic] = (channel, msgtype)
-        return self._channels[topic]
+        self._channels[topic] = channel
+        return channel
 
-    def write(self, topic: str, msgtype: str, message: dict, stamp_ns: int):
-        """Encode and write one message; log and publish time = stamp_ns."""
-        channel, kind = self.channel(topic, msgtype)
-        data = self._encoders[kind](message)
-        self._writer.add_message(channel_id=channel, log_time=int(stamp_ns),
-                                 publish_time=int(stamp_ns), data=data,
-                                 sequence=self.message_count)
+    def write(self, topic: str, msgtype: str, message: dict, stamp_ns: int,
+              qos: str = OFFERED_QOS):
+        """Encode and write one message given as a dict; log and publish time = stamp_ns."""
+        self._flush_samples()
+        channel = self.channel(topic, msgtype, qos)
+        encode = self._encoders.get(msgtype)
+        if encode is None:
+            encode = self._encoders[msgtype] = serialize_dynamic(
+                msgtype, DEFINITIONS[msgtype])[msgtype]
+        self._writer.add_message(channel, int(stamp_ns), encode(message),
+                                 sequence=self.message_count, publish_time=int(stamp_ns))
         self.message_count += 1
+
+    def layout(self, messages) -> 'SampleLayout':
+        """
+        Make the layout of a kind of sample (keep it: it holds the sample buffer).
+
+        messages: (topic, msgtype, frame_id, number of float64) per message,
+        in the order of a sample's values.
+        """
+        channels = [self.channel(topic, msgtype) for topic, msgtype, _, _ in messages]
+        return SampleLayout(channels, [(frame, count) for _, _, frame, count in messages])
+
+    def add_sample(self, layout: 'SampleLayout', stamp_ns: int, values: np.ndarray):
+        """Write one sample: its messages all stamped stamp_ns, their numbers in values."""
+        if self._pending is not layout:
+            self._flush_samples()
+            self._pending = layout
+        if layout.append(stamp_ns, values):
+            self._flush_samples()
+
+    def _flush_samples(self):
+        layout, self._pending = self._pending, None
+        if layout is None or not layout.count:
+            return
+        count = layout.count * len(layout.channels)
+        self._writer.add_messages(*layout.records(self.message_count))
+        self.message_count += count
 
     def finish(self):
         """Write the summary and close the file (idempotent)."""
@@ -149,7 +189,10 @@ class Recorder:
             return
         self._finished = True
         try:
+            self._flush_samples()
             self._writer.finish()
+        except OSError as err:
+            raise RecordingError(f'{self.path}: cannot write ({err.strerror})') from err
         finally:
             self._stream.close()
 
@@ -158,6 +201,89 @@ class Recorder:
 
     def __exit__(self, *exc_info):
         self.finish()
+
+
+class SampleLayout:
+    """
+    The messages of one kind of sample, all stamped messages of fixed size.
+
+    A sample's numbers are buffered as a row; ``records`` turns the rows
+    into Message records (header, CDR: encapsulation 00 01 00 00, stamp,
+    frame_id, padding to 8 bytes, the float64 values: the bytes
+    ``mcap_ros2``'s encoder writes) with numpy, for all buffered samples
+    at once.
+
+    Parameters
+    ----------
+    channels : list of int
+        Channel of each message.
+    messages : list of (str, int)
+        frame_id and number of float64 of each message.
+
+    """
+
+    def __init__(self, channels, messages):
+        self.channels = [int(c) for c in channels]
+        fields, self.columns, column = [], [], 0
+        for i, (frame_id, count) in enumerate(messages):
+            frame = _frame_bytes(frame_id)
+            data = [('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4'),
+                    ('frame', f'V{len(frame)}')]
+            pad = -(8 + len(frame)) % 8
+            if pad:
+                data.append(('pad', f'V{pad}'))
+            data.append(('values', '<f8', (count,)))
+            fields.append((f'm{i}', message_record_fields(np.dtype(data))))
+            self.columns.append((column, column + count))
+            column += count
+        self.size = column
+        self.dtype = np.dtype(fields)
+        capacity = max(1, -(-CHUNK_SIZE // self.dtype.itemsize))
+        self.stamps = np.empty(capacity, dtype=np.int64)
+        self.values = np.empty((capacity, self.size))
+        self.count = 0
+        self._records = np.zeros(capacity, dtype=self.dtype)
+        self.offsets = np.array([self.dtype.fields[f'm{i}'][1] for i in range(len(messages))])
+        for i, (frame_id, _) in enumerate(messages):
+            record = self._records[f'm{i}']
+            record['opcode'] = Opcode.MESSAGE
+            record['length'] = record.dtype.itemsize - 9
+            record['channel'] = self.channels[i]
+            record['data']['encapsulation'] = np.void(CDR_LE)
+            record['data']['frame'] = np.void(_frame_bytes(frame_id))
+
+    def append(self, stamp_ns: int, values: np.ndarray) -> bool:
+        """Buffer one sample; return True when the buffer is full."""
+        self.stamps[self.count] = stamp_ns
+        self.values[self.count] = values
+        self.count += 1
+        return self.count == len(self.stamps)
+
+    def records(self, first_sequence: int):
+        """Return the buffered samples as Message records and empty the buffer."""
+        k, per = self.count, len(self.channels)
+        self.count = 0
+        stamps = self.stamps[:k]
+        records = self._records[:k]
+        sec, nanosec = np.divmod(stamps, 1_000_000_000)
+        sequence = first_sequence + per * np.arange(k)
+        for i, (a, b) in enumerate(self.columns):
+            record = records[f'm{i}']
+            record['sequence'] = sequence + i
+            record['log_time'] = stamps
+            record['publish_time'] = stamps
+            data = record['data']
+            data['sec'] = sec
+            data['nanosec'] = nanosec
+            data['values'] = self.values[:k, a:b]
+        offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
+        return records.tobytes(), self.channels, stamps.copy(), offsets
+
+
+def _frame_bytes(frame_id: str) -> bytes:
+    """CDR of a frame_id string: uint32 length with the NUL, the bytes, the NUL."""
+    text = frame_id.encode() + b'\0'
+    return struct.pack('<I', len(text)) + text
 
 
 class StateRecorder:
@@ -186,6 +312,7 @@ class StateRecorder:
         self._twist_topics = [self.topic(f'bodies/{b.name}/twist') for b in model.bodies]
         self._wrench_topics = [self.topic(f'joints/{j.name}/wrench') for j in model.joints]
         self._events_written = 0
+        self._layouts = {}   # active joints -> SampleLayout
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -197,37 +324,27 @@ class StateRecorder:
 
     def sample(self):
         """Record poses, twists and active joints' wrenches at the current state."""
-        sim = self.sim
-        stamp_ns = self.stamp_ns(sim.t)
-        when = stamp(stamp_ns)
-        position, quat = sim.position, sim.orientation
-        velocity, rates = sim.velocity_body(), sim.rates
-        write = self.recorder.write
-        for i, body in enumerate(sim.model.bodies):
-            write(self._pose_topics[i], POSE, {
-                'header': {'stamp': when, 'frame_id': self.world},
-                'pose': {'position': _vector(position[i]),
-                         'orientation': dict(zip('xyzw', map(float, quat[i])))},
-            }, stamp_ns)
-            write(self._twist_topics[i], TWIST, {
-                'header': {'stamp': when, 'frame_id': body.name},
-                'twist': {'linear': _vector(velocity[i]), 'angular': _vector(rates[i])},
-            }, stamp_ns)
-        if sim.active.any():
-            force, moment = sim.joint_wrenches()
-            for k in np.flatnonzero(sim.active):
-                write(self._wrench_topics[k], WRENCH, {
-                    'header': {'stamp': when, 'frame_id': self.world},
-                    'wrench': {'force': _vector(force[k]), 'torque': _vector(moment[k])},
-                }, stamp_ns)
+        active, values = self.sim.outputs()
+        layout = self._layouts.get(active)
+        if layout is None:
+            layout = self._layouts[active] = self.recorder.layout(self._messages(active))
+        self.recorder.add_sample(layout, self.stamp_ns(self.sim.t), values)
+
+    def _messages(self, active):
+        """List the messages of a sample with these joints active (``Simulator.outputs`` order)."""
+        messages = []
+        for i, body in enumerate(self.sim.model.bodies):
+            messages.append((self._pose_topics[i], POSE, self.world, 7))
+            messages.append((self._twist_topics[i], TWIST, body.name, 6))
+        messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
+        return messages
 
     def events(self):
         """Record the simulator's events not yet recorded, at their own times."""
         topic = self.topic('events')
         for event in self.sim.events[self._events_written:]:
-            self.recorder.channel(topic, STRING, qos=EVENTS_QOS)
-            self.recorder.write(topic, STRING,
-                                {'data': json.dumps(event)}, self.stamp_ns(event['time']))
+            self.recorder.write(topic, STRING, {'data': json.dumps(event)},
+                                self.stamp_ns(event['time']), qos=EVENTS_QOS)
         self._events_written = len(self.sim.events)
 
     def received(self, item, t: float):

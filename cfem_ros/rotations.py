@@ -41,6 +41,11 @@ def matrices(quat_xyzw: np.ndarray) -> np.ndarray:
     return out
 
 
+def to_body(quat_xyzw: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """World-axis vectors (n, 3) in the axes of bodies at the attitudes quat_xyzw (n, 4)."""
+    return np.einsum('nji,nj->ni', matrices(quat_xyzw), vectors)
+
+
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton products a * b of two stacks of quaternions, shape (..., 4)."""
     ax, ay, az, aw = np.moveaxis(a, -1, 0)

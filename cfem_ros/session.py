@@ -141,7 +141,7 @@ class Session:
         if not self.started:
             self.start()
         sim = self.sim
-        while not self.finished:
+        while not self.finished and sim.t < limit:
             target = min(self.next_sample_time, self.duration)
             if self._queue:
                 target = min(target, self._queue[0][0])
