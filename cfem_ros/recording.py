@@ -341,6 +341,8 @@ class StateRecorder:
 
     def events(self):
         """Record the simulator's events not yet recorded, at their own times."""
+        if len(self.sim.events) == self._events_written:
+            return
         topic = self.topic('events')
         for event in self.sim.events[self._events_written:]:
             self.recorder.write(topic, STRING, {'data': json.dumps(event)},
