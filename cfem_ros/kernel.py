@@ -48,8 +48,9 @@ import numpy as np
 
 _JIT = {'cache': True, 'nogil': True, 'fastmath': False, 'error_model': 'numpy'}
 
-#: For the two wrappers around the solve: inlined, they spare a call that passes the
-#: whole workspace (22 arrays) by value, about a sixth of a small model's step.
+#: Inlined (numba IR): the two wrappers around the solve, which would otherwise pass
+#: the whole workspace (22 arrays) by value on every derivative, and the helpers
+#: of the tree elimination's per-joint loop; each has one or two call sites.
 _INLINE = dict(_JIT, inline='always')
 
 #: ``advance`` results in ``info[3]``.
@@ -79,31 +80,34 @@ def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INLINE)
 def _quat_matrix(x, y, z, w, out):
+    """Rotation matrix of the quaternion (x, y, z, w) of any non-zero norm, into out."""
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
-    out[0, 0] = 1 - 2 * (yy + zz)
-    out[0, 1] = 2 * (xy - wz)
-    out[0, 2] = 2 * (xz + wy)
-    out[1, 0] = 2 * (xy + wz)
-    out[1, 1] = 1 - 2 * (xx + zz)
-    out[1, 2] = 2 * (yz - wx)
-    out[2, 0] = 2 * (xz - wy)
-    out[2, 1] = 2 * (yz + wx)
-    out[2, 2] = 1 - 2 * (xx + yy)
+    s = 2.0 / (xx + yy + zz + w * w)   # 2 / |q|^2: no square root, one division
+    out[0, 0] = 1 - s * (yy + zz)
+    out[0, 1] = s * (xy - wz)
+    out[0, 2] = s * (xz + wy)
+    out[1, 0] = s * (xy + wz)
+    out[1, 1] = 1 - s * (xx + zz)
+    out[1, 2] = s * (yz - wx)
+    out[2, 0] = s * (xz - wy)
+    out[2, 1] = s * (yz + wx)
+    out[2, 2] = 1 - s * (xx + yy)
 
 
 @numba.njit(**_JIT)
 def _normalize(v):
     norm = np.sqrt(_dot(v, v))
+    scale = 1.0 / norm
     for k in range(3):
-        v[k] /= norm
+        v[k] *= scale
     return norm
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INLINE)
 def _complement(vectors, first, count, stride_sign, base, out):
     """
     Fill out[0:3 - count] with unit vectors spanning what is orthogonal to some rows.
@@ -168,7 +172,7 @@ def _cholesky_solve(chol, k, x):
         x[i] = total / chol[i, i]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INLINE)
 def _inverse(a, k, out):
     """Inverse of the symmetric a[:k, :k] (k <= 3, lower part used) into out; False if singular."""
     if k == 0:
@@ -182,9 +186,10 @@ def _inverse(a, k, out):
         det = a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]
         if not det > 0.0:
             return False
-        out[0, 0] = a[1, 1] / det
-        out[1, 1] = a[0, 0] / det
-        out[0, 1] = out[1, 0] = -a[1, 0] / det
+        scale = 1.0 / det
+        out[0, 0] = a[1, 1] * scale
+        out[1, 1] = a[0, 0] * scale
+        out[0, 1] = out[1, 0] = -a[1, 0] * scale
         return True
     c00 = a[1, 1] * a[2, 2] - a[2, 1] * a[2, 1]
     c01 = a[2, 1] * a[2, 0] - a[1, 0] * a[2, 2]
@@ -192,12 +197,13 @@ def _inverse(a, k, out):
     det = a[0, 0] * c00 + a[1, 0] * c01 + a[2, 0] * c02
     if not det > 0.0:
         return False
-    out[0, 0] = c00 / det
-    out[0, 1] = out[1, 0] = c01 / det
-    out[0, 2] = out[2, 0] = c02 / det
-    out[1, 1] = (a[0, 0] * a[2, 2] - a[2, 0] * a[2, 0]) / det
-    out[1, 2] = out[2, 1] = (a[1, 0] * a[2, 0] - a[0, 0] * a[2, 1]) / det
-    out[2, 2] = (a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]) / det
+    scale = 1.0 / det
+    out[0, 0] = c00 * scale
+    out[0, 1] = out[1, 0] = c01 * scale
+    out[0, 2] = out[2, 0] = c02 * scale
+    out[1, 1] = (a[0, 0] * a[2, 2] - a[2, 0] * a[2, 0]) * scale
+    out[1, 2] = out[2, 1] = (a[1, 0] * a[2, 0] - a[0, 0] * a[2, 1]) * scale
+    out[2, 2] = (a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]) * scale
     return True
 
 
@@ -290,7 +296,7 @@ def _d(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INLINE)
 def _body_congruence(rot, i, src, col, out, row0):
     """Set out[row0:row0+3, row0:row0+3] to rot[i] @ B @ rot[i].T, B = src[i, col:col+9]."""
     for r in range(3):
@@ -311,9 +317,7 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
     n = bodies.shape[0]
     for i in range(n):
         o = 6 * n + 4 * i
-        norm = np.sqrt(y[o] * y[o] + y[o + 1] * y[o + 1] + y[o + 2] * y[o + 2]
-                       + y[o + 3] * y[o + 3])
-        _quat_matrix(y[o] / norm, y[o + 1] / norm, y[o + 2] / norm, y[o + 3] / norm, rot[i])
+        _quat_matrix(y[o], y[o + 1], y[o + 2], y[o + 3], rot[i])
         o = 10 * n + 3 * i
         w = _rotate(rot, i, y[o], y[o + 1], y[o + 2])
         omega[i, 0], omega[i, 1], omega[i, 2] = w
@@ -576,7 +580,7 @@ def _tree_solve(y, plan, roots, rows_f, v):
     return True
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_INLINE)
 def _shift_add(x, z, y, c, p, mhat_p, fhat_p):
     """Add Phi^T x Phi to mhat_p and Phi^T z to fhat_p (x symmetric, Phi from c to p)."""
     r0, r1, r2 = y[3 * c] - y[3 * p], y[3 * c + 1] - y[3 * p + 1], y[3 * c + 2] - y[3 * p + 2]
@@ -875,9 +879,9 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     n = bodies.shape[0]
     for i in range(n):
         o = 6 * n + 4 * i
-        norm = np.sqrt(out[o] ** 2 + out[o + 1] ** 2 + out[o + 2] ** 2 + out[o + 3] ** 2)
+        scale = 1.0 / np.sqrt(out[o] ** 2 + out[o + 1] ** 2 + out[o + 2] ** 2 + out[o + 3] ** 2)
         for k in range(4):
-            out[o + k] /= norm
+            out[o + k] *= scale
     return worst
 
 
@@ -922,9 +926,9 @@ def conditions(y, joints_i, joints_f, watch, out):
         q0 = joints_f[k, 6:10]
         rx, ry, rz, rw = _qmul(-q0[0], -q0[1], -q0[2], q0[3], rx, ry, rz, rw)
         out[w, 0] = 2.0 * np.arctan2(np.sqrt(rx * rx + ry * ry + rz * rz), abs(rw))
-        _quat_matrix(qa[0] / na, qa[1] / na, qa[2] / na, qa[3] / na, rot)
+        _quat_matrix(qa[0], qa[1], qa[2], qa[3], rot)
         _matvec(rot, joints_f[k, 0:3], pa)
-        _quat_matrix(qb[0] / nb, qb[1] / nb, qb[2] / nb, qb[3] / nb, rot)
+        _quat_matrix(qb[0], qb[1], qb[2], qb[3], rot)
         _matvec(rot, joints_f[k, 3:6], pb)
         total = 0.0
         for i in range(3):
