@@ -84,9 +84,14 @@ class _Topology:
     def __init__(self, tables: dict, active: np.ndarray, free: np.ndarray):
         keep = active[tables['joint']]
         self.joint = tables['joint'][keep]
-        self.rows_i = np.ascontiguousarray(tables['rows_i'][keep])
+        self.rows_i = np.array(tables['rows_i'][keep])
         self.rows_f = np.ascontiguousarray(tables['vectors'][keep])
         self.translation = self.rows_i[:, 2].astype(bool)
+        # 2: a translation row at the same joint point as the row before (the kernel
+        # computes the point's terms once per joint)
+        self.rows_i[1:, 2][self.translation[1:] & self.translation[:-1]
+                           & (self.joint[1:] == self.joint[:-1])
+                           & (self.rows_f[1:, 3:9] == self.rows_f[:-1, 3:9]).all(axis=1)] = 2
         self.m = len(self.joint)
         joints = np.flatnonzero(active)
         first = np.searchsorted(self.joint, joints)

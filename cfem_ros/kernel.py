@@ -13,8 +13,9 @@ quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 ``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
 the CG), inverse inertia (9; 0 for ground).
 ``loads`` (n, 7): external force (3), torque (3), 1.0 if in body axes.
-``rows_i`` (m, 3): parent body, child body, 1 for a translation row (0 for a
-rotation row). Rows come grouped by joint.
+``rows_i`` (m, 3): parent body, child body, 1 for a translation row, 2 for a
+translation row at the same joint point as the row before (its terms are
+computed once), 0 for a rotation row. Rows come grouped by joint.
 ``rows_f`` (m, 9): translation rows: axis on the parent, anchor on the
 parent, anchor on the child (body axes); rotation rows: vector on the parent,
 vector on the child, unused.
@@ -351,18 +352,13 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
     m = rows_i.shape[0]
     zero = (0.0, 0.0, 0.0)
     rho_b, t1, d, d_dot, centripetal = zero, zero, zero, zero, zero
-    same_point = False
     for r in range(m):
         a, b = rows_i[r, 0], rows_i[r, 1]
         wa = (omega[a, 0], omega[a, 1], omega[a, 2])
         wb = (omega[b, 0], omega[b, 1], omega[b, 2])
         e = _rotate(rot, a, rows_f[r, 0], rows_f[r, 1], rows_f[r, 2])
         if rows_i[r, 2]:
-            if not (same_point and r > 0 and rows_i[r - 1, 2] and a == rows_i[r - 1, 0]
-                    and b == rows_i[r - 1, 1] and rows_f[r, 3] == rows_f[r - 1, 3]
-                    and rows_f[r, 4] == rows_f[r - 1, 4] and rows_f[r, 5] == rows_f[r - 1, 5]
-                    and rows_f[r, 6] == rows_f[r - 1, 6] and rows_f[r, 7] == rows_f[r - 1, 7]
-                    and rows_f[r, 8] == rows_f[r - 1, 8]):
+            if rows_i[r, 2] == 1:
                 # the joint point's terms, shared by a joint's translation rows
                 rho_a = _rotate(rot, a, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
                 rho_b = _rotate(rot, b, rows_f[r, 6], rows_f[r, 7], rows_f[r, 8])
@@ -378,7 +374,6 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
                          y[o + 3 * b + 2] + vb[2] - y[o + 3 * a + 2] - va[2])
                 cb, ca = _x(wb, vb), _x(wa, va)
                 centripetal = (cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2])
-            same_point = True
             wa_e = _x(wa, e)
             t1e = _x(t1, e)
             rbe = _x(rho_b, e)
@@ -392,7 +387,6 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
             # centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
             gamma[r] = 2.0 * _d(wa_e, d_dot) + _d(e, centripetal) + _d(d, _x(wa, wa_e))
         else:
-            same_point = False
             f = _rotate(rot, b, rows_f[r, 3], rows_f[r, 4], rows_f[r, 5])
             c = _x(f, e)
             rel = (wb[0] - wa[0], wb[1] - wa[1], wb[2] - wa[2])
