@@ -459,30 +459,39 @@ class Simulator:
         """
         return self._joint_loads(self.y)[:2]
 
-    def outputs(self):
+    @property
+    def active_joints(self) -> tuple:
+        """Return the active joints (model indices, ascending)."""
+        return self._outputs_key
+
+    def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """
         Return what a sample publishes at the current state, in one kernel call.
 
+        Parameters
+        ----------
+        out : ndarray, optional
+            Where to write it (a fresh array if not given).
+
         Returns
         -------
-        active : tuple of int
-            The active joints (model indices, ascending).
-        values : ndarray, shape (13 n + 6 len(active),)
+        ndarray, shape (13 n + 6 len(active_joints),)
             Per body its pose (CG position, m; quaternion x y z w, body to
             world) and twist (CG velocity, m/s, and angular velocity, rad/s,
             both in body axes); then per active joint its force and moment on
             the child (world axes, N and N m about the joint point).
 
         """
-        values = np.empty(13 * self.n + 6 * len(self._outputs_key))
+        if out is None:
+            out = np.empty(13 * self.n + 6 * len(self._outputs_key))
         try:
             ok = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
-                                       self._outputs_order, values)
+                                       self._outputs_order, out)
         except np.linalg.LinAlgError:
             ok = False
         if not ok:
             raise _NumericalFailure('the constraint system is singular')
-        return self._outputs_key, values
+        return out
 
     def joint_points(self, y: Optional[np.ndarray] = None):
         """

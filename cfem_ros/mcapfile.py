@@ -38,9 +38,13 @@ _MESSAGE_INDEX_HEADER = struct.Struct('<BQHI')
 
 
 def message_record_fields(data_dtype: np.dtype) -> list:
-    """Return the numpy fields of a Message record whose data has the given (packed) dtype."""
+    """
+    Return the numpy fields of a Message record whose data has the given (packed) dtype.
+
+    ``times`` holds the log time and the publish time, in that order.
+    """
     return [('opcode', 'u1'), ('length', '<u8'), ('channel', '<u2'), ('sequence', '<u4'),
-            ('log_time', '<u8'), ('publish_time', '<u8'), ('data', data_dtype)]
+            ('times', '<u8', (2,)), ('data', data_dtype)]
 
 
 def _serialize(record) -> bytes:
@@ -72,7 +76,7 @@ class ChunkedWriter:
         self._chunk: List[bytes] = []
         self._chunk_bytes = 0
         self._chunk_times = None            # (start, end) of the chunk in progress
-        self._chunk_index: Dict[int, list] = {}   # channel -> [(log times, offsets)]
+        self._parts: List[tuple] = []   # (channels, log times, offsets) added to the chunk
         self._schemas: Dict[int, Schema] = {}
         self._channels: Dict[int, Channel] = {}
         self._chunk_indexes: List[ChunkIndex] = []
@@ -135,8 +139,8 @@ class ChunkedWriter:
             return
         base = self._chunk_bytes
         stats = self.statistics
-        for i, channel in enumerate(channels):
-            self._chunk_index.setdefault(channel, []).append((log_times, offsets[:, i] + base))
+        self._parts.append((channels, log_times, offsets + base))
+        for channel in channels:
             stats.channel_message_counts[channel] += k
         start, end = int(log_times.min()), int(log_times.max())
         if stats.message_count == 0:
@@ -168,10 +172,7 @@ class ChunkedWriter:
                            uncompressed_size=len(data))
         self._write_data(chunk)
         indexes, position = [], self._offset
-        for channel, parts in self._chunk_index.items():
-            entries = np.empty((sum(len(t) for t, _ in parts), 2), dtype='<u8')
-            entries[:, 0] = np.concatenate([t for t, _ in parts])
-            entries[:, 1] = np.concatenate([o for _, o in parts])
+        for channel, entries in self._index_entries():
             index.message_index_offsets[channel] = position
             indexes.append(_MESSAGE_INDEX_HEADER.pack(Opcode.MESSAGE_INDEX,
                                                       6 + entries.nbytes, channel,
@@ -184,8 +185,25 @@ class ChunkedWriter:
         self._chunk_indexes.append(index)
         self.statistics.chunk_count += 1
         self._chunk, self._chunk_bytes, self._chunk_times = [], 0, None
-        self._chunk_index = {}
+        self._parts = []
         self._stream.flush()   # a closed chunk survives a hard kill
+
+    def _index_entries(self):
+        """Yield (channel, (log time, offset) entries as uint64 (k, 2)) of the chunk."""
+        if len(self._parts) == 1:   # the usual chunk: one block of samples
+            channels, log_times, offsets = self._parts[0]
+            entries = np.empty((len(channels), len(log_times), 2), dtype='<u8')
+            entries[:, :, 0] = log_times
+            entries[:, :, 1] = offsets.T
+            yield from zip(channels, entries)
+            return
+        found: Dict[int, list] = {}
+        for channels, log_times, offsets in self._parts:
+            for i, channel in enumerate(channels):
+                found.setdefault(channel, []).append(
+                    np.column_stack((log_times, offsets[:, i])).astype('<u8'))
+        for channel, parts in found.items():
+            yield channel, np.concatenate(parts)
 
     # ---------------------------------------------------------------- finish
 

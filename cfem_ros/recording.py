@@ -49,6 +49,8 @@ EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
 
 #: Chunk size in bytes: small, so that a hard kill loses little.
 CHUNK_SIZE = 64 * 1024
+#: builtin_interfaces/Time in CDR.
+_STAMP = np.dtype([('sec', '<i4'), ('nanosec', '<u4')])
 #: CDR encapsulation header: plain CDR, little endian.
 CDR_LE = b'\x00\x01\x00\x00'
 
@@ -167,8 +169,14 @@ class Recorder:
         channels = [self.channel(topic, msgtype) for topic, msgtype, _, _ in messages]
         return SampleLayout(channels, [(frame, count) for _, _, frame, count in messages])
 
-    def add_sample(self, layout: 'SampleLayout', stamp_ns: int, values: np.ndarray):
-        """Write one sample: its messages all stamped stamp_ns, their numbers in values."""
+    def add_sample(self, layout: 'SampleLayout', stamp_ns: int,
+                   values: Optional[np.ndarray] = None):
+        """
+        Write one sample: its messages all stamped stamp_ns.
+
+        values holds their numbers; None if they were written into
+        ``layout.next_row()`` already.
+        """
         if self._pending is not layout:
             self._flush_samples()
             self._pending = layout
@@ -227,8 +235,7 @@ class SampleLayout:
         fields, self.columns, column = [], [], 0
         for i, (frame_id, count) in enumerate(messages):
             frame = _frame_bytes(frame_id)
-            data = [('encapsulation', 'V4'), ('sec', '<i4'), ('nanosec', '<u4'),
-                    ('frame', f'V{len(frame)}')]
+            data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
             pad = -(8 + len(frame)) % 8
             if pad:
                 data.append(('pad', f'V{pad}'))
@@ -252,10 +259,15 @@ class SampleLayout:
             record['data']['encapsulation'] = np.void(CDR_LE)
             record['data']['frame'] = np.void(_frame_bytes(frame_id))
 
-    def append(self, stamp_ns: int, values: np.ndarray) -> bool:
-        """Buffer one sample; return True when the buffer is full."""
+    def next_row(self) -> np.ndarray:
+        """Return the buffer row the next sample's numbers go to (filled by ``append``)."""
+        return self.values[self.count]
+
+    def append(self, stamp_ns: int, values: Optional[np.ndarray] = None) -> bool:
+        """Buffer one sample (values None: already in ``next_row()``); True when full."""
         self.stamps[self.count] = stamp_ns
-        self.values[self.count] = values
+        if values is not None:
+            self.values[self.count] = values
         self.count += 1
         return self.count == len(self.stamps)
 
@@ -265,16 +277,16 @@ class SampleLayout:
         self.count = 0
         stamps = self.stamps[:k]
         records = self._records[:k]
-        sec, nanosec = np.divmod(stamps, 1_000_000_000)
+        stamp = np.empty(k, dtype=_STAMP)
+        stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
+        times = stamps[:, None]
         sequence = first_sequence + per * np.arange(k)
         for i, (a, b) in enumerate(self.columns):
             record = records[f'm{i}']
             record['sequence'] = sequence + i
-            record['log_time'] = stamps
-            record['publish_time'] = stamps
+            record['times'] = times
             data = record['data']
-            data['sec'] = sec
-            data['nanosec'] = nanosec
+            data['stamp'] = stamp
             data['values'] = self.values[:k, a:b]
         offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
         return records.tobytes(), self.channels, stamps.copy(), offsets
@@ -324,11 +336,13 @@ class StateRecorder:
 
     def sample(self):
         """Record poses, twists and active joints' wrenches at the current state."""
-        active, values = self.sim.outputs()
+        sim = self.sim
+        active = sim.active_joints
         layout = self._layouts.get(active)
         if layout is None:
             layout = self._layouts[active] = self.recorder.layout(self._messages(active))
-        self.recorder.add_sample(layout, self.stamp_ns(self.sim.t), values)
+        sim.outputs(out=layout.next_row())
+        self.recorder.add_sample(layout, self.stamp_ns(sim.t))
 
     def _messages(self, active):
         """List the messages of a sample with these joints active (``Simulator.outputs`` order)."""

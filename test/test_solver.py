@@ -133,3 +133,24 @@ def test_closed_loop_falls_back_to_the_whole_system(caplog):
     on_a, on_b = sim.joint_points()
     assert np.abs(on_a - on_b).max() < 1e-6
     assert np.abs(sim.position[1:, 1]).max() > 1e-2   # it did swing out of its plane
+
+
+def test_sample_outputs_match_the_separate_accessors():
+    """One kernel call for a sample gives what the accessors give one by one."""
+    sim = Simulator(tree_scenario())
+    sim.advance_to(0.05)
+    for _ in range(2):
+        values = sim.outputs()
+        n, active = sim.n, list(sim.active_joints)
+        assert active == list(np.flatnonzero(sim.active))
+        bodies = values[:13 * n].reshape(n, 13)
+        np.testing.assert_array_equal(bodies[:, 0:3], sim.position)
+        np.testing.assert_array_equal(bodies[:, 3:7], sim.orientation)
+        np.testing.assert_allclose(bodies[:, 7:10], sim.velocity_body(), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(bodies[:, 10:13], sim.rates)
+        force, moment = sim.joint_wrenches()
+        loads = values[13 * n:].reshape(len(active), 6)
+        np.testing.assert_allclose(loads[:, :3], force[active], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(loads[:, 3:], moment[active], rtol=1e-12, atol=1e-9)
+        sim.release(active[0])
+    assert len(sim.active_joints) == len(active) - 1
