@@ -38,43 +38,45 @@ CONFIG = ROOT / 'config'
 DT = 0.001
 
 
-def median_time(run, repeats):
-    """Median wall time of run() over repeats, s."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+def cfem_run(model, steps):
+    """Return a run of the engine over `steps` steps from the start (set-up untimed)."""
+    sims = []
 
-
-def cfem_us(model, steps, repeats):
-    """Microseconds per step of the engine over `steps` steps from the start."""
     def run():
-        sim = Simulator(model)
-        run.sim = sim
-        run.start = time.perf_counter()
-        assert sim.advance_to(steps * model.dt), sim.message
-        run.wall = time.perf_counter() - run.start
-    walls = []
-    for _ in range(repeats):
-        run()
-        walls.append(run.wall)
-    return statistics.median(walls) / steps * 1e6
+        assert sims.pop().advance_to(steps * model.dt)
+
+    run.prepare = lambda: sims.append(Simulator(model))
+    return run
 
 
-def mujoco_us(model, data0, steps, repeats):
-    """Microseconds per mj_step, a Python loop from the same start."""
-    walls = []
-    for _ in range(repeats):
+def mujoco_run(model, data0, steps):
+    """Return a Python loop of `steps` mj_step calls from the same start (set-up untimed)."""
+    datas = []
+
+    def run():
+        data = datas.pop()
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+
+    def prepare():
         data = mujoco.MjData(model)
         data.qpos[:] = data0.qpos
         data.qvel[:] = data0.qvel
-        start = time.perf_counter()
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-        walls.append(time.perf_counter() - start)
-    return statistics.median(walls) / steps * 1e6
+        datas.append(data)
+    run.prepare = prepare
+    return run
+
+
+def timed_pair(runs, repeats):
+    """Median s of each prepared run, taking turns; prepare() is not timed."""
+    times = [[] for _ in runs]
+    for _ in range(repeats):
+        for run, spent in zip(runs, times):
+            run.prepare()
+            start = time.perf_counter()
+            run()
+            spent.append(time.perf_counter() - start)
+    return [statistics.median(spent) for spent in times]
 
 
 def cfem_end(model, duration, dt):
@@ -96,8 +98,14 @@ def mujoco_end(model, data0, duration):
 
 def compare(label, cfem_model, mj_model, mj_data, steps, repeats, accuracy_time, rows):
     """Time both, measure both errors against cfem_ros at dt / 16; print one row."""
-    ours = cfem_us(cfem_model, steps, repeats)
-    theirs = mujoco_us(mj_model, mj_data, steps, repeats) if mj_model is not None else math.nan
+    runs = [cfem_run(cfem_model, steps)]
+    if mj_model is not None:
+        runs.append(mujoco_run(mj_model, mj_data, steps))
+    for run in runs:   # warm up: compilation, caches
+        run.prepare()
+        run()
+    times = [t / steps * 1e6 for t in timed_pair(runs, repeats)]
+    ours, theirs = times[0], (times[1] if mj_model is not None else math.nan)
     reference = cfem_end(cfem_model, accuracy_time, cfem_model.dt / 16)
     err_ours = np.abs(cfem_end(cfem_model, accuracy_time, cfem_model.dt) - reference).max()
     err_theirs = (np.abs(mujoco_end(mj_model, mj_data, accuracy_time) - reference).max()
@@ -131,13 +139,14 @@ def paper_cases(repeats, rows):
     # store separation: MuJoCo has no releasable hinge, so the store changes
     # model (hinge, then free joint) at the first step past 10 deg
     store = load_scenario(str(CONFIG / 'store_separation.yaml'))
-    ours = cfem_us(store, 1500, repeats)
-    walls = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        end = store_in_mujoco(1.5)
-        walls.append(time.perf_counter() - start)
-    theirs = statistics.median(walls) / 1500 * 1e6
+    ended = []
+
+    def theirs_run():
+        ended.append(store_in_mujoco(1.5))
+    theirs_run.prepare = lambda: None
+    times = timed_pair([cfem_run(store, 1500), theirs_run], repeats)
+    ours, theirs = (t / 1500 * 1e6 for t in times)
+    end = ended[-1]
     reference = cfem_end(store, 1.5, DT / 16)
     err_ours = np.abs(cfem_end(store, 1.5, DT) - reference).max()
     err_theirs = np.abs(end - reference).max()
@@ -145,7 +154,7 @@ def paper_cases(repeats, rows):
     print(f'{"store separation":<22} {ours:10.1f} {theirs:10.1f} {theirs / ours:8.2f}x'
           f' {err_ours:10.2e} {err_theirs:10.2e} {1.5:6.2f}', flush=True)
     spin = load_scenario(str(CONFIG / 'fixed_joint_spin.yaml'))
-    ours = cfem_us(spin, 5000, repeats)
+    ours = timed_pair([cfem_run(spin, 5000)], repeats)[0] / 5000 * 1e6
     reference = cfem_end(spin, 1.0, DT / 16)
     err_ours = np.abs(cfem_end(spin, 1.0, DT) - reference).max()
     rows.append(('fixed joint spin', ours, math.nan, math.nan, err_ours, math.nan, 1.0))
@@ -177,7 +186,7 @@ def store_in_mujoco(duration):
 
 
 def recording_cost(repeats):
-    """Double pendulum, 5 s at dt = 1 ms: wall time with a 100 Hz recording / without."""
+    """Double pendulum, 5 s at dt = 1 ms: wall time with a 100 Hz recording and without."""
     model = load_scenario(str(CONFIG / 'double_pendulum.yaml'), duration=5.0)
     with tempfile.TemporaryDirectory() as folder:
         def plain():
@@ -188,8 +197,10 @@ def recording_cost(repeats):
             with Recorder(os.path.join(folder, 'dp.mcap'), overwrite=True) as recorder:
                 assert offline.run(sim, StateRecorder(recorder, sim), rate_hz=100.0,
                                    duration=5.0)
-        a = median_time(plain, repeats)
-        b = median_time(recorded, repeats)
+        plain.prepare = recorded.prepare = lambda: None
+        plain()
+        recorded()
+        a, b = timed_pair([plain, recorded], max(repeats, 9))
     print(f'double pendulum, 5 s: {a / 5000 * 1e6:.2f} us/step unrecorded, '
           f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: +{100 * (b / a - 1):.0f} %')
     return a, b

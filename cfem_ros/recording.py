@@ -248,6 +248,7 @@ class SampleLayout:
         capacity = max(1, -(-CHUNK_SIZE // self.dtype.itemsize))
         self.stamps = np.empty(capacity, dtype=np.int64)
         self.values = np.empty((capacity, self.size))
+        self._rows = list(self.values)   # the row views, made once
         self.count = 0
         self._records = np.zeros(capacity, dtype=self.dtype)
         self.offsets = np.array([self.dtype.fields[f'm{i}'][1] for i in range(len(messages))])
@@ -261,7 +262,7 @@ class SampleLayout:
 
     def next_row(self) -> np.ndarray:
         """Return the buffer row the next sample's numbers go to (filled by ``append``)."""
-        return self.values[self.count]
+        return self._rows[self.count]
 
     def append(self, stamp_ns: int, values: Optional[np.ndarray] = None) -> bool:
         """Buffer one sample (values None: already in ``next_row()``); True when full."""
