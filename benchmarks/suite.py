@@ -202,7 +202,7 @@ def recording_cost(repeats):
         recorded()
         a, b = timed_pair([plain, recorded], max(repeats, 9))
     print(f'double pendulum, 5 s: {a / 5000 * 1e6:.2f} us/step unrecorded, '
-          f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: +{100 * (b / a - 1):.0f} %')
+          f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: {100 * (b / a - 1):+.0f} %')
     return a, b
 
 
