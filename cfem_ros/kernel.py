@@ -47,7 +47,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-_JIT = {'cache': True, 'nogil': True, 'fastmath': False, 'error_model': 'numpy'}
+#: fastmath only to contract a * b + c into fused multiply-adds (one rounding, not two):
+#: about 12 % off a long chain's step, whose elimination is a chain of dependent
+#: multiply-adds. No other fast-math flag: non-finite states must still be caught.
+_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
 
 #: Inlined (numba IR): the two wrappers around the solve, which would otherwise pass
 #: the whole workspace (22 arrays) by value on every derivative, and the helpers
