@@ -69,6 +69,51 @@ def _apply(matrices, vectors):
     return np.einsum('mij,mj->mi', matrices, vectors)
 
 
+class SampleGrid:
+    """
+    Samples on the grid k / rate_hz, taken by the kernel inside ``Simulator.advance_to``.
+
+    Steps are cut at the grid's times (as they are when each sample time is
+    a target of its own), and at each the sample's outputs
+    (``Simulator.outputs``) go to the next of ``rows``; rows with no columns
+    only count the samples. Before each call, ``reset`` says where the next
+    rows go.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Samples per second.
+
+    """
+
+    def __init__(self, rate_hz: float):
+        #: rate (Hz), index of the next sample, samples taken in the last call.
+        self.state = np.array([float(rate_hz), 0.0, 0.0])
+        self.rows = np.empty((0, 0))
+
+    def reset(self, next_index: int, rows: np.ndarray):
+        """Take samples from index next_index on, into rows (C-contiguous float64)."""
+        if rows.ndim != 2 or rows.dtype != np.float64 or not rows.flags.c_contiguous:
+            raise ValueError('sample rows must be a C-contiguous 2-d float64 array')
+        self.state[1:] = (next_index, 0)
+        self.rows = rows
+
+    @property
+    def taken(self) -> int:
+        """Return the number of samples taken since ``reset``."""
+        return int(self.state[2])
+
+    @property
+    def next_time(self) -> float:
+        """Return the time of the next sample to take, s."""
+        return self.state[1] / self.state[0]
+
+
+#: What ``kernel.advance`` gets for no sample grid.
+_NO_GRID = np.zeros(3)
+_NO_ROWS = np.empty((0, 0))
+
+
 class _Topology:
     """
     The constraint rows of the active joints and how to solve them, for ``kernel``.
@@ -483,7 +528,7 @@ class Simulator:
 
         """
         if out is None:
-            out = np.empty(13 * self.n + 6 * len(self._outputs_key))
+            out = np.empty(self._outputs_size())
         try:
             ok = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
                                        self._outputs_order, out)
@@ -589,7 +634,8 @@ class Simulator:
 
     # ------------------------------------------------------------- stepping
 
-    def advance_to(self, t_target: float, limit: Optional[float] = None) -> bool:
+    def advance_to(self, t_target: float, limit: Optional[float] = None,
+                   samples: Optional[SampleGrid] = None) -> bool:
         """
         Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
 
@@ -598,30 +644,40 @@ class Simulator:
         RK4 map. With ``limit``, stop before the first step that would end
         after it: the steps taken are the same as those toward t_target
         without a limit, so a run paced by a clock is the run without one.
+        With ``samples``, the samples on its grid are taken on the way (one
+        due now first), and the call returns early after a release or when
+        the grid's rows are full, so that the caller can record the events
+        and the samples in time order and call again.
         Returns False (and sets ``status`` and ``message``) if the run failed;
         the state is then the last good one.
         """
         if self.status != 'running':
             return False
         limit = math.inf if limit is None else limit
+        if samples is not None and samples.rows.shape[1] not in (0, self._outputs_size()):
+            raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
+                             f'of this state have {self._outputs_size()}')
         try:
-            while self.t < t_target:
+            while self.t < t_target or (samples is not None and self.t >= samples.next_time):
                 due = self._next_time_trigger()
                 due = math.inf if due is None else due
-                result = self._run(t_target, due, limit)
+                result = self._run(t_target, due, limit, samples)
                 if result == kernel.CONDITION:
                     # a release condition is reached within the next step: locate it
-                    remaining = t_target - self.t
+                    goal = t_target if samples is None else min(t_target, samples.next_time)
+                    remaining = goal - self.t
                     if remaining <= self.dt * (1.0 + 1e-9):
-                        h, t_end = remaining, t_target
+                        h, t_end = remaining, goal
                     else:
                         h, t_end = self.dt, self.t + self.dt
                     if due < t_end:
                         h, t_end = due - self.t, due
                     self._step(h, t_end)
-                    continue
-                self._fire_time_triggers()
-                if self.t < t_target and self.t < due:
+                else:
+                    self._fire_time_triggers()
+                if samples is not None:
+                    break   # back to the caller: rows to take, or a release's events
+                if result != kernel.CONDITION and self.t < t_target and self.t < due:
                     break   # the next step would end after limit
         except _NumericalFailure as err:
             self.status = 'failed'
@@ -629,15 +685,19 @@ class Simulator:
             return False
         return True
 
-    def _run(self, t_target, due, limit):
+    def _outputs_size(self) -> int:
+        return 13 * self.n + 6 * len(self._outputs_key)
+
+    def _run(self, t_target, due, limit, samples=None):
         """Take steps in the kernel until a target, a release time, limit or a condition."""
         top = self._topology
         info = self._info
         info[:] = (self.t, 0.0, self.max_violation, kernel.REACHED, DIVERGENCE_VIOLATION, 0.0)
+        grid, rows = (_NO_GRID, _NO_ROWS) if samples is None else (samples.state, samples.rows)
         try:
             kernel.advance(self.y, info, t_target, due, limit, self.dt, *top.kernel_args(self),
                            self._joints_i, self._joints_f, self._watch, self._watch_limits,
-                           self._watch_lines)
+                           self._watch_lines, grid, self._outputs_order, rows)
         except np.linalg.LinAlgError:
             info[3] = kernel.SINGULAR
         finally:

@@ -58,7 +58,7 @@ _JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': '
 _INLINE = dict(_JIT, inline='always')
 
 #: ``advance`` results in ``info[3]``.
-REACHED, CONDITION, NOT_FINITE, VIOLATION, SINGULAR = 0, 1, 2, 3, 4
+REACHED, CONDITION, NOT_FINITE, VIOLATION, SINGULAR, ROWS_FULL = 0, 1, 2, 3, 4, 5
 
 #: Columns of ``plan``.
 P_ROW, P_NT, P_NR, P_CHILD, P_PARENT, P_SIGN, P_JOINT = range(7)
@@ -738,6 +738,16 @@ def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
     in ``order`` 6: the joint's force and moment on its child (world axes,
     N and N m about the joint point).
     """
+    v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
+    force = np.empty((plan.shape[0], 3))
+    moment = np.empty((plan.shape[0], 3))
+    return _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
+                           v, order, out, force, moment)
+
+
+@numba.njit(**_JIT)
+def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                    order, out, force, moment):
     n = bodies.shape[0]
     for i in range(n):
         o, q = 13 * i, 6 * n + 4 * i
@@ -758,9 +768,6 @@ def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
                       + (1 - 2 * (x * x + yy * yy)) * v2)
     if order.shape[0] == 0:
         return True
-    force = np.empty((plan.shape[0], 3))
-    moment = np.empty((plan.shape[0], 3))
-    v = carve(work, n, rows_i.shape[0], plan.shape[0])
     if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
                         force, moment):
         return False
@@ -951,7 +958,8 @@ def _qmul(ax, ay, az, aw, bx, by, bz, bw):
 
 @numba.njit(**_JIT)
 def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, rows_f, plan,
-            roots, eta, dense, work, joints_i, joints_f, watch, limits, watch_plan):
+            roots, eta, dense, work, joints_i, joints_f, watch, limits, watch_plan, grid, order,
+            samples):
     """
     Take RK4 steps of dt toward t_target, as ``Simulator.advance_to`` defines them.
 
@@ -963,6 +971,14 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
     distance, force at ``limits``; inf for none) is reached (CONDITION: the
     caller locates the crossing), or on a failure (NOT_FINITE, VIOLATION,
     SINGULAR).
+
+    grid = [rate (Hz; 0 for none), index k of the next sample, samples
+    taken]: steps are also cut at the sample times k / rate, and at each
+    the sample's outputs (``sample_outputs``, joints in ``order``) go to
+    the next row of ``samples`` (none if it has 0 columns: the samples are
+    only counted); a sample due at the current time is taken first. Stops
+    with ROWS_FULL when a sample is due and every row is taken. A sample
+    at ``due`` is left to the next call, after the release.
     """
     size = y.shape[0]
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
@@ -976,48 +992,69 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             need_force = True
     t = info[0]
     info[3] = REACHED
-    while t < t_target:
-        remaining = t_target - t
-        if remaining <= dt * (1.0 + 1e-9):
-            h, t_end = remaining, t_target
-        else:
-            h, t_end = dt, t + dt
-        if due < t_end:
-            h, t_end = due - t, due
-        if t_end > limit:
+    rate = grid[0]
+    while True:
+        goal = t_target
+        if rate > 0.0:
+            at = grid[1] / rate
+            if t >= at:
+                taken = int(grid[2])
+                if taken == samples.shape[0]:
+                    info[3] = ROWS_FULL
+                    return
+                if samples.shape[1] > 0 and not _sample_outputs(
+                        y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                        order, samples[taken], force, moment):
+                    info[3] = SINGULAR
+                    return
+                grid[1] += 1.0
+                grid[2] += 1.0
+                continue
+            goal = min(goal, at)
+        if t >= t_target:
             return
-        worst = _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
-                     dense, v)
-        if worst < 0.0:
-            info[3] = SINGULAR
-            return
-        if watch.shape[0] > 0:
-            conditions(out, joints_i, joints_f, watch, values)
-            if need_force and not _joint_loads(out, bodies, gravity, loads, rows_i, rows_f,
-                                               plan, roots, eta, dense, v, force, moment):
+        while t < goal:
+            remaining = goal - t
+            if remaining <= dt * (1.0 + 1e-9):
+                h, t_end = remaining, goal
+            else:
+                h, t_end = dt, t + dt
+            if due < t_end:
+                h, t_end = due - t, due
+            if t_end > limit:
+                return
+            worst = _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                         dense, v)
+            if worst < 0.0:
                 info[3] = SINGULAR
                 return
-            for w in range(watch.shape[0]):
-                magnitude = 0.0
-                if need_force:
-                    magnitude = np.sqrt(_dot(force[watch_plan[w]], force[watch_plan[w]]))
-                if (values[w, 0] >= limits[w, 0] or values[w, 1] >= limits[w, 1]
-                        or magnitude >= limits[w, 2]):
-                    info[3] = CONDITION
+            if watch.shape[0] > 0:
+                conditions(out, joints_i, joints_f, watch, values)
+                if need_force and not _joint_loads(out, bodies, gravity, loads, rows_i, rows_f,
+                                                   plan, roots, eta, dense, v, force, moment):
+                    info[3] = SINGULAR
                     return
-        for j in range(size):
-            if not np.isfinite(out[j]):
-                info[3] = NOT_FINITE
+                for w in range(watch.shape[0]):
+                    magnitude = 0.0
+                    if need_force:
+                        magnitude = np.sqrt(_dot(force[watch_plan[w]], force[watch_plan[w]]))
+                    if (values[w, 0] >= limits[w, 0] or values[w, 1] >= limits[w, 1]
+                            or magnitude >= limits[w, 2]):
+                        info[3] = CONDITION
+                        return
+            for j in range(size):
+                if not np.isfinite(out[j]):
+                    info[3] = NOT_FINITE
+                    return
+            if worst > info[4]:
+                info[3] = VIOLATION
+                info[5] = worst
                 return
-        if worst > info[4]:
-            info[3] = VIOLATION
-            info[5] = worst
-            return
-        info[2] = max(info[2], worst)
-        for j in range(size):
-            y[j] = out[j]
-        t = t_end
-        info[0] = t
-        info[1] += 1
-        if t_end >= due:
-            return
+            info[2] = max(info[2], worst)
+            for j in range(size):
+                y[j] = out[j]
+            t = t_end
+            info[0] = t
+            info[1] += 1
+            if t_end >= due:
+                return

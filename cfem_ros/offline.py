@@ -5,7 +5,6 @@
 from __future__ import annotations
 
 import logging
-import time
 from typing import Callable, Optional
 
 from cfem_ros.session import Session
@@ -46,11 +45,5 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
                       outputs=[recorder] if recorder is not None else [], warn=log.warning)
     for item in inputs:
         session.submit(item, check=False)
-    session.start()
-    wall = time.monotonic()
-    while not session.finished:
-        session.advance(session.next_sample_time)
-        if progress is not None and time.monotonic() - wall > 1.0:
-            wall = time.monotonic()
-            progress(sim.t)
+    session.run(progress)
     return not session.failed

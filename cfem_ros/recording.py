@@ -183,6 +183,20 @@ class Recorder:
         if layout.append(stamp_ns, values):
             self._flush_samples()
 
+    def free_rows(self, layout: 'SampleLayout') -> np.ndarray:
+        """Return the free rows of the layout's buffer, for samples given to ``commit_rows``."""
+        if self._pending is not layout:
+            self._flush_samples()
+            self._pending = layout
+        return layout.values[layout.count:]
+
+    def commit_rows(self, layout: 'SampleLayout', stamps_ns: np.ndarray):
+        """Write the samples in the first len(stamps_ns) free rows, stamped stamps_ns."""
+        if self._pending is not layout:
+            raise ValueError('commit_rows: the rows were not taken from this layout last')
+        if layout.extend(stamps_ns):
+            self._flush_samples()
+
     def _flush_samples(self):
         layout, self._pending = self._pending, None
         if layout is None or not layout.count:
@@ -272,6 +286,15 @@ class SampleLayout:
         self.count += 1
         return self.count == len(self.stamps)
 
+    def extend(self, stamps_ns: np.ndarray) -> bool:
+        """Buffer samples already in the next rows, stamped stamps_ns; True when full."""
+        k = len(stamps_ns)
+        if self.count + k > len(self.stamps):
+            raise ValueError(f'{k} samples do not fit in {len(self.stamps) - self.count} rows')
+        self.stamps[self.count:self.count + k] = stamps_ns
+        self.count += k
+        return self.count == len(self.stamps)
+
     def records(self, first_sequence: int):
         """Return the buffered samples as Message records and empty the buffer."""
         k, per = self.count, len(self.channels)
@@ -326,6 +349,7 @@ class StateRecorder:
         self._wrench_topics = [self.topic(f'joints/{j.name}/wrench') for j in model.joints]
         self._events_written = 0
         self._layouts = {}   # active joints -> SampleLayout
+        self._rows_layout = None   # the layout of the rows last handed out
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -338,12 +362,25 @@ class StateRecorder:
     def sample(self):
         """Record poses, twists and active joints' wrenches at the current state."""
         sim = self.sim
-        active = sim.active_joints
+        layout = self._layout(sim.active_joints)
+        sim.outputs(out=layout.next_row())
+        self.recorder.add_sample(layout, self.stamp_ns(sim.t))
+
+    def sample_rows(self) -> np.ndarray:
+        """Return buffer rows for the next samples' ``Simulator.outputs`` (see ``took_rows``)."""
+        self._rows_layout = self._layout(self.sim.active_joints)
+        return self.recorder.free_rows(self._rows_layout)
+
+    def took_rows(self, times: np.ndarray):
+        """Record the samples at these simulated times (s), in the first rows given."""
+        stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
+        self.recorder.commit_rows(self._rows_layout, stamps)
+
+    def _layout(self, active) -> 'SampleLayout':
         layout = self._layouts.get(active)
         if layout is None:
             layout = self._layouts[active] = self.recorder.layout(self._messages(active))
-        sim.outputs(out=layout.next_row())
-        self.recorder.add_sample(layout, self.stamp_ns(sim.t))
+        return layout
 
     def _messages(self, active):
         """List the messages of a sample with these joints active (``Simulator.outputs`` order)."""

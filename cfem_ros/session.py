@@ -28,11 +28,18 @@ import heapq
 import itertools
 import logging
 import math
+import time
 from typing import Callable, Optional
 
+from cfem_ros.engine import SampleGrid
 from cfem_ros.inputs import apply_input, Input, input_topic, validate_input
+import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
+
+#: Samples counted per kernel call when no output takes rows (so that
+#: progress is still reported on long runs).
+COUNT_ONLY = 1000
 
 
 class Session:
@@ -156,6 +163,56 @@ class Session:
             self._apply_due()
             if sim.t >= self.duration:
                 self._emit_events()
+
+    def run(self, progress: Optional[Callable[[float], None]] = None):
+        """
+        Run to the duration unpaced, the kernel taking the samples on its way.
+
+        The same steps, samples, inputs and events as ``advance`` over
+        every sample time, in far fewer calls from Python: an output
+        that offers ``sample_rows()`` and ``took_rows(times)`` (as
+        ``StateRecorder`` does) gets its rows filled by the kernel, a chunk
+        at a time. With any other output, or more than one, this is
+        ``advance`` sample by sample. ``progress`` is called now and then
+        with the simulated time (at least once a second of wall time).
+        """
+        if not math.isfinite(self.duration):
+            raise ValueError('run() needs a finite duration')
+        self.start()
+        sink = self.outputs[0] if len(self.outputs) == 1 else None
+        if len(self.outputs) > 1 or (sink is not None and not hasattr(sink, 'sample_rows')):
+            return self._run_per_sample(progress)
+        sim = self.sim
+        grid = SampleGrid(self.rate_hz)
+        counting = np.empty((COUNT_ONLY, 0))
+        wall = time.monotonic()
+        while not self.failed and (sim.t < self.duration or self.next_sample_time <= sim.t):
+            target = self.duration
+            if self._queue:
+                target = min(target, self._queue[0][0])
+            grid.reset(self.samples, counting if sink is None else sink.sample_rows())
+            ok = sim.advance_to(target, samples=grid)
+            if grid.taken:
+                if sink is not None:
+                    sink.took_rows(np.arange(self.samples, self.samples + grid.taken)
+                                   / self.rate_hz)
+                self.samples += grid.taken
+            self._emit_events()
+            if not ok:
+                return
+            if self.next_sample_time > sim.t:   # inputs at t act after the sample at t
+                self._apply_due()
+            if progress is not None and time.monotonic() - wall > 1.0:
+                wall = time.monotonic()
+                progress(sim.t)
+
+    def _run_per_sample(self, progress):
+        wall = time.monotonic()
+        while not self.finished:
+            self.advance(self.next_sample_time)
+            if progress is not None and time.monotonic() - wall > 1.0:
+                wall = time.monotonic()
+                progress(self.sim.t)
 
     # ------------------------------------------------------------- internals
 
