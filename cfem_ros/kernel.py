@@ -485,9 +485,16 @@ def _tree_solve(y, plan, roots, rows_f, v):
                 s[k] += rhs[r0 + i] * jac[r0 + i, off + k]
         for k in range(3):
             s[k] -= ws[k]
-        # U = M^ G, D = G^T M^ G, q = G^T (f^ - M^ s)
         mh = mhat[c]
         u = weighted_basis[j]
+        if k_free == 1:
+            # one free motion (hinge, slider): the same algebra, straight-line
+            if not _eliminate_one(mh, fhat[c], g, s, u, vec, x, chol[j], projected[j]):
+                return False
+            if roots[p] >= 0:
+                _shift_add(x, vec, y, c, p, mhat[p], fhat[p])
+            continue
+        # U = M^ G, D = G^T M^ G, q = G^T (f^ - M^ s)
         for col in range(k_free):
             for row in range(6):
                 total = 0.0
@@ -574,6 +581,41 @@ def _tree_solve(y, plan, roots, rows_f, v):
             for col in range(k_free):
                 total += g[k, col] * vec[col]
             acc[c, k] = total
+    return True
+
+
+@numba.njit(**_INLINE)
+def _eliminate_one(mh, f, g, s, u, z, x, d_inv, projected):
+    """
+    Eliminate one free motion g (6, column 0) of a body with articulated M^ = mh, f^ = f.
+
+    u = M^ g, D = g^T u, q = g^T z with z = f - M^ s; then what the parent
+    feels before the shift: x = M^ - u u^T / D and z - u q / D. False if D <= 0.
+    """
+    g0, g1, g2, g3, g4, g5 = g[0, 0], g[1, 0], g[2, 0], g[3, 0], g[4, 0], g[5, 0]
+    s0, s1, s2, s3, s4, s5 = s[0], s[1], s[2], s[3], s[4], s[5]
+    total_d = 0.0
+    total_q = 0.0
+    for i in range(6):
+        ui = (mh[i, 0] * g0 + mh[i, 1] * g1 + mh[i, 2] * g2 + mh[i, 3] * g3 + mh[i, 4] * g4
+              + mh[i, 5] * g5)
+        zi = f[i] - (mh[i, 0] * s0 + mh[i, 1] * s1 + mh[i, 2] * s2 + mh[i, 3] * s3
+                     + mh[i, 4] * s4 + mh[i, 5] * s5)
+        u[i, 0] = ui
+        z[i] = zi
+        total_d += g[i, 0] * ui
+        total_q += g[i, 0] * zi
+    if not total_d > 0.0:
+        return False
+    inv = 1.0 / total_d
+    d_inv[0, 0] = inv
+    projected[0] = total_q
+    a = total_q * inv
+    for i in range(6):
+        vi = u[i, 0] * inv
+        z[i] -= u[i, 0] * a
+        for k in range(i, 6):
+            x[i, k] = x[k, i] = mh[i, k] - vi * u[k, 0]
     return True
 
 
