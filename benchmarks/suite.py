@@ -117,15 +117,38 @@ def compare(label, cfem_model, mj_model, mj_data, steps, repeats, accuracy_time,
     return row
 
 
+def chain_model(n, spatial):
+    """Return the MuJoCo model and data of a hinge chain, and the same chain in cfem_ros."""
+    spec, tilt = models.chain(n, spatial, DT)
+    mj_model, mj_data = models.compile_tilted(spec, tilt)
+    return mj_model, mj_data, parse_scenario(models.scenario(mj_model, mj_data, f'chain{n}', 1.0))
+
+
+def chain_steps(n):
+    return max(20, min(2000, 20000 // n))
+
+
+def growth(small, large, repeats):
+    """Cost per step of chains of `large` links over `small` links, the two timed in turns."""
+    for spatial in (False, True):
+        sizes = (small, large)
+        runs = [cfem_run(chain_model(n, spatial)[2], chain_steps(n)) for n in sizes]
+        for run in runs:
+            run.prepare()
+            run()
+        times = [t / chain_steps(n) for t, n in zip(timed_pair(runs, repeats), sizes)]
+        print(f'{"spatial" if spatial else "planar"} chains: cost N = {small} -> {large} grows '
+              f'{times[1] / times[0]:.1f}x ({times[0] * 1e6:.1f} -> {times[1] * 1e6:.1f} us, '
+              f'timed in turns)', flush=True)
+
+
 def chains(sizes, repeats, rows):
     results = {}
     for spatial in (False, True):
         kind = 'spatial' if spatial else 'planar'
         for n in sizes:
-            spec, tilt = models.chain(n, spatial, DT)
-            mj_model, mj_data = models.compile_tilted(spec, tilt)
-            cfem_model = parse_scenario(models.scenario(mj_model, mj_data, f'chain{n}', 1.0))
-            steps = max(20, min(2000, 20000 // n))
+            mj_model, mj_data, cfem_model = chain_model(n, spatial)
+            steps = chain_steps(n)
             accuracy_time = 0.2 if n <= 100 else 0.05
             results[(kind, n)] = compare(f'{kind} chain N={n}', cfem_model, mj_model, mj_data,
                                          steps, repeats, accuracy_time, rows)
@@ -269,10 +292,8 @@ def main():
     mj_model, mj_data = models.compile_tilted(spec, tilt)
     compare('tree 4 x 25 + hub', parse_scenario(models.scenario(mj_model, mj_data, 'tree', 1.0)),
             mj_model, mj_data, 200, repeats, 0.2, rows)
-    for kind in ('planar', 'spatial'):
-        if (kind, 100) in results and (kind, sizes[-1]) in results:
-            growth = results[(kind, sizes[-1])][1] / results[(kind, 100)][1]
-            print(f'{kind} chains: cost N = 100 -> {sizes[-1]} grows {growth:.1f}x')
+    if sizes[-1] > 100:
+        growth(100, sizes[-1], max(repeats, 9))
     recording_cost(repeats)
     batch_rate(100 if args.quick else 1000, os.cpu_count() or 1)
     if not args.quick:
