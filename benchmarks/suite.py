@@ -223,7 +223,7 @@ def recording_cost(repeats):
         plain.prepare = recorded.prepare = lambda: None
         plain()
         recorded()
-        a, b = timed_pair([plain, recorded], max(repeats, 9))
+        a, b = timed_pair([plain, recorded], max(repeats, 25))
     print(f'double pendulum, 5 s: {a / 5000 * 1e6:.2f} us/step unrecorded, '
           f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: {100 * (b / a - 1):+.0f} %')
     return a, b

@@ -77,8 +77,8 @@ class ChunkedWriter:
         self._chunk_bytes = 0
         self._chunk_times = None            # (start, end) of the chunk in progress
         self._parts: List[tuple] = []   # (channels, log times, offsets) added to the chunk
-        self._schemas: Dict[int, Schema] = {}
-        self._channels: Dict[int, Channel] = {}
+        self._schemas: Dict[int, bytes] = {}    # serialized records, by id
+        self._channels: Dict[int, bytes] = {}
         self._chunk_indexes: List[ChunkIndex] = []
         self._metadata_indexes: List[MetadataIndex] = []
         self.statistics = Statistics(
@@ -93,9 +93,10 @@ class ChunkedWriter:
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         """Write a schema record; return its id."""
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
-        self._schemas[schema.id] = schema
+        record = _serialize(schema)
+        self._schemas[schema.id] = record   # written again in the summary
         self.statistics.schema_count += 1
-        self._write_data(_serialize(schema))
+        self._write_data(record)
         return schema.id
 
     def register_channel(self, topic: str, message_encoding: str, schema_id: int,
@@ -104,10 +105,11 @@ class ChunkedWriter:
         channel = Channel(id=len(self._channels) + 1, topic=topic,
                           message_encoding=message_encoding, schema_id=schema_id,
                           metadata=metadata)
-        self._channels[channel.id] = channel
+        record = _serialize(channel)
+        self._channels[channel.id] = record   # written again in the summary
         self.statistics.channel_count += 1
         self.statistics.channel_message_counts[channel.id] = 0
-        self._write_data(_serialize(channel))
+        self._write_data(record)
         return channel.id
 
     def add_metadata(self, name: str, data: Dict[str, str]):
@@ -215,12 +217,12 @@ class ChunkedWriter:
         parts, offsets = [], []
         groups = ((Opcode.SCHEMA, list(self._schemas.values())),
                   (Opcode.CHANNEL, list(self._channels.values())),
-                  (Opcode.STATISTICS, [self.statistics]),
-                  (Opcode.CHUNK_INDEX, self._chunk_indexes),
-                  (Opcode.METADATA_INDEX, self._metadata_indexes))
+                  (Opcode.STATISTICS, [_serialize(self.statistics)]),
+                  (Opcode.CHUNK_INDEX, [_serialize(r) for r in self._chunk_indexes]),
+                  (Opcode.METADATA_INDEX, [_serialize(r) for r in self._metadata_indexes]))
         position = summary_start
         for opcode, records in groups:
-            group = b''.join(_serialize(record) for record in records)
+            group = b''.join(records)
             offsets.append(SummaryOffset(group_opcode=opcode, group_start=position,
                                          group_length=len(group)))
             parts.append(group)

@@ -11,6 +11,7 @@ messages of SPEC section 3.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import struct
@@ -246,33 +247,21 @@ class SampleLayout:
 
     def __init__(self, channels, messages):
         self.channels = [int(c) for c in channels]
-        fields, self.columns, column = [], [], 0
-        for i, (frame_id, count) in enumerate(messages):
-            frame = _frame_bytes(frame_id)
-            data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
-            pad = -(8 + len(frame)) % 8
-            if pad:
-                data.append(('pad', f'V{pad}'))
-            data.append(('values', '<f8', (count,)))
-            fields.append((f'm{i}', message_record_fields(np.dtype(data))))
-            self.columns.append((column, column + count))
-            column += count
-        self.size = column
-        self.dtype = np.dtype(fields)
-        capacity = max(1, -(-CHUNK_SIZE // self.dtype.itemsize))
+        self.dtype, self.columns, self.offsets, template = _layout_template(
+            tuple(self.channels), tuple((str(f), int(c)) for f, c in messages))
+        self.size = self.columns[-1][1] if self.columns else 0
+        capacity = len(template)
         self.stamps = np.empty(capacity, dtype=np.int64)
         self.values = np.empty((capacity, self.size))
         self._rows = list(self.values)   # the row views, made once
         self.count = 0
-        self._records = np.zeros(capacity, dtype=self.dtype)
-        self.offsets = np.array([self.dtype.fields[f'm{i}'][1] for i in range(len(messages))])
-        for i, (frame_id, _) in enumerate(messages):
+        self._records = template.copy()
+        # the fields each sample changes, as views made once (making them is slow)
+        self._fields = []
+        for i in range(len(self.channels)):
             record = self._records[f'm{i}']
-            record['opcode'] = Opcode.MESSAGE
-            record['length'] = record.dtype.itemsize - 9
-            record['channel'] = self.channels[i]
-            record['data']['encapsulation'] = np.void(CDR_LE)
-            record['data']['frame'] = np.void(_frame_bytes(frame_id))
+            self._fields.append((record['sequence'], record['times'], record['data']['stamp'],
+                                 record['data']['values']))
 
     def next_row(self) -> np.ndarray:
         """Return the buffer row the next sample's numbers go to (filled by ``append``)."""
@@ -305,15 +294,49 @@ class SampleLayout:
         stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
         times = stamps[:, None]
         sequence = first_sequence + per * np.arange(k)
-        for i, (a, b) in enumerate(self.columns):
-            record = records[f'm{i}']
-            record['sequence'] = sequence + i
-            record['times'] = times
-            data = record['data']
-            data['stamp'] = stamp
-            data['values'] = self.values[:k, a:b]
+        for i, ((a, b), (seq, log, head, values)) in enumerate(zip(self.columns, self._fields)):
+            seq[:k] = sequence + i
+            log[:k] = times
+            head[:k] = stamp
+            values[:k] = self.values[:k, a:b]
         offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
         return records.tobytes(), self.channels, stamps.copy(), offsets
+
+
+@functools.lru_cache(maxsize=64)
+def _layout_template(channels: tuple, messages: tuple):
+    """
+    Return the record dtype, value columns, message offsets and a filled record buffer.
+
+    The buffer holds a chunk's worth of samples with every constant field
+    set (opcode, length, channel, encapsulation, frame_id); kept per kind
+    of sample, since building numpy's structured dtypes is most of a
+    recording's fixed cost.
+    """
+    fields, columns, column = [], [], 0
+    for i, (frame_id, count) in enumerate(messages):
+        frame = _frame_bytes(frame_id)
+        data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
+        pad = -(8 + len(frame)) % 8
+        if pad:
+            data.append(('pad', f'V{pad}'))
+        data.append(('values', '<f8', (count,)))
+        fields.append((f'm{i}', message_record_fields(np.dtype(data))))
+        columns.append((column, column + count))
+        column += count
+    dtype = np.dtype(fields)
+    capacity = max(1, -(-CHUNK_SIZE // dtype.itemsize))
+    template = np.zeros(capacity, dtype=dtype)
+    offsets = np.array([dtype.fields[f'm{i}'][1] for i in range(len(messages))])
+    for i, (frame_id, _) in enumerate(messages):
+        record = template[f'm{i}']
+        record['opcode'] = Opcode.MESSAGE
+        record['length'] = record.dtype.itemsize - 9
+        record['channel'] = channels[i]
+        record['data']['encapsulation'] = np.void(CDR_LE)
+        record['data']['frame'] = np.void(_frame_bytes(frame_id))
+    template.flags.writeable = False
+    return dtype, columns, offsets, template
 
 
 def _frame_bytes(frame_id: str) -> bytes:
