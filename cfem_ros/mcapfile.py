@@ -24,7 +24,7 @@ import zlib
 
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
-from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata,
+from mcap.records import (Channel, ChunkIndex, DataEnd, Footer, Header, Metadata,
                           MetadataIndex, Schema, Statistics, SummaryOffset)
 from mcap.writer import MCAP0_MAGIC
 import numpy as np
@@ -32,6 +32,10 @@ import numpy as np
 #: A Message record up to its data: opcode, record length, channel id,
 #: sequence, log time, publish time.
 MESSAGE_HEADER = struct.Struct('<BQHIQQ')
+#: An uncompressed Chunk record up to its records: opcode, record length,
+#: message start and end time, uncompressed size and CRC, compression ''
+#: (length 0), byte length of the records.
+_CHUNK_HEADER = struct.Struct('<BQQQQIIQ')
 #: A MessageIndex record up to its entries: opcode, record length, channel
 #: id, byte length of the (log time, offset) entries.
 _MESSAGE_INDEX_HEADER = struct.Struct('<BQHI')
@@ -162,17 +166,22 @@ class ChunkedWriter:
         """Write the chunk in progress (if it has messages) and its message indexes."""
         if not self._chunk:
             return
-        data = b''.join(self._chunk)
+        size = self._chunk_bytes
+        crc = 0
+        for part in self._chunk:
+            crc = zlib.crc32(part, crc)
         start, end = self._chunk_times
-        chunk = _serialize(Chunk(compression='', data=data, message_start_time=start,
-                                 message_end_time=end, uncompressed_crc=zlib.crc32(data),
-                                 uncompressed_size=len(data)))
+        # the Chunk record, its records written as they are (no copy into one)
+        header = _CHUNK_HEADER.pack(Opcode.CHUNK, _CHUNK_HEADER.size - 9 + size, start, end,
+                                    size, crc, 0, size)
         index = ChunkIndex(message_start_time=start, message_end_time=end,
-                           chunk_start_offset=self._offset, chunk_length=len(chunk),
-                           message_index_offsets={}, message_index_length=0,
-                           compression='', compressed_size=len(data),
-                           uncompressed_size=len(data))
-        self._write_data(chunk)
+                           chunk_start_offset=self._offset,
+                           chunk_length=_CHUNK_HEADER.size + size, message_index_offsets={},
+                           message_index_length=0, compression='', compressed_size=size,
+                           uncompressed_size=size)
+        self._write_data(header)
+        for part in self._chunk:
+            self._write_data(part)
         indexes, position = [], self._offset
         for channel, entries in self._index_entries():
             index.message_index_offsets[channel] = position

@@ -50,6 +50,10 @@ EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
 
 #: Chunk size in bytes: small, so that a hard kill loses little.
 CHUNK_SIZE = 64 * 1024
+#: Samples handed over a batch at a time (``Recorder.free_rows``) are
+#: buffered for up to this many chunks before they are written: a batched
+#: run comes back to Python once per batch, not once per chunk.
+BATCH_CHUNKS = 16
 #: builtin_interfaces/Time in CDR.
 _STAMP = np.dtype([('sec', '<i4'), ('nanosec', '<u4')])
 #: CDR encapsulation header: plain CDR, little endian.
@@ -185,7 +189,13 @@ class Recorder:
             self._flush_samples()
 
     def free_rows(self, layout: 'SampleLayout') -> np.ndarray:
-        """Return the free rows of the layout's buffer, for samples given to ``commit_rows``."""
+        """
+        Return the free rows of the layout's buffer, for samples given to ``commit_rows``.
+
+        There is room for ``BATCH_CHUNKS`` chunks of samples; they are
+        written (as chunks of ``CHUNK_SIZE``) once the buffer is full, or
+        when anything else is written or the file is finished.
+        """
         if self._pending is not layout:
             self._flush_samples()
             self._pending = layout
@@ -202,9 +212,12 @@ class Recorder:
         layout, self._pending = self._pending, None
         if layout is None or not layout.count:
             return
-        count = layout.count * len(layout.channels)
-        self._writer.add_messages(*layout.records(self.message_count))
-        self.message_count += count
+        per = len(layout.channels)
+        for start in range(0, layout.count, layout.chunk_rows):
+            stop = min(start + layout.chunk_rows, layout.count)
+            self._writer.add_messages(*layout.records(self.message_count, start, stop))
+            self.message_count += (stop - start) * per
+        layout.count = 0
 
     def finish(self):
         """Write the summary and close the file (idempotent)."""
@@ -230,11 +243,13 @@ class SampleLayout:
     """
     The messages of one kind of sample, all stamped messages of fixed size.
 
-    A sample's numbers are buffered as a row; ``records`` turns the rows
-    into Message records (header, CDR: encapsulation 00 01 00 00, stamp,
-    frame_id, padding to 8 bytes, the float64 values: the bytes
-    ``mcap_ros2``'s encoder writes) with numpy, for all buffered samples
-    at once.
+    A sample's numbers are buffered as a row; ``records`` turns up to a
+    chunk's worth of rows (``chunk_rows``) into Message records (header,
+    CDR: encapsulation 00 01 00 00, stamp, frame_id, padding to 8 bytes,
+    the float64 values: the bytes ``mcap_ros2``'s encoder writes) with
+    numpy, all at once. The buffer has room for ``BATCH_CHUNKS`` chunks:
+    ``append`` (a sample at a time) reports it full after one chunk,
+    ``extend`` (many samples at once) after all of them.
 
     Parameters
     ----------
@@ -250,10 +265,12 @@ class SampleLayout:
         self.dtype, self.columns, self.offsets, template = _layout_template(
             tuple(self.channels), tuple((str(f), int(c)) for f, c in messages))
         self.size = self.columns[-1][1] if self.columns else 0
-        capacity = len(template)
+        #: Samples whose records make a chunk.
+        self.chunk_rows = len(template)
+        capacity = BATCH_CHUNKS * self.chunk_rows
         self.stamps = np.empty(capacity, dtype=np.int64)
         self.values = np.empty((capacity, self.size))
-        self._rows = list(self.values)   # the row views, made once
+        self._rows = list(self.values[:self.chunk_rows])   # the row views, made once
         self.count = 0
         self._records = template.copy()
         # the fields each sample changes, as views made once (making them is slow)
@@ -268,12 +285,12 @@ class SampleLayout:
         return self._rows[self.count]
 
     def append(self, stamp_ns: int, values: Optional[np.ndarray] = None) -> bool:
-        """Buffer one sample (values None: already in ``next_row()``); True when full."""
+        """Buffer one sample (values None: already in ``next_row()``); True at a chunk's worth."""
         self.stamps[self.count] = stamp_ns
         if values is not None:
             self.values[self.count] = values
         self.count += 1
-        return self.count == len(self.stamps)
+        return self.count >= self.chunk_rows
 
     def extend(self, stamps_ns: np.ndarray) -> bool:
         """Buffer samples already in the next rows, stamped stamps_ns; True when full."""
@@ -284,11 +301,16 @@ class SampleLayout:
         self.count += k
         return self.count == len(self.stamps)
 
-    def records(self, first_sequence: int):
-        """Return the buffered samples as Message records and empty the buffer."""
-        k, per = self.count, len(self.channels)
-        self.count = 0
-        stamps = self.stamps[:k]
+    def records(self, first_sequence: int, start: int = 0, stop: Optional[int] = None):
+        """
+        Return buffered samples start:stop (at most ``chunk_rows``) as Message records.
+
+        Returns the records (bytes), the channels, the samples' log times and
+        each message's offset in the records (samples, channels).
+        """
+        stop = self.count if stop is None else stop
+        k, per = stop - start, len(self.channels)
+        stamps = self.stamps[start:stop]
         records = self._records[:k]
         stamp = np.empty(k, dtype=_STAMP)
         stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
@@ -298,7 +320,7 @@ class SampleLayout:
             seq[:k] = sequence + i
             log[:k] = times
             head[:k] = stamp
-            values[:k] = self.values[:k, a:b]
+            values[:k] = self.values[start:stop, a:b]
         offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
         return records.tobytes(), self.channels, stamps.copy(), offsets
 

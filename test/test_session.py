@@ -8,12 +8,13 @@ numbers to the bit, the same stamps, the same events and inputs. The cases
 cut steps at samples that do not fall on the dt grid (30 Hz at dt = 1 ms),
 release on a timer at a sample time, on a condition between samples and on
 command, take inputs at and between sample times, and switch the sample
-layout while its buffer is part full, and fill it more than once.
+layout while its buffer is part full, and fill it more than once (a buffer
+of one chunk) or write one buffer as several chunks (the default batch).
 """
 
 import pathlib
 
-from cfem_ros import load_scenario, parse_scenario, Simulator
+from cfem_ros import load_scenario, parse_scenario, recording, Simulator
 from cfem_ros.inputs import release_input, wrench_input
 from cfem_ros.recording import Recorder, StateRecorder
 from cfem_ros.session import Session
@@ -68,8 +69,11 @@ def by_topic(messages):
     return topics
 
 
+@pytest.mark.parametrize('batch_chunks', [1, recording.BATCH_CHUNKS])
 @pytest.mark.parametrize('case', sorted(CASES))
-def test_kernel_sampling_records_what_sampling_one_by_one_records(case, tmp_path):
+def test_kernel_sampling_records_what_sampling_one_by_one_records(case, batch_chunks, tmp_path,
+                                                                  monkeypatch):
+    monkeypatch.setattr(recording, 'BATCH_CHUNKS', batch_chunks)
     make_model, make_inputs, rate_hz = CASES[case]
     model = make_model()
     runs = [record(tmp_path / f'{batched}.mcap', model, make_inputs(), rate_hz, batched)
@@ -81,7 +85,12 @@ def test_kernel_sampling_records_what_sampling_one_by_one_records(case, tmp_path
     assert np.array_equal(many.y, one.y)
     assert many.events == one.events and len(one.events) >= 1
     assert many_session.samples == one_session.samples == round(model.duration * rate_hz) + 1
-    expected, got = (read_checked(tmp_path / f'{batched}.mcap')[2] for batched in (False, True))
+    (_, summary_one, expected), (_, summary, got) = (
+        read_checked(tmp_path / f'{batched}.mcap') for batched in (False, True))
+    # the same chunks: the buffer's samples are written a chunk's worth at a time
+    assert summary.statistics.chunk_count == summary_one.statistics.chunk_count
+    assert [(c.message_start_time, c.message_end_time) for c in summary.chunk_indexes] == [
+        (c.message_start_time, c.message_end_time) for c in summary_one.chunk_indexes]
     # in time order (a stable sort keeps the file's order at equal times: events first)
     assert ([m[:2] for m in sorted(got, key=lambda m: m[1])]
             == [m[:2] for m in sorted(expected, key=lambda m: m[1])])
