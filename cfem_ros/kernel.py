@@ -441,12 +441,23 @@ def _tree_solve(y, plan, roots, rows_f, v):
         rho = _rotate(rot, b, rows_f[r0, 6], rows_f[r0, 7], rows_f[r0, 8])
         rho = (rho[0] + y[3 * b] - y[3 * c], rho[1] + y[3 * b + 1] - y[3 * c + 1],
                rho[2] + y[3 * b + 2] - y[3 * c + 2])
+        mh = mhat[c]
+        u = weighted_basis[j]
+        g = basis[j]
+        s = particular[j]
+        if nt == 3 and nr == 2:
+            # a hinge: its free motion and particular acceleration in straight-line code
+            _hinge_motion(jac, rhs, r0, off, rho, g, s)
+            if not _eliminate_one(mh, fhat[c], g, s, u, vec, x, chol[j], projected[j]):
+                return False
+            if roots[p] >= 0:
+                _shift_add(x, vec, y, c, p, mhat[p], fhat[p])
+            continue
         # free motions G of the tree child: translations off the rows, rotations
         # off the rows with the joint point carried along
         _complement(jac, r0, nt, sign, off, free_t)
         _complement(jac, r0 + nt, nr, sign, off + 3, free_r)
         k_t, k_r = 3 - nt, 3 - nr
-        g = basis[j]
         for col in range(k_t):
             for k in range(3):
                 g[k, col] = free_t[col, k]
@@ -460,7 +471,6 @@ def _tree_solve(y, plan, roots, rows_f, v):
         k_free = k_t + k_r
         # a particular acceleration s with J_c s = rhs: rotation by least norm,
         # translation along the (orthonormal) row axes
-        s = particular[j]
         for k in range(6):
             s[k] = 0.0
         if nr > 0:
@@ -485,8 +495,6 @@ def _tree_solve(y, plan, roots, rows_f, v):
                 s[k] += rhs[r0 + i] * jac[r0 + i, off + k]
         for k in range(3):
             s[k] -= ws[k]
-        mh = mhat[c]
-        u = weighted_basis[j]
         if k_free == 1:
             # one free motion (hinge, slider): the same algebra, straight-line
             if not _eliminate_one(mh, fhat[c], g, s, u, vec, x, chol[j], projected[j]):
@@ -585,6 +593,36 @@ def _tree_solve(y, plan, roots, rows_f, v):
 
 
 @numba.njit(**_INLINE)
+def _hinge_motion(jac, rhs, r0, off, rho, g, s):
+    """
+    A hinge's free motion g (6, column 0) and least-norm particular acceleration s.
+
+    Rows r0..r0+2 fix the joint point, r0+3 and r0+4 two directions; their
+    blocks on the tree child start at column off. The free rotation is
+    w = c1 x c2 / |c1 x c2| (c1, c2 the rotation rows' angular blocks), and
+    the rotation part of s, orthogonal to w with c_i . s = rhs_i, is
+    (rhs_1 c2 x n + rhs_2 n x c1) / |n|^2 with n = c1 x c2.
+    """
+    c1 = (jac[r0 + 3, off + 3], jac[r0 + 3, off + 4], jac[r0 + 3, off + 5])
+    c2 = (jac[r0 + 4, off + 3], jac[r0 + 4, off + 4], jac[r0 + 4, off + 5])
+    n = _x(c1, c2)
+    nn = _d(n, n)
+    scale = 1.0 / np.sqrt(nn)
+    w = (n[0] * scale, n[1] * scale, n[2] * scale)
+    rw = _x(rho, w)
+    a, b = _x(c2, n), _x(n, c1)
+    h1, h2 = rhs[r0 + 3] / nn, rhs[r0 + 4] / nn
+    rot = (h1 * a[0] + h2 * b[0], h1 * a[1] + h2 * b[1], h1 * a[2] + h2 * b[2])
+    ws = _x(rot, rho)
+    for k in range(3):
+        g[k, 0] = rw[k]
+        g[3 + k, 0] = w[k]
+        s[k] = (rhs[r0] * jac[r0, off + k] + rhs[r0 + 1] * jac[r0 + 1, off + k]
+                + rhs[r0 + 2] * jac[r0 + 2, off + k]) - ws[k]
+        s[3 + k] = rot[k]
+
+
+@numba.njit(**_INLINE)
 def _eliminate_one(mh, f, g, s, u, z, x, d_inv, projected):
     """
     Eliminate one free motion g (6, column 0) of a body with articulated M^ = mh, f^ = f.
@@ -624,35 +662,75 @@ def _shift_add(x, z, y, c, p, mhat_p, fhat_p):
     """Add Phi^T x Phi to mhat_p and Phi^T z to fhat_p (x symmetric, Phi from c to p)."""
     r0, r1, r2 = y[3 * c] - y[3 * p], y[3 * c + 1] - y[3 * p + 1], y[3 * c + 2] - y[3 * p + 2]
     # x = [[A, B], [B^T, C]], S = [r]x: Phi^T x Phi = [[A, B'], [B'^T, C']] with
-    # B' = B - A S and C' = C + S B' + (S B)^T; the columns of S M are r x M[:, j]
-    for j in range(3):
-        b = (x[0, 3 + j], x[1, 3 + j], x[2, 3 + j])
-        sb = (r1 * b[2] - r2 * b[1], r2 * b[0] - r0 * b[2], r0 * b[1] - r1 * b[0])
-        for i in range(3):
-            mhat_p[3 + j, 3 + i] += sb[i]
-    for i in range(3):
-        as0 = x[i, 1] * r2 - x[i, 2] * r1
-        as1 = x[i, 2] * r0 - x[i, 0] * r2
-        as2 = x[i, 0] * r1 - x[i, 1] * r0
-        x[i, 3] -= as0
-        x[i, 4] -= as1
-        x[i, 5] -= as2
-    for j in range(3):
-        b = (x[0, 3 + j], x[1, 3 + j], x[2, 3 + j])
-        sbp = (r1 * b[2] - r2 * b[1], r2 * b[0] - r0 * b[2], r0 * b[1] - r1 * b[0])
-        for i in range(3):
-            mhat_p[3 + i, 3 + j] += x[3 + i, 3 + j] + sbp[i]
-    for i in range(3):
-        for j in range(3):
-            mhat_p[i, j] += x[i, j]
-            mhat_p[i, 3 + j] += x[i, 3 + j]
-            mhat_p[3 + j, i] += x[i, 3 + j]
-    fhat_p[0] += z[0]
-    fhat_p[1] += z[1]
-    fhat_p[2] += z[2]
-    fhat_p[3] += z[3] + r1 * z[2] - r2 * z[1]
-    fhat_p[4] += z[4] + r2 * z[0] - r0 * z[2]
-    fhat_p[5] += z[5] + r0 * z[1] - r1 * z[0]
+    # B' = B - A S and C' = C + S B' + (S B)^T; read once into registers
+    a00, a01, a02, a11, a12, a22 = x[0, 0], x[0, 1], x[0, 2], x[1, 1], x[1, 2], x[2, 2]
+    b00, b01, b02 = x[0, 3], x[0, 4], x[0, 5]
+    b10, b11, b12 = x[1, 3], x[1, 4], x[1, 5]
+    b20, b21, b22 = x[2, 3], x[2, 4], x[2, 5]
+    c00, c01, c02, c11, c12, c22 = x[3, 3], x[3, 4], x[3, 5], x[4, 4], x[4, 5], x[5, 5]
+    # B' = B - A S, row i of A S = (A_i x ... ): (A S)_ij = sum_k A_ik S_kj
+    # S = [[0, -r2, r1], [r2, 0, -r0], [-r1, r0, 0]]
+    p00 = b00 - (a01 * r2 - a02 * r1)
+    p01 = b01 - (a02 * r0 - a00 * r2)
+    p02 = b02 - (a00 * r1 - a01 * r0)
+    p10 = b10 - (a11 * r2 - a12 * r1)
+    p11 = b11 - (a12 * r0 - a01 * r2)
+    p12 = b12 - (a01 * r1 - a11 * r0)
+    p20 = b20 - (a12 * r2 - a22 * r1)
+    p21 = b21 - (a22 * r0 - a02 * r2)
+    p22 = b22 - (a02 * r1 - a12 * r0)
+    # (S M)_ij = (r x M[:, j])_i for a 3x3 M; C' = C + S B' + (S B)^T
+    # S B': column j is r x (p0j, p1j, p2j); S B: column j is r x (b0j, b1j, b2j)
+    q00, q10, q20 = r1 * p20 - r2 * p10, r2 * p00 - r0 * p20, r0 * p10 - r1 * p00
+    q01, q11, q21 = r1 * p21 - r2 * p11, r2 * p01 - r0 * p21, r0 * p11 - r1 * p01
+    q02, q12, q22 = r1 * p22 - r2 * p12, r2 * p02 - r0 * p22, r0 * p12 - r1 * p02
+    t00, t10, t20 = r1 * b20 - r2 * b10, r2 * b00 - r0 * b20, r0 * b10 - r1 * b00
+    t01, t11, t21 = r1 * b21 - r2 * b11, r2 * b01 - r0 * b21, r0 * b11 - r1 * b01
+    t02, t12, t22 = r1 * b22 - r2 * b12, r2 * b02 - r0 * b22, r0 * b12 - r1 * b02
+    # C'_ij = C_ij + q_ij + t_ji
+    mhat_p[3, 3] += c00 + q00 + t00
+    mhat_p[3, 4] += c01 + q01 + t10
+    mhat_p[3, 5] += c02 + q02 + t20
+    mhat_p[4, 3] += c01 + q10 + t01
+    mhat_p[4, 4] += c11 + q11 + t11
+    mhat_p[4, 5] += c12 + q12 + t21
+    mhat_p[5, 3] += c02 + q20 + t02
+    mhat_p[5, 4] += c12 + q21 + t12
+    mhat_p[5, 5] += c22 + q22 + t22
+    mhat_p[0, 0] += a00
+    mhat_p[0, 1] += a01
+    mhat_p[0, 2] += a02
+    mhat_p[1, 0] += a01
+    mhat_p[1, 1] += a11
+    mhat_p[1, 2] += a12
+    mhat_p[2, 0] += a02
+    mhat_p[2, 1] += a12
+    mhat_p[2, 2] += a22
+    mhat_p[0, 3] += p00
+    mhat_p[0, 4] += p01
+    mhat_p[0, 5] += p02
+    mhat_p[1, 3] += p10
+    mhat_p[1, 4] += p11
+    mhat_p[1, 5] += p12
+    mhat_p[2, 3] += p20
+    mhat_p[2, 4] += p21
+    mhat_p[2, 5] += p22
+    mhat_p[3, 0] += p00
+    mhat_p[4, 0] += p01
+    mhat_p[5, 0] += p02
+    mhat_p[3, 1] += p10
+    mhat_p[4, 1] += p11
+    mhat_p[5, 1] += p12
+    mhat_p[3, 2] += p20
+    mhat_p[4, 2] += p21
+    mhat_p[5, 2] += p22
+    z0, z1, z2, z3, z4, z5 = z[0], z[1], z[2], z[3], z[4], z[5]
+    fhat_p[0] += z0
+    fhat_p[1] += z1
+    fhat_p[2] += z2
+    fhat_p[3] += z3 + r1 * z2 - r2 * z1
+    fhat_p[4] += z4 + r2 * z0 - r0 * z2
+    fhat_p[5] += z5 + r0 * z1 - r1 * z0
 
 
 @numba.njit(**_JIT)
