@@ -595,7 +595,7 @@ def _tree_solve(y, plan, roots, rows_f, v):
 @numba.njit(**_INLINE)
 def _hinge_motion(jac, rhs, r0, off, rho, g, s):
     """
-    A hinge's free motion g (6, column 0) and least-norm particular acceleration s.
+    Set a hinge's free motion g (6, column 0) and least-norm particular acceleration s.
 
     Rows r0..r0+2 fix the joint point, r0+3 and r0+4 two directions; their
     blocks on the tree child start at column off. The free rotation is
