@@ -93,7 +93,9 @@ class Recorder:
     complete (summary, statistics, indexes) once ``finish`` has run; use
     the recorder as a context manager so that it runs on errors too. Every
     closed chunk is on disk, so a hard kill loses at most the chunk in
-    progress (``CHUNK_SIZE``).
+    progress (``CHUNK_SIZE``) of samples given one at a time
+    (``add_sample``), and at most ``BATCH_CHUNKS`` chunks of samples given
+    many at a time (``free_rows``, ``commit_rows``).
 
     Parameters
     ----------

@@ -171,8 +171,8 @@ class Session:
         The same steps, samples, inputs and events as ``advance`` over
         every sample time, in far fewer calls from Python: an output
         that offers ``sample_rows()`` and ``took_rows(times)`` (as
-        ``StateRecorder`` does) gets its rows filled by the kernel, a chunk
-        at a time. With any other output, or more than one, this is
+        ``StateRecorder`` does) gets its rows filled by the kernel, a
+        buffer (``recording.BATCH_CHUNKS`` chunks) at a time. With any other output, or more than one, this is
         ``advance`` sample by sample. ``progress`` is called now and then
         with the simulated time (at least once a second of wall time).
         """
