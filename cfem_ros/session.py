@@ -172,9 +172,10 @@ class Session:
         every sample time, in far fewer calls from Python: an output
         that offers ``sample_rows()`` and ``took_rows(times)`` (as
         ``StateRecorder`` does) gets its rows filled by the kernel, a
-        buffer (``recording.BATCH_CHUNKS`` chunks) at a time. With any other output, or more than one, this is
-        ``advance`` sample by sample. ``progress`` is called now and then
-        with the simulated time (at least once a second of wall time).
+        buffer (``recording.BATCH_CHUNKS`` chunks) at a time. With any
+        other output, or more than one, this is ``advance`` sample by
+        sample. ``progress`` is called now and then with the simulated
+        time (at least once a second of wall time).
         """
         if not math.isfinite(self.duration):
             raise ValueError('run() needs a finite duration')
