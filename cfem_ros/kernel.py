@@ -945,9 +945,12 @@ def constraint_values(work, n, m, n_j):
 
 
 @numba.njit(**_INLINE)
-def _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+def _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                solved):
+    # solved: the workspace already holds the solve at y (with these loads)
     n = bodies.shape[0]
-    if not _solve(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+    if not solved and not _solve(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                                 dense, v):
         return -1.0
     rot, acc, value = v[0], v[5], v[10]
     for i in range(n):
@@ -975,11 +978,12 @@ def derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
     """Fill dy with dy/dt at y; return the largest |constraint value| (-1 if singular)."""
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
     return _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
-                       v)
+                       v, False)
 
 
 @numba.njit(**_JIT)
-def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v):
+def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+         solved):
     size = y.shape[0]
     stages = v[18]
     stage = stages[4]
@@ -987,7 +991,7 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     for s in range(4):
         # one call site: the derivative is inlined once
         w = _derivative(y if s == 0 else stage, stages[s], bodies, gravity, loads, rows_i,
-                        rows_f, plan, roots, eta, dense, v)
+                        rows_f, plan, roots, eta, dense, v, solved and s == 0)
         if w < 0.0:
             return -1.0
         if s == 0:
@@ -1019,7 +1023,8 @@ def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta
     the solution, so their values say nothing about drift), -1 if singular.
     """
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
-    return _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v)
+    return _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                False)
 
 
 # ------------------------------------------------------------ release tests
@@ -1113,6 +1118,9 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
     t = info[0]
     info[3] = REACHED
     rate = grid[0]
+    # the workspace holds the solve at y (a sample's or a force check's joint
+    # loads): the next step's first stage uses it instead of solving again
+    fresh = False
     while True:
         goal = t_target
         if rate > 0.0:
@@ -1127,6 +1135,7 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                         order, samples[taken], force, moment):
                     info[3] = SINGULAR
                     return
+                fresh = samples.shape[1] > 0 and order.shape[0] > 0
                 grid[1] += 1.0
                 grid[2] += 1.0
                 continue
@@ -1144,7 +1153,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             if t_end > limit:
                 return
             worst = _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
-                         dense, v)
+                         dense, v, fresh)
+            fresh = False
             if worst < 0.0:
                 info[3] = SINGULAR
                 return
@@ -1173,6 +1183,7 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             info[2] = max(info[2], worst)
             for j in range(size):
                 y[j] = out[j]
+            fresh = need_force
             t = t_end
             info[0] = t
             info[1] += 1
