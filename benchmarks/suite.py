@@ -67,8 +67,8 @@ def mujoco_run(model, data0, steps):
     return run
 
 
-def timed_pair(runs, repeats):
-    """Median s of each prepared run, taking turns; prepare() is not timed."""
+def timed_turns(runs, repeats):
+    """Seconds of each prepared run in each turn, the runs taking turns; prepare() is not timed."""
     times = [[] for _ in runs]
     for _ in range(repeats):
         for run, spent in zip(runs, times):
@@ -76,7 +76,24 @@ def timed_pair(runs, repeats):
             start = time.perf_counter()
             run()
             spent.append(time.perf_counter() - start)
-    return [statistics.median(spent) for spent in times]
+    return times
+
+
+def timed_pair(runs, repeats):
+    """Median s of each prepared run, taking turns."""
+    return [statistics.median(spent) for spent in timed_turns(runs, repeats)]
+
+
+def turn_ratio(runs, repeats):
+    """
+    Median s of two prepared runs taking turns, and the median of the turns' ratios second/first.
+
+    A turn's two runs are next to each other in time, so its ratio sees one
+    state of a machine whose speed drifts; the median of those ratios moves
+    far less between suite runs than the ratio of the two medians.
+    """
+    first, second = (np.array(t) for t in timed_turns(runs, repeats))
+    return statistics.median(first), statistics.median(second), statistics.median(second / first)
 
 
 def cfem_end(model, duration, dt):
@@ -104,15 +121,18 @@ def compare(label, cfem_model, mj_model, mj_data, steps, repeats, accuracy_time,
     for run in runs:   # warm up: compilation, caches
         run.prepare()
         run()
-    times = [t / steps * 1e6 for t in timed_pair(runs, repeats)]
-    ours, theirs = times[0], (times[1] if mj_model is not None else math.nan)
+    if mj_model is not None:
+        ours, theirs, speed_up = turn_ratio(runs, repeats)
+        ours, theirs = ours / steps * 1e6, theirs / steps * 1e6
+    else:
+        ours, theirs, speed_up = timed_pair(runs, repeats)[0] / steps * 1e6, math.nan, math.nan
     reference = cfem_end(cfem_model, accuracy_time, cfem_model.dt / 16)
     err_ours = np.abs(cfem_end(cfem_model, accuracy_time, cfem_model.dt) - reference).max()
     err_theirs = (np.abs(mujoco_end(mj_model, mj_data, accuracy_time) - reference).max()
                   if mj_model is not None else math.nan)
-    row = (label, ours, theirs, theirs / ours, err_ours, err_theirs, accuracy_time)
+    row = (label, ours, theirs, speed_up, err_ours, err_theirs, accuracy_time)
     rows.append(row)
-    print(f'{label:<22} {ours:10.1f} {theirs:10.1f} {theirs / ours:8.2f}x'
+    print(f'{label:<22} {ours:10.1f} {theirs:10.1f} {speed_up:8.2f}x'
           f' {err_ours:10.2e} {err_theirs:10.2e} {accuracy_time:6.2f}', flush=True)
     return row
 
@@ -136,10 +156,12 @@ def growth(small, large, repeats):
         for run in runs:
             run.prepare()
             run()
-        times = [t / chain_steps(n) for t, n in zip(timed_pair(runs, repeats), sizes)]
+        small_s, large_s, ratio = turn_ratio(runs, repeats)
+        ratio *= chain_steps(small) / chain_steps(large)   # per step
         print(f'{"spatial" if spatial else "planar"} chains: cost N = {small} -> {large} grows '
-              f'{times[1] / times[0]:.1f}x ({times[0] * 1e6:.1f} -> {times[1] * 1e6:.1f} us, '
-              f'timed in turns)', flush=True)
+              f'{ratio:.1f}x (median of {repeats} turns; {small_s / chain_steps(small) * 1e6:.1f}'
+              f' -> {large_s / chain_steps(large) * 1e6:.1f} us)',
+              flush=True)
 
 
 def chains(sizes, repeats, rows):
@@ -167,14 +189,18 @@ def paper_cases(repeats, rows):
     def theirs_run():
         ended.append(store_in_mujoco(1.5))
     theirs_run.prepare = lambda: None
-    times = timed_pair([cfem_run(store, 1500), theirs_run], repeats)
-    ours, theirs = (t / 1500 * 1e6 for t in times)
+    runs = [cfem_run(store, 1500), theirs_run]
+    for run in runs:   # warm up, as compare does
+        run.prepare()
+        run()
+    ours, theirs, speed_up = turn_ratio(runs, repeats)
+    ours, theirs = ours / 1500 * 1e6, theirs / 1500 * 1e6
     end = ended[-1]
     reference = cfem_end(store, 1.5, DT / 16)
     err_ours = np.abs(cfem_end(store, 1.5, DT) - reference).max()
     err_theirs = np.abs(end - reference).max()
-    rows.append(('store separation', ours, theirs, theirs / ours, err_ours, err_theirs, 1.5))
-    print(f'{"store separation":<22} {ours:10.1f} {theirs:10.1f} {theirs / ours:8.2f}x'
+    rows.append(('store separation', ours, theirs, speed_up, err_ours, err_theirs, 1.5))
+    print(f'{"store separation":<22} {ours:10.1f} {theirs:10.1f} {speed_up:8.2f}x'
           f' {err_ours:10.2e} {err_theirs:10.2e} {1.5:6.2f}', flush=True)
     spin = load_scenario(str(CONFIG / 'fixed_joint_spin.yaml'))
     ours = timed_pair([cfem_run(spin, 5000)], repeats)[0] / 5000 * 1e6
@@ -223,9 +249,11 @@ def recording_cost(repeats):
         plain.prepare = recorded.prepare = lambda: None
         plain()
         recorded()
-        a, b = timed_pair([plain, recorded], max(repeats, 25))
+        turns = max(repeats, 25)
+        a, b, ratio = turn_ratio([plain, recorded], turns)
     print(f'double pendulum, 5 s: {a / 5000 * 1e6:.2f} us/step unrecorded, '
-          f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: {100 * (b / a - 1):+.0f} %')
+          f'{b / 5000 * 1e6:.2f} us/step with a 100 Hz recording: {100 * (ratio - 1):+.0f} % '
+          f'(median of {turns} turns)')
     return a, b
 
 
@@ -282,7 +310,8 @@ def main():
     repeats = 2 if args.quick else args.repeats
     sizes = (2, 10, 100) if args.quick else (2, 10, 100, 300, 1000)
     print(f'mujoco {mujoco.__version__}, numpy {np.__version__}, dt = {DT * 1e3:g} ms, RK4, '
-          f'median of {repeats}; error: largest CG difference from cfem_ros at dt/16 (m)')
+          f"medians of {repeats} turns, speed-up: median of the turns' ratios; "
+          f'error: largest CG difference from cfem_ros at dt/16 (m)')
     print(f'{"model":<22} {"cfem us":>10} {"MuJoCo us":>10} {"speed-up":>9} {"cfem err":>10}'
           f' {"MuJoCo err":>10} {"err t":>6}')
     rows = []
@@ -293,7 +322,7 @@ def main():
     compare('tree 4 x 25 + hub', parse_scenario(models.scenario(mj_model, mj_data, 'tree', 1.0)),
             mj_model, mj_data, 200, repeats, 0.2, rows)
     if sizes[-1] > 100:
-        growth(100, sizes[-1], max(repeats, 9))
+        growth(100, sizes[-1], max(repeats, 25))
     recording_cost(repeats)
     batch_rate(100 if args.quick else 1000, os.cpu_count() or 1)
     if not args.quick:
