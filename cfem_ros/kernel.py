@@ -668,8 +668,7 @@ def _shift_add(x, z, y, c, p, mhat_p, fhat_p):
     b10, b11, b12 = x[1, 3], x[1, 4], x[1, 5]
     b20, b21, b22 = x[2, 3], x[2, 4], x[2, 5]
     c00, c01, c02, c11, c12, c22 = x[3, 3], x[3, 4], x[3, 5], x[4, 4], x[4, 5], x[5, 5]
-    # B' = B - A S, row i of A S = (A_i x ... ): (A S)_ij = sum_k A_ik S_kj
-    # S = [[0, -r2, r1], [r2, 0, -r0], [-r1, r0, 0]]
+    # B' = B - A S with S = [[0, -r2, r1], [r2, 0, -r0], [-r1, r0, 0]]
     p00 = b00 - (a01 * r2 - a02 * r1)
     p01 = b01 - (a02 * r0 - a00 * r2)
     p02 = b02 - (a00 * r1 - a01 * r0)
