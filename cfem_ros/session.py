@@ -164,7 +164,8 @@ class Session:
             if sim.t >= self.duration:
                 self._emit_events()
 
-    def run(self, progress: Optional[Callable[[float], None]] = None):
+    def run(self, progress: Optional[Callable[[float], None]] = None,
+            progress_every: float = 1.0):
         """
         Run to the duration unpaced, the kernel taking the samples on its way.
 
@@ -174,25 +175,34 @@ class Session:
         ``StateRecorder`` does) gets its rows filled by the kernel, a
         buffer (``recording.BATCH_CHUNKS`` chunks) at a time. With any
         other output, or more than one, this is ``advance`` sample by
-        sample. ``progress`` is called now and then with the simulated
-        time (at least once a second of wall time).
+        sample. ``progress`` is called with the simulated time about every
+        ``progress_every`` s of wall time: with it, each kernel call is
+        limited to the simulated span that takes about half that (measured
+        as the run goes), which changes when Python is entered, not which
+        steps are taken.
         """
         if not math.isfinite(self.duration):
             raise ValueError('run() needs a finite duration')
         self.start()
         sink = self.outputs[0] if len(self.outputs) == 1 else None
         if len(self.outputs) > 1 or (sink is not None and not hasattr(sink, 'sample_rows')):
-            return self._run_per_sample(progress)
+            return self._run_per_sample(progress, progress_every)
         sim = self.sim
         grid = SampleGrid(self.rate_hz)
         counting = np.empty((COUNT_ONLY, 0))
         wall = time.monotonic()
+        # simulated s per kernel call: a first guess, then what takes progress_every / 2
+        span = math.inf if progress is None else 100 * sim.dt
         while not self.failed and (sim.t < self.duration or self.next_sample_time <= sim.t):
             target = self.duration
             if self._queue:
                 target = min(target, self._queue[0][0])
             grid.reset(self.samples, counting if sink is None else sink.sample_rows())
-            ok = sim.advance_to(target, samples=grid)
+            called, before = time.monotonic(), sim.t
+            ok = sim.advance_to(target, limit=before + span, samples=grid)
+            if progress is not None and sim.t > before:
+                spent = max(time.monotonic() - called, 1e-6)
+                span = max(0.5 * progress_every * (sim.t - before) / spent, 10 * sim.dt)
             if grid.taken:
                 if sink is not None:
                     sink.took_rows(np.arange(self.samples, self.samples + grid.taken)
@@ -203,15 +213,15 @@ class Session:
                 return
             if self.next_sample_time > sim.t:   # inputs at t act after the sample at t
                 self._apply_due()
-            if progress is not None and time.monotonic() - wall > 1.0:
+            if progress is not None and time.monotonic() - wall >= progress_every:
                 wall = time.monotonic()
                 progress(sim.t)
 
-    def _run_per_sample(self, progress):
+    def _run_per_sample(self, progress, progress_every):
         wall = time.monotonic()
         while not self.finished:
             self.advance(self.next_sample_time)
-            if progress is not None and time.monotonic() - wall > 1.0:
+            if progress is not None and time.monotonic() - wall >= progress_every:
                 wall = time.monotonic()
                 progress(self.sim.t)
 

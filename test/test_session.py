@@ -46,7 +46,7 @@ CASES = {
 }
 
 
-def record(path, model, inputs, rate_hz, batched):
+def record(path, model, inputs, rate_hz, batched, **run_options):
     sim = Simulator(model)
     with Recorder(str(path)) as recorder:
         session = Session(sim, rate_hz=rate_hz, duration=model.duration,
@@ -54,7 +54,7 @@ def record(path, model, inputs, rate_hz, batched):
         for item in inputs:
             session.submit(item, check=False)
         if batched:
-            session.run()
+            session.run(**run_options)
         else:
             session.start()
             while not session.finished:
@@ -137,3 +137,18 @@ def test_a_failed_run_keeps_its_samples(tmp_path):
     assert many_session.samples == one_session.samples > 1
     assert (by_topic(read_checked(tmp_path / 'True.mcap')[2])
             == by_topic(read_checked(tmp_path / 'False.mcap')[2]))
+
+
+def test_progress_cuts_the_kernel_calls_not_the_steps(tmp_path):
+    # progress_every = 0: every kernel call is limited to 10 steps, progress after each
+    model = pendulum_with_releases()
+    one, _ = record(tmp_path / 'one.mcap', model, pendulum_inputs(), 30.0, False)
+    times = []
+    cut, _ = record(tmp_path / 'cut.mcap', model, pendulum_inputs(), 30.0, True,
+                    progress=times.append, progress_every=0.0)
+    assert cut.steps == one.steps and cut.events == one.events
+    assert np.array_equal(cut.y, one.y)
+    assert len(times) > model.duration / (10 * model.dt) / 2
+    assert times == sorted(times) and times[-1] == model.duration
+    assert (by_topic(read_checked(tmp_path / 'cut.mcap')[2])
+            == by_topic(read_checked(tmp_path / 'one.mcap')[2]))
