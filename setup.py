@@ -72,8 +72,8 @@ setup(
     entry_points={
         'console_scripts': [
             'cfem-sim = cfem_ros.cli:main',
-            'cfem_node = cfem_ros.node:entry_point',
-            'cfem_pub = cfem_ros.publish:entry_point',
+            'cfem_node = cfem_ros.ros.node:entry_point',
+            'cfem_pub = cfem_ros.ros.publish:entry_point',
         ],
     },
 )

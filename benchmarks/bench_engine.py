@@ -14,8 +14,9 @@ import statistics
 import tempfile
 import time
 
-from cfem_ros import load_scenario, offline, Simulator
-from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros import load_scenario, Simulator
+from cfem_ros.recording import offline
+from cfem_ros.recording.recorder import Recorder, StateRecorder
 
 CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
 SCENARIOS = ('fixed_joint_spin', 'double_pendulum', 'store_separation')

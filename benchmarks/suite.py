@@ -25,8 +25,9 @@ import sys
 import tempfile
 import time
 
-from cfem_ros import batch, load_scenario, offline, parse_scenario, Simulator
-from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros import batch, load_scenario, parse_scenario, Simulator
+from cfem_ros.recording import offline
+from cfem_ros.recording.recorder import Recorder, StateRecorder
 import mujoco
 import numpy as np
 

@@ -13,12 +13,14 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros import analysis, offline, plots, rotations
-from cfem_ros.engine import Simulator
-from cfem_ros.errors import CfemError
-from cfem_ros.inputs import read_inputs
-from cfem_ros.recording import Recorder, run_metadata, StateRecorder
-from cfem_ros.scenario import load_scenario
+from cfem_ros import plots
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import Simulator
+from cfem_ros.core.errors import CfemError
+from cfem_ros.core.scenario import load_scenario
+from cfem_ros.recording import analysis, offline
+from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.recording.replay import read_inputs
 import numpy as np
 
 EXIT_OK = 0

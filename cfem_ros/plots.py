@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import os
 
-from cfem_ros import rotations
-from cfem_ros.analysis import Run
-from cfem_ros.errors import CfemError
+from cfem_ros.core import rotations
+from cfem_ros.core.errors import CfemError
+from cfem_ros.recording.analysis import Run
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -114,7 +114,7 @@ def joint_points(run: Run) -> dict:
     metadata; without a readable scenario there are none (an empty dict).
     """
     try:
-        from cfem_ros.scenario import load_scenario
+        from cfem_ros.core.scenario import load_scenario
         model = load_scenario(run.metadata['scenario'])
     except (KeyError, CfemError):
         return {}

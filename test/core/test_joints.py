@@ -18,7 +18,7 @@ import pytest
 from reference import (axis_rotation, heavy_top, normalized_error, parallel_axis,
                        PivotChain, quat_matrix)
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 TIMES = np.linspace(0.0, 2.0, 21)
 MOTION = 1e-6
 JOINT_GAP = 1e-9

@@ -31,8 +31,8 @@ import math
 import time
 from typing import Callable, Optional
 
-from cfem_ros.engine import SampleGrid
-from cfem_ros.inputs import apply_input, Input, input_topic, validate_input
+from cfem_ros.core.engine import SampleGrid
+from cfem_ros.core.inputs import apply_input, Input, input_topic, validate_input
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')

@@ -17,7 +17,7 @@ from reference import (axis_rotation, normalized_error, parallel_axis, PivotChai
                        quat_matrix, torque_free)
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
 
 def model(name, **overrides):

@@ -12,9 +12,9 @@ reader (CRCs checked) and by following every index to its record.
 import io
 import zlib
 
-from cfem_ros.mcapfile import MESSAGE_HEADER
-from cfem_ros.msgdefs import DEFINITIONS
-from cfem_ros.recording import CHUNK_SIZE, POSE, Recorder, SampleLayout, STRING, TWIST
+from cfem_ros.recording.chunks import MESSAGE_HEADER
+from cfem_ros.recording.msgdefs import DEFINITIONS
+from cfem_ros.recording.recorder import CHUNK_SIZE, POSE, Recorder, SampleLayout, STRING, TWIST
 from mcap.reader import make_reader
 from mcap.records import Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex, Statistics
 from mcap.stream_reader import breakup_chunk, StreamReader

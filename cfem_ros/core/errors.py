@@ -1,6 +1,6 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""Exceptions of cfem_ros: one root, one class per kind of failure."""
+"""Exceptions of the numerical core: the root of all cfem_ros errors, and its kinds."""
 
 from __future__ import annotations
 
@@ -41,7 +41,3 @@ class ScenarioError(CfemError):
 
 class InputError(CfemError):
     """A command-line argument or input log that cannot be used."""
-
-
-class RecordingError(CfemError):
-    """A recording that cannot be written or read."""

@@ -21,7 +21,7 @@ import json
 import sys
 import time
 
-from cfem_ros.node import TOPIC_QOS
+from cfem_ros.ros.node import TOPIC_QOS
 from geometry_msgs.msg import WrenchStamped
 import rclpy
 from std_msgs.msg import String

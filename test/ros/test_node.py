@@ -28,7 +28,7 @@ from recordings import read_checked, read_mcap
 from rosharness import NodeProcess, Peer, stamp_ns
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 T0 = 1_000_000_000_000  # /clock start in the sim-time test: 1000 s
 MS = 1_000_000
 

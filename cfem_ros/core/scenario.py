@@ -14,9 +14,9 @@ import os
 import re
 from typing import Any, Optional
 
-from cfem_ros import rotations
-from cfem_ros.errors import ScenarioError
-from cfem_ros.model import (
+from cfem_ros.core import rotations
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.model import (
     AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
     Model, Release, STANDARD_GRAVITY, triad_from_axes)
 import numpy as np

@@ -7,7 +7,7 @@ from __future__ import annotations
 import logging
 from typing import Callable, Optional
 
-from cfem_ros.session import Session
+from cfem_ros.core.session import Session
 
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),

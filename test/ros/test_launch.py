@@ -14,11 +14,11 @@ import pathlib
 import sys
 import types
 
-from cfem_ros.node import PARAMETERS
+from cfem_ros.ros.node import PARAMETERS
 from rosharness import NodeProcess
 import yaml
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 class _Recorded:
@@ -58,7 +58,7 @@ def test_launch_file_starts_cfem_node_with_declared_parameters(monkeypatch):
     assert (node['package'], node['executable'], node['name']) == (
         'cfem_ros', 'cfem_node', 'cfem_sim')
     setup = (ROOT / 'setup.py').read_text()
-    assert "'cfem_node = cfem_ros.node:entry_point'" in setup
+    assert "'cfem_node = cfem_ros.ros.node:entry_point'" in setup
     overrides = node['parameters'][1]
     assert set(overrides) <= set(PARAMETERS) | {'use_sim_time'}
     declared = {a.args[0] for a in actions if type(a).__name__ == 'DeclareLaunchArgument'}

@@ -28,12 +28,12 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.engine import Simulator
-from cfem_ros.errors import CfemError
-from cfem_ros.inputs import release_input, wrench_input
-from cfem_ros.recording import Recorder, run_metadata, StateRecorder
-from cfem_ros.scenario import load_scenario
-from cfem_ros.session import Session
+from cfem_ros.core.engine import Simulator
+from cfem_ros.core.errors import CfemError
+from cfem_ros.core.inputs import release_input, wrench_input
+from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.session import Session
+from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy

@@ -1,17 +1,13 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""Input topics (external wrenches, release commands) read from an MCAP log."""
+"""Inputs (external wrenches, release commands): what they are, and applying them."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 import re
 from typing import Optional
 
-from cfem_ros.errors import InputError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 
 WRENCH_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/wrench$')
@@ -67,66 +63,6 @@ def release_input(joint: str, *, time: Optional[float] = None) -> Input:
 def input_topic(item: Input) -> str:
     """Topic of an input, relative to the namespace."""
     return 'release' if item.kind == 'release' else f'bodies/{item.target}/wrench'
-
-
-def read_inputs(path: str) -> list:
-    """
-    Read the wrench and release topics of a recording, in time order.
-
-    Simulated time 0 is the stamp the recording says it started at (its
-    ``cfem_ros`` metadata), else its first ``bodies/*/pose`` message (a
-    recording of cfem_ros), else its first message. The stamp used is each
-    message's log time.
-
-    Raises
-    ------
-    InputError
-        If the file is missing, not MCAP, or holds no input topic.
-
-    """
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            start_ns = _start_ns(reader)
-            found = []
-            for _, channel, message, decoded in reader.iter_decoded_messages():
-                wrench = WRENCH_TOPIC.match(channel.topic)
-                if wrench:
-                    w = decoded.wrench
-                    header = decoded.header
-                    found.append((message.log_time, wrench_input(
-                        wrench['body'], [w.force.x, w.force.y, w.force.z],
-                        [w.torque.x, w.torque.y, w.torque.z], header.frame_id,
-                        header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
-                elif RELEASE_TOPIC.match(channel.topic):
-                    found.append((message.log_time, release_input(decoded.data.strip())))
-    except OSError as err:
-        raise InputError(f'{path}: cannot read ({err.strerror})') from err
-    except (McapError, ValueError, KeyError, AttributeError) as err:
-        raise InputError(f'{path}: not a readable ROS 2 MCAP recording ({err})') from err
-    if not found:
-        raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench or '
-                         '.../release); nothing to replay')
-    if start_ns is None:
-        start_ns = min(f[0] for f in found)
-    found.sort(key=lambda f: f[0])
-    return [replace(item, time=max(0.0, (stamp_ns - start_ns) * 1e-9))
-            for stamp_ns, item in found]
-
-
-def _start_ns(reader) -> Optional[int]:
-    """Stamp of simulated time 0 of a recording, if it tells."""
-    for record in reader.iter_metadata():
-        if record.name == 'cfem_ros' and 'start_stamp_ns' in record.metadata:
-            return int(record.metadata['start_stamp_ns'])
-    poses = [c.id for c in reader.get_summary().channels.values()
-             if POSE_TOPIC.match(c.topic)] if reader.get_summary() else []
-    if poses:
-        for _, _, message in reader.iter_messages(
-                topics=None, log_time_order=True):
-            if message.channel_id in poses:
-                return message.log_time
-    return None
 
 
 def validate_input(sim, item: Input):

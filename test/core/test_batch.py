@@ -7,7 +7,7 @@ import pathlib
 from cfem_ros import batch, load_scenario, Simulator
 import numpy as np
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
 
 def test_copies_equal_single_runs_and_keep_their_own_releases():

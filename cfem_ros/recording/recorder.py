@@ -18,9 +18,9 @@ import struct
 from typing import Optional
 
 from cfem_ros import __version__
-from cfem_ros.errors import RecordingError
-from cfem_ros.mcapfile import ChunkedWriter, message_record_fields
-from cfem_ros.msgdefs import DEFINITIONS
+from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields
+from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.msgdefs import DEFINITIONS
 import mcap
 from mcap.opcode import Opcode
 from mcap_ros2._dynamic import serialize_dynamic

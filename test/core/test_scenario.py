@@ -9,7 +9,7 @@ from cfem_ros import cli
 import pytest
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 BASE = yaml.safe_load((CONFIG / 'double_pendulum.yaml').read_text())
 
 

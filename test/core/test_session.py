@@ -14,16 +14,17 @@ of one chunk) or write one buffer as several chunks (the default batch).
 
 import pathlib
 
-from cfem_ros import load_scenario, parse_scenario, recording, Simulator
-from cfem_ros.inputs import release_input, wrench_input
-from cfem_ros.recording import Recorder, StateRecorder
-from cfem_ros.session import Session
+from cfem_ros import load_scenario, parse_scenario, Simulator
+from cfem_ros.core.inputs import release_input, wrench_input
+from cfem_ros.core.session import Session
+from cfem_ros.recording import recorder
+from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np
 import pytest
 from recordings import fields, read_checked
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
 
 def pendulum_with_releases():
@@ -69,11 +70,11 @@ def by_topic(messages):
     return topics
 
 
-@pytest.mark.parametrize('batch_chunks', [1, recording.BATCH_CHUNKS])
+@pytest.mark.parametrize('batch_chunks', [1, recorder.BATCH_CHUNKS])
 @pytest.mark.parametrize('case', sorted(CASES))
 def test_kernel_sampling_records_what_sampling_one_by_one_records(case, batch_chunks, tmp_path,
                                                                   monkeypatch):
-    monkeypatch.setattr(recording, 'BATCH_CHUNKS', batch_chunks)
+    monkeypatch.setattr(recorder, 'BATCH_CHUNKS', batch_chunks)
     make_model, make_inputs, rate_hz = CASES[case]
     model = make_model()
     runs = [record(tmp_path / f'{batched}.mcap', model, make_inputs(), rate_hz, batched)

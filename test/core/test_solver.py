@@ -14,7 +14,8 @@ relative, a thousand times the rounding seen (about 1e-13).
 
 import logging
 
-from cfem_ros import kernel, parse_scenario, Simulator
+from cfem_ros import parse_scenario, Simulator
+from cfem_ros.core import kernel
 import numpy as np
 from reference import quat_matrix
 
@@ -71,8 +72,8 @@ def kkt_solution(sim, y):
             external = external @ rot.T
         force[6 * i:6 * i + 3] = body.mass * sim.gravity + external[0]
         force[6 * i + 3:6 * i + 6] = external[1] - np.cross(omega, inertia @ omega)
-    jac, _ = sim._jacobian(y)
     top = sim._topology
+    jac, _ = top.jacobian(y, top.kernel_args(sim), n)
     rhs = kernel.carve(top.work, n, top.m, len(top.plan))[11].copy()
     free = np.flatnonzero(np.repeat(sim.free, 6))
     m = top.m

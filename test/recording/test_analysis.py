@@ -14,9 +14,9 @@ import subprocess
 import sys
 
 from cfem_ros import analysis, cli, load_scenario, plots, Simulator
-from cfem_ros.errors import RecordingError
-from cfem_ros.inputs import release_input
-from cfem_ros.recording import Recorder, StateRecorder
+from cfem_ros.core.inputs import release_input
+from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.recorder import Recorder, StateRecorder
 import matplotlib.image
 import numpy as np
 import pytest
@@ -26,7 +26,7 @@ from rosbags.typesys import get_typestore, Stores
 from scipy.spatial.transform import Rotation
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 G = 9.80665
 
 TUMBLER = {

@@ -14,13 +14,13 @@ import subprocess
 import sys
 
 from cfem_ros import cli, load_scenario, Simulator
-from cfem_ros.inputs import release_input, wrench_input
+from cfem_ros.core.inputs import release_input, wrench_input
 import numpy as np
 import pytest
 from recordings import fields, read_checked, read_mcap, read_rosbags
 import yaml
 
-CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
 
 @pytest.fixture(scope='module')
@@ -124,7 +124,7 @@ def test_failed_run_exits_1_and_keeps_a_complete_recording(tmp_path, capsys):
 
 def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
     # a recording with inputs: the spec's own topics, from a cfem-sim run
-    from cfem_ros.recording import Recorder, StateRecorder
+    from cfem_ros.recording.recorder import Recorder, StateRecorder
     model = load_scenario(str(CONFIG / 'store_separation.yaml'))
     log = tmp_path / 'inputs.mcap'
     with Recorder(str(log), metadata={'start_stamp_ns': 0}) as recorder:

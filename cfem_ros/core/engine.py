@@ -1,0 +1,371 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The CFEM engine: Newton-Euler bodies, joint rows, Baumgarte, RK4, releases.
+
+The state of n bodies is one flat array ``y`` of 13 n numbers, in blocks:
+CG positions (world, m), CG velocities (world, m/s), quaternions (x, y, z, w,
+body to world) and angular velocities (body axes, rad/s). Ground (fixed)
+bodies are carried with zero inverse mass and inertia, so every formula is the
+same for all bodies.
+
+The loads of the active joints are solved in the Lagrange-multiplier form
+(CFEM.md, "Cheaper forms"): each constrained direction k of a joint carries a
+multiplier lambda_k, the force (or moment) along it, and
+
+    J M^-1 J^T lambda = -gamma - 2 eta J v - eta^2 g - J M^-1 f
+
+where g are the constraint values (paper eqs. 11-12), J their Jacobian with
+respect to the velocities (V, w in world axes), gamma = (dJ/dt) v, and f the
+external, gravity and gyroscopic loads. The joint table is data
+(``model.JOINT_TABLE``); this module never branches on a joint type.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Optional
+
+from cfem_ros.core import kernel, rotations
+from cfem_ros.core.model import Model
+from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
+from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
+from cfem_ros.core.topology import JointTables, Topology
+import numpy as np
+
+LOG = logging.getLogger('cfem_ros')
+
+#: Constraint violation (m, or rad for rotation rows) beyond which a run is
+#: declared diverged: a million times what the stabilized integration keeps.
+DIVERGENCE_VIOLATION = 1e-3
+
+#: Velocity corrections smaller than this (m/s, rad/s) are not reported.
+PROJECTION_REPORT = 1e-9
+
+#: What ``kernel.advance`` gets for no sample grid.
+_NO_GRID = np.zeros(3)
+_NO_ROWS = np.empty((0, 0))
+
+
+class Simulator(SampledState):
+    """
+    Step a model's bodies and joints in time with RK4.
+
+    Parameters
+    ----------
+    model : Model
+        Built by ``scenario.parse_scenario``.
+    logger : logging.Logger, optional
+        Where warnings go (velocity projection, redundant joints).
+
+    Attributes
+    ----------
+    t : float
+        Simulated time, s.
+    y : ndarray, shape (13 n,)
+        The state (module docstring).
+    status : str
+        'running' or 'failed'.
+    message : str
+        Why the run failed, with the time ('' while running).
+    events : list of dict
+        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``.
+    active : ndarray of bool, shape (n_joints,)
+        Joints not yet released.
+
+    """
+
+    def __init__(self, model: Model, logger: Optional[logging.Logger] = None):
+        self.model = model
+        self.log = logger or LOG
+        self.dt = float(model.dt)
+        self.eta = float(model.baumgarte)
+        bodies = model.bodies
+        n = self.n = len(bodies)
+        self.free = np.array([not b.fixed for b in bodies])
+        self.mass = np.array([0.0 if b.fixed else b.mass for b in bodies])
+        self.inv_mass = np.where(self.free, 1.0 / np.where(self.free, self.mass, 1.0), 0.0)
+        self.inertia_body = np.array([
+            np.zeros((3, 3)) if b.fixed else b.inertia for b in bodies])
+        self.inv_inertia_body = np.array([
+            np.zeros((3, 3)) if b.fixed else np.linalg.inv(b.inertia) for b in bodies])
+        self.gravity = np.asarray(model.gravity, dtype=float)
+        self._bodies = np.column_stack([
+            self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
+            self.inv_inertia_body.reshape(n, 9)])
+        # external force (3), torque (3), 1.0 when in body axes
+        self._loads = np.zeros((n, 7))
+
+        self.t = 0.0
+        self.y = np.concatenate([
+            np.concatenate([b.position for b in bodies]),
+            np.concatenate([b.velocity_world for b in bodies]),
+            np.concatenate([b.orientation_xyzw for b in bodies]),
+            np.concatenate([b.rates_body for b in bodies]),
+        ]).astype(float)
+        self.status = 'running'
+        self.message = ''
+        self.events = []
+        self.steps = 0
+        self.max_violation = 0.0
+        self._stage_violation = 0.0
+        self._info = np.zeros(6)
+
+        pos0, _, quat0, _ = self._split(self.y)
+        self.joints = JointTables(model, pos0, quat0)
+        self.releases = Releases(self.joints)
+        self.active = np.ones(len(model.joints), dtype=bool)
+        self._set_topology()
+        self._fire_time_triggers()
+        self._project_velocities()
+
+    # ------------------------------------------------------------ hot path
+
+    def _set_topology(self):
+        """Rebuild the rows, the solve plan and the workspace for the active joints."""
+        top = self._topology = Topology(self.joints.rows, self.active, self.free)
+        self.dof = self._check_redundancy()
+        self.releases.update(self.active, top.line)
+        active = np.flatnonzero(self.active)
+        self._outputs_key = tuple(active.tolist())
+        self._outputs_order = np.ascontiguousarray(top.line[active], dtype=np.int64)
+
+    def derivative(self, y: np.ndarray) -> np.ndarray:
+        """Return dy/dt at state y (external wrenches held constant)."""
+        out = np.empty_like(y)
+        if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
+            raise NumericalFailure('the constraint system is singular')
+        return out
+
+    def _rk4(self, y, h):
+        """One classical RK4 step of length h from y, quaternions normalized."""
+        out = np.empty_like(y)
+        try:
+            worst = kernel.rk4_step(y, h, out, *self._topology.kernel_args(self))
+        except np.linalg.LinAlgError:
+            worst = -1.0
+        if worst < 0.0:
+            raise NumericalFailure('the constraint system is singular')
+        self._stage_violation = max(self._stage_violation, worst)
+        return out
+
+    # ------------------------------------------------------- starting checks
+
+    def _check_redundancy(self) -> int:
+        """Detect redundant rows; warn once; return the remaining DOF."""
+        free_dof = 6 * int(self.free.sum())
+        top = self._topology
+        rank = top.rank(self.y, top.kernel_args(self), self.n)
+        if rank < top.m:
+            if not getattr(self, '_warned_redundant', False):
+                names = sorted({self.model.joints[k].name for k in top.joint})
+                self.log.warning(
+                    'the joints %s constrain %d direction(s) more than once (redundant '
+                    'joints or a closed loop): the motion is exact, the loads of the '
+                    'redundant directions are shared in the least-norm sense',
+                    ', '.join(names), top.m - rank)
+                self._warned_redundant = True
+            top.dense = 2
+        return free_dof - rank
+
+    def _project_velocities(self):
+        """Make the initial velocities consistent with the joints (mass weighted)."""
+        top = self._topology
+        if top.m == 0:
+            return
+        delta = np.zeros((self.n, 6))
+        kernel.project(self.y, *top.kernel_args(self), delta)
+        if not np.abs(delta).max() > PROJECTION_REPORT:
+            return
+        _, vel, quat, rates = self._split(self.y)
+        vel += delta[:, :3]
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
+        for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
+            self.log.warning(
+                'initial velocities of body %r are inconsistent with its joints; '
+                'corrected (mass weighted) by %.3g m/s and %.3g deg/s',
+                self.model.bodies[i].name, np.linalg.norm(delta[i, :3]),
+                math.degrees(np.linalg.norm(delta[i, 3:])))
+
+    # --------------------------------------------------------------- inputs
+
+    def set_wrench(self, body, force, torque, body_axes: bool = False):
+        """
+        Hold an external force and moment at a body's CG until replaced.
+
+        Parameters
+        ----------
+        body : str or int
+            Name or index of a body that is not fixed.
+        force : array_like, shape (3,)
+            N, world axes, or body axes if body_axes.
+        torque : array_like, shape (3,)
+            N m, same axes as force.
+        body_axes : bool
+            True: force and torque are in body axes and turn with the body.
+
+        """
+        i = self._body(body)
+        force = np.asarray(force, dtype=float)
+        torque = np.asarray(torque, dtype=float)
+        if force.shape != (3,) or torque.shape != (3,):
+            raise ValueError('force and torque must have 3 components each')
+        if not (np.isfinite(force).all() and np.isfinite(torque).all()):
+            raise ValueError('force and torque must be finite')
+        if not self.free[i]:
+            raise ValueError(f'body {self.model.bodies[i].name!r} is fixed and cannot be loaded')
+        self._loads[i] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
+
+    def release(self, joint, cause: str = 'command') -> dict:
+        """Release an active joint now; return the event."""
+        k = self._joint(joint)
+        if not self.active[k]:
+            raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
+        return self._release([k], cause)[0]
+
+    def _release(self, joints, cause):
+        events = []
+        for k in joints:
+            self.active[k] = False
+            event = {'event': 'release', 'joint': self.model.joints[k].name,
+                     'time': self.t, 'cause': cause}
+            events.append(event)
+            self.events.append(event)
+        self._set_topology()
+        return events
+
+    def _body(self, body) -> int:
+        if isinstance(body, str):
+            try:
+                return self.model.body_index(body)
+            except ValueError:
+                raise ValueError(f'unknown body {body!r}') from None
+        return int(body)
+
+    def _joint(self, joint) -> int:
+        if isinstance(joint, str):
+            try:
+                return self.model.joint_index(joint)
+            except ValueError:
+                raise ValueError(f'unknown joint {joint!r}') from None
+        return int(joint)
+
+    # ------------------------------------------------------------- stepping
+
+    def advance_to(self, t_target: float, limit: Optional[float] = None,
+                   samples: Optional[SampleGrid] = None) -> bool:
+        """
+        Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
+
+        Steps are also cut at release times, and a step in which a release
+        condition is crossed is cut at the crossing, located on the step's own
+        RK4 map. With ``limit``, stop before the first step that would end
+        after it: the steps taken are the same as those toward t_target
+        without a limit, so a run paced by a clock is the run without one.
+        With ``samples``, the samples on its grid are taken on the way (one
+        due now first), and the call returns early after a release or when
+        the grid's rows are full, so that the caller can record the events
+        and the samples in time order and call again.
+        Returns False (and sets ``status`` and ``message``) if the run failed;
+        the state is then the last good one.
+        """
+        if self.status != 'running':
+            return False
+        limit = math.inf if limit is None else limit
+        if samples is not None and samples.rows.shape[1] not in (0, self._outputs_size()):
+            raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
+                             f'of this state have {self._outputs_size()}')
+        try:
+            while self.t < t_target or (samples is not None and self.t >= samples.next_time):
+                due = self._next_time_trigger()
+                due = math.inf if due is None else due
+                result = self._run(t_target, due, limit, samples)
+                if result == kernel.CONDITION:
+                    # a release condition is reached within the next step: locate it
+                    goal = t_target if samples is None else min(t_target, samples.next_time)
+                    remaining = goal - self.t
+                    if remaining <= self.dt * (1.0 + 1e-9):
+                        h, t_end = remaining, goal
+                    else:
+                        h, t_end = self.dt, self.t + self.dt
+                    if due < t_end:
+                        h, t_end = due - self.t, due
+                    self._step(h, t_end)
+                else:
+                    self._fire_time_triggers()
+                if samples is not None:
+                    break   # back to the caller: rows to take, or a release's events
+                if result != kernel.CONDITION and self.t < t_target and self.t < due:
+                    break   # the next step would end after limit
+        except NumericalFailure as err:
+            self.status = 'failed'
+            self.message = f'at t = {self.t:.9g} s: {err}'
+            return False
+        return True
+
+    def _run(self, t_target, due, limit, samples=None):
+        """Take steps in the kernel until a target, a release time, limit or a condition."""
+        top = self._topology
+        rel = self.releases
+        info = self._info
+        info[:] = (self.t, 0.0, self.max_violation, kernel.REACHED, DIVERGENCE_VIOLATION, 0.0)
+        grid, rows = (_NO_GRID, _NO_ROWS) if samples is None else (samples.state, samples.rows)
+        try:
+            kernel.advance(self.y, info, t_target, due, limit, self.dt, *top.kernel_args(self),
+                           self.joints.joints_i, self.joints.joints_f, rel.watch,
+                           rel.watch_limits, rel.watch_lines, grid, self._outputs_order, rows)
+        except np.linalg.LinAlgError:
+            info[3] = kernel.SINGULAR
+        finally:
+            self.t = float(info[0])
+            self.steps += int(info[1])
+            self.max_violation = float(info[2])
+        result = int(info[3])
+        if result == kernel.NOT_FINITE:
+            raise NumericalFailure('the state is no longer finite (the system diverged)')
+        if result == kernel.VIOLATION:
+            raise NumericalFailure(
+                f'constraint violation {info[5]:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
+                '(the system diverged; try a smaller dt)')
+        if result == kernel.SINGULAR:
+            raise NumericalFailure('the constraint system is singular')
+        return result
+
+    def _next_time_trigger(self) -> Optional[float]:
+        return self.releases.due   # changes with the topology
+
+    def _fire_time_triggers(self):
+        due = self.releases.timed_out(self.active, self.t)
+        if due.size:
+            self._release(due, 'time')
+
+    def _joint_forces(self, y):
+        return self._joint_loads(y)[0]
+
+    def _step(self, h, t_end):
+        """Advance one step of length h to t_end, locating condition releases."""
+        self._stage_violation = 0.0
+        y0 = self.y
+        y1 = self._rk4(y0, h)
+        crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
+        if crossing is None:
+            self._commit(y1, t_end)
+        else:
+            s, joints, causes = crossing
+            self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
+            for k, cause in zip(joints, causes):
+                self._release([k], cause)
+        self._fire_time_triggers()
+
+    def _commit(self, y1, t1):
+        if not np.isfinite(y1).all():
+            raise NumericalFailure('the state is no longer finite (the system diverged)')
+        if self._stage_violation > DIVERGENCE_VIOLATION:
+            raise NumericalFailure(
+                f'constraint violation {self._stage_violation:.3g} exceeds '
+                f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)')
+        self.max_violation = max(self.max_violation, self._stage_violation)
+        self.y = y1
+        self.t = t1
+        self.steps += 1

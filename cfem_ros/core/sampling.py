@@ -1,0 +1,224 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+What a sample shows: the sample grid, and a state's outputs and joint loads.
+
+``SampleGrid`` lets the kernel take samples on k / rate_hz on its way;
+``SampledState``, the base of ``Simulator``, computes the numbers a sample
+publishes at a state: poses and twists, each joint's load on its child, its
+points and its angle.
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from cfem_ros.core import kernel, rotations
+import numpy as np
+
+
+class NumericalFailure(Exception):
+    """Raised inside a step or a sample; turned into ``status = 'failed'``."""
+
+
+def _apply(matrices, vectors):
+    """Row-wise matrix-vector products, (m, 3, 3) @ (m, 3)."""
+    return np.einsum('mij,mj->mi', matrices, vectors)
+
+
+class SampleGrid:
+    """
+    Samples on the grid k / rate_hz, taken by the kernel inside ``Simulator.advance_to``.
+
+    Steps are cut at the grid's times (as they are when each sample time is
+    a target of its own), and at each the sample's outputs
+    (``Simulator.outputs``) go to the next of ``rows``; rows with no columns
+    only count the samples. Before each call, ``reset`` says where the next
+    rows go.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Samples per second.
+
+    """
+
+    def __init__(self, rate_hz: float):
+        #: rate (Hz), index of the next sample, samples taken in the last call.
+        self.state = np.array([float(rate_hz), 0.0, 0.0])
+        self.rows = np.empty((0, 0))
+
+    def reset(self, next_index: int, rows: np.ndarray):
+        """Take samples from index next_index on, into rows (C-contiguous float64)."""
+        if rows.ndim != 2 or rows.dtype != np.float64 or not rows.flags.c_contiguous:
+            raise ValueError('sample rows must be a C-contiguous 2-d float64 array')
+        self.state[1:] = (next_index, 0)
+        self.rows = rows
+
+    @property
+    def taken(self) -> int:
+        """Return the number of samples taken since ``reset``."""
+        return int(self.state[2])
+
+    @property
+    def next_time(self) -> float:
+        """Return the time of the next sample to take, s."""
+        return self.state[1] / self.state[0]
+
+
+class SampledState:
+    """
+    What a sample shows of a simulator's state: the base of ``Simulator``.
+
+    Subclasses hold ``y`` (the state), ``n`` (bodies), ``model``, ``joints``
+    (``JointTables``), ``_topology`` and the active joints' output order.
+    """
+
+    # ----------------------------------------------------------------- views
+
+    def _split(self, y):
+        """Return views (position, velocity, quaternion, rates) of a state vector."""
+        n = self.n
+        return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
+                y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
+
+    @property
+    def position(self) -> np.ndarray:
+        """CG positions, world, m, shape (n, 3)."""
+        return self._split(self.y)[0].copy()
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """CG velocities, world axes, m/s, shape (n, 3)."""
+        return self._split(self.y)[1].copy()
+
+    @property
+    def orientation(self) -> np.ndarray:
+        """Return unit quaternions (x, y, z, w), body to world, shape (n, 4)."""
+        return self._split(self.y)[2].copy()
+
+    @property
+    def rates(self) -> np.ndarray:
+        """Angular velocities (P, Q, R), body axes, rad/s, shape (n, 3)."""
+        return self._split(self.y)[3].copy()
+
+    def velocity_body(self) -> np.ndarray:
+        """CG velocities in body axes, m/s, shape (n, 3)."""
+        _, vel, quat, _ = self._split(self.y)
+        return rotations.to_body(quat, vel)
+
+    # -------------------------------------------------------------- outputs
+
+    def joint_wrenches(self):
+        """
+        Return the loads of the joints on their children at the current state.
+
+        Returns
+        -------
+        force : ndarray, shape (n_joints, 3)
+            Force on the child, world axes, N.
+        moment : ndarray, shape (n_joints, 3)
+            Moment on the child about the joint point, world axes, N m.
+            Released joints have zero force and moment.
+
+        """
+        return self._joint_loads(self.y)[:2]
+
+    @property
+    def active_joints(self) -> tuple:
+        """Return the active joints (model indices, ascending)."""
+        return self._outputs_key
+
+    def _joint_loads(self, y):
+        """
+        Each joint's load on its child at a state, and the constraint values.
+
+        Returns
+        -------
+        force, moment : ndarray, shape (n_joints, 3)
+            World axes, N and N m about the joint point; zero for released joints.
+        value : ndarray, shape (m,)
+            Constraint values of the active rows (m, or rad).
+
+        """
+        top = self._topology
+        n_j = len(self.model.joints)
+        force, moment = np.zeros((n_j, 3)), np.zeros((n_j, 3))
+        lines = len(top.plan)
+        f_line, m_line = np.empty((lines, 3)), np.empty((lines, 3))
+        try:
+            ok = kernel.joint_loads(np.ascontiguousarray(y), *top.kernel_args(self),
+                                    f_line, m_line)
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            raise NumericalFailure('the constraint system is singular')
+        force[top.plan[:, kernel.P_JOINT]] = f_line
+        moment[top.plan[:, kernel.P_JOINT]] = m_line
+        value = kernel.constraint_values(top.work, self.n, top.m, lines).copy()
+        return force, moment, value
+
+    def _outputs_size(self) -> int:
+        return 13 * self.n + 6 * len(self._outputs_key)
+
+    def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """
+        Return what a sample publishes at the current state, in one kernel call.
+
+        Parameters
+        ----------
+        out : ndarray, optional
+            Where to write it (a fresh array if not given).
+
+        Returns
+        -------
+        ndarray, shape (13 n + 6 len(active_joints),)
+            Per body its pose (CG position, m; quaternion x y z w, body to
+            world) and twist (CG velocity, m/s, and angular velocity, rad/s,
+            both in body axes); then per active joint its force and moment on
+            the child (world axes, N and N m about the joint point).
+
+        """
+        if out is None:
+            out = np.empty(self._outputs_size())
+        try:
+            ok = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
+                                       self._outputs_order, out)
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            raise NumericalFailure('the constraint system is singular')
+        return out
+
+    def joint_points(self, y: Optional[np.ndarray] = None):
+        """
+        Each joint's point as carried by its parent and by its child.
+
+        Returns
+        -------
+        on_parent, on_child : ndarray, shape (n_joints, 3)
+            World, m.
+
+        """
+        pos, _, quat, _ = self._split(self.y if y is None else y)
+        rot = rotations.matrices(quat)
+        joints = self.joints
+        pa, pb = joints.parent, joints.child
+        return (pos[pa] + _apply(rot[pa], joints.anchor_a),
+                pos[pb] + _apply(rot[pb], joints.anchor_b))
+
+    def joint_angles(self, y: Optional[np.ndarray] = None) -> np.ndarray:
+        """Rotation of each child relative to its parent since t = 0, rad."""
+        joints = self.joints
+        quat = self._split(self.y if y is None else y)[2]
+        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
+        relative = rotations.multiply(
+            rotations.conjugate(quat[joints.parent]), quat[joints.child])
+        return rotations.rotation_angle(
+            rotations.multiply(rotations.conjugate(joints.relative0), relative))
+
+    def constraint_violation(self) -> float:
+        """Largest |g| of the active rows now (m, or rad for rotation rows)."""
+        if self._topology.m == 0:
+            return 0.0
+        return float(np.abs(self._joint_loads(self.y)[2]).max())

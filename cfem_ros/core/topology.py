@@ -1,0 +1,204 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The joints of a model as constraint rows, and the rows of the active ones.
+
+``JointTables`` turns the model's joints into row tables in body axes, once
+per run; ``Topology`` keeps the rows of the joints still active and how the
+kernel solves them (a leaves-first tree plan, or the dense form for closed
+loops), and finds redundant rows.
+"""
+
+from __future__ import annotations
+
+from cfem_ros.core import kernel, rotations
+import numpy as np
+
+
+class JointTables:
+    """
+    Every joint of a model as rows in body axes, built once from the state at t = 0.
+
+    Attributes
+    ----------
+    parent, child : ndarray of int, shape (n_joints,)
+        Body indices of each joint's ends.
+    anchor_a, anchor_b : ndarray, shape (n_joints, 3)
+        The joint point in the parent's and in the child's body axes, m.
+    triggers : ndarray, shape (n_joints, 4)
+        Release time (s), angle (rad), distance (m) and force (N); NaN: none.
+    relative0 : ndarray, shape (n_joints, 4)
+        Attitude of each child relative to its parent at t = 0.
+    rows : dict
+        Row tables of all joints (``Topology`` keeps the active ones).
+    joints_i, joints_f : ndarray
+        Ends, anchors and relative attitude per joint, for the kernel's
+        release conditions.
+
+    """
+
+    def __init__(self, model, pos0: np.ndarray, quat0: np.ndarray):
+        rot0 = rotations.matrices(quat0)
+        t_rows, r_rows = [], []
+        n_j = len(model.joints)
+        self.parent = np.array([j.parent for j in model.joints], dtype=int)
+        self.child = np.array([j.child for j in model.joints], dtype=int)
+        self.anchor_a = np.zeros((n_j, 3))
+        self.anchor_b = np.zeros((n_j, 3))
+        self.triggers = np.full((n_j, 4), np.nan)
+        for k, joint in enumerate(model.joints):
+            a, b = joint.parent, joint.child
+            anchor_a = rot0[a].T @ (joint.anchor - pos0[a])
+            anchor_b = rot0[b].T @ (joint.anchor - pos0[b])
+            self.anchor_a[k] = anchor_a
+            self.anchor_b[k] = anchor_b
+            triad_a = joint.triad @ rot0[a]   # rows: u_i in A's body axes
+            triad_b = joint.triad @ rot0[b]
+            for i in joint.rows.translation:
+                t_rows.append((k, a, b, triad_a[i], anchor_a, anchor_b))
+            for i, j in joint.rows.rotation:
+                r_rows.append((k, a, b, triad_a[i], triad_b[j]))
+            rel = joint.release
+            self.triggers[k] = [np.nan if v is None else v
+                                for v in (rel.time, rel.angle, rel.distance, rel.force)]
+        self.relative0 = rotations.multiply(
+            rotations.conjugate(quat0[self.parent]), quat0[self.child])
+
+        rows = sorted(t_rows + [(k, a, b, u, v, None) for k, a, b, u, v in r_rows],
+                      key=lambda row: (row[0], row[5] is None))
+        self.rows = {
+            'joint': np.array([r[0] for r in rows], dtype=np.int64),
+            'rows_i': np.array([(r[1], r[2], r[5] is not None) for r in rows],
+                               dtype=np.int64).reshape(-1, 3),
+            'vectors': np.array([np.concatenate([r[3], r[4], np.zeros(3) if r[5] is None
+                                                 else r[5]]) for r in rows]).reshape(-1, 9),
+            'ends': np.column_stack([self.parent, self.child]).reshape(-1, 2),
+        }
+        # for the release conditions: anchors and relative attitude at t = 0
+        self.joints_i = np.ascontiguousarray(self.rows['ends'])
+        self.joints_f = np.ascontiguousarray(np.column_stack([
+            self.anchor_a, self.anchor_b, self.relative0]).reshape(-1, 10))
+
+
+class Topology:
+    """
+    The constraint rows of the active joints and how to solve them, for ``kernel``.
+
+    Rows come grouped by joint, translation rows (primitive 1) before
+    rotation rows (primitive 2 with perpendicular vectors); vectors are in
+    the body axes of the body that carries them. When the joints form a
+    forest (all fixed bodies counted as one ground), ``plan`` lists them
+    leaves first for the kernel's linear-time tree solve; otherwise (closed
+    loops, two joints on one pair) the dense form is used.
+    """
+
+    def __init__(self, tables: dict, active: np.ndarray, free: np.ndarray):
+        keep = active[tables['joint']]
+        self.joint = tables['joint'][keep]
+        self.rows_i = np.array(tables['rows_i'][keep])
+        self.rows_f = np.ascontiguousarray(tables['vectors'][keep])
+        self.translation = self.rows_i[:, 2].astype(bool)
+        # 2: a translation row at the same joint point as the row before (the kernel
+        # computes the point's terms once per joint)
+        self.rows_i[1:, 2][self.translation[1:] & self.translation[:-1]
+                           & (self.joint[1:] == self.joint[:-1])
+                           & (self.rows_f[1:, 3:9] == self.rows_f[:-1, 3:9]).all(axis=1)] = 2
+        self.m = len(self.joint)
+        joints = np.flatnonzero(active)
+        first = np.searchsorted(self.joint, joints)
+        counts = np.array([[np.count_nonzero(self.translation[self.joint == k]),
+                            np.count_nonzero(~self.translation[self.joint == k])]
+                           for k in joints], dtype=np.int64).reshape(-1, 2)
+        ends = tables['ends'][joints]
+        lines = self._forest(joints, ends, free)
+        self.dense = 0 if lines is not None else 1
+        if lines is None:   # closed loops: every joint as written, no tree
+            lines = [(i, ends[i, 1], ends[i, 0], 1) for i in range(len(joints))]
+        self.plan = np.array(
+            [(first[i], counts[i, 0], counts[i, 1], child, parent, sign, joints[i])
+             for i, child, parent, sign in lines], dtype=np.int64).reshape(-1, 7)
+        self.roots = np.where(free, 0, -1).astype(np.int64)
+        held = set(self.plan[:, kernel.P_CHILD].tolist())
+        touched = held | set(self.plan[:, kernel.P_PARENT].tolist())
+        for i in np.flatnonzero(free):
+            if i not in held:
+                self.roots[i] = 1 if i in touched else 2
+        # plan line of each model joint (-1 if released)
+        self.line = np.full(len(active), -1, dtype=np.int64)
+        self.line[self.plan[:, kernel.P_JOINT]] = np.arange(len(self.plan))
+        n = len(free)
+        self.work = np.zeros(kernel.workspace_size(n, self.m, len(self.plan)))
+
+    @staticmethod
+    def _forest(joints, ends, free):
+        """
+        Orient the joints as a forest, leaves first; None if they close a loop.
+
+        Returns lines (index into joints, tree child, tree parent, +1 if the
+        tree child is the joint's child else -1). Trees hang from the ground
+        first, then from the lowest-numbered body of each floating group.
+        """
+        ground = -1
+        node = [i if free[i] else ground for i in range(len(free))]
+        edges = {}
+        for i, (a, b) in enumerate(ends):
+            edges.setdefault(node[a], []).append(i)
+            edges.setdefault(node[b], []).append(i)
+        seen, used, lines = set(), set(), []
+        starts = [ground] + [i for i in range(len(free)) if free[i]]
+        for start in starts:
+            if start in seen or start not in edges:
+                continue
+            seen.add(start)
+            queue = [start]
+            while queue:
+                here = queue.pop(0)
+                for i in edges[here]:
+                    if i in used:
+                        continue
+                    used.add(i)
+                    a, b = ends[i]
+                    child = b if node[a] == here else a
+                    if node[a] == here and node[b] == here:
+                        return None
+                    if node[child] in seen:
+                        return None
+                    seen.add(node[child])
+                    queue.append(node[child])
+                    parent = a if child == b else b
+                    lines.append((i, child, parent, 1 if child == b else -1))
+        return lines[::-1]
+
+    def kernel_args(self, sim):
+        """Arguments of the kernel's solve functions after y."""
+        return (sim._bodies, sim.gravity, sim._loads, self.rows_i, self.rows_f, self.plan,
+                self.roots, sim.eta, self.dense, self.work)
+
+    def rank(self, y: np.ndarray, args: tuple, n: int) -> int:
+        """
+        Return the rank of the active rows at y (``args``: ``kernel_args``).
+
+        A forest's rows are independent; otherwise the rank of the mass-weighted
+        Schur complement J M^-1 J^T, scaled to a unit diagonal.
+        """
+        if self.m == 0 or not self.dense:
+            return self.m
+        jac, weighted = self.jacobian(y, args, n)
+        schur = weighted @ jac.T
+        scale = 1.0 / np.sqrt(np.maximum(np.diag(schur), 1e-300))
+        return int(np.linalg.matrix_rank(schur * scale[:, None] * scale[None, :], tol=1e-9))
+
+    def jacobian(self, y: np.ndarray, args: tuple, n: int):
+        """Return the dense Jacobian J and J M^-1, (m, 6 n), of the active rows at y."""
+        kernel.row_jacobian(y, *args)
+        views = kernel.carve(self.work, n, self.m, len(self.plan))
+        return self._dense(views[6], n), self._dense(views[7], n)
+
+    def _dense(self, blocks, n):
+        """Scatter per-row (parent, child) 6-blocks into a dense (m, 6 n) matrix."""
+        out = np.zeros((self.m, 6 * n))
+        rows = np.arange(self.m)[:, None]
+        six = np.arange(6)
+        out[rows, 6 * self.rows_i[:, :1] + six] = blocks[:, :6]
+        out[rows, 6 * self.rows_i[:, 1:2] + six] = blocks[:, 6:]
+        return out

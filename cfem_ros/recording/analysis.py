@@ -1,0 +1,419 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Recorded runs as numpy arrays, without ROS.
+
+``open_run(path)`` reads a recording of the SPEC section 3 topics (from
+``cfem-sim run``, from the node, or from any other program that writes the
+same topics) and returns a ``Run``: per body, time, position, quaternion,
+Euler angles, body rates and velocity; per joint, time, force and moment;
+and the events. CDR is decoded by mcap_ros2 from the schemas in the file, so
+no ROS installation is needed.
+
+Times are seconds from the run's start: the ``cfem_ros`` metadata's
+``start_stamp_ns`` if present, else the first pose's stamp.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import json
+import os
+import re
+from typing import Optional
+
+from cfem_ros.core import rotations
+from cfem_ros.recording.errors import RecordingError
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+import numpy as np
+
+__all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'check_mcap', 'compare_runs',
+           'euler_continuous', 'open_run']
+
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
+JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
+EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
+NAN = float('nan')
+
+
+@dataclass
+class BodyTrack:
+    """
+    One body's recorded motion; arrays have one row per pose sample.
+
+    Attributes
+    ----------
+    name : str
+    time : ndarray (n,)
+        s from the run's start.
+    stamp_ns : ndarray (n,) of int64
+        The samples' stamps.
+    position : ndarray (n, 3)
+        CG in the world frame, m.
+    quaternion : ndarray (n, 4)
+        Body-to-world attitude, x, y, z, w.
+    euler_deg : ndarray (n, 3)
+        Roll, pitch, yaw in degrees, Z-Y-X (yaw first); pitch within +-90 deg,
+        roll and yaw within +-180 deg (they flip by 180 deg when pitch passes
+        +-90 deg).
+    euler_continuous_deg : ndarray (n, 3)
+        The same attitudes as continuous angles: pitch may go past +-90 deg
+        (a tumbling store's pitch keeps growing) and no angle jumps by 360.
+    rates : ndarray (n, 3)
+        Body rates p, q, r, rad/s (NaN where no twist matches a pose).
+    velocity : ndarray (n, 3)
+        CG velocity in body axes (u, v, w), m/s, as published.
+    velocity_world : ndarray (n, 3)
+        CG velocity in world axes, m/s.
+
+    """
+
+    name: str
+    time: np.ndarray
+    stamp_ns: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    euler_deg: np.ndarray
+    euler_continuous_deg: np.ndarray
+    rates: np.ndarray
+    velocity: np.ndarray
+    velocity_world: np.ndarray
+
+    @property
+    def moves(self) -> bool:
+        """Tell whether the body changes position or attitude during the run."""
+        return bool(np.ptp(self.position, axis=0).max(initial=0.0) > 0.0
+                    or np.ptp(self.quaternion, axis=0).max(initial=0.0) > 0.0)
+
+
+@dataclass
+class JointTrack:
+    """
+    One joint's recorded load on its child, while it was active.
+
+    Attributes
+    ----------
+    name : str
+    time : ndarray (n,)
+        s from the run's start.
+    stamp_ns : ndarray (n,) of int64
+    force : ndarray (n, 3)
+        N, world axes.
+    moment : ndarray (n, 3)
+        N m about the joint point, world axes.
+
+    """
+
+    name: str
+    time: np.ndarray
+    stamp_ns: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+
+
+@dataclass
+class Run:
+    """
+    A recording, read.
+
+    Attributes
+    ----------
+    path : str
+    namespace : str
+        The topics' prefix, e.g. '/cfem'.
+    start_ns : int
+        Stamp of t = 0.
+    bodies : dict of str to BodyTrack
+        In the order the recording first names them.
+    joints : dict of str to JointTrack
+    events : list of dict
+        Decoded JSON events (``{'event', 'joint', 'time', 'cause'}``).
+    topics : dict of str to (str, int)
+        Every topic in the file: (message type, message count).
+    metadata : dict of str to str
+        The ``cfem_ros`` metadata record, if any.
+    duration : float
+        Seconds from the start to the last sample.
+
+    """
+
+    path: str
+    namespace: str
+    start_ns: int
+    bodies: dict
+    joints: dict
+    events: list
+    topics: dict
+    metadata: dict = field(default_factory=dict)
+    duration: float = 0.0
+
+    def releases(self) -> list:
+        """Return the release events as (time, joint, cause), in time order."""
+        return sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
+                      for e in self.events if e.get('event') == 'release' and 'time' in e)
+
+    def moving_bodies(self) -> list:
+        """Return the bodies that move, in order."""
+        return [track for track in self.bodies.values() if track.moves]
+
+
+def euler_continuous(euler_deg: np.ndarray) -> np.ndarray:
+    """
+    Turn Z-Y-X angles (pitch within +-90 deg) into continuous ones.
+
+    Each attitude has two Z-Y-X triples, (roll, pitch, yaw) and
+    (roll + 180, 180 - pitch, yaw + 180); at each sample the one nearest the
+    previous sample is kept, and every angle is unwrapped by whole turns.
+    """
+    out = np.array(euler_deg, dtype=float, copy=True)
+    for i in range(1, len(out)):
+        prev = out[i - 1]
+        best = None
+        roll, pitch, yaw = out[i]
+        for candidate in (out[i], np.array([roll + 180.0, 180.0 - pitch, yaw + 180.0])):
+            unwrapped = candidate + 360.0 * np.round((prev - candidate) / 360.0)
+            distance = np.abs(unwrapped - prev).sum()
+            if best is None or distance < best[0]:
+                best = (distance, unwrapped)
+        out[i] = best[1]
+    return out
+
+
+def check_mcap(path: str) -> None:
+    """
+    Raise RecordingError unless path is a complete MCAP file.
+
+    The message says what is wrong: missing, not MCAP, or truncated (no
+    footer: the writer did not finish, e.g. it was killed).
+    """
+    try:
+        size = os.path.getsize(path)
+        with open(path, 'rb') as stream:
+            head = stream.read(len(MCAP_MAGIC))
+            stream.seek(max(0, size - len(MCAP_MAGIC)))
+            tail = stream.read(len(MCAP_MAGIC))
+    except OSError as err:
+        raise RecordingError(f'{path}: cannot read ({err.strerror})') from err
+    if head != MCAP_MAGIC:
+        raise RecordingError(f'{path}: not an MCAP file (it does not start with the MCAP '
+                             'magic bytes); expected a recording from cfem-sim, cfem_node or '
+                             'ros2 bag record -s mcap')
+    if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
+        raise RecordingError(
+            f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
+            'finish it (killed?). Its messages up to the cut can be recovered with '
+            '`mcap recover` (mcap CLI) or read with mcap.stream_reader.StreamReader')
+
+
+def _choose_namespace(path, found: set, namespace: Optional[str]) -> str:
+    if namespace is not None:
+        namespace = namespace.rstrip('/')
+        if namespace not in found:
+            raise RecordingError(f'{path}: no bodies/<body>/pose topic under namespace '
+                                 f'{namespace or "/"!r} (found: {sorted(found)})')
+        return namespace
+    if not found:
+        raise RecordingError(f'{path}: holds no <namespace>/bodies/<body>/pose topic; expected '
+                             'a recording of the cfem_ros topics (SPEC section 3)')
+    if len(found) > 1:
+        raise RecordingError(f'{path}: several namespaces {sorted(found)}; choose one')
+    return next(iter(found))
+
+
+def _vectors(rows, n):
+    return np.array(rows, dtype=float).reshape(n, 3)
+
+
+def open_run(path: str, namespace: Optional[str] = None) -> Run:
+    """
+    Read a recording into arrays.
+
+    Parameters
+    ----------
+    path : str
+        An MCAP recording of the SPEC section 3 topics.
+    namespace : str, optional
+        The topics' prefix; needed only if the file holds several.
+
+    Raises
+    ------
+    RecordingError
+        If the file is missing, not MCAP, truncated, undecodable, or has no
+        ``bodies/<body>/pose`` topic.
+
+    """
+    check_mcap(path)
+    try:
+        with open(path, 'rb') as stream:
+            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+            summary = reader.get_summary()
+            if summary is None:
+                raise RecordingError(f'{path}: MCAP file without a summary section; '
+                                     'expected a finished recording')
+            schemas = summary.schemas
+            topics = {}
+            for channel in summary.channels.values():
+                count = (summary.statistics.channel_message_counts.get(channel.id, 0)
+                         if summary.statistics else 0)
+                schema = schemas.get(channel.schema_id)
+                topics[channel.topic] = (schema.name if schema else '?', count)
+            spaces = {m['ns'] for t in topics
+                      for m in [BODY_TOPIC.match(t)] if m and m['kind'] == 'pose'}
+            ns = _choose_namespace(path, spaces, namespace)
+            metadata = {}
+            for record in reader.iter_metadata():
+                if record.name == 'cfem_ros':
+                    metadata = dict(record.metadata)
+            raw = _read_messages(reader, ns)
+    except RecordingError:
+        raise
+    except (McapError, ValueError, KeyError, AttributeError, EOFError) as err:
+        raise RecordingError(f'{path}: cannot decode ({type(err).__name__}: {err}); '
+                             'expected CDR messages with ros2msg schemas') from err
+    return _assemble(path, ns, topics, metadata, raw)
+
+
+def _read_messages(reader, ns: str) -> dict:
+    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'events': []}
+    for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+        topic = channel.topic
+        body = BODY_TOPIC.match(topic)
+        if body and body['ns'] == ns and body['kind'] in ('pose', 'twist'):
+            stamp = decoded.header.stamp
+            when = stamp.sec * 1_000_000_000 + stamp.nanosec
+            if body['kind'] == 'pose':
+                p, q = decoded.pose.position, decoded.pose.orientation
+                values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+            else:
+                a, b = decoded.twist.linear, decoded.twist.angular
+                values = (a.x, a.y, a.z, b.x, b.y, b.z)
+            raw[body['kind']].setdefault(body['name'], []).append((when, values))
+            continue
+        joint = JOINT_TOPIC.match(topic)
+        if joint and joint['ns'] == ns:
+            stamp = decoded.header.stamp
+            f, m = decoded.wrench.force, decoded.wrench.torque
+            raw['joint'].setdefault(joint['name'], []).append(
+                (stamp.sec * 1_000_000_000 + stamp.nanosec, (f.x, f.y, f.z, m.x, m.y, m.z)))
+            continue
+        events = EVENTS_TOPIC.match(topic)
+        if events and events['ns'] == ns:
+            try:
+                event = json.loads(decoded.data)
+            except (ValueError, TypeError):
+                event = {'event': 'unparsed', 'data': str(decoded.data)}
+            raw['events'].append(event if isinstance(event, dict) else {'event': event})
+    return raw
+
+
+def _assemble(path, ns, topics, metadata, raw) -> Run:
+    poses = raw['pose']
+    if 'start_stamp_ns' in metadata:
+        start_ns = int(metadata['start_stamp_ns'])
+    else:
+        start_ns = min(rows[0][0] for rows in poses.values())
+    bodies = {}
+    for name, rows in poses.items():
+        rows.sort(key=lambda r: r[0])
+        stamps = np.array([r[0] for r in rows], dtype=np.int64)
+        values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)
+        quat = values[:, 3:7]
+        twist = np.full((len(rows), 6), np.nan)
+        index = {s: i for i, s in enumerate(stamps.tolist())}
+        for when, v in raw['twist'].get(name, []):
+            if when in index:
+                twist[index[when]] = v
+        euler = rotations.to_rpy_deg(quat) if len(rows) else np.zeros((0, 3))
+        velocity = twist[:, 0:3]
+        world = (np.einsum('nij,nj->ni', rotations.matrices(quat), velocity)
+                 if len(rows) else np.zeros((0, 3)))
+        bodies[name] = BodyTrack(
+            name=name, time=(stamps - start_ns) / 1e9, stamp_ns=stamps,
+            position=values[:, 0:3], quaternion=quat, euler_deg=euler,
+            euler_continuous_deg=euler_continuous(euler), rates=twist[:, 3:6],
+            velocity=velocity, velocity_world=world)
+    joints = {}
+    for name, rows in raw['joint'].items():
+        rows.sort(key=lambda r: r[0])
+        stamps = np.array([r[0] for r in rows], dtype=np.int64)
+        values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 6)
+        joints[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9, stamp_ns=stamps,
+                                  force=values[:, 0:3], moment=values[:, 3:6])
+    last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
+    return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
+               events=raw['events'], topics=topics, metadata=metadata, duration=float(last))
+
+
+@dataclass(frozen=True)
+class Difference:
+    """The largest difference of one quantity between two runs."""
+
+    quantity: str
+    unit: str
+    max_abs: float
+    at_time: float
+    scale: float
+    samples: int
+
+
+def _resampled_difference(t_a, values_a, t_b, values_b):
+    """Differences of A and B at A's times inside B's span (B linearly interpolated)."""
+    inside = (t_a >= t_b[0] - 1e-12) & (t_a <= t_b[-1] + 1e-12) if len(t_b) else t_a < -1
+    t = t_a[inside]
+    ours = values_a[inside]
+    theirs = np.column_stack([np.interp(t, t_b, values_b[:, k])
+                              for k in range(values_b.shape[1])])
+    return t, ours - theirs, ours
+
+
+def compare_runs(a: Run, b: Run) -> tuple:
+    """
+    Compare the bodies and joints two runs share, quantity by quantity.
+
+    B is interpolated linearly onto A's sample times where they differ (only
+    inside B's time span). Quantities: ``<body> position`` (m, world),
+    ``attitude`` (continuous roll, pitch, yaw, deg), ``rates`` (body, deg/s),
+    ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
+    ``release`` (time, s). Returns (differences, only_in_a, only_in_b), where
+    the last two list body and joint names present in one run only.
+    """
+    rows = []
+
+    def add(quantity, unit, t_a, v_a, t_b, v_b):
+        t, diff, ours = _resampled_difference(t_a, v_a, t_b, v_b)
+        if not len(t):
+            rows.append(Difference(quantity, unit, NAN, NAN, NAN, 0))
+            return
+        magnitude = np.abs(diff).max(axis=1)
+        k = int(np.nanargmax(magnitude)) if np.isfinite(magnitude).any() else 0
+        rows.append(Difference(quantity, unit, float(magnitude[k]), float(t[k]),
+                               float(np.nanmax(np.abs(ours))), len(t)))
+
+    for name, ta in a.bodies.items():
+        tb = b.bodies.get(name)
+        if tb is None:
+            continue
+        add(f'{name} position', 'm', ta.time, ta.position, tb.time, tb.position)
+        add(f'{name} attitude', 'deg', ta.time, ta.euler_continuous_deg,
+            tb.time, tb.euler_continuous_deg)
+        add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
+            np.degrees(tb.rates))
+        add(f'{name} velocity', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)
+    for name, ja in a.joints.items():
+        jb = b.joints.get(name)
+        if jb is None:
+            continue
+        add(f'{name} force', 'N', ja.time, ja.force, jb.time, jb.force)
+        add(f'{name} moment', 'N m', ja.time, ja.moment, jb.time, jb.moment)
+    releases_a = {joint: t for t, joint, _ in a.releases()}
+    releases_b = {joint: t for t, joint, _ in b.releases()}
+    for joint in sorted(set(releases_a) & set(releases_b)):
+        gap = abs(releases_a[joint] - releases_b[joint])
+        rows.append(Difference(f'{joint} release', 's', gap, releases_a[joint],
+                               releases_a[joint], 1))
+    names_a = set(a.bodies) | set(a.joints) | {f'{j} release' for j in releases_a}
+    names_b = set(b.bodies) | set(b.joints) | {f'{j} release' for j in releases_b}
+    return rows, sorted(names_a - names_b), sorted(names_b - names_a)

@@ -1,0 +1,111 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The package's layers, as the README's architecture section draws them.
+
+core <- recording <- study <- faces (cli, plots) and ros: a module may import
+only its own layer and the layers below it, and only ``cfem_ros/ros`` may
+import rclpy or ROS message packages. Every import is checked, also those
+inside functions.
+"""
+
+import ast
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+PACKAGE = pathlib.Path(__file__).resolve().parents[1] / 'cfem_ros'
+
+#: Each layer and the cfem_ros layers it must not import.
+FORBIDDEN = {
+    'core': {'recording', 'study', 'ros', 'faces'},
+    'recording': {'study', 'ros', 'faces'},
+    'study': {'ros', 'faces'},
+    'ros': {'study', 'faces'},
+    'faces': set(),   # the command line may start ROS tools (lazily)
+}
+
+#: Python packages of ROS 2 (rclpy and the message packages).
+ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'geometry_msgs', 'std_msgs', 'rosgraph_msgs',
+                'visualization_msgs', 'tf2_msgs', 'nav_msgs', 'builtin_interfaces'}
+
+
+def layer_of(module: str) -> str:
+    """Return the layer of a cfem_ros module name ('cfem_ros.core.engine' -> 'core')."""
+    parts = module.split('.')
+    if len(parts) > 1 and parts[1] in ('core', 'recording', 'study', 'ros'):
+        return parts[1]
+    return 'faces'   # cli, plots, and the old names kept for users (analysis, batch)
+
+
+def modules():
+    for path in sorted(PACKAGE.rglob('*.py')):
+        rel = path.relative_to(PACKAGE.parent).with_suffix('')
+        name = '.'.join(rel.parts[:-1] if rel.name == '__init__' else rel.parts)
+        yield name, path
+
+
+def imported(path: pathlib.Path):
+    """Yield (line, imported module name) for every import statement in a file."""
+    tree = ast.parse(path.read_text(encoding='utf-8'))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield node.lineno, alias.name
+        elif isinstance(node, ast.ImportFrom):
+            assert node.level == 0, f'{path}:{node.lineno}: relative import'
+            if node.module == 'cfem_ros':   # from cfem_ros import x: x is a module or a name
+                for alias in node.names:
+                    module = PACKAGE / alias.name
+                    if module.with_suffix('.py').is_file() or module.is_dir():
+                        yield node.lineno, f'cfem_ros.{alias.name}'
+                    else:   # a name of the package's root (lazy, imports nothing)
+                        yield node.lineno, 'cfem_ros'
+            else:
+                yield node.lineno, node.module
+
+
+def test_the_layers_are_folders():
+    for layer in ('core', 'recording', 'study', 'ros'):
+        assert (PACKAGE / layer / '__init__.py').is_file()
+    flat = sorted(p.name for p in PACKAGE.glob('*.py'))
+    assert flat == ['__init__.py', 'analysis.py', 'batch.py', 'cli.py', 'plots.py'], flat
+
+
+def test_imports_only_go_down():
+    wrong = []
+    checked = 0
+    for name, path in modules():
+        layer = layer_of(name)
+        for line, target in imported(path):
+            checked += 1
+            top = target.split('.')[0]
+            if top in ROS_PACKAGES and layer != 'ros':
+                wrong.append(f'{path.name}:{line} ({layer}) imports {target}')
+            if top == 'cfem_ros' and target.count('.') >= 1:
+                to = layer_of(target)
+                if to in FORBIDDEN[layer]:
+                    wrong.append(f'{name}:{line} ({layer}) imports {target} ({to})')
+    assert checked > 100, 'too few imports found to be looking at the package'
+    assert not wrong, 'imports against the layers:\n' + '\n'.join(wrong)
+
+
+def test_layer_of_catches_an_upward_import():
+    # the check above would pass vacuously if layer_of put everything in one layer
+    assert FORBIDDEN[layer_of('cfem_ros.core.engine')] >= {layer_of('cfem_ros.ros.node'),
+                                                           layer_of('cfem_ros.cli'),
+                                                           layer_of('cfem_ros.recording.recorder')}
+
+
+@pytest.mark.parametrize('module', ['cfem_ros.core.session', 'cfem_ros.recording.offline',
+                                    'cfem_ros.cli'])
+def test_core_and_recording_run_without_ros(module):
+    code = (f'import sys, {module}\n'
+            'ros = sorted(m for m in sys.modules if m.split(".")[0] in %r)\n'
+            'print(ros)' % (ROS_PACKAGES,))
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == '[]'
