@@ -154,13 +154,18 @@ class _BoundedComposer(Composer):
         return node
 
 
+_MERGE_TAG = 'tag:yaml.org,2002:merge'
+
+
 class _Constructor(SafeConstructor):
     """The safe constructor, refusing unhashable and duplicate mapping keys."""
 
     def construct_unique_mapping(self, node, deep=False):
         """Build a mapping; refuse a key given twice instead of keeping the last."""
+        own = [key_node for key_node, _ in node.value if key_node.tag != _MERGE_TAG]
+        self.flatten_mapping(node)      # merge keys (<<): their entries yield to own keys
         seen = {}
-        for key_node, _ in node.value:
+        for key_node in own:
             key = self.construct_object(key_node, deep=deep)
             if isinstance(key, (list, dict, set)):
                 raise ConstructorError(None, None, f'a {type(key).__name__} is used as a '
@@ -227,21 +232,25 @@ def load_yaml(text: str, source: str = '<scenario>', loader=None) -> Any:
         values Python cannot represent.
 
     """
-    parser = (loader or LOADERS[0])(text)
+    parser = None
     try:
+        parser = (loader or LOADERS[0])(text)
         return parser.get_single_data()
     except _Refused as err:
         raise ScenarioError(source, '', _where(err.mark) + err.problem, err.expected) from None
     except yaml.YAMLError as err:
         mark = getattr(err, 'problem_mark', None)
-        problem = getattr(err, 'problem', None) or str(err)
+        problem = getattr(err, 'problem', None) or getattr(err, 'reason', None) or str(err)
         raise ScenarioError(source, '', f'{_where(mark)}not valid YAML: {_clip(problem)}',
                             'a YAML mapping as in SPEC section 1') from None
     except (ValueError, OverflowError) as err:
-        raise ScenarioError(source, '', f'a value cannot be read ({_clip(err, 120)})',
+        problem = ('a number has more than 4300 digits' if 'digits' in str(err)
+                   else f'a value cannot be read ({_clip(err, 120)})')
+        raise ScenarioError(source, '', problem,
                             'numbers of at most 4300 digits and valid dates') from None
     finally:
-        parser.dispose()
+        if parser is not None:
+            parser.dispose()
 
 
 def _where(mark) -> str:
