@@ -111,7 +111,7 @@ def mutated_documents(draw):
     return doc
 
 
-@examples(300)
+@examples(200)
 @given(doc=mutated_documents())
 def test_parse_scenario_returns_a_model_or_one_clear_error(doc):
     assert_clean(lambda: parse_scenario(doc, source='fuzz.yaml'))

@@ -197,7 +197,7 @@ def test_longest_name_is_accepted():
 def test_a_body_named_like_the_world_frame_is_refused():
     doc = copy.deepcopy(BASE)
     doc['bodies']['world'] = {'fixed': True}
-    refused(doc, "bodies.world: has the name of the world frame (frame_id)")
+    refused(doc, 'bodies.world: has the name of the world frame (frame_id)')
     doc['frame_id'] = 'map'
     assert parse_scenario(doc).frame_id == 'map'
 
