@@ -52,6 +52,7 @@ setup(
         'bench': ['mujoco'],
         'test': [
             'pytest',
+            'hypothesis',
             'rosbags>=0.10',
             'ros-kilted-ament-flake8',
             'ros-kilted-ament-pep257',

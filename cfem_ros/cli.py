@@ -56,9 +56,14 @@ def cmd_check(scenario: str) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
     try:
         model = load_scenario(scenario)
-        sim = Simulator(model)
+        with np.errstate(all='raise', under='ignore'):
+            sim = Simulator(model)
     except CfemError as err:
         return _error(str(err))
+    except (ArithmeticError, np.linalg.LinAlgError) as err:
+        why = ' '.join(str(err).split())[:120]
+        return _error(f'{scenario}: the joints cannot be analysed at t = 0 '
+                      f'({type(err).__name__}: {why}); expected a regular configuration')
     print(f'{scenario}: valid scenario {model.name!r}')
     print(f'  world frame {model.frame_id!r}, gravity {_vec(model.gravity)} m/s^2, '
           f'dt {model.dt:g} s, duration {model.duration:g} s, '

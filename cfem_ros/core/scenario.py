@@ -4,14 +4,20 @@
 Scenario files (SPEC section 1): YAML in, a validated ``Model`` out.
 
 Every mistake is refused before anything runs, with a ``ScenarioError`` that
-names the file, the key path, the value and what would be right.
+names the file, the key path, the value and what would be right, on one line.
+Hostile files (huge, binary, devices, alias bombs, deep nesting) are refused
+within fixed bounds of time and memory, and values outside the ranges a run
+can represent (see the constants below) are refused by ``check`` already.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import re
+import reprlib
+import stat
 from typing import Any, Optional
 
 from cfem_ros.core import rotations, shapes
@@ -21,6 +27,16 @@ from cfem_ros.core.model import (
     Model, Release, STANDARD_GRAVITY, triad_from_axes)
 import numpy as np
 import yaml
+from yaml.composer import Composer
+from yaml.constructor import ConstructorError, SafeConstructor
+from yaml.resolver import BaseResolver, Resolver
+
+try:
+    from yaml.cyaml import CParser
+except ImportError:  # PyYAML built without libyaml: the pure Python parser only
+    CParser = None
+
+LOG = logging.getLogger('cfem_ros')
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
@@ -28,8 +44,41 @@ BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
 JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
 RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 
+#: Largest scenario file, bytes.
+MAX_FILE_BYTES = 16 * 1024 * 1024
+
+#: Deepest nesting of YAML collections (a scenario needs 5).
+MAX_DEPTH = 64
+
+#: Most YAML values once aliases are expanded (an alias counts as a copy).
+MAX_EXPANDED_NODES = 1_000_000
+
 #: Names become ROS topic tokens (bodies/<body>/pose), so they must be valid ones.
-NAME_PATTERN = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
+NAME_PATTERN = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
+
+#: Longest name, so that the longest topic the node makes,
+#: /cfem/bodies/<body>/applied/<source> (150 characters), stays far below
+#: ROS's limit of 247 characters for a topic name, with room for a namespace.
+MAX_NAME_LENGTH = 64
+
+#: Longest scenario ``name`` (it goes into recordings, not topics).
+MAX_TITLE_LENGTH = 200
+
+#: Mass of a body that is not fixed, kg: a milligram to a small moon.
+MASS_RANGE = (1e-6, 1e12)
+
+#: Each principal moment of inertia, kg m^2 (1 mg at 1 mm to 1e12 kg at 1 km).
+INERTIA_RANGE = (1e-12, 1e18)
+
+#: Largest magnitude of any position, anchor, velocity, gravity, orientation
+#: or angular velocity component, in the unit of its key.
+MAX_MAGNITUDE = 1e9
+
+#: Smallest RK4 step, s.
+MIN_DT = 1e-9
+
+#: Most RK4 steps in a run, duration / dt.
+MAX_STEPS = 1e9
 
 #: |cos| between a universal joint's axes above which they are not perpendicular.
 PERPENDICULAR_TOLERANCE = 1e-6
@@ -37,25 +86,239 @@ PERPENDICULAR_TOLERANCE = 1e-6
 #: Relative slack on the triangle inequality (a thin plate has Izz = Ixx + Iyy).
 TRIANGLE_TOLERANCE = 1e-9
 
+#: Axis vectors with a component larger than this are scaled down before use.
+_AXIS_RESCALE = 1e100
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """A safe YAML loader that refuses duplicate keys instead of keeping the last."""
-
-
-def _construct_mapping(loader, node, deep=False):
-    seen = {}
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f'duplicate key {key!r} (first at line {seen[key] + 1})',
-                key_node.start_mark)
-        seen[key] = key_node.start_mark.line
-    return yaml.SafeLoader.construct_mapping(loader, node, deep)
+_REPR = reprlib.Repr()
+_REPR.maxstring = 60
+_REPR.maxother = 60
+_REPR.maxlevel = 3
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = _REPR.maxset = 6
+_REPR.maxlong = 40
 
 
-_UniqueKeyLoader.add_constructor(
-    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+class _Refused(Exception):
+    """A loader bound was passed (``load_yaml`` makes it a ScenarioError)."""
+
+    def __init__(self, problem: str, expected: str, mark=None):
+        super().__init__(problem)
+        self.problem, self.expected, self.mark = problem, expected, mark
+
+
+class _BoundedComposer(Composer):
+    """
+    The YAML composer with bounds on nesting depth and alias expansion.
+
+    A node's size counts every alias in it as a full copy of the node it
+    names, so an alias bomb (a billion laughs) is refused while its text and
+    its node graph are still small. The same code runs over the pure Python
+    parser and over libyaml's (``CParser``).
+    """
+
+    def compose_document(self):
+        self._depth = 0
+        self._sizes = {}
+        try:
+            return super().compose_document()
+        finally:
+            self._sizes = {}
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.events.AliasEvent):
+            event = self.peek_event()
+            node = super().compose_node(parent, index)
+            if id(node) not in self._sizes:
+                raise _Refused(f'alias *{_clip(event.anchor, 40)} refers to a collection '
+                               'that contains it', 'no recursive aliases', event.start_mark)
+            return node
+        self._depth += 1
+        if self._depth > MAX_DEPTH:
+            raise _Refused(f'collections nested deeper than {MAX_DEPTH} levels',
+                           f'at most {MAX_DEPTH} levels', self.peek_event().start_mark)
+        try:
+            node = super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = node.value
+        else:
+            children = ()
+        size = 1 + sum(self._sizes[id(child)] for child in children)
+        if size > MAX_EXPANDED_NODES:
+            raise _Refused(f'aliases expand to more than {MAX_EXPANDED_NODES:,} values',
+                           f'at most {MAX_EXPANDED_NODES:,} values once aliases are '
+                           'expanded', node.start_mark)
+        self._sizes[id(node)] = size
+        return node
+
+
+_MERGE_TAG = 'tag:yaml.org,2002:merge'
+
+
+class _Constructor(SafeConstructor):
+    """The safe constructor, refusing unhashable and duplicate mapping keys."""
+
+    def construct_unique_mapping(self, node, deep=False):
+        """Build a mapping; refuse a key given twice instead of keeping the last."""
+        own = [key_node for key_node, _ in node.value if key_node.tag != _MERGE_TAG]
+        self.flatten_mapping(node)      # merge keys (<<): their entries yield to own keys
+        seen = {}
+        for key_node in own:
+            key = self.construct_object(key_node, deep=deep)
+            if isinstance(key, (list, dict, set)):
+                raise ConstructorError(None, None, f'a {type(key).__name__} is used as a '
+                                       'mapping key', key_node.start_mark)
+            if key in seen:
+                raise ConstructorError(
+                    None, None, f'duplicate key {_show(key)} (first at line {seen[key] + 1})',
+                    key_node.start_mark)
+            seen[key] = key_node.start_mark.line
+        return SafeConstructor.construct_mapping(self, node, deep)
+
+
+_Constructor.add_constructor(BaseResolver.DEFAULT_MAPPING_TAG,
+                             _Constructor.construct_unique_mapping)
+
+
+class PythonLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
+                   _BoundedComposer, _Constructor, Resolver):
+    """The bounded safe loader over PyYAML's pure Python parser."""
+
+    def __init__(self, stream):
+        yaml.reader.Reader.__init__(self, stream)
+        yaml.scanner.Scanner.__init__(self)
+        yaml.parser.Parser.__init__(self)
+        _BoundedComposer.__init__(self)
+        _Constructor.__init__(self)
+        Resolver.__init__(self)
+
+
+if CParser is not None:
+    class CLoader(_BoundedComposer, CParser, _Constructor, Resolver):
+        """The bounded safe loader over libyaml's parser: the same results, faster."""
+
+        def __init__(self, stream):
+            CParser.__init__(self, stream)
+            _BoundedComposer.__init__(self)
+            _Constructor.__init__(self)
+            Resolver.__init__(self)
+
+    #: The loaders available, the one ``load_yaml`` uses by default first.
+    LOADERS = (CLoader, PythonLoader)
+else:  # pragma: no cover - PyYAML without libyaml
+    LOADERS = (PythonLoader,)
+
+
+def load_yaml(text: str, source: str = '<scenario>', loader=None) -> Any:
+    """
+    Parse one YAML document within the bounds of a scenario file.
+
+    Parameters
+    ----------
+    text : str
+        The document.
+    source : str
+        Named in error messages.
+    loader : class, optional
+        One of ``LOADERS``; by default the fastest available.
+
+    Raises
+    ------
+    ScenarioError
+        For YAML syntax, duplicate or unhashable keys, nesting deeper than
+        ``MAX_DEPTH``, aliases expanding beyond ``MAX_EXPANDED_NODES``, and
+        values Python cannot represent.
+
+    """
+    parser = None
+    try:
+        parser = (loader or LOADERS[0])(text)
+        return parser.get_single_data()
+    except _Refused as err:
+        raise ScenarioError(source, '', _where(err.mark) + err.problem, err.expected) from None
+    except yaml.YAMLError as err:
+        mark = getattr(err, 'problem_mark', None)
+        problem = getattr(err, 'problem', None) or getattr(err, 'reason', None) or str(err)
+        raise ScenarioError(source, '', f'{_where(mark)}not valid YAML: {_clip(problem)}',
+                            'a YAML mapping as in SPEC section 1') from None
+    except (ValueError, OverflowError) as err:
+        problem = ('a number has more than 4300 digits' if 'digits' in str(err)
+                   else f'a value cannot be read ({_clip(err, 120)})')
+        raise ScenarioError(source, '', problem,
+                            'numbers of at most 4300 digits and valid dates') from None
+    finally:
+        if parser is not None:
+            parser.dispose()
+
+
+def _where(mark) -> str:
+    return f'line {mark.line + 1}, column {mark.column + 1}: ' if mark is not None else ''
+
+
+def _display(path) -> str:
+    """Return a path as messages show it: as given, quoted if it has control characters."""
+    text = os.fsdecode(path) if isinstance(path, (bytes, os.PathLike)) else str(path)
+    return text if text.isprintable() else repr(text)
+
+
+def _file_kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return 'a directory'
+    if stat.S_ISFIFO(mode):
+        return 'a named pipe (FIFO)'
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return 'a device'
+    if stat.S_ISSOCK(mode):
+        return 'a socket'
+    return 'not a regular file'
+
+
+def read_text(path, source: Optional[str] = None) -> str:
+    """
+    Read a scenario file's text: a regular file, at most ``MAX_FILE_BYTES``, UTF-8.
+
+    Never blocks (a FIFO or device is refused from its ``stat`` before it is
+    opened, and opened non-blocking) and never reads more than the bound.
+
+    Raises
+    ------
+    ScenarioError
+        For a file that is missing, unreadable, not regular, too large or not UTF-8.
+
+    """
+    source = source or _display(path)
+    limit = f'at most {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20} MiB)'
+
+    def refuse(problem, expected='a readable, regular YAML scenario file'):
+        raise ScenarioError(source, '', problem, expected)
+
+    try:
+        mode = os.stat(path).st_mode
+        if not stat.S_ISREG(mode):
+            refuse(f'is {_file_kind(mode)}')
+        fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0))
+    except (OSError, ValueError) as err:
+        refuse(f'cannot read the file ({getattr(err, "strerror", None) or err})')
+    with os.fdopen(fd, 'rb') as stream:
+        try:
+            info = os.fstat(stream.fileno())    # the file opened, not the one stat saw
+            if not stat.S_ISREG(info.st_mode):
+                refuse(f'is {_file_kind(info.st_mode)}')
+            if info.st_size > MAX_FILE_BYTES:
+                refuse(f'is {info.st_size:,} bytes', limit)
+            data = stream.read(MAX_FILE_BYTES + 1)
+        except OSError as err:
+            refuse(f'cannot read the file ({err.strerror or err})')
+    if len(data) > MAX_FILE_BYTES:
+        refuse(f'is more than {MAX_FILE_BYTES:,} bytes', limit)
+    try:
+        return data.decode('utf-8')
+    except UnicodeDecodeError as err:
+        line = data.count(b'\n', 0, err.start) + 1
+        refuse(f'line {line}: byte {err.start} (0x{data[err.start]:02x}) is not UTF-8',
+               'a text file in UTF-8')
 
 
 def load_scenario(path: str, *, duration: Optional[float] = None,
@@ -66,7 +329,7 @@ def load_scenario(path: str, *, duration: Optional[float] = None,
     Parameters
     ----------
     path : str
-        The YAML file.
+        The YAML file: a regular file of at most ``MAX_FILE_BYTES``, UTF-8.
     duration, dt : float, optional
         Overrides of the file's values (s), as ``cfem-sim run`` takes them.
 
@@ -76,21 +339,41 @@ def load_scenario(path: str, *, duration: Optional[float] = None,
         For anything wrong, unreadable file and YAML syntax included.
 
     """
+    source = _display(path)
+    document = load_yaml(read_text(path, source), source)
+    return parse_scenario(document, source=source, duration=duration, dt=dt)
+
+
+def _clip(text: str, limit: int = 160) -> str:
+    """Return text on one line and at most limit characters."""
+    text = str(text)
+    if len(text) > limit:
+        text = text[:limit - 3] + '...'
+    return text if text.isprintable() else ''.join(c if c.isprintable() else ' ' for c in text)
+
+
+def _show(value: Any) -> str:
+    """Return a short one-line repr of any value, however large or deep."""
     try:
-        with open(path, encoding='utf-8') as stream:
-            text = stream.read()
-    except OSError as err:
-        raise ScenarioError(path, '', f'cannot read the file ({err.strerror})',
-                            'a readable YAML scenario file') from err
-    try:
-        document = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (safe loader)
-    except yaml.YAMLError as err:
-        mark = getattr(err, 'problem_mark', None)
-        where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
-        problem = getattr(err, 'problem', None) or str(err)
-        raise ScenarioError(path, '', f'{where}not valid YAML: {problem}',
-                            'a YAML mapping as in SPEC section 1') from err
-    return parse_scenario(document, source=path, duration=duration, dt=dt)
+        text = _REPR.repr(value)
+    except Exception:  # noqa: B902 - a repr that fails is shown by its type
+        text = f'<{type(value).__name__}>'
+    return _clip(text, 80)
+
+
+def _key(parent: str, name: Any) -> str:
+    """Return the key path of entry name under parent, safe to show."""
+    if isinstance(name, str) and name.isprintable() and len(name) <= 80:
+        shown = name
+    else:
+        shown = f'[{_show(name)}]'
+    return f'{parent}.{shown}' if parent else shown
+
+
+def _one_of(names) -> str:
+    names = [str(n) for n in names]
+    shown = ', '.join(names[:8]) + (f' (and {len(names) - 8} more)' if len(names) > 8 else '')
+    return 'one of ' + _clip(shown, 200)
 
 
 class _Checker:
@@ -100,55 +383,67 @@ class _Checker:
         self.source = source
 
     def fail(self, key: str, problem: str, expected: str = ''):
-        raise ScenarioError(self.source, key, problem, expected)
+        raise ScenarioError(self.source, _clip(key, 120), _clip(problem, 240),
+                            _clip(expected, 240))
 
     def mapping(self, value, key: str, allowed, required=()) -> dict:
         if not isinstance(value, dict):
             self.fail(key, f'is {_show(value)}', 'a mapping')
         for name in value:
             if name not in allowed:
-                path = f'{key}.{name}' if key else str(name)
-                self.fail(path, 'unknown key', 'one of ' + ', '.join(allowed))
+                self.fail(_key(key, name), 'unknown key', _one_of(allowed))
         for name in required:
             if name not in value:
-                self.fail(f'{key}.{name}' if key else name, 'missing', 'it to be given')
+                self.fail(_key(key, name), 'missing', 'it to be given')
         return value
 
-    def number(self, value, key: str, *, minimum=None, positive=False) -> float:
+    def number(self, value, key: str, *, minimum=None, positive=False,
+               limit: Optional[float] = None) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f'is {_show(value)}', 'a number')
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:
+            self.fail(key, f'is {_show(value)}, too large for a double', 'a finite number')
         if not math.isfinite(value):
             self.fail(key, f'is {value}', 'a finite number')
         if positive and value <= 0:
             self.fail(key, f'is {value:g}', 'a number > 0')
         if minimum is not None and value < minimum:
             self.fail(key, f'is {value:g}', f'a number >= {minimum:g}')
+        if limit is not None and abs(value) > limit:
+            self.fail(key, f'is {value:g}', f'a magnitude of at most {limit:g}')
         return value
 
-    def vector(self, value, key: str, length: int = 3, lengths=None) -> np.ndarray:
+    def vector(self, value, key: str, length: int = 3, lengths=None,
+               limit: Optional[float] = MAX_MAGNITUDE) -> np.ndarray:
         lengths = lengths or (length,)
         if not isinstance(value, (list, tuple)) or len(value) not in lengths:
             want = ' or '.join(str(n) for n in lengths)
             self.fail(key, f'is {_show(value)}', f'a list of {want} numbers')
-        return np.array([self.number(v, f'{key}[{i}]') for i, v in enumerate(value)])
+        return np.array([self.number(v, f'{key}[{i}]', limit=limit)
+                         for i, v in enumerate(value)])
 
     def direction(self, value, key: str) -> np.ndarray:
-        vector = self.vector(value, key)
-        if np.linalg.norm(vector) < 1e-12:
+        """Return a direction of any finite length, scaled so that norms cannot overflow."""
+        vector = self.vector(value, key, limit=None)
+        scale = float(np.max(np.abs(vector)))
+        if scale > _AXIS_RESCALE:
+            vector = vector / scale
+            scale = 1.0
+        if scale == 0.0 or scale * np.linalg.norm(vector / scale) < 1e-12:
             self.fail(key, f'has zero length {_show(value)}', 'a non-zero direction')
         return vector
 
     def name(self, value, key: str) -> str:
-        if not isinstance(value, str) or not NAME_PATTERN.match(value):
+        if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
             self.fail(key, f'{_show(value)} is not a usable name',
                       'a letter then letters, digits or _ (it becomes a ROS topic name)')
+        if len(value) > MAX_NAME_LENGTH:
+            self.fail(key, f'{_show(value)} has {len(value)} characters',
+                      f'a name of at most {MAX_NAME_LENGTH} characters (it becomes part of '
+                      'ROS topic names)')
         return value
-
-
-def _show(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + '...'
 
 
 def parse_scenario(document: Any, *, source: str = '<scenario>',
@@ -165,22 +460,38 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     duration, dt : float, optional
         Overrides of the document's values, s.
 
+    Raises
+    ------
+    ScenarioError
+        For anything wrong, on one line of at most a few hundred characters.
+
     """
-    check = _Checker(source)
+    check = _Checker(_clip(source, 400))
     top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
     default_name = os.path.splitext(os.path.basename(source))[0]
     name = top.get('name', default_name)
     if not isinstance(name, str):
         check.fail('name', f'is {_show(name)}', 'a string')
+    if 'name' in top and (not name.isprintable() or len(name) > MAX_TITLE_LENGTH):
+        check.fail('name', f'is {_show(name)}',
+                   f'one line of at most {MAX_TITLE_LENGTH} printable characters')
     frame_id = check.name(top.get('frame_id', 'world'), 'frame_id')
     gravity = (check.vector(top['gravity'], 'gravity') if 'gravity' in top
                else np.array([0.0, 0.0, -STANDARD_GRAVITY]))
     run_duration = check.number(top.get('duration', 10.0), 'duration', positive=True)
     step = check.number(top.get('dt', 0.001), 'dt', positive=True)
+    step_key, duration_key = 'dt', 'duration'
     if duration is not None:
         run_duration = check.number(duration, '--duration', positive=True)
+        duration_key = '--duration'
     if dt is not None:
         step = check.number(dt, '--dt', positive=True)
+        step_key = '--dt'
+    if step < MIN_DT:
+        check.fail(step_key, f'is {step:g} s', f'a step of at least {MIN_DT:g} s')
+    if run_duration / step > MAX_STEPS:
+        check.fail(duration_key, f'is {run_duration:g} s, {run_duration / step:.3g} steps of '
+                   f'{step:g} s', f'at most {MAX_STEPS:.0e} steps (duration / dt)')
     if 'baumgarte' in top:
         eta = check.number(top['baumgarte'], 'baumgarte', minimum=0.0)
     else:
@@ -199,6 +510,10 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
         check.fail('bodies', 'every body is fixed, so nothing can move',
                    'at least one body without fixed: true')
     index = {b.name: i for i, b in enumerate(bodies)}
+    if frame_id in index:
+        check.fail(f'bodies.{frame_id}', 'has the name of the world frame (frame_id), so a '
+                   "wrench's frame_id would be ambiguous", 'a body name other than '
+                   f'{frame_id!r}, or another frame_id')
 
     joints_doc = top.get('joints', {}) or {}
     if not isinstance(joints_doc, dict):
@@ -210,7 +525,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
 
 
 def _parse_body(check: _Checker, name, spec) -> Body:
-    key = f'bodies.{name}'
+    key = _key('bodies', name)
     check.name(name, key)
     spec = check.mapping(spec if spec is not None else {}, key, BODY_KEYS)
     fixed = spec.get('fixed', False)
@@ -222,12 +537,19 @@ def _parse_body(check: _Checker, name, spec) -> Body:
             if moving in spec and np.any(check.vector(spec[moving], f'{key}.{moving}')):
                 check.fail(f'{key}.{moving}', f'is {_show(spec[moving])} on a fixed body',
                            'no velocity (a fixed body never moves)')
+        ignored = [k for k in ('mass', 'inertia') if k in spec]
+        if ignored:
+            LOG.warning('%s: %s: %s ignored: a fixed body never moves', check.source, key,
+                        ' and '.join(ignored))
     else:
         for required in ('mass', 'inertia'):
             if required not in spec:
                 check.fail(f'{key}.{required}', 'missing',
                            'it to be given for a body that is not fixed')
         mass = check.number(spec['mass'], f'{key}.mass', positive=True)
+        if not MASS_RANGE[0] <= mass <= MASS_RANGE[1]:
+            check.fail(f'{key}.mass', f'is {mass:g} kg',
+                       f'a mass from {MASS_RANGE[0]:g} to {MASS_RANGE[1]:g} kg')
         inertia = _parse_inertia(check, spec['inertia'], f'{key}.inertia')
     position = check.vector(spec.get('position', [0, 0, 0]), f'{key}.position')
     if 'orientation_rpy_deg' in spec and 'orientation_xyzw' in spec:
@@ -269,7 +591,7 @@ def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
     The products are the tensor's off-diagonal elements (as in URDF and
     MuJoCo's fullinertia), not the integrals of x y dm.
     """
-    v = check.vector(value, key, lengths=(3, 6))
+    v = check.vector(value, key, lengths=(3, 6), limit=INERTIA_RANGE[1])
     tensor = np.diag(v[:3])
     if len(v) == 6:
         ixy, ixz, iyz = v[3:]
@@ -287,22 +609,25 @@ def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
                    f'{largest:.6g} > {principal[0]:.6g} + {principal[1]:.6g}',
                    'each principal moment at most the sum of the other two '
                    '(no real body has such an inertia)')
+    if principal[0] < INERTIA_RANGE[0] or largest > INERTIA_RANGE[1]:
+        check.fail(key, f'{_show(value)} has principal moments from {principal[0]:.6g} to '
+                   f'{largest:.6g} kg m^2', f'principal moments from {INERTIA_RANGE[0]:g} '
+                   f'to {INERTIA_RANGE[1]:g} kg m^2')
     return tensor
 
 
 def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
-    key = f'joints.{name}'
+    key = _key('joints', name)
     check.name(name, key)
     spec = check.mapping(spec, key, JOINT_KEYS, required=('type', 'parent', 'child', 'anchor'))
     kind = spec['type']
-    if kind not in JOINT_TABLE:
-        check.fail(f'{key}.type', f'is {_show(kind)}', 'one of ' + ', '.join(JOINT_TABLE))
+    if not isinstance(kind, str) or kind not in JOINT_TABLE:
+        check.fail(f'{key}.type', f'is {_show(kind)}', _one_of(JOINT_TABLE))
     ends = []
     for end in ('parent', 'child'):
         body = spec[end]
-        if body not in index:
-            check.fail(f'{key}.{end}', f'{_show(body)} is not a body',
-                       'one of ' + ', '.join(index))
+        if not isinstance(body, str) or body not in index:
+            check.fail(f'{key}.{end}', f'{_show(body)} is not a body', _one_of(index))
         ends.append(index[body])
     parent, child = ends
     if parent == child:
