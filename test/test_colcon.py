@@ -33,6 +33,11 @@ def test_colcon_build_installs_a_working_package(tmp_path):
     assert script.is_file()
     site = next(prefix.glob('lib/python3*/site-packages'))
     env = dict(os.environ, PYTHONPATH=str(site))
+    # what the README asks of a colcon install: compile the numerical core once
+    warm = subprocess.run([sys.executable, '-m', 'cfem_ros.core.warmup'], capture_output=True,
+                          text=True, env=env, cwd=tmp_path, timeout=900)
+    assert warm.returncode == 0, warm.stderr
+    assert 'numerical core compiled' in warm.stderr
     check = subprocess.run([sys.executable, str(script), 'check',
                             str(share / 'config' / 'store_separation.yaml')],
                            capture_output=True, text=True, env=env, timeout=120)
