@@ -105,6 +105,8 @@ class Peer:
         self.executor.add_node(self.node)
         self.ns = namespace
         self.received = {}
+        #: relative topic -> ROS time (ns) at which each message of received arrived
+        self.arrivals = {}
         for body in scenario_bodies:
             self._collect(PoseStamped, f'bodies/{body}/pose')
             self._collect(TwistStamped, f'bodies/{body}/twist')
@@ -118,8 +120,13 @@ class Peer:
 
     def _collect(self, kind, relative):
         topic = f'{self.ns}/{relative}'
-        self.received[relative] = []
-        self.node.create_subscription(kind, topic, self.received[relative].append, RELIABLE)
+        received, arrivals = self.received[relative], self.arrivals[relative] = [], []
+        clock = self.node.get_clock()
+
+        def take(msg):
+            arrivals.append(clock.now().nanoseconds)
+            received.append(msg)
+        self.node.create_subscription(kind, topic, take, RELIABLE)
 
     def spin_until(self, condition, timeout=20.0, what='a condition'):
         """Spin until condition() is true; fail the test after timeout seconds."""
@@ -147,6 +154,10 @@ class Peer:
         """Publish (reliable: delivered while this peer lives) and spin a moment."""
         publisher.publish(msg)
         self.spin_for(0.05)
+
+    def now_ns(self) -> int:
+        """Return the ROS time of this peer's clock, ns."""
+        return self.node.get_clock().now().nanoseconds
 
     def wrench(self, body, force, torque=(0.0, 0.0, 0.0), frame_id='world', stamp=0):
         """Send a wrench on bodies/<body>/wrench with a header stamp in ns."""
