@@ -45,6 +45,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.validate_full_topic_name import validate_full_topic_name
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import String
 
@@ -395,8 +396,8 @@ class CfemNode(Node):
                 topic = f'{kind}/{item.name}/wrench' if kind == 'joints' else (
                     f'bodies/{item.name}/pose')
                 try:
-                    self.resolve_topic_name(topic)
-                except InvalidTopicNameException:
+                    validate_full_topic_name(self.resolve_topic_name(topic))
+                except Exception:  # noqa: B902 - rclpy raises several kinds; any is this name
                     return (f'{self.scenario_path}: {kind}.{bounded(item.name, 64)!r}: the name '
                             f'makes an invalid ROS 2 topic ({reason}); expected a name of '
                             'letters, digits and underscores that keeps topic names within '
