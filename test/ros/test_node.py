@@ -376,6 +376,13 @@ def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
         result = subprocess.run([pub, 'wrench', 'store', '--force', '0', '0', '-100'],
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == 0, result.stderr
+        # what the node would refuse is not published
+        for bad in (['--force', 'nan', '0', '0'], ['--torque', '0', 'inf', '0'],
+                    ['--frame', 'nowhere']):
+            result = subprocess.run([pub, 'wrench', 'store'] + bad, capture_output=True,
+                                    text=True, timeout=60)
+            assert result.returncode == 2 and 'nothing published' in result.stderr, bad
+            assert 'published on' not in result.stdout
         result = subprocess.run([pub, 'release', 'pivot'], capture_output=True, text=True,
                                 timeout=60)
         assert result.returncode == 0, result.stderr
@@ -385,6 +392,7 @@ def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
                                 timeout=60)
         assert result.returncode == 1 and 'no release event' in result.stderr
         assert "joint 'pivot' is already released" in node.output
+        assert 'nowhere' not in node.output and 'finite' not in node.output
     finally:
         assert node.stop(signal.SIGINT) == 0, node.output
 
