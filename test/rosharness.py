@@ -9,7 +9,10 @@ and ``/clock`` and collects everything the node publishes. Every wait has a
 deadline: a test fails, it never hangs on discovery.
 """
 
+import argparse
 import json
+import math
+import os
 import pathlib
 import signal
 import subprocess
@@ -18,6 +21,7 @@ import time
 
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -105,6 +109,8 @@ class Peer:
         self.executor.add_node(self.node)
         self.ns = namespace
         self.received = {}
+        #: relative topic -> ROS time (ns) at which each message of received arrived
+        self.arrivals = {}
         for body in scenario_bodies:
             self._collect(PoseStamped, f'bodies/{body}/pose')
             self._collect(TwistStamped, f'bodies/{body}/twist')
@@ -118,8 +124,13 @@ class Peer:
 
     def _collect(self, kind, relative):
         topic = f'{self.ns}/{relative}'
-        self.received[relative] = []
-        self.node.create_subscription(kind, topic, self.received[relative].append, RELIABLE)
+        received, arrivals = self.received[relative], self.arrivals[relative] = [], []
+        clock = self.node.get_clock()
+
+        def take(msg):
+            arrivals.append(clock.now().nanoseconds)
+            received.append(msg)
+        self.node.create_subscription(kind, topic, take, RELIABLE)
 
     def spin_until(self, condition, timeout=20.0, what='a condition'):
         """Spin until condition() is true; fail the test after timeout seconds."""
@@ -147,6 +158,10 @@ class Peer:
         """Publish (reliable: delivered while this peer lives) and spin a moment."""
         publisher.publish(msg)
         self.spin_for(0.05)
+
+    def now_ns(self) -> int:
+        """Return the ROS time of this peer's clock, ns."""
+        return self.node.get_clock().now().nanoseconds
 
     def wrench(self, body, force, torque=(0.0, 0.0, 0.0), frame_id='world', stamp=0):
         """Send a wrench on bodies/<body>/wrench with a header stamp in ns."""
@@ -177,3 +192,119 @@ class Peer:
         self.node.destroy_node()
         self.executor.shutdown()
         rclpy.try_shutdown(context=self.context)
+
+
+#: What a flood sends, in turn: (kind, topic: 'wrench' or 'release', payload).
+#: Good wrenches carry a sequence number in force.x so that each can be found.
+BIG = 'x' * (1 << 20)
+FLOOD_MIX = (
+    ('good', 'wrench', None),
+    ('nan', 'wrench', ('world', math.nan)),
+    ('inf', 'wrench', ('world', math.inf)),
+    ('unknown frame', 'wrench', ('nowhere', 1.0)),
+    ('empty frame', 'wrench', ('', 1.0)),
+    ('good', 'wrench', None),
+    ('unknown joint', 'release', 'nope'),
+    ('empty joint', 'release', ''),
+    ('repeated release', 'release', 'pivot'),
+    ('good', 'wrench', None),
+)
+
+
+def flood(namespace, body, seconds, rate_hz, big_every=100, wait=30.0):
+    """
+    Publish a mix of good and bad wrenches and releases as fast as rate_hz allows.
+
+    Every big_every-th message is a 1 MiB string (a frame_id or a joint
+    name). Return a summary: counts per kind, the good forces sent, the
+    rate reached.
+    """
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node('flood', context=context)
+    wrench_pub = node.create_publisher(WrenchStamped, f'{namespace}/bodies/{body}/wrench',
+                                       RELIABLE)
+    release_pub = node.create_publisher(String, f'{namespace}/release', RELIABLE)
+    deadline = time.monotonic() + wait
+    while wrench_pub.get_subscription_count() == 0 or release_pub.get_subscription_count() == 0:
+        if time.monotonic() > deadline:
+            raise SystemExit('flood: the node never subscribed')
+        time.sleep(0.05)
+    counts, good = {}, []
+    wrench, text = WrenchStamped(), String()
+    msg = wrench
+    start = time.monotonic()
+    n = 0
+    while True:
+        now = time.monotonic()
+        if now - start >= seconds:
+            break
+        if n >= (now - start) * rate_hz:
+            time.sleep(min(0.001, n / rate_hz - (now - start)))
+            continue
+        kind, topic, payload = FLOOD_MIX[n % len(FLOOD_MIX)]
+        if n % big_every == big_every - 1:
+            kind, topic, payload = (('huge frame', 'wrench', (BIG, 1.0)) if (n // big_every) % 2
+                                    else ('huge joint', 'release', BIG))
+        if topic == 'wrench':
+            frame, value = ('world', (len(good) + 1) / 1024) if payload is None else payload
+            msg.header.frame_id = frame
+            msg.wrench.force.x = value
+            msg.wrench.torque.y = value if math.isfinite(value) else 0.0
+            publisher = wrench_pub
+        else:
+            text.data = payload
+            msg, publisher = text, release_pub
+        try:
+            publisher.publish(msg)
+        except RCLError:   # DDS pushing back (a reliable writer's history full): not sent
+            kind = 'not sent'
+        else:
+            if topic == 'wrench' and payload is None:
+                good.append(value)
+        msg = wrench
+        counts[kind] = counts.get(kind, 0) + 1
+        n += 1
+    elapsed = time.monotonic() - start
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+    return {'sent': n, 'seconds': elapsed, 'rate_hz': n / elapsed, 'counts': counts,
+            'good_forces': good}
+
+
+class Flood:
+    """A flood() in its own process; ``result()`` waits for its summary."""
+
+    def __init__(self, directory, namespace, body, seconds, rate_hz=10_000.0):
+        self.out = pathlib.Path(directory) / 'flood.json'
+        self.process = subprocess.Popen(
+            [sys.executable, __file__, '--ns', namespace, '--body', body,
+             '--seconds', repr(seconds), '--rate', repr(rate_hz), '--out', str(self.out)],
+            env=dict(os.environ))
+
+    def result(self, timeout):
+        """Wait for the flood to end; return its summary."""
+        try:
+            status = self.process.wait(timeout=timeout)
+        finally:
+            if self.process.poll() is None:
+                self.process.kill()
+                self.process.wait()
+        assert status == 0, f'the flood process ended with {status}'
+        return json.loads(self.out.read_text())
+
+
+def _flood_main():
+    parser = argparse.ArgumentParser(description='flood a cfem_node with inputs')
+    parser.add_argument('--ns', default='/cfem')
+    parser.add_argument('--body', required=True)
+    parser.add_argument('--seconds', type=float, default=3.0)
+    parser.add_argument('--rate', type=float, default=10_000.0)
+    parser.add_argument('--out', required=True)
+    args = parser.parse_args()
+    result = flood(args.ns, args.body, args.seconds, args.rate)
+    pathlib.Path(args.out).write_text(json.dumps(result))
+
+
+if __name__ == '__main__':
+    _flood_main()

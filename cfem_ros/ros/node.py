@@ -23,6 +23,8 @@ from dataclasses import replace
 import json
 import logging
 import math
+import os
+import re
 import signal
 import sys
 import time
@@ -30,7 +32,7 @@ from typing import Optional
 
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.inputs import release_input, wrench_input
+from cfem_ros.core.inputs import Input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
@@ -38,11 +40,12 @@ from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
+from rclpy.exceptions import InvalidTopicNameException, ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.validate_full_topic_name import validate_full_topic_name
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import String
 
@@ -64,6 +67,16 @@ CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 TICK_BUDGET = 0.05
 #: Seconds between two "falling behind" warnings.
 LAG_WARNING_PERIOD = 5.0
+#: Seconds between two warnings of the same kind (topic and reason) about
+#: refused messages; the ones in between are counted, and the count given.
+REFUSAL_WARNING_PERIOD = 1.0
+#: Bytes of a refused message's string kept in the log and the recording.
+REFUSED_STRING_BYTES = 256
+#: Environment variable: seconds to sleep at the end of set-up (tests use it
+#: to prove that the start stamp is taken after set-up).
+SETUP_DELAY_ENV = 'CFEM_NODE_SETUP_DELAY'
+#: Parameters rclpy itself reads: never reported as unknown.
+_ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 
 
 class StartupError(CfemError):
@@ -118,6 +131,66 @@ class _RosLogHandler(logging.Handler):
             self.ros_logger.warning(message)
         else:
             self.ros_logger.info(message)
+
+
+def bounded(text: str, limit: int = REFUSED_STRING_BYTES) -> str:
+    """
+    Return text if it holds at most limit bytes (UTF-8), else its first limit bytes and a mark.
+
+    The mark (``... [N bytes, truncated]``) makes the result differ from any
+    name of limit bytes or fewer, so a cut string never names a body, frame
+    or joint.
+    """
+    data = text.encode('utf-8', 'surrogatepass')
+    if len(data) <= limit:
+        return text
+    head = data[:limit].decode('utf-8', 'ignore')
+    return f'{head}... [{len(data)} bytes, truncated]'
+
+
+_QUOTED = re.compile(r"'(?:[^'\\]|\\.)*'|\"(?:[^\"\\]|\\.)*\"")
+_NUMBER = re.compile(r'(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?!\w)'
+                     r'|\bnan\b|\binf\b')
+
+
+class _Throttle:
+    """
+    Warnings of one kind at most once per period, with the count of those held back.
+
+    The kind of a warning is its text with quoted names and numbers taken
+    out (``unknown joint 'x'`` and ``unknown joint 'y'`` are one kind), so
+    the number of kinds is bounded whatever the messages hold.
+    """
+
+    def __init__(self, logger, period: float = REFUSAL_WARNING_PERIOD):
+        self.logger = logger
+        self.period = period
+        self._kinds = {}   # kind -> [time of the last line, lines held back since]
+        #: Warnings asked for, by kind.
+        self.counts = {}
+
+    def warning(self, message: str):
+        """Log ``topic: reason`` unless a line of its kind was logged less than period ago."""
+        topic, _, reason = message.partition(': ')
+        kind = f"{topic}: {_NUMBER.sub('#', _QUOTED.sub(chr(39) * 2, reason))}"
+        self.counts[kind] = self.counts.get(kind, 0) + 1
+        now = time.monotonic()
+        entry = self._kinds.get(kind)
+        if entry is not None and now - entry[0] < self.period:
+            entry[1] += 1
+            return
+        if entry is not None and entry[1]:
+            message += (f' ({entry[1]} more like it in the last {now - entry[0]:.1f} s '
+                        'not shown)')
+        self._kinds[kind] = [now, 0]
+        self.logger.warning(message)
+
+    def flush(self):
+        """Log the count of warnings held back since their kind's last line, for each kind."""
+        for kind, entry in self._kinds.items():
+            if entry[1]:
+                self.logger.warning(f'{entry[1]} more warnings of the kind "{kind}" not shown')
+                entry[1] = 0
 
 
 def _vector3(msg, v):
@@ -187,9 +260,29 @@ class _Publishers:
                 _vector3(wrench.wrench.torque, moment[k])
                 publisher.publish(wrench)
 
+    def prepare(self):
+        """Fill every message once without publishing (the first sample's set-up)."""
+        sim = self.sim
+        position, quat = sim.position, sim.orientation
+        velocity, rates = sim.velocity_body(), sim.rates
+        for i, ((_, pose), (_, twist)) in enumerate(zip(self.poses, self.twists)):
+            _vector3(pose.pose.position, position[i])
+            _vector3(twist.twist.linear, velocity[i])
+            _vector3(twist.twist.angular, rates[i])
+            q = pose.pose.orientation
+            q.x, q.y, q.z, q.w = (float(c) for c in quat[i])
+        if self.wrenches:
+            force, moment = sim.joint_wrenches()
+            for k, (_, wrench) in self.wrenches.items():
+                _vector3(wrench.wrench.force, force[k])
+                _vector3(wrench.wrench.torque, moment[k])
+
     def events(self):
         for event in self.sim.events[self._events_sent:]:
             self.event_publisher.publish(String(data=json.dumps(event)))
+            self.node.get_logger().info(
+                f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
+                f"(cause: {event['cause']})")
             k = self.sim.model.joint_index(event['joint'])
             publisher = self.wrenches.pop(k, None)
             if publisher is not None:
@@ -221,6 +314,7 @@ class CfemNode(Node):
         super().__init__('cfem_sim', namespace='cfem', context=context)
         self.exit_code: Optional[int] = None
         values = self._declare_parameters()
+        self._warn_unknown_parameters()
         try:
             model = load_scenario(values['scenario'])
         except CfemError as err:
@@ -232,6 +326,10 @@ class CfemNode(Node):
         self.sim_time = bool(self.get_parameter('use_sim_time').value)
         self.rate_hz = values['rate_hz']
         self.real_time_factor = values['real_time_factor']
+        self.scenario_path = values['scenario']
+        #: Refused inputs: one warning line per topic and reason per second.
+        self._refusals = _Throttle(self.get_logger())
+        self._refused = {}   # topic -> messages refused
 
         self._python_log = logging.getLogger(f'cfem_ros.node.{id(self)}')
         self._python_log.propagate = False
@@ -241,31 +339,38 @@ class CfemNode(Node):
         except CfemError as err:
             raise StartupError(str(err)) from None
 
+        # topics first: a name ROS refuses stops the node before a file is made
+        try:
+            self._publishers_sink = _Publishers(self, self.sim)
+            for body in model.bodies:
+                self.create_subscription(
+                    WrenchStamped, f'bodies/{body.name}/wrench',
+                    lambda msg, name=body.name: self._on_wrench(name, msg), TOPIC_QOS)
+        except InvalidTopicNameException as err:
+            raise StartupError(self._topic_name_error(model, err)) from None
+        self._release_sub = self.create_subscription(String, 'release', self._on_release,
+                                                     TOPIC_QOS)
+
         self.recorder = self.state_recorder = None
         record = values['record']
         if record:
+            if os.path.lexists(record) and not values['overwrite']:
+                raise StartupError(f'parameter record: {record}: already exists; pass '
+                                   '-p overwrite:=true to replace it')
             try:
                 self.recorder = Recorder(record, overwrite=values['overwrite'])
             except CfemError as err:
-                raise StartupError(f'parameter record: {err}') from None
+                message = str(err).replace('--overwrite', '-p overwrite:=true')
+                raise StartupError(f'parameter record: {message}') from None
             self.state_recorder = StateRecorder(self.recorder, self.sim,
                                                 namespace=self.get_namespace())
-        self._publishers_sink = _Publishers(self, self.sim)
         outputs = [self._publishers_sink] + ([self.state_recorder] if self.state_recorder else [])
         self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
-                               outputs=outputs, warn=self.get_logger().warning)
-        self.scenario_path = values['scenario']
+                               outputs=outputs, warn=self._refusals.warning)
         self.start_ns: Optional[int] = None
         self._early = []
         self._last_lag_warning = -math.inf
         self._timer = None
-
-        for body in model.bodies:
-            self.create_subscription(
-                WrenchStamped, f'bodies/{body.name}/wrench',
-                lambda msg, name=body.name: self._on_wrench(name, msg), TOPIC_QOS)
-        self._release_sub = self.create_subscription(String, 'release', self._on_release,
-                                                     TOPIC_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         mode = 'following /clock' if self.sim_time else (
@@ -276,11 +381,49 @@ class CfemNode(Node):
             f'{len(model.joints)} joints, {self.sim.dof} degrees of freedom; dt {model.dt:g} s, '
             f'publishing at {self.rate_hz:g} Hz {mode}'
             + (f'; recording to {record}' if record else ''))
+        self._warm_up()
         if self.sim_time:
             self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
             self.get_logger().info('waiting for /clock (use_sim_time is true)')
         else:
-            self._begin(self.get_clock().now().nanoseconds)
+            self._begin(None)
+
+    def _topic_name_error(self, model, err) -> str:
+        """One line for a body or joint whose name makes a topic ROS 2 refuses."""
+        reason = str(err).split('\n', 1)[0].removeprefix('Invalid topic name: ').rstrip(':')
+        for kind, items in (('bodies', model.bodies), ('joints', model.joints)):
+            for item in items:
+                topic = f'{kind}/{item.name}/wrench' if kind == 'joints' else (
+                    f'bodies/{item.name}/pose')
+                try:
+                    validate_full_topic_name(self.resolve_topic_name(topic))
+                except Exception:  # noqa: B902 - rclpy raises several kinds; any is this name
+                    return (f'{self.scenario_path}: {kind}.{bounded(item.name, 64)!r}: the name '
+                            f'makes an invalid ROS 2 topic ({reason}); expected a name of '
+                            'letters, digits and underscores that keeps topic names within '
+                            '247 characters')
+        return f'{self.scenario_path}: a name makes an invalid ROS 2 topic ({reason})'
+
+    def _warm_up(self):
+        """
+        Compile or load every kernel the run uses, on a spare simulator, before time starts.
+
+        The first sample's messages are filled once too, so that the start
+        stamp, taken after this, is not behind the samples.
+        """
+        quiet = logging.getLogger(f'cfem_ros.node.warm_up.{id(self)}')
+        quiet.propagate = False
+        quiet.addHandler(logging.NullHandler())
+        spare = Simulator(self.sim.model, logger=quiet)
+        spare.outputs()
+        spare.velocity_body()
+        spare.joint_wrenches()
+        spare.advance_to(spare.dt)
+        spare.outputs()
+        self._publishers_sink.prepare()
+        delay = os.environ.get(SETUP_DELAY_ENV, '')
+        if delay:
+            time.sleep(float(delay))
 
     # ------------------------------------------------------------ parameters
 
@@ -296,6 +439,16 @@ class CfemNode(Node):
                                + PARAMETERS['scenario'][2])
         return values
 
+    def _warn_unknown_parameters(self):
+        """Warn about each parameter given (-p, --params-file) that the node does not have."""
+        given = getattr(self, '_parameter_overrides', {})
+        for name in sorted(given):
+            if name in PARAMETERS or name in _ROS_PARAMETERS or name.startswith('qos_overrides.'):
+                continue
+            self.get_logger().warning(
+                f'parameter {name!r} is not a parameter of cfem_node; ignored (its parameters: '
+                f"{', '.join(list(PARAMETERS) + ['use_sim_time'])})")
+
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
             if parameter.name == 'real_time_factor':
@@ -307,8 +460,20 @@ class CfemNode(Node):
 
     # ---------------------------------------------------------------- pacing
 
-    def _begin(self, start_ns: int):
-        """Start the run: simulated time 0 is stamp start_ns."""
+    def _begin(self, start_ns: Optional[int]):
+        """
+        Start the run: simulated time 0 is stamp start_ns (None: the ROS time now).
+
+        In real time the start stamp and the wall-clock reference are taken
+        together, after all set-up: sample k is published at about stamp
+        start_ns + k / rate_hz in ROS time.
+        """
+        if start_ns is None:
+            # the timer's ticks fall on the sample times: it starts with the clocks
+            self._start_timer()
+            start_ns = self.get_clock().now().nanoseconds
+            self._wall_ref = time.monotonic()
+            self._sim_ref = 0.0
         self.start_ns = int(start_ns)
         self._publishers_sink.start_ns = self.start_ns
         if self.state_recorder is not None:
@@ -320,10 +485,6 @@ class CfemNode(Node):
             self._submit(*item)
         self._early.clear()
         self.session.start()
-        if not self.sim_time:
-            self._wall_ref = time.monotonic()
-            self._sim_ref = 0.0
-            self._start_timer()
 
     def _start_timer(self):
         if self._timer is not None:
@@ -401,7 +562,12 @@ class CfemNode(Node):
         self.close()
 
     def close(self):
-        """Finish the recording (safe to call more than once)."""
+        """Finish the recording, and say how many inputs were refused (safe to call twice)."""
+        self._refusals.flush()
+        if self._refused:
+            self.get_logger().info('messages refused: ' + ', '.join(
+                f'{count} on {topic}' for topic, count in sorted(self._refused.items())))
+            self._refused = {}
         if self.recorder is not None:
             self.recorder.finish()
             self.get_logger().info(f'recording {self.recorder.path}: '
@@ -416,25 +582,51 @@ class CfemNode(Node):
         f, m = msg.wrench.force, msg.wrench.torque
         topic = self.resolve_topic_name(f'bodies/{body}/wrench')
         self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
-                                         msg.header.frame_id, header_ns=header_ns))
+                                         bounded(msg.header.frame_id), header_ns=header_ns))
 
     def _on_release(self, msg: String):
-        self._submit(self._release_sub.topic_name, release_input(msg.data.strip()))
+        self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())))
 
-    def _submit(self, topic: str, item):
+    def _arrival_time(self) -> Optional[float]:
+        """
+        Return the simulated time at which an input arriving now takes effect (None: at once).
+
+        In real time, where the wall clock says the simulation is, in whole
+        nanoseconds (as the recording logs it, so a replay applies it at the
+        same time), never past the end of the run.
+        """
+        if self.sim_time or self.real_time_factor == 0:
+            return None
+        target = self._wall_target(time.monotonic())
+        return min(round(target * 1e9) * 1e-9, self.duration)
+
+    def _submit(self, topic: str, item: Input):
+        """
+        Give an input to the session; a refused one is logged (throttled) and counted.
+
+        Strings are already cut to ``REFUSED_STRING_BYTES`` (``bounded``):
+        longer ones never name a frame or joint, so they are refused, and
+        recorded and logged in that bounded form.
+        """
         if self.exit_code is not None:
             return
         if self.start_ns is None:
             self._early.append((topic, item))
             return
-        if self.sim_time and item.kind == 'wrench' and item.header_ns:
-            t = (item.header_ns - self.start_ns) / 1e9
-            if t > self.sim.t:
+        if self.sim_time:
+            if item.kind == 'wrench' and item.header_ns:
+                t = (item.header_ns - self.start_ns) / 1e9
+                if t > self.sim.t:
+                    item = replace(item, time=t)
+        else:
+            t = self._arrival_time()
+            if t is not None and t > self.sim.t:
                 item = replace(item, time=t)
         try:
             self.session.submit(item)
         except ValueError as err:
-            self.get_logger().warning(f'{topic}: message not applied: {err}')
+            self._refused[topic] = self._refused.get(topic, 0) + 1
+            self._refusals.warning(f'{topic}: message not applied: {err}')
         if self.session.finished and self.exit_code is None:
             self._end()
 
@@ -448,12 +640,12 @@ def main(args=None) -> int:
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     try:
+        executor = SingleThreadedExecutor()
         try:
             node = CfemNode()
         except CfemError as err:
             print(f'ERROR: {err}', file=sys.stderr)
             return EXIT_BAD_INPUT
-        executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop and node.exit_code is None and rclpy.ok():
             executor.spin_once(timeout_sec=0.05)

@@ -18,11 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 
 from cfem_ros.ros.node import TOPIC_QOS
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 import rclpy
 from std_msgs.msg import String
 
@@ -30,6 +31,8 @@ from std_msgs.msg import String
 KEEP_ALIVE = 0.3
 #: Seconds to wait for the node's release event.
 RELEASE_CONFIRMATION = 3.0
+#: Seconds to wait for a pose of the body, whose frame_id is the world frame.
+POSE_WAIT = 2.0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -71,8 +74,12 @@ def _message(args):
 
 
 def main(argv=None) -> int:
-    """Publish once; return 0, or 1 if no node listened or a release had no event."""
+    """Publish once; return 0, 1 if no node listened or a release had no event, 2 if refused."""
     args = build_parser().parse_args(argv)
+    if args.command == 'wrench' and not all(map(math.isfinite, args.force + args.torque)):
+        print(f'ERROR: wrench: force {args.force} and torque {args.torque} must be finite; '
+              'the node would refuse it; nothing published', file=sys.stderr)
+        return 2
     kind, relative, msg = _message(args)
     namespace = args.ns.rstrip('/')
     topic = f'{namespace}/{relative}'
@@ -88,6 +95,21 @@ def main(argv=None) -> int:
             print(f'ERROR: nothing subscribes to {topic} after {args.wait:g} s; is cfem_node '
                   'running, with the same ROS_DOMAIN_ID and namespace?', file=sys.stderr)
             return 1
+        if args.command == 'wrench' and args.frame != args.body:
+            # the world frame is that of the body's poses
+            poses = []
+            node.create_subscription(PoseStamped, f'{namespace}/bodies/{args.body}/pose',
+                                     poses.append, TOPIC_QOS)
+            if _spin_until(node, lambda: poses, min(args.wait, POSE_WAIT)):
+                world = poses[0].header.frame_id
+                if args.frame != world:
+                    print(f'ERROR: wrench: --frame {args.frame!r} is neither the world frame '
+                          f'{world!r} nor the body {args.body!r}; the node would refuse it; '
+                          'nothing published', file=sys.stderr)
+                    return 2
+            else:
+                print(f'warning: no pose of {args.body!r} within {POSE_WAIT:g} s; frame '
+                      f'{args.frame!r} not checked', file=sys.stderr)
         publisher.publish(msg)
         print(f'published on {topic}: {msg}')
         if args.command != 'release':

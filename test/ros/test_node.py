@@ -13,6 +13,7 @@ import io
 import json
 import math
 import pathlib
+import re
 import signal
 import subprocess
 import sys
@@ -375,6 +376,13 @@ def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
         result = subprocess.run([pub, 'wrench', 'store', '--force', '0', '0', '-100'],
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == 0, result.stderr
+        # what the node would refuse is not published
+        for bad in (['--force', 'nan', '0', '0'], ['--torque', '0', 'inf', '0'],
+                    ['--frame', 'nowhere']):
+            result = subprocess.run([pub, 'wrench', 'store'] + bad, capture_output=True,
+                                    text=True, timeout=60)
+            assert result.returncode == 2 and 'nothing published' in result.stderr, bad
+            assert 'published on' not in result.stdout
         result = subprocess.run([pub, 'release', 'pivot'], capture_output=True, text=True,
                                 timeout=60)
         assert result.returncode == 0, result.stderr
@@ -384,5 +392,37 @@ def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
                                 timeout=60)
         assert result.returncode == 1 and 'no release event' in result.stderr
         assert "joint 'pivot' is already released" in node.output
+        assert 'nowhere' not in node.output and 'finite' not in node.output
     finally:
         assert node.stop(signal.SIGINT) == 0, node.output
+
+
+def test_node_start_up_messages(tmp_path):
+    # a name ROS 2 cannot make a topic of: one ERROR line, exit 2, no traceback, no file
+    for name in ('store\n', 'b' * 300):
+        doc = {'name': 'bad_name', 'duration': 1.0, 'dt': 0.001,
+               'bodies': {name: {'mass': 1.0, 'inertia': [1, 1, 1]}}}
+        bad = write_scenario(tmp_path, doc, 'bad_name.yaml')
+        recording = tmp_path / 'never.mcap'
+        status, output = _node_error(tmp_path, bad, record=recording)
+        if 'ERROR:' in output and 'bodies.' not in output:
+            continue   # the scenario loader refused the name first: fine too
+        assert status == 2, output
+        errors = [line for line in output.splitlines() if line.startswith('ERROR:')]
+        assert len(errors) == 1 and 'invalid ROS 2 topic' in errors[0], output
+        assert 'Traceback' not in output and not recording.exists()
+
+    # an existing record file: the node's own way to say overwrite
+    existing = tmp_path / 'exists.mcap'
+    existing.write_bytes(b'keep me')
+    status, output = _node_error(tmp_path, CONFIG / 'store_separation.yaml', record=existing)
+    assert status == 2 and '-p overwrite:=true' in output and '--overwrite' not in output
+
+    # a mistyped parameter is named, with the ones that exist; the release is logged at INFO
+    node = NodeProcess(tmp_path, CONFIG / 'store_separation.yaml', real_time_factor=0.0,
+                       rate=50.0)
+    assert node.wait(timeout=120) == 0, node.output
+    assert "parameter 'rate' is not a parameter of cfem_node; ignored" in node.output
+    assert 'rate_hz' in node.output.split("parameter 'rate'")[1].splitlines()[0]
+    assert re.search(r"\[INFO\].*release of joint 'pivot' at t = [\d.]+ s \(cause: angle\)",
+                     node.output), node.output
