@@ -46,6 +46,7 @@ setup(
             'ros-kilted-geometry-msgs',
             'ros-kilted-rosgraph-msgs',
             'ros-kilted-rcl-interfaces',
+            'ros-kilted-visualization-msgs',
             'ros-kilted-rmw-fastrtps-cpp',
         ],
         # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros

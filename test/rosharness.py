@@ -27,12 +27,15 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
 BIN = pathlib.Path(sys.executable).parent
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 #: Like ros2 bag play --clock.
 CLOCK = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+LATCHED = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def stamp_ns(header) -> int:
@@ -117,12 +120,13 @@ class Peer:
         for joint in scenario_joints:
             self._collect(WrenchStamped, f'joints/{joint}/wrench')
         self._collect(String, 'events')
+        self._collect(MarkerArray, 'markers', LATCHED)
         self.wrench_pubs = {b: self.node.create_publisher(
             WrenchStamped, f'{namespace}/bodies/{b}/wrench', RELIABLE) for b in scenario_bodies}
         self.release_pub = self.node.create_publisher(String, f'{namespace}/release', RELIABLE)
         self.clock_pub = self.node.create_publisher(Clock, '/clock', CLOCK)
 
-    def _collect(self, kind, relative):
+    def _collect(self, kind, relative, qos=RELIABLE):
         topic = f'{self.ns}/{relative}'
         received, arrivals = self.received[relative], self.arrivals[relative] = [], []
         clock = self.node.get_clock()
@@ -130,7 +134,7 @@ class Peer:
         def take(msg):
             arrivals.append(clock.now().nanoseconds)
             received.append(msg)
-        self.node.create_subscription(kind, topic, take, RELIABLE)
+        self.node.create_subscription(kind, topic, take, qos)
 
     def spin_until(self, condition, timeout=20.0, what='a condition'):
         """Spin until condition() is true; fail the test after timeout seconds."""

@@ -35,6 +35,7 @@ from cfem_ros.core.errors import CfemError
 from cfem_ros.core.inputs import Input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
+from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
@@ -48,6 +49,12 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+try:   # in a ROS 2 install; the pip wheels have no tf2_msgs (recordings carry /tf anyway)
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+except ImportError:   # pragma: no cover - depends on the install
+    TFMessage = None
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -201,6 +208,27 @@ def _time_msg(msg, stamp_ns: int):
     msg.sec, msg.nanosec = divmod(int(stamp_ns), 1_000_000_000)
 
 
+def _fill(msg, values: dict):
+    """Set a message's fields from a dict of the same shape (nested dicts for nested messages)."""
+    for name, value in values.items():
+        if isinstance(value, dict):
+            _fill(getattr(msg, name), value)
+        else:
+            setattr(msg, name, value)
+    return msg
+
+
+#: tf2's own QoS for /tf: reliable, volatile, keep last 100.
+TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.VOLATILE)
+
+
+def _latched(depth: int = 1) -> QoSProfile:
+    """QoS of what a late subscriber must still get: transient local, reliable."""
+    return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
 class _Publishers:
     """
     Session sink that publishes samples and events (SPEC section 3).
@@ -231,6 +259,33 @@ class _Publishers:
                 WrenchStamped, f'joints/{joint.name}/wrench', TOPIC_QOS), wrench)
         self.event_publisher = node.create_publisher(String, 'events', EVENT_QOS)
         self._events_sent = 0
+        # what viewers draw: markers on the bodies' tf frames (recording.visuals)
+        self.marker_publisher = node.create_publisher(MarkerArray, 'markers', _latched())
+        self.namespace = node.get_namespace().rstrip('/')
+        self.tf = None
+        moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
+        if TFMessage is not None:
+            self.tf_static = node.create_publisher(TFMessage, '/tf_static', _latched())
+            if moving:
+                self.tf = (node.create_publisher(TFMessage, '/tf', TF_QOS), TFMessage(
+                    transforms=[_fill(TransformStamped(), {
+                        'header': {'frame_id': world}, 'child_frame_id': model.bodies[i].name})
+                        for i in moving]), moving)
+        self._scene_sent = False
+
+    def _scene(self, stamp_ns: int):
+        """Publish the markers (and the fixed bodies' frames on /tf_static)."""
+        model = self.sim.model
+        stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
+        released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
+        self.marker_publisher.publish(MarkerArray(markers=[
+            _fill(Marker(), m) for m in visuals.markers(
+                model, stamp, self.namespace, released)['markers']]))
+        if TFMessage is not None and not self._scene_sent:
+            self.tf_static.publish(TFMessage(transforms=[
+                _fill(TransformStamped(), t)
+                for t in visuals.static_transforms(model, stamp)['transforms']]))
+        self._scene_sent = True
 
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
@@ -238,8 +293,18 @@ class _Publishers:
     def sample(self):
         sim = self.sim
         stamp_ns = self.stamp_ns(sim.t)
+        if not self._scene_sent:
+            self._scene(stamp_ns)
         position, quat = sim.position, sim.orientation
         velocity, rates = sim.velocity_body(), sim.rates
+        if self.tf is not None:
+            publisher, message, moving = self.tf
+            for transform, i in zip(message.transforms, moving):
+                _time_msg(transform.header.stamp, stamp_ns)
+                _vector3(transform.transform.translation, position[i])
+                r = transform.transform.rotation
+                r.x, r.y, r.z, r.w = (float(c) for c in quat[i])
+            publisher.publish(message)
         for i in range(len(self.poses)):
             publisher, pose = self.poses[i]
             _time_msg(pose.header.stamp, stamp_ns)
@@ -287,6 +352,8 @@ class _Publishers:
             publisher = self.wrenches.pop(k, None)
             if publisher is not None:
                 self.node.destroy_publisher(publisher[0])
+        if self._scene_sent and len(self.sim.events) > self._events_sent:
+            self._scene(self.stamp_ns(self.sim.events[-1]['time']))   # released joints
         self._events_sent = len(self.sim.events)
 
     def received(self, item, t):

@@ -243,6 +243,9 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
         # the released joint's wrench topic is gone
         peer.spin_until(lambda: peer.node.count_publishers('/cfem/joints/pivot/wrench') == 0,
                         what='the pivot wrench topic to go')
+        # markers: each body's shape on its frame, the joint green, then red once released
+        markers = peer.received['markers']
+        peer.spin_until(lambda: len(markers) >= 2, what='the markers after the release')
     finally:
         status = node.stop(signal.SIGTERM)
     assert status == 0, node.output
@@ -253,9 +256,15 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
     wrenches = [stamp_ns(m.header) for m in peer.received['joints/pivot/wrench']]
     assert wrenches and max(wrenches) <= release_ns  # a sample at t comes before inputs at t
 
+    first, last = markers[0].markers, markers[-1].markers
+    assert [(m.ns, m.header.frame_id, m.frame_locked) for m in first] == [
+        ('/cfem/bodies', 'pylon', True), ('/cfem/bodies', 'store', True),
+        ('/cfem/joints', 'pylon', True)]
+    assert last[2].color.a < first[2].color.a and last[2].color.r > last[2].color.g
     _, summary, messages = read_checked(recording)
     topics = {topic for topic, _, _, _ in messages}
-    assert {'/cfem/bodies/store/wrench', '/cfem/release', '/cfem/events'} <= topics
+    assert {'/cfem/bodies/store/wrench', '/cfem/release', '/cfem/events', '/tf', '/tf_static',
+            '/cfem/markers'} <= topics
     releases = [m.data for topic, _, _, m in messages if topic == '/cfem/release']
     assert releases == ['pivot', 'nope', 'pivot']
     assert assert_replay_matches(tmp_path, scenario, recording) <= 1e-9
