@@ -27,7 +27,8 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, rotations
+from cfem_ros.core import kernel, rotations, sampling
+from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
@@ -66,7 +67,10 @@ class Simulator(SampledState):
     y : ndarray, shape (13 n,)
         The state (module docstring).
     status : str
-        'running' or 'failed'.
+        'running' or 'failed': a non-finite state or joint load, a constraint
+        violation beyond ``DIVERGENCE_VIOLATION``, or a singular or
+        ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at the
+        last good state.
     message : str
         Why the run failed, with the time ('' while running).
     events : list of dict
@@ -90,6 +94,7 @@ class Simulator(SampledState):
             np.zeros((3, 3)) if b.fixed else b.inertia for b in bodies])
         self.inv_inertia_body = np.array([
             np.zeros((3, 3)) if b.fixed else np.linalg.inv(b.inertia) for b in bodies])
+        self._check_inverses()
         self.gravity = np.asarray(model.gravity, dtype=float)
         self._bodies = np.column_stack([
             self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
@@ -135,7 +140,7 @@ class Simulator(SampledState):
         """Return dy/dt at state y (external wrenches held constant)."""
         out = np.empty_like(y)
         if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
-            raise NumericalFailure('the constraint system is singular')
+            raise NumericalFailure(sampling.SINGULAR)
         return out
 
     def _rk4(self, y, h):
@@ -146,11 +151,27 @@ class Simulator(SampledState):
         except np.linalg.LinAlgError:
             worst = -1.0
         if worst < 0.0:
-            raise NumericalFailure('the constraint system is singular')
+            raise NumericalFailure(sampling.SINGULAR)
         self._stage_violation = max(self._stage_violation, worst)
         return out
 
     # ------------------------------------------------------- starting checks
+
+    def _check_inverses(self):
+        """Refuse a body whose inverse mass or inertia is not a finite number."""
+        for i, body in enumerate(self.model.bodies):
+            if body.fixed:
+                continue
+            if not math.isfinite(self.inv_mass[i]):
+                raise ScenarioError(
+                    f'model {self.model.name!r}', f'bodies.{body.name}.mass',
+                    f'is {body.mass:g} kg, whose inverse is not a finite number',
+                    'a mass of at least 1e-300 kg')
+            if not np.isfinite(self.inv_inertia_body[i]).all():
+                raise ScenarioError(
+                    f'model {self.model.name!r}', f'bodies.{body.name}.inertia',
+                    'has an inverse that is not a finite number',
+                    'principal moments of at least 1e-300 kg m^2')
 
     def _check_redundancy(self) -> int:
         """Detect redundant rows; warn once; return the remaining DOF."""
@@ -269,10 +290,24 @@ class Simulator(SampledState):
         and the samples in time order and call again.
         Returns False (and sets ``status`` and ``message``) if the run failed;
         the state is then the last good one.
+
+        Raises
+        ------
+        ValueError
+            If t_target is not finite or before the current time, or limit is NaN.
+
         """
+        t_target = float(t_target)
+        if not math.isfinite(t_target):
+            raise ValueError(f't_target is {t_target!r}; expected a finite time in s')
+        if t_target < self.t:
+            raise ValueError(f't_target is {t_target:.9g} s, before the current time '
+                             f'{self.t:.9g} s; time only moves forward')
+        limit = math.inf if limit is None else float(limit)
+        if math.isnan(limit):
+            raise ValueError('limit is nan; expected a time in s (inf for none)')
         if self.status != 'running':
             return False
-        limit = math.inf if limit is None else limit
         if samples is not None and samples.rows.shape[1] not in (0, self._outputs_size()):
             raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
                              f'of this state have {self._outputs_size()}')
@@ -299,10 +334,15 @@ class Simulator(SampledState):
                 if result != kernel.CONDITION and self.t < t_target and self.t < due:
                     break   # the next step would end after limit
         except NumericalFailure as err:
-            self.status = 'failed'
-            self.message = f'at t = {self.t:.9g} s: {err}'
+            self.fail(str(err))
             return False
         return True
+
+    def fail(self, reason: str):
+        """Stop the run as failed now (``status``, ``message`` with the time and reason)."""
+        if self.status == 'running':
+            self.status = 'failed'
+            self.message = f'at t = {self.t:.9g} s: {reason}'
 
     def _run(self, t_target, due, limit, samples=None):
         """Take steps in the kernel until a target, a release time, limit or a condition."""
@@ -329,7 +369,9 @@ class Simulator(SampledState):
                 f'constraint violation {info[5]:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
                 '(the system diverged; try a smaller dt)')
         if result == kernel.SINGULAR:
-            raise NumericalFailure('the constraint system is singular')
+            raise NumericalFailure(sampling.SINGULAR)
+        if result == kernel.LOADS_NOT_FINITE:
+            raise NumericalFailure(sampling.LOADS_NOT_FINITE)
         return result
 
     def _next_time_trigger(self) -> Optional[float]:

@@ -33,6 +33,7 @@ class Input:
         N and N m (wrench only).
     frame_id : str
         The world frame (world axes) or the body (body axes); wrench only.
+        The world frame wins if the body has the world frame's name.
     header_ns : int or None
         The message's own header stamp as received, ns (wrench only).
 
@@ -101,7 +102,8 @@ def apply_input(sim, item: Input):
     """Apply one input now (ValueError with the reason if it cannot be)."""
     validate_input(sim, item)
     if item.kind == 'wrench':
+        # the world frame wins: a body named as the world frame is loaded in world axes
         sim.set_wrench(item.target, item.force, item.torque,
-                       body_axes=(item.frame_id == item.target))
+                       body_axes=(item.frame_id != sim.model.frame_id))
     else:
         sim.release(item.target, cause='command')

@@ -57,8 +57,17 @@ _JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': '
 #: of the tree elimination's per-joint loop; each has one or two call sites.
 _INLINE = dict(_JIT, inline='always')
 
-#: ``advance`` results in ``info[3]``.
+#: ``advance`` results in ``info[3]`` (LOADS_NOT_FINITE: a sample's outputs or a
+#: force-release check's joint loads are not finite while the state is).
 REACHED, CONDITION, NOT_FINITE, VIOLATION, SINGULAR, ROWS_FULL = 0, 1, 2, 3, 4, 5
+LOADS_NOT_FINITE = 6
+
+#: A pivot of the solve (a Cholesky pivot, a 2x2 or 3x3 determinant over the
+#: product of its diagonal, a hinge's D over its diagonal terms) at
+#: or below this fraction of its scale has lost all but about three of its 16
+#: digits to cancellation: the solve is ill-conditioned and reported as singular.
+#: (A hinge's D = g^T M^ g is measured against sum M^_ii g_i^2.)
+PIVOT_RTOL = 1e-12
 
 #: Columns of ``plan``.
 P_ROW, P_NT, P_NR, P_CHILD, P_PARENT, P_SIGN, P_JOINT = range(7)
@@ -153,7 +162,7 @@ def _cholesky(a, k, out):
             for s in range(j):
                 total -= out[i, s] * out[j, s]
             if i == j:
-                if not total > 0.0:
+                if not total > PIVOT_RTOL * a[i, i]:
                     return False
                 out[i, i] = np.sqrt(total)
             else:
@@ -188,7 +197,7 @@ def _inverse(a, k, out):
         return True
     if k == 2:
         det = a[0, 0] * a[1, 1] - a[1, 0] * a[1, 0]
-        if not det > 0.0:
+        if not det > (PIVOT_RTOL * a[0, 0]) * a[1, 1]:
             return False
         scale = 1.0 / det
         out[0, 0] = a[1, 1] * scale
@@ -199,7 +208,7 @@ def _inverse(a, k, out):
     c01 = a[2, 1] * a[2, 0] - a[1, 0] * a[2, 2]
     c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
     det = a[0, 0] * c00 + a[1, 0] * c01 + a[2, 0] * c02
-    if not det > 0.0:
+    if not det > ((PIVOT_RTOL * a[0, 0]) * a[1, 1]) * a[2, 2]:
         return False
     scale = 1.0 / det
     out[0, 0] = c00 * scale
@@ -628,7 +637,8 @@ def _eliminate_one(mh, f, g, s, u, z, x, d_inv, projected):
     Eliminate one free motion g (6, column 0) of a body with articulated M^ = mh, f^ = f.
 
     u = M^ g, D = g^T u, q = g^T z with z = f - M^ s; then what the parent
-    feels before the shift: x = M^ - u u^T / D and z - u q / D. False if D <= 0.
+    feels before the shift: x = M^ - u u^T / D and z - u q / D. False if D is not
+    above ``PIVOT_RTOL`` times sum M^_ii g_i^2 (singular or ill-conditioned).
     """
     g0, g1, g2, g3, g4, g5 = g[0, 0], g[1, 0], g[2, 0], g[3, 0], g[4, 0], g[5, 0]
     s0, s1, s2, s3, s4, s5 = s[0], s[1], s[2], s[3], s[4], s[5]
@@ -643,7 +653,11 @@ def _eliminate_one(mh, f, g, s, u, z, x, d_inv, projected):
         z[i] = zi
         total_d += g[i, 0] * ui
         total_q += g[i, 0] * zi
-    if not total_d > 0.0:
+    # the scale: D without the off-diagonal terms of M^ (products of their own, so
+    # that the sums above are compiled as before, to the bit)
+    scale_d = (mh[0, 0] * (g0 * g0) + mh[1, 1] * (g1 * g1) + mh[2, 2] * (g2 * g2)
+               + mh[3, 3] * (g3 * g3) + mh[4, 4] * (g4 * g4) + mh[5, 5] * (g5 * g5))
+    if not total_d > PIVOT_RTOL * scale_d:
         return False
     inv = 1.0 / total_d
     d_inv[0, 0] = inv
@@ -850,7 +864,7 @@ def joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, den
 def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
                    order, out):
     """
-    Write what a sample publishes at y into out; False if the system is singular.
+    Write what a sample publishes at y into out; return 0, SINGULAR or LOADS_NOT_FINITE.
 
     Per body 13 numbers: CG position, quaternion (x y z w, as in y), CG
     velocity in body axes, angular velocity (body axes); then per plan line
@@ -886,16 +900,20 @@ def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
         out[o + 9] = (2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
                       + (1 - 2 * (x * x + yy * yy)) * v2)
     if order.shape[0] == 0:
-        return True
+        return REACHED
     if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
                         force, moment):
-        return False
+        return SINGULAR
     for j in range(order.shape[0]):
         o = 13 * n + 6 * j
         for k in range(3):
             out[o + k] = force[order[j], k]
             out[o + 3 + k] = moment[order[j], k]
-    return True
+    # the state is finite (every step checks it); its loads may still not be
+    for j in range(13 * n, 13 * n + 6 * order.shape[0]):
+        if not np.isfinite(out[j]):
+            return LOADS_NOT_FINITE
+    return REACHED
 
 
 @numba.njit(**_JIT)
@@ -1094,7 +1112,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
     end after ``limit``, before a step in which a watched condition (angle,
     distance, force at ``limits``; inf for none) is reached (CONDITION: the
     caller locates the crossing), or on a failure (NOT_FINITE, VIOLATION,
-    SINGULAR).
+    SINGULAR, LOADS_NOT_FINITE: a sample's joint loads, or those a force
+    condition is checked on, are not finite).
 
     grid = [rate (Hz; 0 for none), index k of the next sample, samples
     taken]: steps are also cut at the sample times k / rate, and at each
@@ -1129,11 +1148,13 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                 if taken == samples.shape[0]:
                     info[3] = ROWS_FULL
                     return
-                if samples.shape[1] > 0 and not _sample_outputs(
-                        y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
-                        order, samples[taken], force, moment):
-                    info[3] = SINGULAR
-                    return
+                if samples.shape[1] > 0:
+                    code = _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan,
+                                           roots, eta, dense, v, order, samples[taken], force,
+                                           moment)
+                    if code != REACHED:
+                        info[3] = code
+                        return
                 fresh = samples.shape[1] > 0 and order.shape[0] > 0
                 grid[1] += 1.0
                 grid[2] += 1.0
@@ -1167,6 +1188,9 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                     magnitude = 0.0
                     if need_force:
                         magnitude = np.sqrt(_dot(force[watch_plan[w]], force[watch_plan[w]]))
+                        if not np.isfinite(magnitude):
+                            info[3] = LOADS_NOT_FINITE
+                            return
                     if (values[w, 0] >= limits[w, 0] or values[w, 1] >= limits[w, 1]
                             or magnitude >= limits[w, 2]):
                         info[3] = CONDITION

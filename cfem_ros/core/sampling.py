@@ -17,6 +17,14 @@ from cfem_ros.core import kernel, rotations
 import numpy as np
 
 
+#: Why a solve failed, as the messages of a failed run say it.
+SINGULAR = 'the constraint system is singular or too ill-conditioned to solve'
+
+#: Why a sample failed while the state is finite.
+LOADS_NOT_FINITE = ('the joint loads are not finite (masses, inertias or loads beyond '
+                    'what double precision holds)')
+
+
 class NumericalFailure(Exception):
     """Raised inside a step or a sample; turned into ``status = 'failed'``."""
 
@@ -121,6 +129,11 @@ class SampledState:
             Moment on the child about the joint point, world axes, N m.
             Released joints have zero force and moment.
 
+        Raises
+        ------
+        NumericalFailure
+            If the solve is singular or ill-conditioned, or a load is not finite.
+
         """
         return self._joint_loads(self.y)[:2]
 
@@ -152,7 +165,9 @@ class SampledState:
         except np.linalg.LinAlgError:
             ok = False
         if not ok:
-            raise NumericalFailure('the constraint system is singular')
+            raise NumericalFailure(SINGULAR)
+        if not (np.isfinite(f_line).all() and np.isfinite(m_line).all()):
+            raise NumericalFailure(LOADS_NOT_FINITE)
         force[top.plan[:, kernel.P_JOINT]] = f_line
         moment[top.plan[:, kernel.P_JOINT]] = m_line
         value = kernel.constraint_values(top.work, self.n, top.m, lines).copy()
@@ -173,21 +188,24 @@ class SampledState:
         Returns
         -------
         ndarray, shape (13 n + 6 len(active_joints),)
-            Per body its pose (CG position, m; quaternion x y z w, body to
-            world) and twist (CG velocity, m/s, and angular velocity, rad/s,
-            both in body axes); then per active joint its force and moment on
+            Every number finite (else ``NumericalFailure``). Per body its
+            pose (CG position, m; quaternion x y z w, body to world) and
+            twist (CG velocity, m/s, and angular velocity, rad/s, both in
+            body axes); then per active joint its force and moment on
             the child (world axes, N and N m about the joint point).
 
         """
         if out is None:
             out = np.empty(self._outputs_size())
         try:
-            ok = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
-                                       self._outputs_order, out)
+            code = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
+                                         self._outputs_order, out)
         except np.linalg.LinAlgError:
-            ok = False
-        if not ok:
-            raise NumericalFailure('the constraint system is singular')
+            code = kernel.SINGULAR
+        if code == kernel.SINGULAR:
+            raise NumericalFailure(SINGULAR)
+        if code == kernel.LOADS_NOT_FINITE:
+            raise NumericalFailure(LOADS_NOT_FINITE)
         return out
 
     def joint_points(self, y: Optional[np.ndarray] = None):

@@ -15,7 +15,10 @@ node, so that a recording of the node replays offline to the same numbers:
   last step ending at or before ``limit``: whoever paces the run (a wall
   clock, ``/clock``, nothing) changes when steps are taken, never which;
 - an input is recorded at the simulated time it took effect, so replaying
-  the recording applies it at that same time.
+  the recording applies it at that same time;
+- a numerical failure (in a step, or in a sample's outputs, the first one
+  included) sets ``sim.status = 'failed'`` and ends the run: nothing
+  non-finite reaches an output, and what was taken before stays.
 
 Outputs are duck-typed sinks with ``sample()``, ``events()`` and
 ``received(item, t)``; ``recording.StateRecorder`` is one, the node's
@@ -33,6 +36,7 @@ from typing import Callable, Optional
 
 from cfem_ros.core.engine import SampleGrid
 from cfem_ros.core.inputs import apply_input, Input, input_topic, validate_input
+from cfem_ros.core.sampling import NumericalFailure
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -98,7 +102,8 @@ class Session:
             return
         self.started = True
         self._sample()
-        self._apply_due()
+        if not self.failed:
+            self._apply_due()
 
     def submit(self, item: Input, *, check: bool = True):
         """
@@ -152,7 +157,7 @@ class Session:
             target = min(self.next_sample_time, self.duration)
             if self._queue:
                 target = min(target, self._queue[0][0])
-            ok = sim.advance_to(target, limit=limit)
+            ok = sim.advance_to(max(target, sim.t), limit=limit)
             if not ok:
                 self._emit_events()
                 return
@@ -160,6 +165,8 @@ class Session:
                 return
             if sim.t >= self.next_sample_time:
                 self._sample()
+                if self.failed:
+                    return
             self._apply_due()
             if sim.t >= self.duration:
                 self._emit_events()
@@ -196,7 +203,7 @@ class Session:
         while not self.failed and (sim.t < self.duration or self.next_sample_time <= sim.t):
             target = self.duration
             if self._queue:
-                target = min(target, self._queue[0][0])
+                target = max(min(target, self._queue[0][0]), sim.t)
             grid.reset(self.samples, counting if sink is None else sink.sample_rows())
             called, before = time.monotonic(), sim.t
             ok = sim.advance_to(target, limit=before + span, samples=grid)
@@ -251,7 +258,13 @@ class Session:
             sink.events()
 
     def _sample(self):
+        """Take a sample; a numerical failure in its outputs fails the run instead."""
         self._emit_events()
-        for sink in self.outputs:
-            sink.sample()
+        try:
+            for sink in self.outputs:
+                sink.sample()
+        except NumericalFailure as err:
+            self.sim.fail(str(err))
+            self._emit_events()
+            return
         self.samples += 1

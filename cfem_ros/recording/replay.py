@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+import struct
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
@@ -27,7 +28,8 @@ def read_inputs(path: str) -> list:
     Raises
     ------
     InputError
-        If the file is missing, not MCAP, or holds no input topic.
+        If the file is missing, not MCAP, holds no input topic, or a
+        message's payload does not decode.
 
     """
     try:
@@ -50,6 +52,10 @@ def read_inputs(path: str) -> list:
         raise InputError(f'{path}: cannot read ({err.strerror})') from err
     except (McapError, ValueError, KeyError, AttributeError) as err:
         raise InputError(f'{path}: not a readable ROS 2 MCAP recording ({err})') from err
+    except (struct.error, IndexError, EOFError) as err:
+        # a message whose payload does not decode as its schema (truncated, corrupt)
+        raise InputError(f'{path}: a message cannot be decoded ({type(err).__name__}: {err}); '
+                         'expected well-formed ROS 2 CDR payloads') from err
     if not found:
         raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench or '
                          '.../release); nothing to replay')
