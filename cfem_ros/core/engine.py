@@ -311,6 +311,7 @@ class Simulator(SampledState):
         if samples is not None and samples.rows.shape[1] not in (0, self._outputs_size()):
             raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
                              f'of this state have {self._outputs_size()}')
+        steps = self.steps
         try:
             while self.t < t_target or (samples is not None and self.t >= samples.next_time):
                 due = self._next_time_trigger()
@@ -333,10 +334,20 @@ class Simulator(SampledState):
                     break   # back to the caller: rows to take, or a release's events
                 if result != kernel.CONDITION and self.t < t_target and self.t < due:
                     break   # the next step would end after limit
+            if self.t >= t_target and self.steps > steps:
+                self._check_violation()   # the kernel checks each step's start, not the end
         except NumericalFailure as err:
             self.fail(str(err))
             return False
         return True
+
+    def _check_violation(self):
+        """Fail if the joints are violated beyond ``DIVERGENCE_VIOLATION`` now."""
+        violation = self.constraint_violation()
+        if violation > DIVERGENCE_VIOLATION:
+            raise NumericalFailure(
+                f'constraint violation {violation:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
+                '(the system diverged; try a smaller dt)')
 
     def fail(self, reason: str):
         """Stop the run as failed now (``status``, ``message`` with the time and reason)."""
