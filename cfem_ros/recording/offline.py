@@ -46,4 +46,6 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     for item in inputs:
         session.submit(item, check=False)
     session.run(progress)
+    if session.failed and hasattr(recorder, 'failed'):
+        recorder.failed()   # the recording says why it ends there
     return not session.failed

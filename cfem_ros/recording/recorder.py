@@ -549,6 +549,13 @@ class StateRecorder:
         if self._scene_written and any(e.get('event') == 'release' for e in new):
             self._markers(self.stamp_ns(new[-1]['time']))   # released joints change colour
 
+    def failed(self):
+        """Record the run's failure as an ``error`` event at the time it stopped."""
+        sim = self.sim
+        self.recorder.write(self.topic('events'), STRING, {'data': json.dumps(
+            {'event': 'error', 'time': sim.t, 'message': sim.message})},
+            self.stamp_ns(sim.t), qos=EVENTS_QOS)
+
     def received(self, item, t: float):
         """
         Record an input as received, logged at the simulated time t it took effect.

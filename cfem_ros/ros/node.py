@@ -621,6 +621,8 @@ class CfemNode(Node):
             self.get_logger().error(f'the run failed {self.sim.message}')
             self._publishers_sink.event_publisher.publish(String(data=json.dumps(
                 {'event': 'error', 'time': self.sim.t, 'message': self.sim.message})))
+            if self.state_recorder is not None:
+                self.state_recorder.failed()
             self.exit_code = EXIT_FAILED
         else:
             self.get_logger().info(f'run complete at t = {self.sim.t:.9g} s')

@@ -9,6 +9,7 @@ exits 1 leaving a recording that both MCAP readers read back.
 """
 
 import dataclasses
+import json
 import math
 
 from cfem_ros import cli, parse_scenario, Simulator
@@ -175,6 +176,9 @@ def test_a_step_too_large_for_the_chain_fails_with_the_violation(tmp_path, capsy
     messages = assert_finite_recording(out)
     stamps = [log_time for topic, log_time, _, _ in messages if topic.endswith('a/pose')]
     assert len(stamps) > 1 and max(stamps) - min(stamps) <= sim.t * 1e9 + 1
+    (error,) = [json.loads(m.data) for topic, _, _, m in messages if topic.endswith('/events')]
+    assert error['event'] == 'error' and 'constraint violation' in error['message']
+    assert error['time'] == pytest.approx(sim.t)
 
 
 def test_a_huge_input_sends_a_body_to_infinity_and_fails(tmp_path):
