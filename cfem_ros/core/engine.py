@@ -275,7 +275,8 @@ class Simulator(SampledState):
     # ------------------------------------------------------------- stepping
 
     def advance_to(self, t_target: float, limit: Optional[float] = None,
-                   samples: Optional[SampleGrid] = None) -> bool:
+                   samples: Optional[SampleGrid] = None, *,
+                   release_at_end: bool = True) -> bool:
         """
         Integrate to t_target in RK4 steps of dt, the last one cut to land on it.
 
@@ -287,7 +288,11 @@ class Simulator(SampledState):
         With ``samples``, the samples on its grid are taken on the way (one
         due now first), and the call returns early after a release or when
         the grid's rows are full, so that the caller can record the events
-        and the samples in time order and call again.
+        and the samples in time order and call again. A joint whose release
+        time is where the call ends is released before it returns, unless
+        ``release_at_end`` is False: then it stays for the caller to sample
+        (a release at t acts after the samples at t) and is released by
+        ``release_due()`` or the next call.
         Returns False (and sets ``status`` and ``message``) if the run failed;
         the state is then the last good one.
 
@@ -312,7 +317,15 @@ class Simulator(SampledState):
             raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
                              f'of this state have {self._outputs_size()}')
         steps = self.steps
+
+        def release_now():
+            # a release at t acts after the samples at t and at the end of a call
+            # that stops at t, as inputs do (the caller takes the sample first)
+            return samples is None or samples.next_time > self.t
+
         try:
+            if release_now():
+                self._fire_time_triggers()   # left by a call that stopped at its time
             while self.t < t_target or (samples is not None and self.t >= samples.next_time):
                 due = self._next_time_trigger()
                 due = math.inf if due is None else due
@@ -328,7 +341,7 @@ class Simulator(SampledState):
                     if due < t_end:
                         h, t_end = due - self.t, due
                     self._step(h, t_end)
-                else:
+                if (self.t < t_target or release_at_end) and release_now():
                     self._fire_time_triggers()
                 if samples is not None:
                     break   # back to the caller: rows to take, or a release's events
@@ -385,6 +398,19 @@ class Simulator(SampledState):
             raise NumericalFailure(sampling.LOADS_NOT_FINITE)
         return result
 
+    def release_due(self) -> list:
+        """
+        Release the joints whose release time has come, now; return the events.
+
+        ``advance_to`` leaves a release due at the time a call ends to the
+        next call, so that a sample taken at that time still shows the
+        joint (a release at t acts after the samples at t, whatever its
+        cause); a caller that samples calls this after its sample.
+        """
+        before = len(self.events)
+        self._fire_time_triggers()
+        return self.events[before:]
+
     def _next_time_trigger(self) -> Optional[float]:
         return self.releases.due   # changes with the topology
 
@@ -409,7 +435,6 @@ class Simulator(SampledState):
             self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
-        self._fire_time_triggers()
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():

@@ -1121,7 +1121,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
     the next row of ``samples`` (none if it has 0 columns: the samples are
     only counted); a sample due at the current time is taken first. Stops
     with ROWS_FULL when a sample is due and every row is taken. A sample
-    at ``due`` is left to the next call, after the release.
+    at ``due`` is taken before the call returns for the release (a release
+    at t takes effect after the samples at t).
     """
     size = y.shape[0]
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
@@ -1171,6 +1172,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                 grid[2] += 1.0
                 continue
             goal = min(goal, at)
+        if t >= due:
+            return   # a release is due now, after the samples at t: the caller releases
         if t >= t_target:
             return
         while t < goal:
@@ -1222,4 +1225,4 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             info[0] = t
             info[1] += 1
             if t_end >= due:
-                return
+                break   # the samples at t first (loop top), then back for the release

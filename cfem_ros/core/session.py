@@ -157,7 +157,7 @@ class Session:
             target = min(self.next_sample_time, self.duration)
             if self._queue:
                 target = min(target, self._queue[0][0])
-            ok = sim.advance_to(max(target, sim.t), limit=limit)
+            ok = sim.advance_to(max(target, sim.t), limit=limit, release_at_end=False)
             if not ok:
                 self._emit_events()
                 return
@@ -167,7 +167,7 @@ class Session:
                 self._sample()
                 if self.failed:
                     return
-            self._apply_due()
+            self._release_due()
             if sim.t >= self.duration:
                 self._emit_events()
 
@@ -206,7 +206,8 @@ class Session:
                 target = max(min(target, self._queue[0][0]), sim.t)
             grid.reset(self.samples, counting if sink is None else sink.sample_rows())
             called, before = time.monotonic(), sim.t
-            ok = sim.advance_to(target, limit=before + span, samples=grid)
+            ok = sim.advance_to(target, limit=before + span, samples=grid,
+                                release_at_end=False)
             if progress is not None and sim.t > before:
                 spent = max(time.monotonic() - called, 1e-6)
                 span = max(0.5 * progress_every * (sim.t - before) / spent, 10 * sim.dt)
@@ -219,7 +220,7 @@ class Session:
             if not ok:
                 return
             if self.next_sample_time > sim.t:   # inputs at t act after the sample at t
-                self._apply_due()
+                self._release_due()
             if progress is not None and time.monotonic() - wall >= progress_every:
                 wall = time.monotonic()
                 progress(sim.t)
@@ -233,6 +234,12 @@ class Session:
                 progress(self.sim.t)
 
     # ------------------------------------------------------------- internals
+
+    def _release_due(self):
+        """After the samples at t: the inputs at t, then the release times at t."""
+        self._apply_due()
+        if self.sim.release_due():
+            self._emit_events()
 
     def _apply_due(self):
         while self._queue and self._queue[0][0] <= self.sim.t:

@@ -58,7 +58,8 @@ def compiled_code_ready() -> bool:
     cache = os.path.join(os.environ.get('NUMBA_CACHE_DIR') or os.path.dirname(source),
                          '' if os.environ.get('NUMBA_CACHE_DIR') else '__pycache__')
     index = glob.glob(os.path.join(cache, '**', 'kernel.advance-*.nbi'), recursive=True)
-    return bool(index) and min(os.path.getmtime(p) for p in index) >= os.path.getmtime(source)
+    # the index is named after the function's line: older ones may stay behind
+    return bool(index) and max(os.path.getmtime(p) for p in index) >= os.path.getmtime(source)
 
 
 def warm_up() -> float:

@@ -224,7 +224,7 @@ TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
 
 
 def _latched(depth: int = 1) -> QoSProfile:
-    """QoS of what a late subscriber must still get: transient local, reliable."""
+    """Return the QoS of what a late subscriber must still get: transient local, reliable."""
     return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

@@ -12,6 +12,7 @@ layout while its buffer is part full, and fill it more than once (a buffer
 of one chunk) or write one buffer as several chunks (the default batch).
 """
 
+import json
 import pathlib
 
 from cfem_ros import load_scenario, parse_scenario, Simulator
@@ -155,3 +156,28 @@ def test_progress_cuts_the_kernel_calls_not_the_steps(tmp_path):
     assert times == sorted(times) and times[-1] == model.duration
     assert (by_topic(read_checked(tmp_path / 'cut.mcap')[2])
             == by_topic(read_checked(tmp_path / 'one.mcap')[2]))
+
+
+@pytest.mark.parametrize('batched', [False, True])
+def test_a_release_at_a_sample_time_acts_after_that_sample_whatever_its_cause(
+        tmp_path, batched):
+    # the same release of the elbow at t = 0.1 s (sample 3 at 30 Hz), timed or commanded:
+    # both recordings hold the elbow's load at 0.1 s, and then none
+    doc = yaml.safe_load((CONFIG / 'double_pendulum.yaml').read_text())
+    timed = yaml.safe_load(yaml.safe_dump(doc))
+    timed['joints']['elbow']['release'] = {'time': 0.1}
+    runs = {}
+    for name, model, inputs in (
+            ('timed', parse_scenario(timed, duration=0.3), []),
+            ('command', parse_scenario(doc, duration=0.3), [release_input('elbow', time=0.1)])):
+        sim, _ = record(tmp_path / f'{name}.mcap', model, inputs, 30.0, batched)
+        assert [(e['joint'], e['time']) for e in sim.events] == [('elbow', 0.1)]
+        runs[name] = by_topic(read_checked(tmp_path / f'{name}.mcap')[2])
+    for run in runs.values():
+        loads = run['/cfem/joints/elbow/wrench']
+        assert [t for t, _, _ in loads] == [0, 33333333, 66666667, 100000000]
+        event = json.loads(run['/cfem/events'][0][2][0])
+        assert event['cause'] in ('time', 'command') and event['time'] == 0.1
+    elbow = '/cfem/joints/elbow/wrench'
+    assert runs['timed'][elbow] == runs['command'][elbow]
+    assert runs['timed']['/cfem/bodies/B/pose'] == runs['command']['/cfem/bodies/B/pose']
