@@ -12,7 +12,9 @@ quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 
 ``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
 the CG), inverse inertia (9; 0 for ground).
-``loads`` (n, 7): external force (3), torque (3), 1.0 if in body axes.
+``loads``: the packed applied loads of ``loads.py`` (per body: force (3),
+torque (3), 1.0 if in body axes, application point (3); then the scheduled
+wrenches and their tables).
 ``rows_i`` (m, 3): parent body, child body, 1 for a translation row, 2 for a
 translation row at the same joint point as the row before (its terms are
 computed once), 0 for a rotation row. Rows come grouped by joint.
@@ -44,6 +46,7 @@ The joint loads are solved in one of two ways (``engine`` says which):
 
 from __future__ import annotations
 
+from cfem_ros.core import loads as applied_loads
 import numba
 import numpy as np
 
@@ -337,6 +340,7 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
         if loads[i, 6] > 0.0:
             force = _rotate(rot, i, force[0], force[1], force[2])
             torque = _rotate(rot, i, torque[0], torque[1], torque[2])
+        torque = applied_loads.held_moment(rot, i, loads, force, torque)   # loads at points
         spin = (mh[3, 3] * w[0] + mh[3, 4] * w[1] + mh[3, 5] * w[2],
                 mh[4, 3] * w[0] + mh[4, 4] * w[1] + mh[4, 5] * w[2],
                 mh[5, 3] * w[0] + mh[5, 4] * w[1] + mh[5, 5] * w[2])
@@ -344,6 +348,8 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
         for k in range(3):
             fhat[i, k] = mass * gravity[k] + force[k]
             fhat[i, 3 + k] = torque[k] - gyro[k]
+    if loads.shape[0] > n:   # scheduled wrenches (loads.py)
+        applied_loads.add_scheduled(y, rot, bodies, loads, fhat)
 
 
 @numba.njit(**_JIT)
@@ -988,6 +994,9 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     stage = stages[4]
     worst = 0.0
     for s in range(4):
+        if loads.shape[0] > bodies.shape[0]:   # stage time of scheduled wrenches (loads.py)
+            applied_loads.stage_time(loads, bodies.shape[0], 0.0 if s == 0 else (
+                0.5 * h if s < 3 else h))
         # one call site: the derivative is inlined once
         w = _derivative(y if s == 0 else stage, stages[s], bodies, gravity, loads, rows_i,
                         rows_f, plan, roots, eta, dense, v, solved and s == 0)
@@ -1171,6 +1180,10 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                             or magnitude >= limits[w, 2]):
                         info[3] = CONDITION
                         return
+            if loads.shape[0] > bodies.shape[0] and applied_loads.stroke_reached(
+                    out, loads, bodies.shape[0]):   # an ejector's stroke ends (loads.py)
+                info[3] = CONDITION
+                return
             for j in range(size):
                 if not np.isfinite(out[j]):
                     info[3] = NOT_FINITE
@@ -1185,6 +1198,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             fresh = need_force
             t = t_end
             info[0] = t
+            if loads.shape[0] > bodies.shape[0]:
+                applied_loads.set_time(loads, bodies.shape[0], t)   # loads.py
             info[1] += 1
             if t_end >= due:
                 return

@@ -1,0 +1,435 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Applied loads: held wrenches at points, scheduled wrenches, ejector strokes.
+
+Every load the kernel applies lives in one packed array, the kernel's
+``loads`` (rows of ``WIDTH`` numbers), so that the compiled step needs no
+Python call and no new argument:
+
+- rows 0 .. n-1, one per body, the wrench held from topics or inputs:
+  force (3), torque (3), 1.0 if in body axes, application point (3, body
+  axes, from the CG; the moment about the CG gains r x F);
+- then one row per scheduled wrench (``S_*`` columns; ``S_KIND`` = 1);
+- then the rows of their tables (``S_KIND`` = 2): abscissa (time, s, or
+  stroke, m) then force (3) and moment (3).
+
+A scheduled wrench acts on its body at its point while it is on: its time
+window cuts the steps like a release time (the engine switches it), and the
+end of its stroke is watched after each step and located inside the step on
+the step's own RK4 map, like a release condition. Its opposite acts on
+``reacts_on`` at the same world point. Stage times (for tables against
+time) are written by the kernel's RK4 into the scheduled rows.
+
+numba caches each function with its own file only: after editing this
+module, delete the ``__pycache__`` ``*.nbi``/``*.nbc`` of ``kernel.py`` too.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from scipy.optimize import brentq
+
+_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
+
+#: Columns of a packed row.
+WIDTH = 24
+#: Held rows: the application point's columns.
+H_POINT = 7
+#: Scheduled rows: body, reacts_on (-1 none), frame (-1 world, else a body), on (1.0).
+S_BODY, S_REACT, S_FRAME, S_ON = 0, 1, 2, 3
+#: point (3), force (3), moment (3), stroke (inf: none), anchor (3).
+S_POINT, S_FORCE, S_MOMENT, S_STROKE, S_ANCHOR = 4, 7, 10, 13, 14
+#: table: 0 none, 1 against time, 2 against stroke; its first row, its length.
+S_TABLE, S_FIRST, S_COUNT = 17, 18, 19
+#: time of the step's start, time of the stage being evaluated, the wrench's start (s).
+S_T0, S_T, S_START = 20, 21, 22
+#: row kind: 0 held, 1 scheduled, 2 table.
+S_KIND = 23
+TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
+
+
+# ------------------------------------------------------------- compiled part
+
+@numba.njit(**_JIT)
+def held_moment(rot, i, loads, force, torque):
+    """Return the held torque of body i plus r x F (world axes), r its point turned by rot[i]."""
+    px, py, pz = loads[i, H_POINT], loads[i, H_POINT + 1], loads[i, H_POINT + 2]
+    if px == 0.0 and py == 0.0 and pz == 0.0:
+        return torque
+    r = (rot[i, 0, 0] * px + rot[i, 0, 1] * py + rot[i, 0, 2] * pz,
+         rot[i, 1, 0] * px + rot[i, 1, 1] * py + rot[i, 1, 2] * pz,
+         rot[i, 2, 0] * px + rot[i, 2, 1] * py + rot[i, 2, 2] * pz)
+    return (torque[0] + r[1] * force[2] - r[2] * force[1],
+            torque[1] + r[2] * force[0] - r[0] * force[2],
+            torque[2] + r[0] * force[1] - r[1] * force[0])
+
+
+@numba.njit(**_JIT)
+def _turn(rot, i, v, out):
+    for k in range(3):
+        out[k] = rot[i, k, 0] * v[0] + rot[i, k, 1] * v[1] + rot[i, k, 2] * v[2]
+
+
+@numba.njit(**_JIT)
+def _point_and_stroke(y, rot, loads, row, n, point):
+    """The scheduled row's point in world (into point) and its stroke so far, m."""
+    b = int(loads[row, S_BODY])
+    _turn(rot, b, loads[row, S_POINT:S_POINT + 3], point)
+    for k in range(3):
+        point[k] += y[3 * b + k]
+    j = int(loads[row, S_REACT])
+    total = 0.0
+    for k in range(3):
+        ref = loads[row, S_ANCHOR + k]
+        if j >= 0:
+            ref = y[3 * j + k] + (rot[j, k, 0] * loads[row, S_ANCHOR]
+                                  + rot[j, k, 1] * loads[row, S_ANCHOR + 1]
+                                  + rot[j, k, 2] * loads[row, S_ANCHOR + 2])
+        gap = point[k] - ref
+        total += gap * gap
+    return math.sqrt(total)
+
+
+@numba.njit(**_JIT)
+def _table_value(loads, row, x, out):
+    """Force and moment of the row's table at x into out (6), linear, held beyond its ends."""
+    first, count = int(loads[row, S_FIRST]), int(loads[row, S_COUNT])
+    last = first + count - 1
+    if x <= loads[first, 0]:
+        for k in range(6):
+            out[k] = loads[first, 1 + k]
+        return
+    if x >= loads[last, 0]:
+        for k in range(6):
+            out[k] = loads[last, 1 + k]
+        return
+    lo = first
+    while loads[lo + 1, 0] < x:
+        lo += 1
+    x0, x1 = loads[lo, 0], loads[lo + 1, 0]
+    u = (x - x0) / (x1 - x0)
+    for k in range(6):
+        out[k] = loads[lo, 1 + k] + u * (loads[lo + 1, 1 + k] - loads[lo, 1 + k])
+
+
+@numba.njit(**_JIT)
+def scheduled_wrench(y, rot, loads, row, n, out):
+    """
+    The scheduled row's wrench on its body at y into out (12), world axes.
+
+    out (18): force (3), moment about the body's CG (3), then the world
+    point (3) and the moment given with the force (3), then scratch.
+    Returns False if it is off.
+    """
+    if loads[row, S_ON] <= 0.0:
+        return False
+    point = out[6:9]
+    stroke = _point_and_stroke(y, rot, loads, row, n, point)
+    local = out[12:18]
+    kind = int(loads[row, S_TABLE])
+    if kind == TABLE_NONE:
+        for k in range(6):
+            local[k] = loads[row, S_FORCE + k]
+    else:
+        x = loads[row, S_T] - loads[row, S_START] if kind == TABLE_TIME else stroke
+        _table_value(loads, row, x, local)
+    f = int(loads[row, S_FRAME])
+    if f >= 0:
+        _turn(rot, f, local[0:3], out[0:3])
+        _turn(rot, f, local[3:6], out[9:12])
+    else:
+        for k in range(3):
+            out[k] = local[k]
+            out[9 + k] = local[3 + k]
+    b = int(loads[row, S_BODY])
+    r = (point[0] - y[3 * b], point[1] - y[3 * b + 1], point[2] - y[3 * b + 2])
+    out[3] = out[9] + r[1] * out[2] - r[2] * out[1]
+    out[4] = out[10] + r[2] * out[0] - r[0] * out[2]
+    out[5] = out[11] + r[0] * out[1] - r[1] * out[0]
+    return True
+
+
+@numba.njit(**_JIT)
+def add_scheduled(y, rot, bodies, loads, fhat):
+    """Add the scheduled wrenches that are on, and their reactions, to fhat (world)."""
+    n = bodies.shape[0]
+    w = np.empty(18)
+    for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] != 1.0 or not scheduled_wrench(y, rot, loads, row, n, w):
+            continue
+        b = int(loads[row, S_BODY])
+        for k in range(6):
+            fhat[b, k] += w[k]
+        j = int(loads[row, S_REACT])
+        if j >= 0 and bodies[j, 1] > 0.0:
+            r = (w[6] - y[3 * j], w[7] - y[3 * j + 1], w[8] - y[3 * j + 2])
+            fhat[j, 0] -= w[0]
+            fhat[j, 1] -= w[1]
+            fhat[j, 2] -= w[2]
+            fhat[j, 3] -= w[9] + r[1] * w[2] - r[2] * w[1]
+            fhat[j, 4] -= w[10] + r[2] * w[0] - r[0] * w[2]
+            fhat[j, 5] -= w[11] + r[0] * w[1] - r[1] * w[0]
+
+
+@numba.njit(**_JIT)
+def set_time(loads, n, t):
+    """Write the time of the step's start (and of its evaluation) into the scheduled rows."""
+    for row in range(n, loads.shape[0]):
+        loads[row, S_T0] = t
+        loads[row, S_T] = t
+
+
+@numba.njit(**_JIT)
+def stage_time(loads, n, offset):
+    """Write the RK4 stage's time, the step's start plus offset, into the scheduled rows."""
+    for row in range(n, loads.shape[0]):
+        loads[row, S_T] = loads[row, S_T0] + offset
+
+
+@numba.njit(**_JIT)
+def _rotations(y, n, rot):
+    for i in range(n):
+        o = 6 * n + 4 * i
+        x, yy, z, w = y[o], y[o + 1], y[o + 2], y[o + 3]
+        s = 2.0 / (x * x + yy * yy + z * z + w * w)
+        rot[i, 0, 0] = 1 - s * (yy * yy + z * z)
+        rot[i, 0, 1] = s * (x * yy - w * z)
+        rot[i, 0, 2] = s * (x * z + w * yy)
+        rot[i, 1, 0] = s * (x * yy + w * z)
+        rot[i, 1, 1] = 1 - s * (x * x + z * z)
+        rot[i, 1, 2] = s * (yy * z - w * x)
+        rot[i, 2, 0] = s * (x * z - w * yy)
+        rot[i, 2, 1] = s * (yy * z + w * x)
+        rot[i, 2, 2] = 1 - s * (x * x + yy * yy)
+
+
+@numba.njit(**_JIT)
+def strokes(y, loads, n, out):
+    """Each scheduled row's stroke so far at y into out (rows n.., -1 for the others)."""
+    rot = np.empty((n, 3, 3))
+    _rotations(y, n, rot)
+    point = np.empty(3)
+    for row in range(n, loads.shape[0]):
+        out[row - n] = -1.0
+        if loads[row, S_KIND] == 1.0:
+            out[row - n] = _point_and_stroke(y, rot, loads, row, n, point)
+
+
+@numba.njit(**_JIT)
+def stroke_reached(y, loads, n):
+    """Return True if a scheduled wrench that is on has reached its stroke at y."""
+    rot = np.empty((0, 3, 3))
+    for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] == 1.0 and loads[row, S_ON] > 0.0 and \
+                loads[row, S_STROKE] < np.inf:
+            if rot.shape[0] == 0:
+                rot = np.empty((n, 3, 3))
+                _rotations(y, n, rot)
+            point = np.empty(3)
+            if _point_and_stroke(y, rot, loads, row, n, point) >= loads[row, S_STROKE]:
+                return True
+    return False
+
+
+@numba.njit(**_JIT)
+def applied(y, bodies, loads, out):
+    """
+    Each load source's wrench on each body at y into out (sources, 6), world axes.
+
+    Sources: the held wrench of each body (rows 0..n-1), then each scheduled
+    wrench on its body, then its reaction (zero when off or without one).
+    Force, then moment about the CG of the body it acts on.
+    """
+    n = bodies.shape[0]
+    rot = np.empty((n, 3, 3))
+    _rotations(y, n, rot)
+    out[:, :] = 0.0
+    for i in range(n):
+        f = (loads[i, 0], loads[i, 1], loads[i, 2])
+        m = (loads[i, 3], loads[i, 4], loads[i, 5])
+        if loads[i, 6] > 0.0:
+            f = (rot[i, 0, 0] * f[0] + rot[i, 0, 1] * f[1] + rot[i, 0, 2] * f[2],
+                 rot[i, 1, 0] * f[0] + rot[i, 1, 1] * f[1] + rot[i, 1, 2] * f[2],
+                 rot[i, 2, 0] * f[0] + rot[i, 2, 1] * f[1] + rot[i, 2, 2] * f[2])
+            m = (rot[i, 0, 0] * m[0] + rot[i, 0, 1] * m[1] + rot[i, 0, 2] * m[2],
+                 rot[i, 1, 0] * m[0] + rot[i, 1, 1] * m[1] + rot[i, 1, 2] * m[2],
+                 rot[i, 2, 0] * m[0] + rot[i, 2, 1] * m[1] + rot[i, 2, 2] * m[2])
+        m = held_moment(rot, i, loads, f, m)
+        for k in range(3):
+            out[i, k] = f[k]
+            out[i, 3 + k] = m[k]
+    w = np.empty(18)
+    s = n
+    for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] != 1.0:
+            continue
+        if scheduled_wrench(y, rot, loads, row, n, w):
+            for k in range(6):
+                out[s, k] = w[k]
+            j = int(loads[row, S_REACT])
+            if j >= 0:
+                r = (w[6] - y[3 * j], w[7] - y[3 * j + 1], w[8] - y[3 * j + 2])
+                out[s + 1, 0], out[s + 1, 1], out[s + 1, 2] = -w[0], -w[1], -w[2]
+                out[s + 1, 3] = -(w[9] + r[1] * w[2] - r[2] * w[1])
+                out[s + 1, 4] = -(w[10] + r[2] * w[0] - r[0] * w[2])
+                out[s + 1, 5] = -(w[11] + r[0] * w[1] - r[1] * w[0])
+        s += 2
+
+
+# ------------------------------------------------------------- Python part
+
+class ScheduledLoads:
+    """
+    The scheduled wrenches of a model in a simulator's packed ``loads``.
+
+    Parameters
+    ----------
+    model : Model
+        Its ``wrenches`` (``model.Wrench``).
+    n : int
+        Number of bodies.
+
+    Attributes
+    ----------
+    array : ndarray, shape (n + rows, WIDTH)
+        The packed loads (the held rows first, zero).
+    started, done : ndarray of bool
+        Per wrench: switched on once; switched off for good.
+
+    """
+
+    def __init__(self, model, n: int):
+        self.model = model
+        self.n = n
+        wrenches = getattr(model, 'wrenches', ())
+        self.count = len(wrenches)
+        tables = sum(len(w.table) for w in wrenches)
+        rows = np.zeros((n + self.count + tables, WIDTH))
+        nxt = n + self.count
+        for k, w in enumerate(wrenches):
+            r = rows[n + k]
+            r[S_KIND] = 1.0
+            r[S_BODY], r[S_REACT], r[S_FRAME] = w.body, w.reacts_on, w.frame
+            r[S_POINT:S_POINT + 3] = w.point
+            r[S_FORCE:S_FORCE + 3] = w.force
+            r[S_MOMENT:S_MOMENT + 3] = w.moment
+            r[S_STROKE] = np.inf if w.stroke is None else w.stroke
+            r[S_START] = w.start
+            r[S_TABLE] = {None: TABLE_NONE, 'time': TABLE_TIME, 'stroke': TABLE_STROKE}[
+                w.table_against]
+            if len(w.table):
+                r[S_FIRST], r[S_COUNT] = nxt, len(w.table)
+                rows[nxt:nxt + len(w.table), :7] = w.table
+                rows[nxt:nxt + len(w.table), S_KIND] = 2.0
+                nxt += len(w.table)
+        self.array = rows
+        self.started = np.zeros(self.count, dtype=bool)
+        self.done = np.zeros(self.count, dtype=bool)
+
+    def set_time(self, t: float):
+        """Write the current time into the scheduled rows."""
+        if self.count:
+            set_time(self.array, self.n, t)
+
+    def due(self, t: float):
+        """Return the next time after t at which a wrench switches, or None."""
+        times = []
+        for k, w in enumerate(self.model.wrenches):
+            if self.done[k]:
+                continue
+            if not self.started[k] and w.start > t:
+                times.append(w.start)
+            elif self.started[k] and w.end is not None and w.end > t:
+                times.append(w.end)
+        return min(times) if times else None
+
+    def switch(self, t: float, y: np.ndarray) -> bool:
+        """Switch the wrenches whose start or end is t or earlier; True if any did."""
+        changed = False
+        for k, w in enumerate(self.model.wrenches):
+            if self.done[k]:
+                continue
+            if not self.started[k] and w.start <= t:
+                self.started[k] = True
+                self._anchor(k, y)
+                self.array[self.n + k, S_ON] = 1.0
+                changed = True
+            if self.started[k] and w.end is not None and w.end <= t:
+                self._off(k)
+                changed = True
+        return changed
+
+    def _off(self, k):
+        self.done[k] = True
+        self.array[self.n + k, S_ON] = 0.0
+
+    def _anchor(self, k, y):
+        """Record where the point is at the start (in world, or in reacts_on's axes)."""
+        n = self.n
+        row = self.array[n + k]
+        rot = np.empty((n, 3, 3))
+        _rotations(np.ascontiguousarray(y), n, rot)
+        b = int(row[S_BODY])
+        point = y[3 * b:3 * b + 3] + rot[b] @ row[S_POINT:S_POINT + 3]
+        j = int(row[S_REACT])
+        if j >= 0:
+            point = rot[j].T @ (point - y[3 * j:3 * j + 3])
+        row[S_ANCHOR:S_ANCHOR + 3] = point
+
+    def strokes(self, y: np.ndarray) -> np.ndarray:
+        """Return each wrench's stroke so far at y, m."""
+        out = np.empty(self.array.shape[0] - self.n)
+        strokes(np.ascontiguousarray(y), self.array, self.n, out)
+        return out[:self.count]
+
+    def watched(self) -> np.ndarray:
+        """Return the wrenches that are on with a stroke."""
+        rows = self.array[self.n:self.n + self.count]
+        return np.flatnonzero((rows[:, S_ON] > 0.0) & np.isfinite(rows[:, S_STROKE]))
+
+    def crossing(self, y0: np.ndarray, y1: np.ndarray, h: float, rk4):
+        """
+        Return the earliest stroke end in the step y0 -> y1 as (s, wrenches), or None.
+
+        Located on the step's RK4 map ``rk4(y0, s)`` like a release condition.
+        """
+        watched = self.watched()
+        if not watched.size:
+            return None
+        stroke = self.array[self.n + watched, S_STROKE]
+        reached = self.strokes(y1)[watched] >= stroke
+        if not reached.any():
+            return None
+        best, which = h, []
+        for k, limit in zip(watched[reached], stroke[reached]):
+            def excess(s, k=k, limit=limit):
+                return self.strokes(y0 if s == 0.0 else rk4(y0, s))[k] - limit
+
+            if excess(0.0) >= 0.0:
+                s = 0.0
+            else:
+                s = brentq(excess, 0.0, h, xtol=1e-15, rtol=4 * np.finfo(float).eps,
+                           maxiter=200)
+            if s < best - 1e-15:
+                best, which = s, [int(k)]
+            elif abs(s - best) <= 1e-15:
+                which.append(int(k))
+        return best, which
+
+    def end_strokes(self, wrenches):
+        """Switch off the wrenches whose stroke has ended."""
+        for k in wrenches:
+            self._off(k)
+
+    def sources(self):
+        """Return (body index, source name) of each row of ``applied``."""
+        model = self.model
+        out = [(i, 'wrench') for i in range(self.n)]
+        for w in model.wrenches:
+            out.append((w.body, w.name))
+            out.append((w.reacts_on, f'{w.name}_reaction'))
+        return out
