@@ -76,7 +76,7 @@ def _turn(rot, i, v, out):
 
 @numba.njit(**_JIT)
 def _point_and_stroke(y, rot, loads, row, n, point):
-    """The scheduled row's point in world (into point) and its stroke so far, m."""
+    """Put the scheduled row's point (world) into point; return its stroke so far, m."""
     b = int(loads[row, S_BODY])
     _turn(rot, b, loads[row, S_POINT:S_POINT + 3], point)
     for k in range(3):
@@ -119,7 +119,7 @@ def _table_value(loads, row, x, out):
 @numba.njit(**_JIT)
 def scheduled_wrench(y, rot, loads, row, n, out):
     """
-    The scheduled row's wrench on its body at y into out (12), world axes.
+    Put the scheduled row's wrench on its body at y into out, world axes.
 
     out (18): force (3), moment about the body's CG (3), then the world
     point (3) and the moment given with the force (3), then scratch.

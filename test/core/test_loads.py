@@ -1,0 +1,276 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""Applied loads: loads at points, scheduled wrenches, ejector strokes (loads.py)."""
+
+import math
+
+from cfem_ros.core.engine import Simulator
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.inputs import wrench_input
+from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.session import Session
+import numpy as np
+import pytest
+from reference import quat_matrix, skew
+from scipy.integrate import solve_ivp
+
+MASS = 907.0
+INERTIA = [27.0, 488.0, 488.0]
+STORE = {'mass': MASS, 'inertia': INERTIA, 'angular_velocity': [0.3, -0.2, 0.5]}
+
+
+def model(wrenches=None, *, gravity=(0, 0, 0), dt=0.001, bodies=None, **extra):
+    """Build a model of one free body (or the given bodies) with scheduled wrenches."""
+    doc = {'gravity': list(gravity), 'dt': dt,
+           'bodies': bodies or {'store': dict(STORE)}, **extra}
+    if wrenches is not None:
+        doc['wrenches'] = wrenches
+    return parse_scenario(doc, source='test.yaml')
+
+
+def run(sim, t):
+    """Advance sim to t and return it."""
+    assert sim.advance_to(t), sim.message
+    return sim
+
+
+def momentum(sim, origin=np.zeros(3)):
+    """Total linear momentum and angular momentum about origin (world)."""
+    pos, vel, quat, rates = sim.position, sim.velocity, sim.orientation, sim.rates
+    linear = np.zeros(3)
+    angular = np.zeros(3)
+    for i in np.flatnonzero(sim.free):
+        rot = quat_matrix(quat[i])
+        linear += sim.mass[i] * vel[i]
+        angular += (np.cross(pos[i] - origin, sim.mass[i] * vel[i])
+                    + rot @ (sim.inertia_body[i] @ rates[i]))
+    return linear, angular
+
+
+def reference(force_world, point_body, t_end, *, torque_world=np.zeros(3), stroke=None,
+              rates0=(0.3, -0.2, 0.5), after=None):
+    """
+    DOP853 on Newton-Euler for one free body from rest at the origin, identity attitude.
+
+    A world force at a body point (and a world torque) act until t_end or until
+    the point has moved ``stroke`` from where it started; then the body flies
+    free until ``after`` (if given). Returns (x, v, R, w_body, t_stroke_end).
+    """
+    inertia = np.diag(INERTIA)
+    inverse = np.linalg.inv(inertia)
+    point = np.asarray(point_body, dtype=float)
+
+    def rhs(_, s, loaded):
+        rot = s[6:15].reshape(3, 3)
+        w = s[15:18]
+        moment = torque_world + np.cross(rot @ point, force_world) if loaded else np.zeros(3)
+        acc = force_world / MASS if loaded else np.zeros(3)
+        w_dot = inverse @ (rot.T @ moment - np.cross(w, inertia @ w))
+        return np.concatenate([s[3:6], acc, (rot @ skew(w)).ravel(), w_dot])
+
+    s0 = np.concatenate([np.zeros(6), np.eye(3).ravel(), rates0])
+
+    def travelled(_, s, loaded=True):
+        return np.linalg.norm(s[0:3] + s[6:15].reshape(3, 3) @ point - point) - stroke
+    travelled.terminal = True
+    events = None if stroke is None else travelled
+    first = solve_ivp(rhs, (0, t_end), s0, method='DOP853', rtol=1e-13, atol=1e-14,
+                      args=(True,), events=events)
+    t_stroke = first.t[-1]
+    s = first.y[:, -1]
+    if after is not None:
+        s = solve_ivp(rhs, (t_stroke, after), s, method='DOP853', rtol=1e-13, atol=1e-14,
+                      args=(False,)).y[:, -1]
+    return s[0:3], s[3:6], s[6:15].reshape(3, 3), s[15:18], t_stroke
+
+
+# ------------------------------------------------------------ loads at points
+
+def test_point_load_in_body_axes_equals_the_load_moved_to_the_cg():
+    force, point = np.array([120.0, -40.0, 300.0]), np.array([0.5, 0.1, -0.2])
+    at_point = Simulator(model(gravity=(0, 0, -9.80665)))
+    at_point.set_wrench('store', force, [1.0, 2.0, 3.0], body_axes=True, point=point)
+    at_cg = Simulator(model(gravity=(0, 0, -9.80665)))
+    at_cg.set_wrench('store', force, np.array([1.0, 2.0, 3.0]) + np.cross(point, force),
+                     body_axes=True)
+    np.testing.assert_allclose(run(at_point, 1.0).y, run(at_cg, 1.0).y, rtol=0, atol=1e-12)
+    assert np.abs(at_point.rates).max() > 0.6   # the point's moment turned it
+
+
+def test_point_load_in_world_axes_turns_with_the_body_against_dop853():
+    force, point = np.array([0.0, 0.0, 5000.0]), np.array([0.3, 0.05, 0.0])
+    sim = Simulator(model())
+    sim.set_wrench('store', force, [0, 0, 0], point=point)
+    run(sim, 1.0)
+    x, v, rot, w, _ = reference(force, point, 1.0)
+    np.testing.assert_allclose(sim.position[0], x, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.velocity[0], v, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(quat_matrix(sim.orientation[0]), rot, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.rates[0], w, rtol=0, atol=1e-10)
+    # the moment is not the one at t = 0 held: the world-fixed equivalent differs
+    held = Simulator(model())
+    held.set_wrench('store', force, np.cross(point, force))
+    assert np.abs(run(held, 1.0).rates[0] - w).max() > 1e-3
+
+
+def test_point_from_a_topic_frame_id_through_a_session():
+    force, torque, point = [10.0, 0.0, 250.0], [0.0, 1.0, 0.0], [0.4, -0.1, 0.05]
+    by_topic = Simulator(model())
+    session = Session(by_topic, rate_hz=50.0, duration=1.0)
+    session.submit(wrench_input('store', force, torque, 'store@0.4,-0.1,0.05', time=0.25))
+    session.run()
+    direct = Simulator(model())
+    run(direct, 0.25)
+    direct.set_wrench('store', force, np.array(torque) + np.cross(point, force),
+                      body_axes=True)
+    run(direct, 1.0)
+    assert by_topic.t == direct.t == 1.0
+    np.testing.assert_allclose(by_topic.y, direct.y, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize('frame_id', ['store@1,2', 'store@a,b,c', 'store@1,2,nan', 'pylon@0,0,0'])
+def test_bad_point_in_a_frame_id_is_refused_with_the_reason(frame_id):
+    session = Session(Simulator(model()), rate_hz=50.0, duration=1.0)
+    session.start()
+    with pytest.raises(ValueError, match='frame_id'):
+        session.submit(wrench_input('store', [0, 0, 1], [0, 0, 0], frame_id))
+
+
+# ------------------------------------------------------------ scheduled wrenches
+
+EJECTOR = {'body': 'store', 'point': [0.0, 0.0, 0.2], 'force': [0, 0, 10676.0],
+           'stroke': 0.1006}
+
+
+def test_constant_ejector_through_the_cg_ends_its_stroke_at_the_closed_form_time():
+    sim = Simulator(model([EJECTOR], bodies={'store': {'mass': MASS, 'inertia': INERTIA}},
+                          dt=0.01))
+    run(sim, 1.0)
+    t_end = math.sqrt(2 * MASS * 0.1006 / 10676.0)   # s = F t^2 / (2 m)
+    v_end = 10676.0 / MASS * t_end
+    # after the stroke the body flies at the impulse's velocity: z = s + v (t - t_end)
+    np.testing.assert_allclose(sim.velocity[0], [0, 0, v_end], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sim.position[0], [0, 0, 0.1006 + v_end * (1.0 - t_end)],
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sim.rates[0], 0.0, atol=0)
+
+
+def test_ejector_with_a_lever_arm_against_dop853_impulse_and_momentum():
+    spec = {'body': 'store', 'point': [0.3292, 0.02, 0.2], 'force': [0, 0, 42703.0],
+            'frame': 'world', 'stroke': 0.1006}
+    sim = Simulator(model([spec], dt=0.0005))
+    run(sim, 0.5)
+    force = np.array([0, 0, 42703.0])
+    x, v, rot, w, t_end = reference(force, spec['point'], 1.0, stroke=0.1006, after=0.5)
+    assert 0.03 < t_end < 0.1
+    # RK4's error at dt = 0.5 ms and rates of ~3 rad/s: ~1e-11
+    np.testing.assert_allclose(sim.position[0], x, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.velocity[0], v, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(quat_matrix(sim.orientation[0]), rot, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.rates[0], w, rtol=0, atol=1e-10)
+    # linear impulse F t_end exactly (world force)
+    linear, _ = momentum(sim)
+    np.testing.assert_allclose(linear, force * t_end, rtol=1e-12, atol=1e-8)
+
+
+def test_stroke_end_is_located_inside_the_step():
+    spec = {'body': 'store', 'point': [0.3292, 0.0, 0.2], 'force': [0, 0, 42703.0],
+            'stroke': 0.1006}
+    results = []
+    for dt in (0.002, 0.0013, 0.0005):
+        sim = Simulator(model([spec], dt=dt, bodies={'store': {'mass': MASS,
+                                                               'inertia': INERTIA}}))
+        run(sim, 0.3)
+        results.append(sim.y.copy())
+    # a step cut at the end of the stroke: RK4's error only (~2e-10 at 2 ms), not a
+    # fraction of a step's worth of load (47 m/s^2 dt, ~1e-2 m/s)
+    np.testing.assert_allclose(results[0], results[2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(results[1], results[2], rtol=0, atol=1e-9)
+
+
+def test_reaction_on_a_free_parent_conserves_momentum():
+    bodies = {'aircraft': {'mass': 9000.0, 'inertia': [20000.0, 60000.0, 75000.0, 0, -800, 0],
+                           'angular_velocity': [0.05, 0.0, -0.02]},
+              'store': {'mass': MASS, 'inertia': INERTIA, 'position': [0.5, 0.2, -1.0],
+                        'angular_velocity': [0.1, 0.2, 0.0]}}
+    wrenches = [{'name': 'fwd', 'body': 'store', 'point': [1.2, 0, 0.2],
+                 'force': [0, 0, -10676.0], 'stroke': 0.1006, 'reacts_on': 'aircraft'},
+                {'name': 'aft', 'body': 'store', 'point': [-0.3, 0, 0.2], 'moment': [50, 0, 0],
+                 'force': [0, 0, -42703.0], 'stroke': 0.1006, 'reacts_on': 'aircraft',
+                 'frame': 'aircraft'}]
+    sim = Simulator(model(wrenches, bodies=bodies))
+    origin = np.array([3.0, -1.0, 2.0])
+    p0, l0 = momentum(sim, origin=origin)
+    for t in (0.02, 0.05, 0.3):
+        p1, l1 = momentum(run(sim, t), origin=origin)
+        # rounding: 1e-12 of the momenta that cancel (each body's, ~1e4)
+        scale = max(np.abs(sim.mass[:, None] * sim.velocity).max(), np.abs(l0).max())
+        np.testing.assert_allclose(p1, p0, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(l1, l0, rtol=0, atol=1e-11 * scale * 4)
+    assert np.linalg.norm(sim.velocity[1]) > 1.0   # the store was pushed away
+
+
+def test_reaction_on_a_fixed_body_is_ignored():
+    bodies = {'pylon': {'fixed': True}, 'store': {'mass': MASS, 'inertia': INERTIA}}
+    with_pylon = Simulator(model([dict(EJECTOR, reacts_on='pylon')], bodies=bodies))
+    alone = Simulator(model([EJECTOR], bodies={'store': {'mass': MASS, 'inertia': INERTIA}}))
+    run(with_pylon, 0.5)
+    run(alone, 0.5)
+    for name in ('position', 'velocity', 'orientation', 'rates'):
+        np.testing.assert_array_equal(getattr(with_pylon, name)[1], getattr(alone, name)[0])
+    assert alone.velocity[0, 2] > 1.0
+
+
+def test_force_against_stroke_table_against_the_closed_form():
+    # F(d) = F0 - k d through the CG: m d'' = F0 - k d, d = F0/k (1 - cos wt)
+    f0, k, stroke = 20000.0, 150000.0, 0.1
+    table = {'against': 'stroke', 'table': [[0.0, 0, 0, f0], [0.2, 0, 0, f0 - 0.2 * k]]}
+    sim = Simulator(model([{'body': 'store', 'force': table, 'stroke': stroke}],
+                          bodies={'store': {'mass': MASS, 'inertia': INERTIA}}))
+    omega = math.sqrt(k / MASS)
+    t_end = math.acos(1 - stroke * k / f0) / omega
+    run(sim, 0.5 * t_end)
+    # RK4's error over 50 steps at omega dt = 0.013: ~1e-11
+    assert abs(sim.position[0, 2] - f0 / k * (1 - math.cos(omega * 0.5 * t_end))) < 1e-10
+    run(sim, 1.0)
+    v_end = f0 / k * omega * math.sin(omega * t_end)
+    assert abs(sim.velocity[0, 2] - v_end) < 1e-10
+    assert abs(sim.position[0, 2] - (stroke + v_end * (1.0 - t_end))) < 1e-10
+
+
+def test_time_window_and_time_table_cut_the_steps():
+    # F(t) = 1000 (t - start) for start <= t < end, through the CG, in world axes
+    start, end = 0.1234, 0.3456
+    table = {'against': 'time', 'table': [[0.0, 0, 0, 0.0], [1.0, 0, 0, 1000.0]]}
+    sim = Simulator(model([{'body': 'store', 'force': table, 'frame': 'world',
+                            'start': start, 'end': end}],
+                          bodies={'store': {'mass': MASS, 'inertia': INERTIA}}, dt=0.01))
+    run(sim, 1.0)
+    span = end - start
+    v_end = 1000.0 * span ** 2 / 2 / MASS
+    z_end = 1000.0 * span ** 3 / 6 / MASS
+    assert abs(sim.velocity[0, 2] - v_end) < 1e-13
+    assert abs(sim.position[0, 2] - (z_end + v_end * (1.0 - end))) < 1e-13
+
+
+@pytest.mark.parametrize('spec, key', [
+    ({'body': 'nobody', 'force': [0, 0, 1]}, 'wrenches[0].body'),
+    ({'body': 'store', 'force': [0, 0]}, 'wrenches[0].force'),
+    ({'body': 'store', 'force': [0, 0, 1], 'frame': 'moon'}, 'wrenches[0].frame'),
+    ({'body': 'store', 'force': [0, 0, 1], 'start': 1.0, 'end': 0.5}, 'wrenches[0].end'),
+    ({'body': 'store', 'force': [0, 0, 1], 'stroke': 0}, 'wrenches[0].stroke'),
+    ({'body': 'store', 'force': [0, 0, 1], 'reacts_on': 'store'}, 'wrenches[0].reacts_on'),
+    ({'body': 'store', 'force': [0, 0, 1], 'colour': 'red'}, 'wrenches[0].colour'),
+    ({'body': 'store'}, 'wrenches[0].force'),
+    ({'body': 'store', 'force': {'against': 'speed', 'table': [[0, 0, 0, 1], [1, 0, 0, 1]]}},
+     'wrenches[0].force.against'),
+    ({'body': 'store', 'force': {'against': 'time', 'table': [[0, 0, 0, 1], [0, 0, 0, 1]]}},
+     'wrenches[0].force.table[1][0]'),
+    ({'body': 'ground', 'force': [0, 0, 1]}, 'wrenches[0].body'),
+])
+def test_bad_wrenches_are_refused_with_the_key_path(spec, key):
+    bodies = {'ground': {'fixed': True}, 'store': {'mass': MASS, 'inertia': INERTIA}}
+    with pytest.raises(ScenarioError) as err:
+        model([spec], bodies=bodies)
+    assert err.value.key == key
+    assert err.value.expected
