@@ -3,19 +3,20 @@
 """Applied loads: loads at points, scheduled wrenches, ejector strokes (loads.py)."""
 
 import math
+import os
 
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.inputs import wrench_input
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario import load_scenario, parse_scenario
 from cfem_ros.core.session import Session
 import numpy as np
 import pytest
 from reference import quat_matrix, skew
 from scipy.integrate import solve_ivp
 
-MASS = 907.0
-INERTIA = [27.0, 488.0, 488.0]
+MASS = 907.1848
+INERTIA = [27.1164, 488.0944, 488.0944]   # the Eglin store's, as in config/
 STORE = {'mass': MASS, 'inertia': INERTIA, 'angular_velocity': [0.3, -0.2, 0.5]}
 
 
@@ -47,40 +48,55 @@ def momentum(sim, origin=np.zeros(3)):
     return linear, angular
 
 
-def reference(force_world, point_body, t_end, *, torque_world=np.zeros(3), stroke=None,
-              rates0=(0.3, -0.2, 0.5), after=None):
+def reference(force_world, point_body, t_end, *, stroke=None, rates0=(0.3, -0.2, 0.5),
+              after=None, gravity=np.zeros(3)):
     """
     DOP853 on Newton-Euler for one free body from rest at the origin, identity attitude.
 
-    A world force at a body point (and a world torque) act until t_end or until
-    the point has moved ``stroke`` from where it started; then the body flies
-    free until ``after`` (if given). Returns (x, v, R, w_body, t_stroke_end).
+    Each world force (a list, or one) acts at its body point until t_end or
+    until the point has moved its ``stroke`` (a list, or one; None: no
+    stroke) from where it started; then the body flies on until ``after``
+    (if given). Returns (x, v, R, w_body, end of the last stroke).
     """
     inertia = np.diag(INERTIA)
     inverse = np.linalg.inv(inertia)
-    point = np.asarray(point_body, dtype=float)
+    forces = np.reshape(np.asarray(force_world, dtype=float), (-1, 3))
+    points = np.reshape(np.asarray(point_body, dtype=float), (-1, 3))
+    strokes = stroke if isinstance(stroke, (list, tuple)) else [stroke] * len(forces)
 
-    def rhs(_, s, loaded):
+    def rhs(_, s, on):
         rot = s[6:15].reshape(3, 3)
         w = s[15:18]
-        moment = torque_world + np.cross(rot @ point, force_world) if loaded else np.zeros(3)
-        acc = force_world / MASS if loaded else np.zeros(3)
+        acc, moment = gravity.astype(float), np.zeros(3)
+        for k in np.flatnonzero(on):
+            acc = acc + forces[k] / MASS
+            moment = moment + np.cross(rot @ points[k], forces[k])
         w_dot = inverse @ (rot.T @ moment - np.cross(w, inertia @ w))
         return np.concatenate([s[3:6], acc, (rot @ skew(w)).ravel(), w_dot])
 
-    s0 = np.concatenate([np.zeros(6), np.eye(3).ravel(), rates0])
+    def travelled(k):
+        def event(_, s, on):
+            return np.linalg.norm(s[0:3] + s[6:15].reshape(3, 3) @ points[k] - points[k]) \
+                - strokes[k]
+        event.terminal = True
+        return event
 
-    def travelled(_, s, loaded=True):
-        return np.linalg.norm(s[0:3] + s[6:15].reshape(3, 3) @ point - point) - stroke
-    travelled.terminal = True
-    events = None if stroke is None else travelled
-    first = solve_ivp(rhs, (0, t_end), s0, method='DOP853', rtol=1e-13, atol=1e-14,
-                      args=(True,), events=events)
-    t_stroke = first.t[-1]
-    s = first.y[:, -1]
+    s = np.concatenate([np.zeros(6), np.eye(3).ravel(), rates0])
+    on = np.ones(len(forces), dtype=bool)
+    t, t_stroke = 0.0, 0.0
+    while t < t_end and on.any():
+        watched = [k for k in np.flatnonzero(on) if strokes[k] is not None]
+        part = solve_ivp(rhs, (t, t_end), s, method='DOP853', rtol=1e-13, atol=1e-14,
+                         args=(on.copy(),), events=[travelled(k) for k in watched] or None)
+        t, s = part.t[-1], part.y[:, -1]
+        ended = [k for k, times in zip(watched, part.t_events or []) if len(times)]
+        if not ended:
+            break
+        on[ended] = False
+        t_stroke = t
     if after is not None:
-        s = solve_ivp(rhs, (t_stroke, after), s, method='DOP853', rtol=1e-13, atol=1e-14,
-                      args=(False,)).y[:, -1]
+        s = solve_ivp(rhs, (t, after), s, method='DOP853', rtol=1e-13, atol=1e-14,
+                      args=(on & False,)).y[:, -1]
     return s[0:3], s[3:6], s[6:15].reshape(3, 3), s[15:18], t_stroke
 
 
@@ -274,3 +290,20 @@ def test_bad_wrenches_are_refused_with_the_key_path(spec, key):
         model([spec], bodies=bodies)
     assert err.value.key == key
     assert err.value.expected
+
+
+def test_shipped_ejector_scenario_against_dop853():
+    path = os.path.join(os.path.dirname(__file__), '..', '..', 'config',
+                        'store_separation_ejectors.yaml')
+    sim = Simulator(load_scenario(path))
+    run(sim, 0.4)
+    gravity = np.array([0, 0, 9.80665])
+    x, v, rot, w, t_end = reference(
+        [[0, 0, 10676.0], [0, 0, 42703.0]], [[0.1798, 0, -0.25], [-0.3292, 0, -0.25]], 0.4,
+        stroke=0.1006, rates0=(0, 0, 0), gravity=gravity, after=0.4)
+    assert 0.03 < t_end < 0.1 and sim._scheduled.done.all()
+    np.testing.assert_allclose(sim.position[1], x, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.velocity[1], v, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(quat_matrix(sim.orientation[1]), rot, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(sim.rates[1], w, rtol=0, atol=1e-9)
+    assert w[1] > 1.0   # the stronger aft ejector leaves it nose up
