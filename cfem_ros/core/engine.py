@@ -226,6 +226,15 @@ class Simulator(SampledState):
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
 
+    @property
+    def applied_sources(self) -> list:
+        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
+        return self._scheduled.sources()
+
+    def applied_loads(self) -> np.ndarray:
+        """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
+        return self.outputs()[13 * self.n + 6 * len(self._outputs_key):].reshape(-1, 6)
+
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
         k = self._joint(joint)

@@ -861,7 +861,8 @@ def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
     Per body 13 numbers: CG position, quaternion (x y z w, as in y), CG
     velocity in body axes, angular velocity (body axes); then per plan line
     in ``order`` 6: the joint's force and moment on its child (world axes,
-    N and N m about the joint point).
+    N and N m about the joint point); then 6 per applied load source
+    (``loads.sample_applied``).
     """
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
     force = np.empty((plan.shape[0], 3))
@@ -891,6 +892,8 @@ def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
                       + 2 * (yy * z + w * x) * v2)
         out[o + 9] = (2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
                       + (1 - 2 * (x * x + yy * yy)) * v2)
+    if loads.shape[0] > n:   # the scheduled wrenches' applied loads, after the joints' (loads.py)
+        applied_loads.sample_applied(y, bodies, loads, out[13 * n + 6 * order.shape[0]:])
     if order.shape[0] == 0:
         return True
     if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,

@@ -236,48 +236,36 @@ def stroke_reached(y, loads, n):
 
 
 @numba.njit(**_JIT)
-def applied(y, bodies, loads, out):
+def sample_applied(y, bodies, loads, out):
     """
-    Each load source's wrench on each body at y into out (sources, 6), world axes.
+    Write each scheduled wrench's load at y into out, 6 numbers a source (world axes).
 
-    Sources: the held wrench of each body (rows 0..n-1), then each scheduled
-    wrench on its body, then its reaction (zero when off or without one).
-    Force, then moment about the CG of the body it acts on.
+    Per scheduled wrench: its force and moment about its body's CG, then,
+    if it reacts on a body that is not fixed, the reaction's force and
+    moment about that body's CG (``ScheduledLoads.sources`` order); zero
+    while it is off.
     """
     n = bodies.shape[0]
     rot = np.empty((n, 3, 3))
     _rotations(y, n, rot)
-    out[:, :] = 0.0
-    for i in range(n):
-        f = (loads[i, 0], loads[i, 1], loads[i, 2])
-        m = (loads[i, 3], loads[i, 4], loads[i, 5])
-        if loads[i, 6] > 0.0:
-            f = (rot[i, 0, 0] * f[0] + rot[i, 0, 1] * f[1] + rot[i, 0, 2] * f[2],
-                 rot[i, 1, 0] * f[0] + rot[i, 1, 1] * f[1] + rot[i, 1, 2] * f[2],
-                 rot[i, 2, 0] * f[0] + rot[i, 2, 1] * f[1] + rot[i, 2, 2] * f[2])
-            m = (rot[i, 0, 0] * m[0] + rot[i, 0, 1] * m[1] + rot[i, 0, 2] * m[2],
-                 rot[i, 1, 0] * m[0] + rot[i, 1, 1] * m[1] + rot[i, 1, 2] * m[2],
-                 rot[i, 2, 0] * m[0] + rot[i, 2, 1] * m[1] + rot[i, 2, 2] * m[2])
-        m = held_moment(rot, i, loads, f, m)
-        for k in range(3):
-            out[i, k] = f[k]
-            out[i, 3 + k] = m[k]
     w = np.empty(18)
-    s = n
+    o = 0
     for row in range(n, loads.shape[0]):
         if loads[row, S_KIND] != 1.0:
             continue
-        if scheduled_wrench(y, rot, loads, row, n, w):
+        on = scheduled_wrench(y, rot, loads, row, n, w)
+        for k in range(6):
+            out[o + k] = w[k] if on else 0.0
+        o += 6
+        j = int(loads[row, S_REACT])
+        if j >= 0 and bodies[j, 1] > 0.0:
+            r = (w[6] - y[3 * j], w[7] - y[3 * j + 1], w[8] - y[3 * j + 2])
+            reaction = (-w[0], -w[1], -w[2], -(w[9] + r[1] * w[2] - r[2] * w[1]),
+                        -(w[10] + r[2] * w[0] - r[0] * w[2]),
+                        -(w[11] + r[0] * w[1] - r[1] * w[0]))
             for k in range(6):
-                out[s, k] = w[k]
-            j = int(loads[row, S_REACT])
-            if j >= 0:
-                r = (w[6] - y[3 * j], w[7] - y[3 * j + 1], w[8] - y[3 * j + 2])
-                out[s + 1, 0], out[s + 1, 1], out[s + 1, 2] = -w[0], -w[1], -w[2]
-                out[s + 1, 3] = -(w[9] + r[1] * w[2] - r[2] * w[1])
-                out[s + 1, 4] = -(w[10] + r[2] * w[0] - r[0] * w[2])
-                out[s + 1, 5] = -(w[11] + r[0] * w[1] - r[1] * w[0])
-        s += 2
+                out[o + k] = reaction[k] if on else 0.0
+            o += 6
 
 
 # ------------------------------------------------------------- Python part
@@ -329,6 +317,8 @@ class ScheduledLoads:
         self.array = rows
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
+        #: Numbers a sample's applied loads take (6 a source).
+        self.outputs_size = 6 * len(self.sources())
 
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""
@@ -426,10 +416,11 @@ class ScheduledLoads:
             self._off(k)
 
     def sources(self):
-        """Return (body index, source name) of each row of ``applied``."""
-        model = self.model
-        out = [(i, 'wrench') for i in range(self.n)]
-        for w in model.wrenches:
-            out.append((w.body, w.name))
-            out.append((w.reacts_on, f'{w.name}_reaction'))
+        """Return (body name, source name) of each load ``sample_applied`` writes."""
+        bodies = self.model.bodies
+        out = []
+        for w in self.model.wrenches:
+            out.append((bodies[w.body].name, w.name))
+            if w.reacts_on >= 0 and not bodies[w.reacts_on].fixed:
+                out.append((bodies[w.reacts_on].name, w.name))
         return out
