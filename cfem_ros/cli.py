@@ -81,6 +81,11 @@ def cmd_check(scenario: str) -> int:
               f'release: {_describe_release(joint)}')
     if model.wrenches:
         _print_wrenches(model)
+    for aero in model.aero:
+        print(f'  aero on {model.bodies[aero.body].name}: S {aero.area:g} m^2, '
+              f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
+              f'air {_vec(aero.freestream)} m/s, '
+              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
     free = sum(not b.fixed for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '

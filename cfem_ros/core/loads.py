@@ -47,9 +47,15 @@ S_POINT, S_FORCE, S_MOMENT, S_STROKE, S_ANCHOR = 4, 7, 10, 13, 14
 S_TABLE, S_FIRST, S_COUNT = 17, 18, 19
 #: time of the step's start, time of the stage being evaluated, the wrench's start (s).
 S_T0, S_T, S_START = 20, 21, 22
-#: row kind: 0 held, 1 scheduled, 2 table.
+#: row kind: 0 held, 1 scheduled, 2 table, 3 aerodynamic.
 S_KIND = 23
 TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
+#: Aerodynamic rows: body, area, length, density, air velocity (3, world),
+#: Clp, Cmq, Cnr, grid sizes (alpha, beta), first table row: the alpha
+#: values (rad, column 0), then the beta values, then per grid node
+#: (alpha-major) CX, CY, CZ, Cl, Cm, Cn in columns 1-6.
+A_BODY, A_AREA, A_LENGTH, A_DENSITY, A_WIND, A_DAMPING = 0, 1, 2, 3, 4, 7
+A_NA, A_NB, A_FIRST = 10, 11, 12
 
 
 # ------------------------------------------------------------- compiled part
@@ -154,11 +160,77 @@ def scheduled_wrench(y, rot, loads, row, n, out):
 
 
 @numba.njit(**_JIT)
+def _bracket(loads, first, count, x):
+    """Return (i, u): x between grid values i and i + 1 at fraction u, held at the ends."""
+    if count == 1 or x <= loads[first, 0]:
+        return 0, 0.0
+    if x >= loads[first + count - 1, 0]:
+        return count - 2, 1.0
+    i = 0
+    while loads[first + i + 1, 0] < x:
+        i += 1
+    return i, (x - loads[first + i, 0]) / (loads[first + i + 1, 0] - loads[first + i, 0])
+
+
+@numba.njit(**_JIT)
+def aero_wrench(y, rot, loads, row, n, out):
+    """
+    Put the aerodynamic force and moment about the CG of the row's body at y into out.
+
+    out[0:6], world axes (out[6:12] is scratch); zero at zero airspeed.
+    """
+    b = int(loads[row, A_BODY])
+    rel = (y[3 * n + 3 * b] - loads[row, A_WIND], y[3 * n + 3 * b + 1] - loads[row, A_WIND + 1],
+           y[3 * n + 3 * b + 2] - loads[row, A_WIND + 2])
+    u = rot[b, 0, 0] * rel[0] + rot[b, 1, 0] * rel[1] + rot[b, 2, 0] * rel[2]
+    v = rot[b, 0, 1] * rel[0] + rot[b, 1, 1] * rel[1] + rot[b, 2, 1] * rel[2]
+    w = rot[b, 0, 2] * rel[0] + rot[b, 1, 2] * rel[1] + rot[b, 2, 2] * rel[2]
+    speed = math.sqrt(u * u + v * v + w * w)
+    for k in range(6):
+        out[k] = 0.0
+    if speed == 0.0:
+        return
+    alpha = math.atan2(w, u)
+    beta = math.asin(min(1.0, max(-1.0, v / speed)))
+    na, nb, first = int(loads[row, A_NA]), int(loads[row, A_NB]), int(loads[row, A_FIRST])
+    i, fa = _bracket(loads, first, na, alpha)
+    j, fb = _bracket(loads, first + na, nb, beta)
+    nodes = first + na + nb
+    i1 = min(i + 1, na - 1)
+    j1 = min(j + 1, nb - 1)
+    c = out[6:12]   # scratch
+    for k in range(6):
+        c00 = loads[nodes + i * nb + j, 1 + k]
+        c01 = loads[nodes + i * nb + j1, 1 + k]
+        c10 = loads[nodes + i1 * nb + j, 1 + k]
+        c11 = loads[nodes + i1 * nb + j1, 1 + k]
+        low = c00 + fb * (c01 - c00)
+        high = c10 + fb * (c11 - c10)
+        c[k] = low + fa * (high - low)
+    qs = 0.5 * loads[row, A_DENSITY] * speed * speed * loads[row, A_AREA]
+    length = loads[row, A_LENGTH]
+    scale = length / (2.0 * speed)
+    o = 10 * n + 3 * b
+    f = (qs * c[0], qs * c[1], qs * c[2])
+    m = (qs * length * (c[3] + loads[row, A_DAMPING] * y[o] * scale),
+         qs * length * (c[4] + loads[row, A_DAMPING + 1] * y[o + 1] * scale),
+         qs * length * (c[5] + loads[row, A_DAMPING + 2] * y[o + 2] * scale))
+    _turn(rot, b, f, out[0:3])
+    _turn(rot, b, m, out[3:6])
+
+
+@numba.njit(**_JIT)
 def add_scheduled(y, rot, bodies, loads, fhat):
-    """Add the scheduled wrenches that are on, and their reactions, to fhat (world)."""
+    """Add the scheduled wrenches that are on, their reactions and aero loads to fhat (world)."""
     n = bodies.shape[0]
     w = np.empty(18)
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] == 3.0:
+            aero_wrench(y, rot, loads, row, n, w)
+            b = int(loads[row, A_BODY])
+            for k in range(6):
+                fhat[b, k] += w[k]
+            continue
         if loads[row, S_KIND] != 1.0 or not scheduled_wrench(y, rot, loads, row, n, w):
             continue
         b = int(loads[row, S_BODY])
@@ -251,6 +323,12 @@ def sample_applied(y, bodies, loads, out):
     w = np.empty(18)
     o = 0
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] == 3.0:
+            aero_wrench(y, rot, loads, row, n, w)
+            for k in range(6):
+                out[o + k] = w[k]
+            o += 6
+            continue
         if loads[row, S_KIND] != 1.0:
             continue
         on = scheduled_wrench(y, rot, loads, row, n, w)
@@ -294,10 +372,12 @@ class ScheduledLoads:
         self.model = model
         self.n = n
         wrenches = getattr(model, 'wrenches', ())
+        aero = getattr(model, 'aero', ())
         self.count = len(wrenches)
-        tables = sum(len(w.table) for w in wrenches)
-        rows = np.zeros((n + self.count + tables, WIDTH))
-        nxt = n + self.count
+        tables = sum(len(w.table) for w in wrenches) + sum(
+            len(a.alpha) + len(a.beta) + len(a.alpha) * len(a.beta) for a in aero)
+        rows = np.zeros((n + self.count + len(aero) + tables, WIDTH))
+        nxt = n + self.count + len(aero)
         for k, w in enumerate(wrenches):
             r = rows[n + k]
             r[S_KIND] = 1.0
@@ -314,6 +394,19 @@ class ScheduledLoads:
                 rows[nxt:nxt + len(w.table), :7] = w.table
                 rows[nxt:nxt + len(w.table), S_KIND] = 2.0
                 nxt += len(w.table)
+        for k, a in enumerate(aero):
+            r = rows[n + self.count + k]
+            r[S_KIND] = 3.0
+            r[A_BODY], r[A_AREA], r[A_LENGTH], r[A_DENSITY] = a.body, a.area, a.length, a.density
+            r[A_WIND:A_WIND + 3] = a.freestream
+            r[A_DAMPING:A_DAMPING + 3] = a.damping
+            r[A_NA], r[A_NB], r[A_FIRST] = len(a.alpha), len(a.beta), nxt
+            na, nb = len(a.alpha), len(a.beta)
+            rows[nxt:nxt + na, 0] = a.alpha
+            rows[nxt + na:nxt + na + nb, 0] = a.beta
+            rows[nxt + na + nb:nxt + na + nb + na * nb, 1:7] = a.coefficients.reshape(-1, 6)
+            rows[nxt:nxt + na + nb + na * nb, S_KIND] = 2.0
+            nxt += na + nb + na * nb
         self.array = rows
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
@@ -322,7 +415,7 @@ class ScheduledLoads:
 
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""
-        if self.count:
+        if self.array.shape[0] > self.n:
             set_time(self.array, self.n, t)
 
     def due(self, t: float):
@@ -423,4 +516,5 @@ class ScheduledLoads:
             out.append((bodies[w.body].name, w.name))
             if w.reacts_on >= 0 and not bodies[w.reacts_on].fixed:
                 out.append((bodies[w.reacts_on].name, w.name))
+        out.extend((bodies[a.body].name, 'aero') for a in getattr(self.model, 'aero', ()))
         return out

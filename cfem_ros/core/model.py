@@ -195,6 +195,40 @@ class Wrench:
 
 
 @dataclass(frozen=True)
+class Aero:
+    """
+    Aerodynamic loads on a body from coefficient tables (scenario ``aero``).
+
+    Attributes
+    ----------
+    body : int
+    area, length : float
+        Reference area (m^2) and length (m).
+    density : float
+        Air density, kg/m^3.
+    freestream : ndarray, shape (3,)
+        Velocity of the air, world axes, m/s.
+    alpha, beta : ndarray
+        Grid of angles of attack and sideslip, rad, increasing.
+    coefficients : ndarray, shape (len(alpha), len(beta), 6)
+        CX, CY, CZ (body axes forces) and Cl, Cm, Cn (moments about the CG).
+    damping : ndarray, shape (3,)
+        Clp, Cmq, Cnr, per unit of p L / (2 V), q L / (2 V), r L / (2 V).
+
+    """
+
+    body: int
+    area: float
+    length: float
+    density: float
+    freestream: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    coefficients: np.ndarray
+    damping: np.ndarray
+
+
+@dataclass(frozen=True)
 class Model:
     """
     Everything needed to simulate a scenario; built once, never mutated.
@@ -216,6 +250,8 @@ class Model:
     joints : tuple of Joint
     wrenches : tuple of Wrench
         Scheduled loads (SPEC section 5), none by default.
+    aero : tuple of Aero
+        Aerodynamic loads from coefficient tables, none by default.
 
     """
 
@@ -228,6 +264,7 @@ class Model:
     bodies: tuple
     joints: tuple
     wrenches: tuple = ()
+    aero: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

@@ -17,13 +17,13 @@ from typing import Any, Optional
 from cfem_ros.core import rotations
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
-    AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
+    Aero, AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
     Model, Release, STANDARD_GRAVITY, triad_from_axes, Wrench)
 import numpy as np
 import yaml
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches')
+            'wrenches', 'aero')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity')
 JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
@@ -31,6 +31,9 @@ RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'end', 'stroke',
                'reacts_on')
 TABLE_KEYS = ('against', 'table')
+AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'alpha_deg', 'beta_deg',
+             'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr')
+AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
 
 #: Names become ROS topic tokens (bodies/<body>/pose), so they must be valid ones.
 NAME_PATTERN = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
@@ -212,7 +215,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id)
     return Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
                  dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
-                 wrenches=wrenches)
+                 wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies))
 
 
 def _parse_body(check: _Checker, name, spec) -> Body:
@@ -448,3 +451,75 @@ def _parse_force_table(check: _Checker, doc, key: str, moment: np.ndarray):
             check.fail(f'{key}.table[{i}][0]', f'is {table[i, 0]:g}, not after the row '
                        f'before ({table[i - 1, 0]:g})', 'strictly increasing abscissae')
     return against, table
+
+
+def isa_density(altitude: float) -> float:
+    """Return the ISA air density at a geopotential altitude (m, up to 20 km), kg/m^3."""
+    gas, g0 = 287.05287, 9.80665
+    if altitude <= 11000.0:
+        temperature = 288.15 - 0.0065 * altitude
+        pressure = 101325.0 * (temperature / 288.15) ** (g0 / (gas * 0.0065))
+    else:
+        temperature = 216.65
+        pressure = 22632.06 * math.exp(-g0 * (altitude - 11000.0) / (gas * temperature))
+    return pressure / (gas * temperature)
+
+
+def _parse_aero(check: _Checker, doc, index: dict, bodies) -> tuple:
+    """Parse ``aero``: body name -> reference values and coefficient tables."""
+    if doc is None:
+        return ()
+    if not isinstance(doc, dict):
+        check.fail('aero', f'is {_show(doc)}', 'a mapping of body names')
+    return tuple(_parse_aero_body(check, name, spec, index, bodies)
+                 for name, spec in doc.items())
+
+
+def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
+    key = f'aero.{name}'
+    body = _body_of(check, name, key, index)
+    if bodies[body].fixed:
+        check.fail(key, f'{_show(name)} is fixed', 'a body that can move')
+    spec = check.mapping(spec, key, AERO_KEYS,
+                         required=('area', 'length', 'freestream', 'alpha_deg'))
+    if ('density' in spec) == ('altitude' in spec):
+        check.fail(f'{key}.density', 'density and altitude are both given or both missing',
+                   'one of density (kg/m^3) or altitude (m, ISA)')
+    if 'density' in spec:
+        density = check.number(spec['density'], f'{key}.density', positive=True)
+    else:
+        altitude = check.number(spec['altitude'], f'{key}.altitude', minimum=-500.0)
+        if altitude > 20000.0:
+            check.fail(f'{key}.altitude', f'is {altitude:g}', 'an altitude up to 20000 m (ISA)')
+        density = isa_density(altitude)
+    grids = []
+    for axis in ('alpha_deg', 'beta_deg'):
+        values = spec.get(axis, [0.0])
+        if not isinstance(values, list) or not values:
+            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'a list of angles, deg')
+        grid = np.array([check.number(v, f'{key}.{axis}[{i}]') for i, v in enumerate(values)])
+        if np.any(np.diff(grid) <= 0):
+            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'strictly increasing angles')
+        grids.append(np.radians(grid))
+    alpha, beta = grids
+    table = np.zeros((len(alpha), len(beta), 6))
+    for c, coefficient in enumerate(AERO_COEFFICIENTS):
+        value = spec.get(coefficient, 0.0)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            table[:, :, c] = check.number(value, f'{key}.{coefficient}')
+            continue
+        rows = np.array(value, dtype=object)
+        if rows.shape not in ((len(alpha),), (len(alpha), len(beta))):
+            check.fail(f'{key}.{coefficient}', f'has shape {rows.shape}',
+                       f'a number, {len(alpha)} values (one per alpha), or {len(alpha)} '
+                       f'lists of {len(beta)} (per alpha, then per beta)')
+        for at, v in np.ndenumerate(rows):
+            number = check.number(v, f'{key}.{coefficient}' + ''.join(f'[{i}]' for i in at))
+            table[at[0], at[1] if len(at) > 1 else slice(None), c] = number
+    damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
+                        for d in ('Clp', 'Cmq', 'Cnr')])
+    return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
+                length=check.number(spec['length'], f'{key}.length', positive=True),
+                density=density, freestream=check.vector(spec['freestream'],
+                                                         f'{key}.freestream'),
+                alpha=alpha, beta=beta, coefficients=table, damping=damping)
