@@ -1,13 +1,14 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-Step cost of scheduled loads: the store on its hinge with and without two ejectors.
+Step cost of applied loads: the store on its hinge with and without ejectors and aero.
 
 The ejectors of config/store_separation_ejectors.yaml are added to
 config/store_separation.yaml (its pivot kept, so both runs solve the same
 joint) with a stroke too long to end, so that they act, and their strokes
-are watched, at every step. The two runs alternate
-in turns; medians and their ratio are printed.
+are watched, at every step; a third run adds the aerodynamic table of
+config/store_separation_aero.yaml. The runs alternate in turns; medians
+and their ratios are printed.
 Usage: .venv/bin/python benchmarks/bench_loads.py
 """
 
@@ -23,14 +24,15 @@ CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
 
 
 def models(duration):
-    """Return the scenario without and with the two ejectors."""
+    """Return the scenario without loads, with the two ejectors, and with aero too."""
     base = yaml.safe_load((CONFIG / 'store_separation.yaml').read_text())
-    ejectors = yaml.safe_load((CONFIG / 'store_separation_ejectors.yaml').read_text())
+    aero = yaml.safe_load((CONFIG / 'store_separation_aero.yaml').read_text())
     base['duration'] = duration
-    del base['joints']['pivot']['release']   # the same joints all along in both runs
-    loaded = dict(base, wrenches=[dict(w, stroke=1e6) for w in ejectors['wrenches']])
+    del base['joints']['pivot']['release']   # the same joints all along in every run
+    loaded = dict(base, wrenches=[dict(w, stroke=1e6) for w in aero['wrenches']])
     return (parse_scenario(base, source='store_separation'),
-            parse_scenario(loaded, source='store_separation + 2 ejectors'))
+            parse_scenario(loaded, source='store_separation + 2 ejectors'),
+            parse_scenario(dict(loaded, aero=aero['aero']), source='... + aero'))
 
 
 def step_cost(model, duration):
@@ -46,17 +48,19 @@ def main():
     parser.add_argument('--duration', type=float, default=2.0, help='simulated s per run')
     parser.add_argument('--turns', type=int, default=7)
     args = parser.parse_args()
-    plain, loaded = models(args.duration)
-    step_cost(plain, 0.01), step_cost(loaded, 0.01)   # compile (cached)
-    costs = {'plain': [], 'loaded': []}
+    runs = models(args.duration)
+    for model in runs:
+        step_cost(model, 0.01)   # compile (cached)
+    costs = [[] for _ in runs]
     for _ in range(args.turns):
-        costs['plain'].append(step_cost(plain, args.duration))
-        costs['loaded'].append(step_cost(loaded, args.duration))
-    a, b = statistics.median(costs['plain']), statistics.median(costs['loaded'])
+        for model, cost in zip(runs, costs):
+            cost.append(step_cost(model, args.duration))
+    a, b, c = (statistics.median(cost) for cost in costs)
     print(f'dt = 1 ms, {args.duration:g} s simulated per run, median of {args.turns} turns')
-    print(f'store on its hinge:               {a:7.2f} us/step')
-    print(f'the same with two ejectors:       {b:7.2f} us/step')
-    print(f'ratio: {b / a:.2f} (target <= 1.3)')
+    print(f'store on its hinge:                   {a:7.2f} us/step')
+    print(f'the same with two ejectors:           {b:7.2f} us/step   ratio {b / a:.2f}')
+    print(f'with two ejectors and an aero table:  {c:7.2f} us/step   ratio {c / a:.2f}')
+    print('target: ratio <= 1.3')
 
 
 if __name__ == '__main__':

@@ -11,8 +11,10 @@ Python call and no new argument:
   force (3), torque (3), 1.0 if in body axes, application point (3, body
   axes, from the CG; the moment about the CG gains r x F);
 - then one row per scheduled wrench (``S_*`` columns; ``S_KIND`` = 1);
+- then one row per body with aerodynamic tables (``A_*`` columns, ``S_KIND`` = 3);
 - then the rows of their tables (``S_KIND`` = 2): abscissa (time, s, or
-  stroke, m) then force (3) and moment (3).
+  stroke, m) then force (3) and moment (3), or the aerodynamic grids;
+- then, if there is any row after the bodies', one scratch row (``S_KIND`` = 4).
 
 A scheduled wrench acts on its body at its point while it is on: its time
 window cuts the steps like a release time (the engine switches it), and the
@@ -47,7 +49,7 @@ S_POINT, S_FORCE, S_MOMENT, S_STROKE, S_ANCHOR = 4, 7, 10, 13, 14
 S_TABLE, S_FIRST, S_COUNT = 17, 18, 19
 #: time of the step's start, time of the stage being evaluated, the wrench's start (s).
 S_T0, S_T, S_START = 20, 21, 22
-#: row kind: 0 held, 1 scheduled, 2 table, 3 aerodynamic.
+#: row kind: 0 held, 1 scheduled, 2 table, 3 aerodynamic, 4 scratch (the last row).
 S_KIND = 23
 TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
 #: Aerodynamic rows: body, area, length, density, air velocity (3, world),
@@ -81,23 +83,31 @@ def _turn(rot, i, v, out):
 
 
 @numba.njit(**_JIT)
-def _point_and_stroke(y, rot, loads, row, n, point):
-    """Put the scheduled row's point (world) into point; return its stroke so far, m."""
+def _carried(y, n, i, px, py, pz):
+    """Return body i's CG plus its rotation (from its quaternion in y) applied to p."""
+    o = 6 * n + 4 * i
+    x, yy, z, w = y[o], y[o + 1], y[o + 2], y[o + 3]
+    s = 2.0 / (x * x + yy * yy + z * z + w * w)
+    return (y[3 * i] + (1 - s * (yy * yy + z * z)) * px + s * (x * yy - w * z) * py
+            + s * (x * z + w * yy) * pz,
+            y[3 * i + 1] + s * (x * yy + w * z) * px + (1 - s * (x * x + z * z)) * py
+            + s * (yy * z - w * x) * pz,
+            y[3 * i + 2] + s * (x * z - w * yy) * px + s * (yy * z + w * x) * py
+            + (1 - s * (x * x + yy * yy)) * pz)
+
+
+@numba.njit(**_JIT)
+def _point_and_stroke(y, loads, row, n):
+    """Return the scheduled row's point (world, 3 numbers) and its stroke so far, m."""
     b = int(loads[row, S_BODY])
-    _turn(rot, b, loads[row, S_POINT:S_POINT + 3], point)
-    for k in range(3):
-        point[k] += y[3 * b + k]
+    p = _carried(y, n, b, loads[row, S_POINT], loads[row, S_POINT + 1],
+                 loads[row, S_POINT + 2])
     j = int(loads[row, S_REACT])
-    total = 0.0
-    for k in range(3):
-        ref = loads[row, S_ANCHOR + k]
-        if j >= 0:
-            ref = y[3 * j + k] + (rot[j, k, 0] * loads[row, S_ANCHOR]
-                                  + rot[j, k, 1] * loads[row, S_ANCHOR + 1]
-                                  + rot[j, k, 2] * loads[row, S_ANCHOR + 2])
-        gap = point[k] - ref
-        total += gap * gap
-    return math.sqrt(total)
+    ref = (loads[row, S_ANCHOR], loads[row, S_ANCHOR + 1], loads[row, S_ANCHOR + 2])
+    if j >= 0:
+        ref = _carried(y, n, j, ref[0], ref[1], ref[2])
+    gap = (p[0] - ref[0], p[1] - ref[1], p[2] - ref[2])
+    return p[0], p[1], p[2], math.sqrt(gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2])
 
 
 @numba.njit(**_JIT)
@@ -134,7 +144,7 @@ def scheduled_wrench(y, rot, loads, row, n, out):
     if loads[row, S_ON] <= 0.0:
         return False
     point = out[6:9]
-    stroke = _point_and_stroke(y, rot, loads, row, n, point)
+    point[0], point[1], point[2], stroke = _point_and_stroke(y, loads, row, n)
     local = out[12:18]
     kind = int(loads[row, S_TABLE])
     if kind == TABLE_NONE:
@@ -223,8 +233,10 @@ def aero_wrench(y, rot, loads, row, n, out):
 def add_scheduled(y, rot, bodies, loads, fhat):
     """Add the scheduled wrenches that are on, their reactions and aero loads to fhat (world)."""
     n = bodies.shape[0]
-    w = np.empty(18)
+    w = loads[loads.shape[0] - 1]   # the scratch row
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] == 2.0 or loads[row, S_KIND] == 4.0:
+            break   # the tables: no more loads
         if loads[row, S_KIND] == 3.0:
             aero_wrench(y, rot, loads, row, n, w)
             b = int(loads[row, A_BODY])
@@ -251,6 +263,8 @@ def add_scheduled(y, rot, bodies, loads, fhat):
 def set_time(loads, n, t):
     """Write the time of the step's start (and of its evaluation) into the scheduled rows."""
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] != 1.0:
+            break
         loads[row, S_T0] = t
         loads[row, S_T] = t
 
@@ -259,6 +273,8 @@ def set_time(loads, n, t):
 def stage_time(loads, n, offset):
     """Write the RK4 stage's time, the step's start plus offset, into the scheduled rows."""
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] != 1.0:
+            break
         loads[row, S_T] = loads[row, S_T0] + offset
 
 
@@ -282,27 +298,21 @@ def _rotations(y, n, rot):
 @numba.njit(**_JIT)
 def strokes(y, loads, n, out):
     """Each scheduled row's stroke so far at y into out (rows n.., -1 for the others)."""
-    rot = np.empty((n, 3, 3))
-    _rotations(y, n, rot)
-    point = np.empty(3)
     for row in range(n, loads.shape[0]):
         out[row - n] = -1.0
         if loads[row, S_KIND] == 1.0:
-            out[row - n] = _point_and_stroke(y, rot, loads, row, n, point)
+            out[row - n] = _point_and_stroke(y, loads, row, n)[3]
 
 
 @numba.njit(**_JIT)
 def stroke_reached(y, loads, n):
     """Return True if a scheduled wrench that is on has reached its stroke at y."""
-    rot = np.empty((0, 3, 3))
     for row in range(n, loads.shape[0]):
-        if loads[row, S_KIND] == 1.0 and loads[row, S_ON] > 0.0 and \
-                loads[row, S_STROKE] < np.inf:
-            if rot.shape[0] == 0:
-                rot = np.empty((n, 3, 3))
-                _rotations(y, n, rot)
-            point = np.empty(3)
-            if _point_and_stroke(y, rot, loads, row, n, point) >= loads[row, S_STROKE]:
+        kind = loads[row, S_KIND]
+        if kind != 1.0 and kind != 3.0:
+            break   # the tables: no more wrenches
+        if kind == 1.0 and loads[row, S_ON] > 0.0 and loads[row, S_STROKE] < np.inf:
+            if _point_and_stroke(y, loads, row, n)[3] >= loads[row, S_STROKE]:
                 return True
     return False
 
@@ -323,6 +333,8 @@ def sample_applied(y, bodies, loads, out):
     w = np.empty(18)
     o = 0
     for row in range(n, loads.shape[0]):
+        if loads[row, S_KIND] == 2.0 or loads[row, S_KIND] == 4.0:
+            break   # the tables
         if loads[row, S_KIND] == 3.0:
             aero_wrench(y, rot, loads, row, n, w)
             for k in range(6):
@@ -376,7 +388,10 @@ class ScheduledLoads:
         self.count = len(wrenches)
         tables = sum(len(w.table) for w in wrenches) + sum(
             len(a.alpha) + len(a.beta) + len(a.alpha) * len(a.beta) for a in aero)
-        rows = np.zeros((n + self.count + len(aero) + tables, WIDTH))
+        scratch = 1 if self.count or aero else 0
+        rows = np.zeros((n + self.count + len(aero) + tables + scratch, WIDTH))
+        if scratch:
+            rows[-1, S_KIND] = 4.0
         nxt = n + self.count + len(aero)
         for k, w in enumerate(wrenches):
             r = rows[n + k]
