@@ -461,6 +461,11 @@ class ScheduledLoads:
                 changed = True
         return changed
 
+    def reanchor(self, y: np.ndarray):
+        """Measure the strokes of the wrenches already on from state y (a new initial state)."""
+        for k in np.flatnonzero(self.started & ~self.done):
+            self._anchor(k, y)
+
     def _off(self, k):
         self.done[k] = True
         self.array[self.n + k, S_ON] = 0.0

@@ -5,6 +5,7 @@
 import math
 import os
 
+from cfem_ros.core import batch
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.inputs import wrench_input
@@ -427,3 +428,13 @@ def test_bad_aero_is_refused_with_the_key_path(change, key):
     with pytest.raises(ScenarioError) as err:
         model(aero={'store': spec})
     assert err.value.key == key
+
+
+def test_batch_copies_measure_strokes_from_their_own_start():
+    m = model([EJECTOR], bodies={'store': {'mass': MASS, 'inertia': INERTIA}})
+    y0 = Simulator(m).y.copy()
+    y0[0:3] = [5.0, -2.0, 1.0]   # elsewhere: the stroke is still 0.1006 m from there
+    moved, = batch.run(m, [{'y0': y0}], duration=0.5)
+    here = run(Simulator(m), 0.5)
+    np.testing.assert_allclose(moved.y[3:6], here.velocity[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(moved.y[0:3], here.position[0] + [5.0, -2.0, 1.0], atol=1e-12)
