@@ -83,11 +83,33 @@ def cmd_check(scenario: str) -> int:
               f'{model.bodies[joint.parent].name} -> {model.bodies[joint.child].name}; '
               f'frees {trans} translation(s), {rot} rotation(s); '
               f'release: {_describe_release(joint)}')
+    if model.wrenches:
+        _print_wrenches(model)
+    for aero in model.aero:
+        print(f'  aero on {model.bodies[aero.body].name}: S {aero.area:g} m^2, '
+              f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
+              f'air {_vec(aero.freestream)} m/s, '
+              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
     free = sum(not b.fixed for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
           f'removed by the joints)')
     return EXIT_OK
+
+
+def _print_wrenches(model):
+    """Print the scheduled loads of a model (cfem-sim check)."""
+    print(f'  wrenches ({len(model.wrenches)}):')
+    names = [body.name for body in model.bodies]
+    for w in model.wrenches:
+        axes = model.frame_id if w.frame < 0 else names[w.frame]
+        force = (f'{w.table_against} table of {len(w.table)} rows' if len(w.table)
+                 else f'{_vec(w.force)} N')
+        until = ('' if w.end is None else f' to {w.end:g} s') + (
+            '' if w.stroke is None else f' over a stroke of {w.stroke:g} m')
+        reacts = '' if w.reacts_on < 0 else f'; reacts on {names[w.reacts_on]}'
+        print(f'    {w.name:<16} on {names[w.body]} at {_vec(w.point)} m: force {force} '
+              f'({axes} axes), from {w.start:g} s{until}{reacts}')
 
 
 def _print_state(sim):

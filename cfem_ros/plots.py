@@ -137,6 +137,22 @@ def _zero_floor(ax, scale: float):
         ax.set_ylim(middle - floor, middle + floor)
 
 
+def applied_figure(run: Run, key: str):
+    """Force and moment about the CG of one applied load source ('<body>/<source>')."""
+    track = run.applied[key]
+    body, source = key.split('/', 1)
+    fig = plt.figure(figsize=(10, 7), layout='constrained')
+    fig.suptitle(f'{source} on {body}: applied load, world axes '
+                 f'({os.path.basename(run.path)})')
+    axes = _time_axes(fig, run, 2)
+    for ax, values, unit, title in ((axes[0], track.force, 'force [N]', 'applied force'),
+                                    (axes[1], track.moment, 'moment [N m]',
+                                     'applied moment about the CG')):
+        with_norm = np.column_stack([values, np.linalg.norm(values, axis=1)])
+        _lines(ax, _one(track.time, with_norm), AXES + ('magnitude',), unit, title)
+    return fig
+
+
 def _at(track, t):
     return np.array([np.interp(t, track.time, track.position[:, k]) for k in range(3)])
 
@@ -286,6 +302,9 @@ def write_figures(run: Run, directory: str) -> list:
                           os.path.join(directory, f'body_{track.name}.png')))
     for name in run.joints:
         paths.append(save(joint_figure(run, name), os.path.join(directory, f'joint_{name}.png')))
+    for key in run.applied:
+        paths.append(save(applied_figure(run, key), os.path.join(
+            directory, f'applied_{key.replace("/", "_")}.png')))
     paths.append(save(trajectory_figure(run), os.path.join(directory, 'trajectories_3d.png')))
     return paths
 

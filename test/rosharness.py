@@ -104,7 +104,7 @@ class NodeProcess:
 class Peer:
     """The other side: publishes inputs and /clock, records what the node publishes."""
 
-    def __init__(self, scenario_bodies, scenario_joints, namespace='/cfem'):
+    def __init__(self, scenario_bodies, scenario_joints, namespace='/cfem', applied=()):
         self.context = rclpy.Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node('test_peer', context=self.context)
@@ -119,6 +119,8 @@ class Peer:
             self._collect(TwistStamped, f'bodies/{body}/twist')
         for joint in scenario_joints:
             self._collect(WrenchStamped, f'joints/{joint}/wrench')
+        for body, source in applied:
+            self._collect(WrenchStamped, f'bodies/{body}/applied/{source}')
         self._collect(String, 'events')
         self._collect(MarkerArray, 'markers', LATCHED)
         self.wrench_pubs = {b: self.node.create_publisher(

@@ -68,6 +68,7 @@ def _copy(model, spec: dict, duration: float) -> Result:
         if y0.shape != sim.y.shape:
             raise ValueError(f'y0 has shape {y0.shape}; expected {sim.y.shape}')
         sim.y = y0.copy()
+        sim._scheduled.reanchor(sim.y)   # strokes measured from the copy's own start
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
     ok = sim.advance_to(duration)

@@ -29,6 +29,7 @@ from typing import Optional
 
 from cfem_ros.core import kernel, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
@@ -99,8 +100,10 @@ class Simulator(SampledState):
         self._bodies = np.column_stack([
             self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
             self.inv_inertia_body.reshape(n, 9)])
-        # external force (3), torque (3), 1.0 when in body axes
-        self._loads = np.zeros((n, 7))
+        # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
+        # body axes, point (3); then the scenario's scheduled wrenches
+        self._scheduled = ScheduledLoads(model, n)
+        self._loads = self._scheduled.array
 
         self.t = 0.0
         self.y = np.concatenate([
@@ -211,9 +214,9 @@ class Simulator(SampledState):
 
     # --------------------------------------------------------------- inputs
 
-    def set_wrench(self, body, force, torque, body_axes: bool = False):
+    def set_wrench(self, body, force, torque, body_axes: bool = False, point=None):
         """
-        Hold an external force and moment at a body's CG until replaced.
+        Hold an external force and moment on a body until replaced.
 
         Parameters
         ----------
@@ -225,18 +228,33 @@ class Simulator(SampledState):
             N m, same axes as force.
         body_axes : bool
             True: force and torque are in body axes and turn with the body.
+        point : array_like, shape (3,), optional
+            Where the force acts, body axes, from the CG, m (default: the CG);
+            the moment about the CG is torque + r x F, r turning with the body.
 
         """
         i = self._body(body)
         force = np.asarray(force, dtype=float)
         torque = np.asarray(torque, dtype=float)
-        if force.shape != (3,) or torque.shape != (3,):
-            raise ValueError('force and torque must have 3 components each')
-        if not (np.isfinite(force).all() and np.isfinite(torque).all()):
-            raise ValueError('force and torque must be finite')
+        point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
+        if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
+            raise ValueError('force, torque and point must have 3 components each')
+        if not (np.isfinite(force).all() and np.isfinite(torque).all()
+                and np.isfinite(point).all()):
+            raise ValueError('force, torque and point must be finite')
         if not self.free[i]:
             raise ValueError(f'body {self.model.bodies[i].name!r} is fixed and cannot be loaded')
-        self._loads[i] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
+        self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
+        self._loads[i, H_POINT:H_POINT + 3] = point
+
+    @property
+    def applied_sources(self) -> list:
+        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
+        return self._scheduled.sources()
+
+    def applied_loads(self) -> np.ndarray:
+        """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
+        return self.outputs()[13 * self.n + 6 * len(self._outputs_key):].reshape(-1, 6)
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
@@ -412,9 +430,12 @@ class Simulator(SampledState):
         return self.events[before:]
 
     def _next_time_trigger(self) -> Optional[float]:
-        return self.releases.due   # changes with the topology
+        due = self.releases.due   # changes with the topology
+        switch = self._scheduled.due(self.t)   # scheduled wrenches' start and end (loads.py)
+        return due if switch is None else switch if due is None else min(due, switch)
 
     def _fire_time_triggers(self):
+        self._scheduled.switch(self.t, self.y)   # scheduled wrenches (loads.py)
         due = self.releases.timed_out(self.active, self.t)
         if due.size:
             self._release(due, 'time')
@@ -426,8 +447,11 @@ class Simulator(SampledState):
         """Advance one step of length h to t_end, locating condition releases."""
         self._stage_violation = 0.0
         y0 = self.y
+        self._scheduled.set_time(self.t)
         y1 = self._rk4(y0, h)
         crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
+        if self._scheduled.count and self._stroke_end(y0, y1, h, t_end, crossing):
+            return
         if crossing is None:
             self._commit(y1, t_end)
         else:
@@ -435,6 +459,20 @@ class Simulator(SampledState):
             self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
+
+    def _stroke_end(self, y0, y1, h, t_end, crossing) -> bool:
+        """Cut the step where an ejector's stroke ends first, if before any release."""
+        stroke = self._scheduled.crossing(y0, y1, h, self._rk4)
+        if stroke is None or (crossing is not None and crossing[0] < stroke[0]):
+            return False
+        s, wrenches = stroke
+        self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
+        self._scheduled.end_strokes(wrenches)
+        if crossing is not None and crossing[0] <= s:
+            for k, cause in zip(crossing[1], crossing[2]):
+                self._release([k], cause)
+        self._fire_time_triggers()
+        return True
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():
@@ -446,4 +484,5 @@ class Simulator(SampledState):
         self.max_violation = max(self.max_violation, self._stage_violation)
         self.y = y1
         self.t = t1
+        self._scheduled.set_time(t1)
         self.steps += 1

@@ -33,6 +33,8 @@ class Input:
         N and N m (wrench only).
     frame_id : str
         The world frame (world axes) or the body (body axes); wrench only.
+        ``<frame>@x,y,z`` applies the force at the point (x, y, z), body
+        axes, from the CG, m (``parse_frame_id``); without it, at the CG.
         The world frame wins if the body has the world frame's name.
     header_ns : int or None
         The message's own header stamp as received, ns (wrench only).
@@ -59,6 +61,26 @@ def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[floa
 def release_input(joint: str, *, time: Optional[float] = None) -> Input:
     """Build a release command."""
     return Input(time=time, kind='release', target=joint)
+
+
+def parse_frame_id(frame_id: str):
+    """
+    Split a wrench's ``frame_id`` into the axes' frame and the application point.
+
+    ``store@0.1798,0,0`` -> ('store', array([0.1798, 0, 0])); ``store`` ->
+    ('store', None). ValueError if the point is not three finite numbers.
+    """
+    frame, at, point = frame_id.partition('@')
+    if not at:
+        return frame, None
+    try:
+        values = np.array([float(v) for v in point.split(',')])
+    except ValueError:
+        values = np.array([])
+    if values.shape != (3,) or not np.isfinite(values).all():
+        raise ValueError(f'frame_id {frame_id!r}: the point after @ is not three finite '
+                         'numbers x,y,z (body axes, from the CG, m)')
+    return frame, values
 
 
 def input_topic(item: Input) -> str:
@@ -89,9 +111,11 @@ def validate_input(sim, item: Input):
     names = [body.name for body in model.bodies]
     if item.target not in names:
         raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
-    if item.frame_id not in (model.frame_id, item.target):
+    frame, _ = parse_frame_id(item.frame_id)
+    if frame not in (model.frame_id, item.target):
         raise ValueError(f'frame_id {item.frame_id!r} is neither the world frame '
-                         f'{model.frame_id!r} nor the body {item.target!r}')
+                         f'{model.frame_id!r} nor the body {item.target!r} (optionally '
+                         'followed by @x,y,z, the point in body axes)')
     if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
         raise ValueError('force and torque must be finite')
     if model.bodies[names.index(item.target)].fixed:
@@ -103,7 +127,8 @@ def apply_input(sim, item: Input):
     validate_input(sim, item)
     if item.kind == 'wrench':
         # the world frame wins: a body named as the world frame is loaded in world axes
+        frame, point = parse_frame_id(item.frame_id)
         sim.set_wrench(item.target, item.force, item.torque,
-                       body_axes=(item.frame_id != sim.model.frame_id))
+                       body_axes=(frame != sim.model.frame_id), point=point)
     else:
         sim.release(item.target, cause='command')

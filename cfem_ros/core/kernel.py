@@ -12,7 +12,9 @@ quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 
 ``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
 the CG), inverse inertia (9; 0 for ground).
-``loads`` (n, 7): external force (3), torque (3), 1.0 if in body axes.
+``loads``: the packed applied loads of ``loads.py`` (per body: force (3),
+torque (3), 1.0 if in body axes, application point (3); then the scheduled
+wrenches and their tables).
 ``rows_i`` (m, 3): parent body, child body, 1 for a translation row, 2 for a
 translation row at the same joint point as the row before (its terms are
 computed once), 0 for a rotation row. Rows come grouped by joint.
@@ -44,8 +46,56 @@ The joint loads are solved in one of two ways (``engine`` says which):
 
 from __future__ import annotations
 
+import glob
+import hashlib
+import os
+
 import numba
 import numpy as np
+
+
+def _guard_cache():
+    """
+    Drop the compiled cache of the kernel when any compiled source of the core changed.
+
+    numba keys each cached function on its own file only: the kernel's
+    cache would not notice a change in ``loads.py``, whose functions it
+    inlines. The sources' digest is kept beside the cache; a different one
+    removes the core's cached functions, which are then compiled again.
+    """
+    here = os.path.dirname(os.path.abspath(__file__))
+    cache = os.environ.get('NUMBA_CACHE_DIR') or os.path.join(here, '__pycache__')
+    digest = hashlib.sha256()
+    for name in COMPILED_SOURCES:
+        with open(os.path.join(here, name), 'rb') as source:
+            digest.update(source.read())
+    stamp = os.path.join(cache, 'cfem_ros_core_sources.sha256')
+    try:
+        with open(stamp) as kept:
+            if kept.read() == digest.hexdigest():
+                return
+    except OSError:
+        pass
+    for pattern in ('kernel.*.nb[ic]', 'loads.*.nb[ic]'):
+        for path in glob.glob(os.path.join(cache, '**', pattern), recursive=True):
+            try:
+                os.remove(path)
+            except OSError:
+                pass
+    try:
+        os.makedirs(cache, exist_ok=True)
+        with open(stamp + f'.{os.getpid()}', 'w') as fresh:
+            fresh.write(digest.hexdigest())
+        os.replace(stamp + f'.{os.getpid()}', stamp)
+    except OSError:
+        pass   # a read-only install: numba then compiles in memory as it can
+
+
+#: The modules whose numba functions the kernel compiles together.
+COMPILED_SOURCES = ('kernel.py', 'loads.py')
+_guard_cache()
+
+from cfem_ros.core import loads as applied_loads  # noqa: E402, I100 - after the cache guard
 
 #: fastmath only to contract a * b + c into fused multiply-adds (one rounding, not two):
 #: about 12 % off a long chain's step, whose elimination is a chain of dependent
@@ -346,6 +396,7 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
         if loads[i, 6] > 0.0:
             force = _rotate(rot, i, force[0], force[1], force[2])
             torque = _rotate(rot, i, torque[0], torque[1], torque[2])
+        torque = applied_loads.held_moment(rot, i, loads, force, torque)   # loads at points
         spin = (mh[3, 3] * w[0] + mh[3, 4] * w[1] + mh[3, 5] * w[2],
                 mh[4, 3] * w[0] + mh[4, 4] * w[1] + mh[4, 5] * w[2],
                 mh[5, 3] * w[0] + mh[5, 4] * w[1] + mh[5, 5] * w[2])
@@ -353,6 +404,8 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
         for k in range(3):
             fhat[i, k] = mass * gravity[k] + force[k]
             fhat[i, 3 + k] = torque[k] - gyro[k]
+    if loads.shape[0] > n:   # scheduled wrenches (loads.py)
+        applied_loads.add_scheduled(y, rot, bodies, loads, fhat)
 
 
 @numba.njit(**_JIT)
@@ -869,7 +922,8 @@ def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
     Per body 13 numbers: CG position, quaternion (x y z w, as in y), CG
     velocity in body axes, angular velocity (body axes); then per plan line
     in ``order`` 6: the joint's force and moment on its child (world axes,
-    N and N m about the joint point).
+    N and N m about the joint point); then 6 per applied load source
+    (``loads.sample_applied``).
     """
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
     force = np.empty((plan.shape[0], 3))
@@ -899,6 +953,8 @@ def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
                       + 2 * (yy * z + w * x) * v2)
         out[o + 9] = (2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
                       + (1 - 2 * (x * x + yy * yy)) * v2)
+    if loads.shape[0] > n:   # the scheduled wrenches' applied loads, after the joints' (loads.py)
+        applied_loads.sample_applied(y, bodies, loads, out[13 * n + 6 * order.shape[0]:])
     if order.shape[0] == 0:
         return REACHED
     if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
@@ -1006,6 +1062,9 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     stage = stages[4]
     worst = 0.0
     for s in range(4):
+        if loads.shape[0] > bodies.shape[0]:   # stage time of scheduled wrenches (loads.py)
+            applied_loads.stage_time(loads, bodies.shape[0], 0.0 if s == 0 else (
+                0.5 * h if s < 3 else h))
         # one call site: the derivative is inlined once
         w = _derivative(y if s == 0 else stage, stages[s], bodies, gravity, loads, rows_i,
                         rows_f, plan, roots, eta, dense, v, solved and s == 0)
@@ -1209,6 +1268,10 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                             or magnitude >= limits[w, 2]):
                         info[3] = CONDITION
                         return
+            if loads.shape[0] > bodies.shape[0] and applied_loads.stroke_reached(
+                    out, loads, bodies.shape[0]):   # an ejector's stroke ends (loads.py)
+                info[3] = CONDITION
+                return
             for j in range(size):
                 if not np.isfinite(out[j]):
                     info[3] = NOT_FINITE
@@ -1223,6 +1286,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             fresh = need_force
             t = t_end
             info[0] = t
+            if loads.shape[0] > bodies.shape[0]:
+                applied_loads.set_time(loads, bodies.shape[0], t)   # loads.py
             info[1] += 1
             if t_end >= due:
                 break   # the samples at t first (loop top), then back for the release

@@ -153,6 +153,86 @@ class Joint:
 
 
 @dataclass(frozen=True)
+class Wrench:
+    """
+    A scheduled load on a body (scenario ``wrenches``, SPEC section 5).
+
+    Attributes
+    ----------
+    name : str
+        The load source (``bodies/<body>/applied/<name>``).
+    body : int
+        The body it acts on.
+    point : ndarray, shape (3,)
+        Application point, body axes, from the CG, m.
+    force, moment : ndarray, shape (3,)
+        N and N m in ``frame``'s axes (constant loads; zero with a table).
+    frame : int
+        Axes of force and moment: -1 the world, else a body.
+    start : float
+        s.
+    end : float or None
+        s; None: never.
+    stroke : float or None
+        m: the load acts while the point has moved less than this.
+    reacts_on : int
+        The body that takes the opposite load at the same world point; -1 none.
+    table : ndarray, shape (k, 7)
+        Rows of abscissa, force (3) and moment (3); empty for a constant load.
+    table_against : str or None
+        'time' (s from start) or 'stroke' (m), None without a table.
+
+    """
+
+    name: str
+    body: int
+    point: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    frame: int = -1
+    start: float = 0.0
+    end: Optional[float] = None
+    stroke: Optional[float] = None
+    reacts_on: int = -1
+    table: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
+    table_against: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class Aero:
+    """
+    Aerodynamic loads on a body from coefficient tables (scenario ``aero``).
+
+    Attributes
+    ----------
+    body : int
+    area, length : float
+        Reference area (m^2) and length (m).
+    density : float
+        Air density, kg/m^3.
+    freestream : ndarray, shape (3,)
+        Velocity of the air, world axes, m/s.
+    alpha, beta : ndarray
+        Grid of angles of attack and sideslip, rad, increasing.
+    coefficients : ndarray, shape (len(alpha), len(beta), 6)
+        CX, CY, CZ (body axes forces) and Cl, Cm, Cn (moments about the CG).
+    damping : ndarray, shape (3,)
+        Clp, Cmq, Cnr, per unit of p L / (2 V), q L / (2 V), r L / (2 V).
+
+    """
+
+    body: int
+    area: float
+    length: float
+    density: float
+    freestream: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    coefficients: np.ndarray
+    damping: np.ndarray
+
+
+@dataclass(frozen=True)
 class Model:
     """
     Everything needed to simulate a scenario; built once, never mutated.
@@ -172,6 +252,10 @@ class Model:
         Baumgarte gain eta, 1/s.
     bodies : tuple of Body
     joints : tuple of Joint
+    wrenches : tuple of Wrench
+        Scheduled loads (SPEC section 5), none by default.
+    aero : tuple of Aero
+        Aerodynamic loads from coefficient tables, none by default.
 
     """
 
@@ -183,6 +267,8 @@ class Model:
     baumgarte: float
     bodies: tuple
     joints: tuple
+    wrenches: tuple = ()
+    aero: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

@@ -174,7 +174,7 @@ class SampledState:
         return force, moment, value
 
     def _outputs_size(self) -> int:
-        return 13 * self.n + 6 * len(self._outputs_key)
+        return 13 * self.n + 6 * len(self._outputs_key) + self._scheduled.outputs_size
 
     def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """
@@ -187,12 +187,14 @@ class SampledState:
 
         Returns
         -------
-        ndarray, shape (13 n + 6 len(active_joints),)
+        ndarray, shape (13 n + 6 len(active_joints) + 6 len(applied_sources),)
             Every number finite (else ``NumericalFailure``). Per body its
             pose (CG position, m; quaternion x y z w, body to world) and
             twist (CG velocity, m/s, and angular velocity, rad/s, both in
-            body axes); then per active joint its force and moment on
-            the child (world axes, N and N m about the joint point).
+            body axes); then per active joint its force and moment on the
+            child (world axes, N and N m about the joint point); then per
+            scheduled wrench source (``applied_sources``) its force and
+            moment about the CG of the body it acts on (world axes).
 
         """
         if out is None:

@@ -23,8 +23,8 @@ from typing import Any, Optional
 from cfem_ros.core import rotations, shapes
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
-    AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
-    Model, Release, STANDARD_GRAVITY, triad_from_axes)
+    Aero, AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
+    Model, Release, STANDARD_GRAVITY, triad_from_axes, Wrench)
 import numpy as np
 import yaml
 from yaml.composer import Composer
@@ -38,11 +38,18 @@ except ImportError:  # PyYAML built without libyaml: the pure Python parser only
 
 LOG = logging.getLogger('cfem_ros')
 
-TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints')
+TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
+            'wrenches', 'aero')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape')
 JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
 RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
+WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'end', 'stroke',
+               'reacts_on')
+TABLE_KEYS = ('against', 'table')
+AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'alpha_deg', 'beta_deg',
+             'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr')
+AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
 
 #: Largest scenario file, bytes.
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -520,8 +527,10 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
         check.fail('joints', f'is {_show(joints_doc)}', 'a mapping of joint names')
     joints = [_parse_joint(check, joint_name, spec, index, bodies)
               for joint_name, spec in joints_doc.items()]
+    wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id)
     return Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
-                 dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints))
+                 dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
+                 wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies))
 
 
 def _parse_body(check: _Checker, name, spec) -> Body:
@@ -674,3 +683,173 @@ def _parse_release(check: _Checker, spec, key: str) -> Release:
         force=(None if 'force' not in spec
                else check.number(spec['force'], f'{key}.force', positive=True)),
     )
+
+
+def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str) -> tuple:
+    """Parse the scheduled loads (SPEC section 5): a list of wrench mappings."""
+    if doc is None:
+        return ()
+    if not isinstance(doc, list):
+        check.fail('wrenches', f'is {_show(doc)}', 'a list of wrench mappings')
+    wrenches = [_parse_wrench(check, k, spec, index, bodies, frame_id)
+                for k, spec in enumerate(doc)]
+    seen = {}
+    for k, wrench in enumerate(wrenches):
+        if (wrench.body, wrench.name) in seen:
+            check.fail(f'wrenches[{k}].name', f'{wrench.name!r} already names '
+                       f'wrenches[{seen[wrench.body, wrench.name]}] on the same body',
+                       'a name of its own (it becomes a topic name)')
+        seen[wrench.body, wrench.name] = k
+    return tuple(wrenches)
+
+
+def _body_of(check: _Checker, value, key: str, index: dict) -> int:
+    if value not in index:
+        check.fail(key, f'{_show(value)} is not a body', 'one of ' + ', '.join(index))
+    return index[value]
+
+
+def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: str) -> Wrench:
+    key = f'wrenches[{k}]'
+    spec = check.mapping(spec, key, WRENCH_KEYS, required=('body',))
+    body = _body_of(check, spec['body'], f'{key}.body', index)
+    if bodies[body].fixed:
+        check.fail(f'{key}.body', f'{_show(spec["body"])} is fixed', 'a body that can move')
+    name = check.name(spec.get('name', f'wrench{k}'), f'{key}.name')
+    if name == 'wrench':
+        check.fail(f'{key}.name', "'wrench' is the source of the wrench topic",
+                   'another name')
+    frame = spec.get('frame', bodies[body].name)
+    if frame == frame_id:
+        frame_index = -1
+    elif frame in index:
+        frame_index = index[frame]
+    else:
+        check.fail(f'{key}.frame', f'{_show(frame)} is neither the world frame nor a body',
+                   f'{frame_id} or one of ' + ', '.join(index))
+    point = check.vector(spec.get('point', [0, 0, 0]), f'{key}.point')
+    moment = check.vector(spec.get('moment', [0, 0, 0]), f'{key}.moment')
+    if 'force' not in spec and 'moment' not in spec:
+        check.fail(f'{key}.force', 'missing', 'a force or a moment')
+    force_doc = spec.get('force', [0, 0, 0])
+    table, against = np.zeros((0, 7)), None
+    force = np.zeros(3)
+    if isinstance(force_doc, dict):
+        against, table = _parse_force_table(check, force_doc, f'{key}.force', moment)
+        moment = np.zeros(3)
+    else:
+        force = check.vector(force_doc, f'{key}.force')
+    start = check.number(spec.get('start', 0.0), f'{key}.start', minimum=0.0)
+    end = None
+    if spec.get('end') is not None:
+        end = check.number(spec['end'], f'{key}.end')
+        if end <= start:
+            check.fail(f'{key}.end', f'is {end:g}, not after start {start:g}',
+                       'a time after start, s')
+    stroke = None
+    if spec.get('stroke') is not None:
+        stroke = check.number(spec['stroke'], f'{key}.stroke', positive=True)
+    reacts_on = -1
+    if spec.get('reacts_on') is not None:
+        reacts_on = _body_of(check, spec['reacts_on'], f'{key}.reacts_on', index)
+        if reacts_on == body:
+            check.fail(f'{key}.reacts_on', f'is {_show(spec["reacts_on"])}, the loaded body',
+                       'another body (a load on itself cancels)')
+    return Wrench(name=name, body=body, point=point, force=force, moment=moment,
+                  frame=frame_index, start=start, end=end, stroke=stroke, reacts_on=reacts_on,
+                  table=table, table_against=against)
+
+
+def _parse_force_table(check: _Checker, doc, key: str, moment: np.ndarray):
+    """Parse ``{against: time|stroke, table: [[x, fx, fy, fz], ...]}`` into (k, 7) rows."""
+    doc = check.mapping(doc, key, TABLE_KEYS, required=TABLE_KEYS)
+    against = doc['against']
+    if against not in ('time', 'stroke'):
+        check.fail(f'{key}.against', f'is {_show(against)}',
+                   'time (s from start) or stroke (m)')
+    rows = doc['table']
+    if not isinstance(rows, list) or len(rows) < 2:
+        check.fail(f'{key}.table', f'is {_show(rows)}',
+                   'a list of at least 2 rows [x, fx, fy, fz]')
+    table = np.zeros((len(rows), 7))
+    for i, row in enumerate(rows):
+        table[i, :4] = check.vector(row, f'{key}.table[{i}]', 4)
+        table[i, 4:] = moment
+        if against == 'stroke' and table[i, 0] < 0.0:
+            check.fail(f'{key}.table[{i}][0]', f'is {table[i, 0]:g}', 'a stroke >= 0, m')
+        if i and not table[i, 0] > table[i - 1, 0]:
+            check.fail(f'{key}.table[{i}][0]', f'is {table[i, 0]:g}, not after the row '
+                       f'before ({table[i - 1, 0]:g})', 'strictly increasing abscissae')
+    return against, table
+
+
+def isa_density(altitude: float) -> float:
+    """Return the ISA air density at a geopotential altitude (m, up to 20 km), kg/m^3."""
+    gas, g0 = 287.05287, 9.80665
+    if altitude <= 11000.0:
+        temperature = 288.15 - 0.0065 * altitude
+        pressure = 101325.0 * (temperature / 288.15) ** (g0 / (gas * 0.0065))
+    else:
+        temperature = 216.65
+        pressure = 22632.06 * math.exp(-g0 * (altitude - 11000.0) / (gas * temperature))
+    return pressure / (gas * temperature)
+
+
+def _parse_aero(check: _Checker, doc, index: dict, bodies) -> tuple:
+    """Parse ``aero``: body name -> reference values and coefficient tables."""
+    if doc is None:
+        return ()
+    if not isinstance(doc, dict):
+        check.fail('aero', f'is {_show(doc)}', 'a mapping of body names')
+    return tuple(_parse_aero_body(check, name, spec, index, bodies)
+                 for name, spec in doc.items())
+
+
+def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
+    key = f'aero.{name}'
+    body = _body_of(check, name, key, index)
+    if bodies[body].fixed:
+        check.fail(key, f'{_show(name)} is fixed', 'a body that can move')
+    spec = check.mapping(spec, key, AERO_KEYS,
+                         required=('area', 'length', 'freestream', 'alpha_deg'))
+    if ('density' in spec) == ('altitude' in spec):
+        check.fail(f'{key}.density', 'density and altitude are both given or both missing',
+                   'one of density (kg/m^3) or altitude (m, ISA)')
+    if 'density' in spec:
+        density = check.number(spec['density'], f'{key}.density', positive=True)
+    else:
+        altitude = check.number(spec['altitude'], f'{key}.altitude', minimum=-500.0)
+        if altitude > 20000.0:
+            check.fail(f'{key}.altitude', f'is {altitude:g}', 'an altitude up to 20000 m (ISA)')
+        density = isa_density(altitude)
+    grids = []
+    for axis in ('alpha_deg', 'beta_deg'):
+        values = spec.get(axis, [0.0])
+        if not isinstance(values, list) or not values:
+            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'a list of angles, deg')
+        grid = np.array([check.number(v, f'{key}.{axis}[{i}]') for i, v in enumerate(values)])
+        if np.any(np.diff(grid) <= 0):
+            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'strictly increasing angles')
+        grids.append(np.radians(grid))
+    alpha, beta = grids
+    table = np.zeros((len(alpha), len(beta), 6))
+    for c, coefficient in enumerate(AERO_COEFFICIENTS):
+        value = spec.get(coefficient, 0.0)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            table[:, :, c] = check.number(value, f'{key}.{coefficient}')
+            continue
+        rows = np.array(value, dtype=object)
+        if rows.shape not in ((len(alpha),), (len(alpha), len(beta))):
+            check.fail(f'{key}.{coefficient}', f'has shape {rows.shape}',
+                       f'a number, {len(alpha)} values (one per alpha), or {len(alpha)} '
+                       f'lists of {len(beta)} (per alpha, then per beta)')
+        for at, v in np.ndenumerate(rows):
+            number = check.number(v, f'{key}.{coefficient}' + ''.join(f'[{i}]' for i in at))
+            table[at[0], at[1] if len(at) > 1 else slice(None), c] = number
+    damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
+                        for d in ('Clp', 'Cmq', 'Cnr')])
+    return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
+                length=check.number(spec['length'], f'{key}.length', positive=True),
+                density=density, freestream=check.vector(spec['freestream'],
+                                                         f'{key}.freestream'),
+                alpha=alpha, beta=beta, coefficients=table, damping=damping)

@@ -59,7 +59,9 @@ def compiled_code_ready() -> bool:
                          '' if os.environ.get('NUMBA_CACHE_DIR') else '__pycache__')
     index = glob.glob(os.path.join(cache, '**', 'kernel.advance-*.nbi'), recursive=True)
     # the index is named after the function's line: older ones may stay behind
-    return bool(index) and max(os.path.getmtime(p) for p in index) >= os.path.getmtime(source)
+    sources = [os.path.join(os.path.dirname(source), name) for name in kernel.COMPILED_SOURCES]
+    return bool(index) and (max(os.path.getmtime(p) for p in index)
+                            >= max(os.path.getmtime(p) for p in sources))
 
 
 def warm_up() -> float:

@@ -7,8 +7,9 @@ Recorded runs as numpy arrays, without ROS.
 ``cfem-sim run``, from the node, or from any other program that writes the
 same topics) and returns a ``Run``: per body, time, position, quaternion,
 Euler angles, body rates and velocity; per joint, time, force and moment;
-and the events. CDR is decoded by mcap_ros2 from the schemas in the file, so
-no ROS installation is needed.
+per applied load source, time, force and moment about the CG; and the
+events. CDR is decoded by mcap_ros2 from the schemas in the file, so no ROS
+installation is needed.
 
 Times are seconds from the run's start: the ``cfem_ros`` metadata's
 ``start_stamp_ns`` if present, else the first pose's stamp.
@@ -36,6 +37,7 @@ __all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
+APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
 NAN = float('nan')
 
@@ -169,6 +171,9 @@ class Run:
         The ``cfem_ros`` metadata record, if any.
     duration : float
         Seconds from the start to the last sample.
+    applied : dict of str to JointTrack
+        Scheduled loads (``bodies/<body>/applied/<source>``) by '<body>/<source>':
+        force and moment about the body's CG, world axes.
 
     """
 
@@ -181,6 +186,7 @@ class Run:
     topics: dict
     metadata: dict = field(default_factory=dict)
     duration: float = 0.0
+    applied: dict = field(default_factory=dict)
 
     def releases(self) -> list:
         """Return the release events as (time, joint, cause), in time order."""
@@ -309,7 +315,7 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
 
 
 def _read_messages(reader, ns: str) -> dict:
-    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'events': []}
+    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': []}
     for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
         topic = channel.topic
         body = BODY_TOPIC.match(topic)
@@ -325,10 +331,13 @@ def _read_messages(reader, ns: str) -> dict:
             raw[body['kind']].setdefault(body['name'], []).append((when, values))
             continue
         joint = JOINT_TOPIC.match(topic)
-        if joint and joint['ns'] == ns:
+        applied = APPLIED_TOPIC.match(topic)
+        if (joint and joint['ns'] == ns) or (applied and applied['ns'] == ns):
             stamp = decoded.header.stamp
             f, m = decoded.wrench.force, decoded.wrench.torque
-            raw['joint'].setdefault(joint['name'], []).append(
+            kind, name = (('joint', joint['name']) if joint else
+                          ('applied', f"{applied['body']}/{applied['source']}"))
+            raw[kind].setdefault(name, []).append(
                 (stamp.sec * 1_000_000_000 + stamp.nanosec, (f.x, f.y, f.z, m.x, m.y, m.z)))
             continue
         events = EVENTS_TOPIC.match(topic)
@@ -367,16 +376,19 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             position=values[:, 0:3], quaternion=quat, euler_deg=euler,
             euler_continuous_deg=euler_continuous(euler), rates=twist[:, 3:6],
             velocity=velocity, velocity_world=world)
-    joints = {}
-    for name, rows in raw['joint'].items():
-        rows.sort(key=lambda r: r[0])
-        stamps = np.array([r[0] for r in rows], dtype=np.int64)
-        values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 6)
-        joints[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9, stamp_ns=stamps,
-                                  force=values[:, 0:3], moment=values[:, 3:6])
+    joints, applied = {}, {}
+    for kind, tracks in (('joint', joints), ('applied', applied)):
+        for name, rows in raw[kind].items():
+            rows.sort(key=lambda r: r[0])
+            stamps = np.array([r[0] for r in rows], dtype=np.int64)
+            values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 6)
+            tracks[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9,
+                                      stamp_ns=stamps, force=values[:, 0:3],
+                                      moment=values[:, 3:6])
     last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
     return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
-               events=raw['events'], topics=topics, metadata=metadata, duration=float(last))
+               events=raw['events'], topics=topics, metadata=metadata, duration=float(last),
+               applied=applied)
 
 
 @dataclass(frozen=True)

@@ -532,6 +532,8 @@ class StateRecorder:
             messages.append((self._pose_topics[i], POSE, self.world, 7))
             messages.append((self._twist_topics[i], TWIST, body.name, 6))
         messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
+        messages.extend((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, self.world, 6)
+                        for body, source in self.sim.applied_sources)   # scheduled loads
         if self._transforms is not None:
             messages.append(('/tf', TF, self._transforms, None))
         return messages

@@ -257,6 +257,12 @@ class _Publishers:
             wrench.header.frame_id = world
             self.wrenches[k] = (node.create_publisher(
                 WrenchStamped, f'joints/{joint.name}/wrench', TOPIC_QOS), wrench)
+        self.applied = []   # scheduled loads, per source
+        for body, source in sim.applied_sources:
+            wrench = WrenchStamped()
+            wrench.header.frame_id = world
+            self.applied.append((node.create_publisher(
+                WrenchStamped, f'bodies/{body}/applied/{source}', TOPIC_QOS), wrench))
         self.event_publisher = node.create_publisher(String, 'events', EVENT_QOS)
         self._events_sent = 0
         # what viewers draw: markers on the bodies' tf frames (recording.visuals)
@@ -323,6 +329,12 @@ class _Publishers:
                 _time_msg(wrench.header.stamp, stamp_ns)
                 _vector3(wrench.wrench.force, force[k])
                 _vector3(wrench.wrench.torque, moment[k])
+                publisher.publish(wrench)
+        if self.applied:
+            for (publisher, wrench), load in zip(self.applied, sim.applied_loads()):
+                _time_msg(wrench.header.stamp, stamp_ns)
+                _vector3(wrench.wrench.force, load[:3])
+                _vector3(wrench.wrench.torque, load[3:])
                 publisher.publish(wrench)
 
     def prepare(self):

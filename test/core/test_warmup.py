@@ -40,3 +40,18 @@ def test_a_run_after_the_warm_up_compiles_nothing(tmp_path):
     assert any('[cache] data loaded' in line for line in lines)   # the log is on
     saved = [line for line in lines if '[cache] data saved' in line]
     assert not saved, saved[:3]
+
+
+def test_the_cache_is_dropped_when_a_compiled_source_changes(tmp_path, monkeypatch):
+    # numba would keep the kernel's cache after an edit of loads.py alone: the guard
+    # keeps a digest of every compiled source and drops the cache when it differs
+    monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
+    stale = tmp_path / 'kernel.advance-1.py311.nbi'
+    stale.write_bytes(b'old')
+    (tmp_path / 'cfem_ros_core_sources.sha256').write_text('a digest of other sources')
+    kernel._guard_cache()
+    assert not stale.exists()
+    kept = tmp_path / 'loads.scheduled_wrench-1.py311.nbc'
+    kept.write_bytes(b'current')
+    kernel._guard_cache()   # same sources: the cache stays
+    assert kept.exists()

@@ -1,0 +1,67 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Step cost of applied loads: the store on its hinge with and without ejectors and aero.
+
+The ejectors of config/store_separation_ejectors.yaml are added to
+config/store_separation.yaml (its pivot kept, so both runs solve the same
+joint) with a stroke too long to end, so that they act, and their strokes
+are watched, at every step; a third run adds the aerodynamic table of
+config/store_separation_aero.yaml. The runs alternate in turns; medians
+and their ratios are printed.
+Usage: .venv/bin/python benchmarks/bench_loads.py
+"""
+
+import argparse
+import pathlib
+import statistics
+import time
+
+from cfem_ros import parse_scenario, Simulator
+import yaml
+
+CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+
+
+def models(duration):
+    """Return the scenario without loads, with the two ejectors, and with aero too."""
+    base = yaml.safe_load((CONFIG / 'store_separation.yaml').read_text())
+    aero = yaml.safe_load((CONFIG / 'store_separation_aero.yaml').read_text())
+    base['duration'] = duration
+    del base['joints']['pivot']['release']   # the same joints all along in every run
+    loaded = dict(base, wrenches=[dict(w, stroke=1e6) for w in aero['wrenches']])
+    return (parse_scenario(base, source='store_separation'),
+            parse_scenario(loaded, source='store_separation + 2 ejectors'),
+            parse_scenario(dict(loaded, aero=aero['aero']), source='... + aero'))
+
+
+def step_cost(model, duration):
+    """Return microseconds per RK4 step of one run."""
+    sim = Simulator(model)
+    start = time.perf_counter()
+    assert sim.advance_to(duration), sim.message
+    return (time.perf_counter() - start) / sim.steps * 1e6
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
+    parser.add_argument('--duration', type=float, default=2.0, help='simulated s per run')
+    parser.add_argument('--turns', type=int, default=7)
+    args = parser.parse_args()
+    runs = models(args.duration)
+    for model in runs:
+        step_cost(model, 0.01)   # compile (cached)
+    costs = [[] for _ in runs]
+    for _ in range(args.turns):
+        for model, cost in zip(runs, costs):
+            cost.append(step_cost(model, args.duration))
+    a, b, c = (statistics.median(cost) for cost in costs)
+    print(f'dt = 1 ms, {args.duration:g} s simulated per run, median of {args.turns} turns')
+    print(f'store on its hinge:                   {a:7.2f} us/step')
+    print(f'the same with two ejectors:           {b:7.2f} us/step   ratio {b / a:.2f}')
+    print(f'with two ejectors and an aero table:  {c:7.2f} us/step   ratio {c / a:.2f}')
+    print('target: ratio <= 1.3')
+
+
+if __name__ == '__main__':
+    main()
