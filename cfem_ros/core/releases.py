@@ -18,7 +18,6 @@ from typing import Callable, Optional
 from cfem_ros.core import kernel
 from cfem_ros.core.topology import JointTables
 import numpy as np
-from scipy.optimize import brentq
 
 #: Indices of the release triggers in ``Releases.triggers``.
 TRIGGER_CAUSES = ('time', 'angle', 'distance', 'force')
@@ -125,6 +124,7 @@ class Releases:
             if excess(0.0) >= 0.0:
                 s = 0.0
             else:
+                from scipy.optimize import brentq   # only when a condition is reached
                 s = brentq(excess, 0.0, h, xtol=1e-15, rtol=4 * np.finfo(float).eps,
                            maxiter=200)
             if s < best[0] - 1e-15:
