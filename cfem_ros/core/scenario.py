@@ -38,8 +38,8 @@ PERPENDICULAR_TOLERANCE = 1e-6
 TRIANGLE_TOLERANCE = 1e-9
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """A safe YAML loader that refuses duplicate keys instead of keeping the last."""
+class _UniqueKeyLoader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):
+    """A safe YAML loader (libyaml's C parser where present) that refuses duplicate keys."""
 
 
 def _construct_mapping(loader, node, deep=False):
