@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import Callable, Optional
 
 from cfem_ros.core import kernel
+from cfem_ros.core.roots import brentq
 from cfem_ros.core.topology import JointTables
 import numpy as np
 
@@ -124,7 +125,6 @@ class Releases:
             if excess(0.0) >= 0.0:
                 s = 0.0
             else:
-                from scipy.optimize import brentq   # only when a condition is reached
                 s = brentq(excess, 0.0, h, xtol=1e-15, rtol=4 * np.finfo(float).eps,
                            maxiter=200)
             if s < best[0] - 1e-15:
