@@ -264,11 +264,17 @@ def build(output_dir: str = _HERE, verbose: bool = False) -> str:
 
 def main() -> int:
     """Build the extension next to kernel.py and say where and how long it took."""
+    import shutil
+    import tempfile
     import time
     started = time.monotonic()
     print('cfem_ros: compiling the numerical core ahead of time (a few minutes)...',
           file=sys.stderr, flush=True)
-    path = build(verbose='-v' in sys.argv)
+    try:
+        path = build(verbose='-v' in sys.argv)
+    finally:   # the build's own numba cache (see build)
+        if os.environ.get('NUMBA_CACHE_DIR', '').startswith(tempfile.gettempdir()):
+            shutil.rmtree(os.environ['NUMBA_CACHE_DIR'], ignore_errors=True)
     print(f'cfem_ros: {path} built in {time.monotonic() - started:.0f} s', file=sys.stderr)
     return 0
 
