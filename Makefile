@@ -19,6 +19,7 @@ $(STAMP): setup.py setup.cfg package.xml
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[ros,test]'
+	# compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run loads
 	$(BIN)/python -m cfem_ros.core.warmup
 	@touch $(STAMP)
 
@@ -34,6 +35,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py
+	$(BIN)/python benchmarks/bench_startup.py
 
 # The paper's figures in docs/verification.md, regenerated.
 figures: $(STAMP)

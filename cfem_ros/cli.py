@@ -17,9 +17,8 @@ from cfem_ros.core import rotations, warmup
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.scenario import load_scenario
-from cfem_ros.recording import analysis, offline
+from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
-from cfem_ros.recording.replay import read_inputs
 import numpy as np
 
 EXIT_OK = 0
@@ -133,7 +132,10 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         return _error(f'--rate: is {rate:g}; expected a sample rate > 0 Hz')
     try:
         model = load_scenario(scenario, duration=duration, dt=dt)
-        replay = read_inputs(inputs) if inputs else []
+        replay = []
+        if inputs:
+            from cfem_ros.recording.replay import read_inputs   # mcap's reader only to replay
+            replay = read_inputs(inputs)
         if os.path.exists(output) and not overwrite:
             return _error(f'{output}: already exists; pass --overwrite to replace it')
         sim = Simulator(model)
@@ -178,6 +180,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
 
 def cmd_info(recording: str) -> int:
     """Print a recording's topics, message counts, duration and events; exit 0 or 2."""
+    from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         run = analysis.open_run(recording)
     except CfemError as err:
@@ -203,6 +206,7 @@ def cmd_info(recording: str) -> int:
 
 def cmd_plot(recording: str, directory: str) -> int:
     """Write the figures of a recording under directory; exit 0 or 2."""
+    from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         run = analysis.open_run(recording)
     except CfemError as err:
@@ -219,6 +223,7 @@ def cmd_plot(recording: str, directory: str) -> int:
 
 def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int:
     """Print the largest differences of two recordings (and overlay figures); exit 0 or 2."""
+    from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         a, b = analysis.open_run(first), analysis.open_run(second)
     except CfemError as err:

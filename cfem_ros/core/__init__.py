@@ -14,3 +14,20 @@ shows), ``inputs`` and ``session`` (a run fed with inputs on a sample grid),
 This layer imports nothing from the recording, study or ros layers, nor the
 faces (``cli``, ``plots``), and never rclpy.
 """
+
+import sys
+
+
+class _KernelFinder:
+    """Import ``cfem_ros.core.kernel`` from its compiled extension when current (``aot``)."""
+
+    def find_spec(self, fullname, path, target=None):
+        """Return the extension-backed kernel's spec, or None to import kernel.py (the JIT)."""
+        if fullname != 'cfem_ros.core.kernel':
+            return None
+        from cfem_ros.core import aot
+        return aot.kernel_spec()
+
+
+if not any(type(finder).__name__ == '_KernelFinder' for finder in sys.meta_path):
+    sys.meta_path.insert(0, _KernelFinder())

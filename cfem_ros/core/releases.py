@@ -16,9 +16,9 @@ from __future__ import annotations
 from typing import Callable, Optional
 
 from cfem_ros.core import kernel
+from cfem_ros.core.roots import brentq
 from cfem_ros.core.topology import JointTables
 import numpy as np
-from scipy.optimize import brentq
 
 #: Indices of the release triggers in ``Releases.triggers``.
 TRIGGER_CAUSES = ('time', 'angle', 'distance', 'force')

@@ -4,10 +4,14 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+#: Up to this many attitudes ``to_rpy_deg`` computes them itself (a run's summary,
+#: without importing scipy); more go to scipy, vectorized. Both give the same bits.
+SMALL = 64
 
 
 def matrices(quat_xyzw: np.ndarray) -> np.ndarray:
@@ -82,8 +86,19 @@ def rotation_angle(q: np.ndarray) -> np.ndarray:
 
 def from_rpy_deg(roll_pitch_yaw_deg) -> np.ndarray:
     """Quaternion (x, y, z, w) of Z-Y-X Euler angles: yaw, then pitch, then roll."""
+    # scipy's Rotation.from_euler('ZYX', [yaw, pitch, roll], degrees=True).as_quat(),
+    # operation for operation (the same bits), without importing scipy
     roll, pitch, yaw = roll_pitch_yaw_deg
-    return Rotation.from_euler('ZYX', [yaw, pitch, roll], degrees=True).as_quat()
+    angles = np.deg2rad(np.asarray([yaw, pitch, roll], dtype=float))
+    q = [0.0, 0.0, math.sin(angles[0] / 2), math.cos(angles[0] / 2)]
+    for axis, angle in ((1, angles[1]), (0, angles[2])):
+        e = [0.0, 0.0, 0.0, math.cos(angle / 2)]
+        e[axis] = math.sin(angle / 2)
+        q = [q[3] * e[0] + e[3] * q[0] + (q[1] * e[2] - q[2] * e[1]),
+             q[3] * e[1] + e[3] * q[1] + (q[2] * e[0] - q[0] * e[2]),
+             q[3] * e[2] + e[3] * q[2] + (q[0] * e[1] - q[1] * e[0]),
+             q[3] * e[3] - q[0] * e[0] - q[1] * e[1] - q[2] * e[2]]
+    return np.array(q)
 
 
 def to_rpy_deg(quat_xyzw: np.ndarray) -> np.ndarray:
@@ -95,10 +110,41 @@ def to_rpy_deg(quat_xyzw: np.ndarray) -> np.ndarray:
     lock" warning: callers that care test the pitch themselves).
     """
     q = np.asarray(quat_xyzw, dtype=float)
-    with warnings.catch_warnings():
-        warnings.filterwarnings('ignore', message='Gimbal lock detected')
-        zyx = Rotation.from_quat(q.reshape(-1, 4)).as_euler('ZYX', degrees=True)
+    flat = q.reshape(-1, 4)
+    if len(flat) <= SMALL:
+        zyx = np.rad2deg(np.array([_zyx(*row) for row in flat.tolist()]).reshape(-1, 3))
+    else:
+        from scipy.spatial.transform import Rotation
+        with warnings.catch_warnings():
+            warnings.filterwarnings('ignore', message='Gimbal lock detected')
+            zyx = Rotation.from_quat(flat).as_euler('ZYX', degrees=True)
     return zyx[:, ::-1].reshape(q.shape[:-1] + (3,))
+
+
+def _zyx(x, y, z, w):
+    """Z-Y-X angles (rad) of one quaternion as scipy's as_euler('ZYX') computes them."""
+    # scipy's from_quat normalization and Bernardes & Viollet (2022) conversion, with
+    # libm's hypot (np.hypot; math.hypot rounds differently) and atan2 (math.atan2)
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if norm == 0:
+        raise ValueError('Found zero norm quaternions in `quat`.')
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    a, b, c, d = w - y, x + z, y + w, z - x
+    pitch = 2 * math.atan2(float(np.hypot(c, d)), float(np.hypot(a, b)))
+    half_sum, half_diff = math.atan2(b, a), math.atan2(d, c)
+    if abs(pitch) <= 1e-7:
+        angles = [2 * half_sum, pitch, 0.0]
+    elif abs(pitch - math.pi) <= 1e-7:
+        angles = [2 * half_diff, pitch, 0.0]
+    else:
+        angles = [half_sum + half_diff, pitch, half_sum - half_diff]
+    angles[1] -= math.pi / 2
+    for k in range(3):
+        if angles[k] < -math.pi:
+            angles[k] += 2 * math.pi
+        elif angles[k] > math.pi:
+            angles[k] -= 2 * math.pi
+    return angles
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -26,8 +26,11 @@ from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (Channel, ChunkIndex, DataEnd, Footer, Header, Metadata,
                           MetadataIndex, Schema, Statistics, SummaryOffset)
-from mcap.writer import MCAP0_MAGIC
 import numpy as np
+
+#: The file's magic (MCAP specification; ``mcap.writer.MCAP0_MAGIC``, whose module imports
+#: importlib.metadata and both compressors: not needed here).
+MCAP0_MAGIC = b'\x89MCAP0\r\n'
 
 #: A Message record up to its data: opcode, record length, channel id,
 #: sequence, log time, publish time.

@@ -15,6 +15,12 @@ CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 def test_compiled_code_ready_follows_the_cache(tmp_path, monkeypatch):
     warmup.warm_up()
     assert warmup.compiled_code_ready()
+    # the JIT's cache decides when the kernel is not compiled ahead of time (core.aot)
+    monkeypatch.setattr(kernel, 'COMPILED_AHEAD', False, raising=False)
+    monkeypatch.setenv('CFEM_ROS_JIT', '1')   # for the warm-up process
+    subprocess.run([sys.executable, '-c', 'from cfem_ros.core import warmup; warmup.warm_up()'],
+                   check=True, timeout=900)
+    assert warmup.compiled_code_ready()
     # an empty cache folder is not ready
     monkeypatch.setenv('NUMBA_CACHE_DIR', str(tmp_path))
     assert not warmup.compiled_code_ready()
@@ -32,7 +38,7 @@ def test_a_run_after_the_warm_up_compiles_nothing(tmp_path):
     out = subprocess.run(
         [str(exe), 'run', str(CONFIG / 'store_separation.yaml'), '-o', str(tmp_path / 'r.mcap'),
          '--duration', '0.1'], capture_output=True, text=True, timeout=300,
-        env={**os.environ, 'NUMBA_DEBUG_CACHE': '1'})
+        env={**os.environ, 'NUMBA_DEBUG_CACHE': '1', 'CFEM_ROS_JIT': '1'})
     assert out.returncode == 0, out.stderr
     assert 'compiling' not in out.stderr
     # numba reports every function it compiles instead of loading: none may be compiled

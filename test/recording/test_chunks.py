@@ -156,3 +156,9 @@ def test_every_index_points_at_its_record(tmp_path):
         seen += entries
     assert seen == len(written)
     assert next(r for r in records if isinstance(r, Statistics)).message_count == seen
+
+
+def test_magic_is_mcaps():
+    from cfem_ros.recording.chunks import MCAP0_MAGIC
+    from mcap.writer import MCAP0_MAGIC as theirs
+    assert MCAP0_MAGIC == theirs

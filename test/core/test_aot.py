@@ -1,0 +1,118 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The kernel compiled ahead of time: chosen only when current, and bit-identical to the JIT."""
+
+import os
+import pathlib
+import subprocess
+import sys
+
+from cfem_ros.core import aot
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+#: States, joint loads and outputs of every shipped scenario at 8 times, hashed;
+#: then whether numba was imported and whether the kernel was compiled ahead.
+FINGERPRINT = """
+import glob, hashlib, sys
+import numpy as np
+from cfem_ros.core import kernel
+from cfem_ros.core.engine import Simulator
+from cfem_ros.core.scenario import load_scenario
+digest = hashlib.sha256()
+end = float(sys.argv[2])
+for path in sorted(glob.glob(sys.argv[1] + '/config/*.yaml')
+                   + glob.glob(sys.argv[1] + '/config/joints/*.yaml')):
+    if path.endswith('params.yaml'):
+        continue
+    sim = Simulator(load_scenario(path, duration=end))
+    for k in range(1, 9):
+        if not sim.advance_to(end * k / 8):
+            digest.update(b'failed')
+            break
+        digest.update(np.ascontiguousarray(sim.y).tobytes())
+        digest.update(np.ascontiguousarray(sim.outputs()).tobytes())
+        for value in sim.joint_wrenches():
+            digest.update(np.ascontiguousarray(value).tobytes())
+print(digest.hexdigest(), 'numba' in sys.modules, getattr(kernel, 'COMPILED_AHEAD', False))
+"""
+
+
+def fingerprint(end, **env):
+    """Run FINGERPRINT in a fresh process; return (hex digest, numba imported, ahead)."""
+    done = subprocess.run([sys.executable, '-c', FINGERPRINT, str(ROOT), str(end)],
+                          capture_output=True, text=True, timeout=900,
+                          env={**os.environ, **env})
+    assert done.returncode == 0, done.stderr
+    digest, numba, ahead = done.stdout.split()
+    return digest, numba == 'True', ahead == 'True'
+
+
+def ensure_built():
+    """Build the extension as ``make`` does if it is missing or stale."""
+    if aot.load_extension() is None:
+        subprocess.run([sys.executable, '-m', 'cfem_ros.core.aot'], check=True, timeout=1800)
+    assert aot.load_extension() is not None
+
+
+def test_compiled_kernel_gives_the_jit_numbers_without_numba():
+    ensure_built()
+    ahead = fingerprint(0.25)
+    jit = fingerprint(0.25, CFEM_ROS_JIT='1')
+    assert ahead[1:] == (False, True)      # numba never imported, the extension used
+    assert jit[1:] == (True, False)
+    assert ahead[0] == jit[0]
+
+
+def test_extension_chosen_only_when_current(monkeypatch):
+    ensure_built()
+    assert aot.kernel_spec() is not None
+    monkeypatch.setenv(aot.FORCE_JIT, '1')
+    assert aot.load_extension() is None and aot.kernel_spec() is None
+    monkeypatch.delenv(aot.FORCE_JIT)
+    # built from another kernel.py (here: the hash of this file): the JIT
+    other = aot.source_hash(__file__)
+    monkeypatch.setattr(aot, 'source_hash', lambda path=None: other)
+    assert aot.load_extension() is None
+
+
+def test_stale_extension_falls_back_to_the_jit():
+    ensure_built()
+    # a process that sees another kernel source hash imports kernel.py with numba
+    code = ('from cfem_ros.core import aot\n'
+            'aot.source_hash = lambda path=None: 1\n'
+            'from cfem_ros.core import kernel\n'
+            'import sys\n'
+            "print(getattr(kernel, 'COMPILED_AHEAD', False), 'numba' in sys.modules,\n"
+            '      type(kernel.advance).__name__)\n')
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          timeout=300, check=True)
+    assert done.stdout.split() == ['False', 'True', 'CPUDispatcher']
+
+
+def test_arguments_the_compiled_code_does_not_fit_go_to_the_jit():
+    ensure_built()
+    # float32, non-contiguous or read-only arrays would crash the compiled code
+    # (it trusts its arguments' types): the JIT takes them, as it always did
+    code = """
+import sys
+import numpy as np
+from cfem_ros.core import kernel
+size = kernel.workspace_size(2, 3, 1)
+work = np.arange(size, dtype=float)
+ahead = kernel.constraint_values(work, 2, 3, 1).copy()
+print('numba' in sys.modules)
+for bad in (work.astype(np.float32), np.repeat(work, 2)[::2]):
+    try:
+        print(np.array_equal(kernel.constraint_values(bad, 2, 3, 1), ahead))
+    except Exception as err:   # the JIT's own refusal, not a crash
+        print(type(err).__name__)
+print(kernel.workspace_size(np.int32(2), np.int32(3), np.int32(1)) == size)
+work.flags.writeable = False
+print(np.array_equal(kernel.constraint_values(work, 2, 3, 1), ahead))
+print('numba' in sys.modules)
+"""
+    done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          timeout=900)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ['False', 'True', 'TypingError', 'True', 'True', 'True']
