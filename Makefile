@@ -5,10 +5,11 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.cfem-installed
+CORE := $(VENV)/.cfem-core-compiled
 
 .PHONY: demo test venv bench figures clean
 
-venv: $(STAMP)
+venv: $(CORE)
 
 $(STAMP): setup.py setup.cfg package.xml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "cfem_ros needs Python 3.10 or newer; set PYTHON=python3.x")'
@@ -19,18 +20,22 @@ $(STAMP): setup.py setup.cfg package.xml
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[ros,test]'
-	# compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run loads
-	$(BIN)/python -m cfem_ros.core.warmup
 	@touch $(STAMP)
 
-demo: $(STAMP)
+# compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run
+# loads; again whenever the compiled sources change
+$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py
+	$(BIN)/python -m cfem_ros.core.warmup
+	@touch $(CORE)
+
+demo: $(CORE)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
-test: $(STAMP)
+test: $(CORE)
 	$(BIN)/python -m pytest -q test
 
-bench: $(STAMP)
+bench: $(CORE)
 	$(BIN)/pip install -q -e '.[bench]'
 	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
@@ -38,7 +43,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_startup.py
 
 # The paper's figures in docs/verification.md, regenerated.
-figures: $(STAMP)
+figures: $(CORE)
 	@mkdir -p runs
 	for s in fixed_joint_spin double_pendulum store_separation; do \
 	  $(BIN)/cfem-sim run config/$$s.yaml -o runs/$$s.mcap --overwrite && \

@@ -32,7 +32,9 @@ def test_colcon_build_installs_a_working_package(tmp_path):
     script = prefix / 'lib' / 'cfem_ros' / 'cfem-sim'
     assert script.is_file()
     site = next(prefix.glob('lib/python3*/site-packages'))
-    env = dict(os.environ, PYTHONPATH=str(site))
+    # the JIT (CFEM_ROS_JIT): building the ahead-of-time kernel takes minutes, and is
+    # tested on its own (test/core/test_aot.py)
+    env = dict(os.environ, PYTHONPATH=str(site), CFEM_ROS_JIT='1')
     # what the README asks of a colcon install: compile the numerical core once
     warm = subprocess.run([sys.executable, '-m', 'cfem_ros.core.warmup'], capture_output=True,
                           text=True, env=env, cwd=tmp_path, timeout=900)

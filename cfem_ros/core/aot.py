@@ -44,14 +44,23 @@ _SOURCE = os.path.join(_HERE, 'kernel.py')
 TABLE = os.path.join(_HERE, '_kernel_aot.json')
 
 
+#: The modules whose numba functions the kernel compiles together (kernel.py
+#: calls those of loads.py): an extension, or numba's cache, is only as current
+#: as the oldest of them.
+COMPILED_SOURCES = ('kernel.py', 'loads.py')
+
+
 def source_hash(path: str = _SOURCE) -> int:
-    """Return the hash of the kernel's source that an extension built from it holds."""
-    with open(path, 'rb') as handle:
-        return int(hashlib.sha256(handle.read()).hexdigest()[:15], 16)
+    """Return the hash of the kernel's sources (kernel.py at path, and loads.py beside it)."""
+    digest = hashlib.sha256()
+    for name in COMPILED_SOURCES:
+        with open(os.path.join(os.path.dirname(path), name), 'rb') as handle:
+            digest.update(handle.read())
+    return int(digest.hexdigest()[:15], 16)
 
 
 def load_extension():
-    """Return the compiled extension if it and its table match kernel.py, else None."""
+    """Return the compiled extension if it and its table match the sources, else None."""
     if os.environ.get(FORCE_JIT):
         return None
     try:

@@ -50,6 +50,7 @@ import glob
 import hashlib
 import os
 
+from cfem_ros.core.aot import COMPILED_SOURCES
 import numba
 import numpy as np
 
@@ -91,8 +92,6 @@ def _guard_cache():
         pass   # a read-only install: numba then compiles in memory as it can
 
 
-#: The modules whose numba functions the kernel compiles together.
-COMPILED_SOURCES = ('kernel.py', 'loads.py')
 _guard_cache()
 
 from cfem_ros.core import loads as applied_loads  # noqa: E402, I100 - after the cache guard
@@ -1291,3 +1290,25 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             info[1] += 1
             if t_end >= due:
                 break   # the samples at t first (loop top), then back for the release
+
+
+# ---------------------------------------------- applied loads called from Python
+# loads.ScheduledLoads calls these through the kernel, so that a kernel compiled
+# ahead of time (aot.py) has them compiled too
+
+@numba.njit(**_JIT)
+def loads_set_time(loads, n, t):
+    """Write the time t into the scheduled rows (``loads.set_time``)."""
+    applied_loads.set_time(loads, n, t)
+
+
+@numba.njit(**_JIT)
+def loads_strokes(y, loads, n, out):
+    """Write each scheduled wrench's stroke so far at y into out (``loads.strokes``)."""
+    applied_loads.strokes(y, loads, n, out)
+
+
+@numba.njit(**_JIT)
+def loads_rotations(y, n, rot):
+    """Write the bodies' rotation matrices at y into rot (``loads._rotations``)."""
+    applied_loads._rotations(y, n, rot)

@@ -360,6 +360,12 @@ def sample_applied(y, bodies, loads, out):
 
 # ------------------------------------------------------------- Python part
 
+def _kernel():
+    """Return the kernel (imported here: it imports this module)."""
+    from cfem_ros.core import kernel
+    return kernel
+
+
 class ScheduledLoads:
     """
     The scheduled wrenches of a model in a simulator's packed ``loads``.
@@ -431,7 +437,7 @@ class ScheduledLoads:
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""
         if self.array.shape[0] > self.n:
-            set_time(self.array, self.n, t)
+            _kernel().loads_set_time(self.array, int(self.n), float(t))
 
     def due(self, t: float):
         """Return the next time after t at which a wrench switches, or None."""
@@ -475,7 +481,7 @@ class ScheduledLoads:
         n = self.n
         row = self.array[n + k]
         rot = np.empty((n, 3, 3))
-        _rotations(np.ascontiguousarray(y), n, rot)
+        _kernel().loads_rotations(np.ascontiguousarray(y), int(n), rot)
         b = int(row[S_BODY])
         point = y[3 * b:3 * b + 3] + rot[b] @ row[S_POINT:S_POINT + 3]
         j = int(row[S_REACT])
@@ -486,7 +492,7 @@ class ScheduledLoads:
     def strokes(self, y: np.ndarray) -> np.ndarray:
         """Return each wrench's stroke so far at y, m."""
         out = np.empty(self.array.shape[0] - self.n)
-        strokes(np.ascontiguousarray(y), self.array, self.n, out)
+        _kernel().loads_strokes(np.ascontiguousarray(y), self.array, int(self.n), out)
         return out[:self.count]
 
     def watched(self) -> np.ndarray:

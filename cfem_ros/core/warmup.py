@@ -24,7 +24,7 @@ import subprocess
 import sys
 import time
 
-from cfem_ros.core import kernel
+from cfem_ros.core import aot, kernel
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.sampling import SampleGrid
 from cfem_ros.core.scenario import parse_scenario
@@ -52,6 +52,16 @@ def _pendulums():
             'j4': {'type': 'slider', 'parent': 'ground', 'child': 'c', 'anchor': [0, 0, -0.5],
                    'axis': [0, 0, 1]},
         },
+        # an ejector with a stroke and a table, and aerodynamic tables (core/loads.py)
+        'wrenches': [{'name': 'push', 'body': 'b', 'point': [0.1, 0, 0], 'frame': 'a',
+                      'force': {'against': 'stroke',
+                                'table': [[0.0, 0, 0, 1.0], [0.002, 0, 0, 0.5]]},
+                      'stroke': 0.001, 'reacts_on': 'a', 'start': 0.01, 'end': 0.9}],
+        'aero': {'a': {'area': 0.01, 'length': 0.1, 'altitude': 1000.0,
+                       'freestream': [-10.0, 0, 0], 'alpha_deg': [-30, 0, 30],
+                       'beta_deg': [-20, 20], 'CX': [[-0.3, -0.3]] * 3,
+                       'CZ': [0.5, 0.0, -0.5], 'Cm': [0.2, 0.0, -0.2],
+                       'Clp': -1.0, 'Cmq': -5.0, 'Cnr': -5.0}},
     }
 
 
@@ -64,7 +74,7 @@ def compiled_code_ready() -> bool:
                          '' if os.environ.get('NUMBA_CACHE_DIR') else '__pycache__')
     index = glob.glob(os.path.join(cache, '**', 'kernel.advance-*.nbi'), recursive=True)
     # the index is named after the function's line: older ones may stay behind
-    sources = [os.path.join(os.path.dirname(source), name) for name in kernel.COMPILED_SOURCES]
+    sources = [os.path.join(os.path.dirname(source), name) for name in aot.COMPILED_SOURCES]
     return bool(index) and (max(os.path.getmtime(p) for p in index)
                             >= max(os.path.getmtime(p) for p in sources))
 
@@ -102,6 +112,8 @@ def main() -> int:
     seconds = warm_up()
     print(f'cfem_ros: numerical core {"loaded" if ready else "compiled"} in {seconds:.1f} s',
           file=sys.stderr)
+    if os.environ.get(aot.FORCE_JIT):
+        return 0   # the JIT is asked for: no extension to build
     # a fresh process: the build must import numba itself, with its own cache
     if subprocess.run([sys.executable, '-m', 'cfem_ros.core.aot']).returncode:
         print('cfem_ros: WARNING: the ahead-of-time build failed (see above); runs use the '
