@@ -18,7 +18,7 @@ $(STAMP): setup.py setup.cfg package.xml
 	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[ros,test]'
+	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
 	$(BIN)/python -m cfem_ros.core.warmup
 	@touch $(STAMP)
 
