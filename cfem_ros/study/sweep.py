@@ -28,7 +28,8 @@ from cfem_ros.core.scenario import parse_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from cfem_ros.study.metrics import Collector, compute, empty
-from cfem_ros.study.spec import apply_values, load_sweep, SweepError, SweepSpec
+from cfem_ros.study.spec import (
+    apply_values, load_sweep, RANDOM_NUMBERS, SweepError, SweepSpec)
 
 #: How the runs are recorded to MCAP: every run, the failed ones, none.
 RECORD = ('none', 'failed', 'all')
@@ -43,13 +44,22 @@ def _missing_study_packages(err: ImportError) -> SweepError:
                       "pip install -e '.[study]' (dask[distributed], pandas, pyarrow)")
 
 
-def column_value(value):
-    """Return a varied value as a table cell: numbers as float, strings, others as JSON."""
-    if isinstance(value, bool) or isinstance(value, str):
-        return value
-    if isinstance(value, (int, float)):
+def column_value(value, numeric: bool):
+    """
+    Return a varied value as a table cell.
+
+    A variable whose values are all numbers has a float column; any other
+    has a text column: strings as they are, other values as JSON.
+    """
+    if numeric:
         return float(value)
-    return json.dumps(value)
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def numeric(variable) -> bool:
+    """Tell whether every value a variable takes is a number."""
+    return variable.kind in RANDOM_NUMBERS or all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in variable.params)
 
 
 def run_one(spec: SweepSpec, k: int, record: Optional[str] = None) -> dict:
@@ -63,7 +73,7 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None) -> dict:
     """
     values = spec.run_values(k)
     row = {'run': k}
-    row.update((path, column_value(v)) for path, v in values.items())
+    row.update((v.path, column_value(values[v.path], numeric(v))) for v in spec.variables)
     row.update(status='ok', message='')
     try:
         document = apply_values(spec.document, spec.variables, values)
