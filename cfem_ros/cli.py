@@ -174,8 +174,10 @@ def cmd_info(recording: str) -> int:
     return EXIT_OK
 
 
-def cmd_plot(recording: str, directory: str) -> int:
-    """Write the figures of a recording under directory; exit 0 or 2."""
+def cmd_plot(recording: str, directory: str, metric: Optional[str] = None) -> int:
+    """Write the figures of a recording (or a sweep folder) under directory; exit 0 or 2."""
+    if os.path.isdir(recording):
+        return _plot_sweep(recording, directory, metric)
     try:
         run = analysis.open_run(recording)
     except CfemError as err:
@@ -183,6 +185,25 @@ def cmd_plot(recording: str, directory: str) -> int:
     try:
         from cfem_ros import plots   # matplotlib only for the commands that draw
         paths = plots.write_figures(run, directory)
+    except OSError as err:
+        return _error(f'{directory}: cannot write ({err.strerror or err})')
+    for path in paths:
+        print(path)
+    return EXIT_OK
+
+
+def _plot_sweep(outdir: str, directory: str, metric: Optional[str]) -> int:
+    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+        return _error(f'{outdir}: no results.parquet; expected a finished sweep folder '
+                      '(cfem-sim sweep ... -o OUTDIR) or a recording')
+    try:
+        _study_imports()
+        from cfem_ros import study_plots
+        paths = study_plots.write_sweep_figures(outdir, directory, metric)
+    except CfemError as err:
+        return _error(str(err))
+    except ValueError as err:
+        return _error(str(err))
     except OSError as err:
         return _error(f'{directory}: cannot write ({err.strerror or err})')
     for path in paths:
@@ -347,9 +368,13 @@ def build_parser() -> argparse.ArgumentParser:
     plot = sub.add_parser('plot', help='draw the figures of a recording',
                           description='Write PNG figures of a recording: per body CG, '
                           'attitude and rates; per joint force and moment; a 3D view.')
-    plot.add_argument('recording', metavar='RUN.mcap', help='recording to read')
+    plot.add_argument('recording', metavar='RUN.mcap|OUTDIR',
+                      help='recording to read, or a sweep folder')
     plot.add_argument('-o', '--output', required=True, metavar='DIR',
                       help='folder to write the PNG files to')
+    plot.add_argument('--metric', metavar='COLUMN',
+                      help='sweep folder: metric to scatter against the varied parameters '
+                      '(default the first clearance minimum)')
     info = sub.add_parser('info', help='summarize a recording',
                           description='Print topics, message counts, duration and events.')
     info.add_argument('recording', metavar='RUN.mcap', help='recording to read')
@@ -372,7 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help='local worker processes (default: the CPU count)')
     where.add_argument('--scheduler', metavar='ADDRESS',
                        help='use a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
-    sweep.add_argument('--runs', type=int, metavar='K', help="random draws, overriding runs")
+    sweep.add_argument('--runs', type=int, metavar='K', help='random draws, overriding runs')
     sweep.add_argument('--record', choices=('none', 'failed', 'all'), default='none',
                        help='write OUTDIR/runs/run_<k>.mcap for these runs (default none)')
     sweep.add_argument('--csv', action='store_true', help='also write results.csv')
@@ -410,7 +435,7 @@ def main(argv=None) -> int:
         if args.command == 'info':
             return cmd_info(args.recording)
         if args.command == 'plot':
-            return cmd_plot(args.recording, args.output)
+            return cmd_plot(args.recording, args.output, args.metric)
         if args.command == 'sweep':
             return cmd_sweep(args.sweep, args.output, workers=args.workers,
                              scheduler=args.scheduler, runs=args.runs, record=args.record,

@@ -229,4 +229,3 @@ def empty(metrics) -> dict:
         else:
             out[name] = NAN
     return out
-

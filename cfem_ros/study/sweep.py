@@ -13,6 +13,7 @@ folder only does the runs that no part holds yet.
 
 from __future__ import annotations
 
+import dataclasses
 import glob
 import json
 import math
@@ -235,6 +236,12 @@ def groups(runs, workers: int) -> list:
     return [runs[i:i + size] for i in range(0, len(runs), size)]
 
 
+def _part_of(spec: SweepSpec, runs) -> SweepSpec:
+    """Return the spec with only these runs' values (what a task needs)."""
+    return dataclasses.replace(spec, values={
+        path: {k: values[k] for k in runs} for path, values in spec.values.items()})
+
+
 class Progress:
     """A progress line on stderr: runs done, failures, runs/s, ETA."""
 
@@ -321,8 +328,9 @@ class Sweep:
         else:
             from dask.distributed import as_completed
             workers = max(1, len(client.scheduler_info().get('workers', {})))
-            shared = client.scatter(self.spec, broadcast=True)
-            futures = [client.submit(run_task, shared, runs, outdir, record, pure=False)
+            # each task carries its own runs' values (no shared data to lose with a worker)
+            futures = [client.submit(run_task, _part_of(self.spec, runs), runs, outdir,
+                                     record, pure=False, retries=2)
                        for runs in groups(todo, workers)]
             try:
                 for future in as_completed(futures):

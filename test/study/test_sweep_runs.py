@@ -92,8 +92,8 @@ def test_metrics_of_a_falling_body_are_analytic(tmp_path):
     assert row['clearance_store_pylon_min'] == pytest.approx(1.0, abs=1e-12)
     assert row['clearance_store_pylon_time'] == 0.0
     z = 0.5 * g * 0.5 ** 2
-    assert [row[f'store_at_0.5_{c}'] for c in 'xyz'] == pytest.approx([0.0, -1.0, z],
-                                                                       abs=1e-9)
+    position = [row[f'store_at_0.5_{c}'] for c in 'xyz']
+    assert position == pytest.approx([0.0, -1.0, z], abs=1e-9)
     assert row['store_at_0.5_yaw_deg'] == pytest.approx(-90.0, abs=1e-9)
     assert row['store_at_0.25_z'] == pytest.approx(0.5 * g * 0.25 ** 2, abs=1e-9)
     assert row['store_at_0.25_x'] == pytest.approx(1.0, abs=1e-12)
