@@ -28,13 +28,15 @@ FIXED_COLUMNS = ('run', 'status', 'message')
 
 
 def metric_columns(table, manifest: dict) -> list:
-    """Return the numeric metric columns of a sweep table (not indices, not causes)."""
+    """Return the metric columns that vary over a sweep table (not indices, not causes)."""
     varied = set(varied_columns(table, manifest))
     out = []
     for name in table.columns:
         if name in FIXED_COLUMNS or name in varied or name.endswith(('_point_a', '_point_b')):
             continue
-        if table[name].dtype.kind == 'f' and np.isfinite(table[name]).any():
+        values = table[name].to_numpy()
+        if table[name].dtype.kind == 'f' and np.isfinite(values).any() \
+                and np.nanmax(values) > np.nanmin(values):   # constants have no spread
             out.append(name)
     return out
 

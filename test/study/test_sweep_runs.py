@@ -141,3 +141,21 @@ def test_summarize_reports_a_truncated_or_foreign_file_as_a_row(tmp_path, capsys
     assert 'cut.mcap' in table['message'][1] and 'notes.mcap' in table['message'][2]
     assert table['clearance_store_pylon_min'][0] > 0
     assert os.path.exists(out)
+
+
+def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path, capsys):
+    path = write_sweep(tmp_path, runs=3, vary={
+        'bodies.store.mass': {'normal': [907.1848, 10.0]},
+        'joints.pivot.release.angle_deg': {'choice': [8, 12, -1]}})
+    out = str(tmp_path / 'sweep')
+    table = Sweep.from_file(path).run(None, out, record='all')
+    assert (table['status'] == 'failed').any() and (table['status'] == 'ok').any()
+    figures = str(tmp_path / 'figures')
+    assert cli.main(['plot', out, '-o', figures]) == 0
+    names = sorted(os.listdir(figures))
+    assert 'hist_clearance_store_pylon_min.png' in names
+    assert 'scatter_clearance_store_pylon_min.png' in names
+    assert 'envelope_store_pylon.png' in names
+    assert 'hist_store_at_0.5_y.png' not in names   # no spread, no histogram
+    assert cli.main(['plot', out, '-o', figures, '--metric', 'nope']) == 2
+    assert "--metric: 'nope' is not a column" in capsys.readouterr().err
