@@ -241,7 +241,7 @@ class SweepSpec:
     @property
     def total(self) -> int:
         """Return the number of runs (rows of the table)."""
-        return len(next(iter(self.values.values()))) if self.values else self.runs
+        return self.runs * math.prod(len(v.params) for v in self.variables if v.kind == 'grid')
 
     def run_values(self, k: int) -> dict:
         """Return run k's value of every varied key path."""
