@@ -159,3 +159,31 @@ def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path
     assert 'hist_store_at_0.5_y.png' not in names   # no spread, no histogram
     assert cli.main(['plot', out, '-o', figures, '--metric', 'nope']) == 2
     assert "--metric: 'nope' is not a column" in capsys.readouterr().err
+
+
+def test_collected_samples_are_the_recordings_numbers_at_any_rate(tmp_path):
+    # at 30 Hz the sample times k / 30 are not whole nanoseconds: the collector must
+    # give them back as a recording does (stamped in ns), and every number alike
+    from cfem_ros.core.engine import Simulator
+    from cfem_ros.core.scenario import parse_scenario
+    from cfem_ros.core.session import Session
+    from cfem_ros.recording.analysis import open_run
+    from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+    from cfem_ros.study.metrics import Collector
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, vary={}, rate_hz=30))
+    model = parse_scenario(sweep.scenario(0))
+    sim = Simulator(model)
+    path = str(tmp_path / 'run.mcap')
+    with Recorder(path, metadata=run_metadata(model, 'scenario.yaml', 30.0, 0)) as recorder:
+        collector = Collector(sim, forward=StateRecorder(recorder, sim))
+        Session(sim, rate_hz=30.0, duration=model.duration, outputs=[collector]).run()
+    mine, theirs = collector.samples(), from_run(open_run(path))
+    assert sorted(mine.bodies) == sorted(theirs.bodies)
+    assert sorted(mine.joints) == sorted(theirs.joints) == ['pivot']
+    for name in mine.bodies:
+        for a, b in zip(mine.bodies[name], theirs.bodies[name]):
+            np.testing.assert_array_equal(a, b)
+    for a, b in zip(mine.joints['pivot'], theirs.joints['pivot']):
+        np.testing.assert_array_equal(a, b)
+    assert mine.releases == theirs.releases and len(mine.releases) == 1
+    assert not np.array_equal(mine.bodies['store'][0], np.arange(19) / 30.0)
