@@ -106,3 +106,13 @@ def test_an_invalid_base_scenario_is_refused_before_any_run(tmp_path, capsys):
     assert cli.main(['sweep', path, '-o', str(tmp_path / 'out')]) == 2
     err = capsys.readouterr().err
     assert 'scenario.yaml: bodies.store.mass: is -1' in err
+
+
+def test_every_shipped_sweep_file_loads():
+    folder = os.path.join(os.path.dirname(__file__), '..', '..', 'config', 'sweeps')
+    paths = sorted(os.listdir(folder))
+    assert paths
+    for name in paths:
+        spec = load_sweep(os.path.join(folder, name))
+        assert spec.total == spec.runs * 2   # the dt grid
+        assert spec.run_document(0)['bodies']['store']['mass'] != 907.1848
