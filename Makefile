@@ -19,7 +19,7 @@ $(STAMP): setup.py setup.cfg package.xml
 	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[ros,test]'
+	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
 	@touch $(STAMP)
 
 # compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run

@@ -51,6 +51,8 @@ setup(
         ],
         # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros
         'bench': ['mujoco'],
+        # separation studies (cfem-sim sweep / summarize, cfem_ros.study)
+        'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14'],
         'test': [
             'pytest',
             'hypothesis',

@@ -15,7 +15,7 @@ from typing import Optional
 
 from cfem_ros.core import rotations, warmup
 from cfem_ros.core.engine import Simulator
-from cfem_ros.core.errors import CfemError
+from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
@@ -204,8 +204,10 @@ def cmd_info(recording: str) -> int:
     return EXIT_OK
 
 
-def cmd_plot(recording: str, directory: str) -> int:
-    """Write the figures of a recording under directory; exit 0 or 2."""
+def cmd_plot(recording: str, directory: str, metric: Optional[str] = None) -> int:
+    """Write the figures of a recording (or a sweep folder) under directory; exit 0 or 2."""
+    if os.path.isdir(recording):
+        return _plot_sweep(recording, directory, metric)
     from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         run = analysis.open_run(recording)
@@ -214,6 +216,25 @@ def cmd_plot(recording: str, directory: str) -> int:
     try:
         from cfem_ros import plots   # matplotlib only for the commands that draw
         paths = plots.write_figures(run, directory)
+    except OSError as err:
+        return _error(f'{directory}: cannot write ({err.strerror or err})')
+    for path in paths:
+        print(path)
+    return EXIT_OK
+
+
+def _plot_sweep(outdir: str, directory: str, metric: Optional[str]) -> int:
+    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+        return _error(f'{outdir}: no results.parquet; expected a finished sweep folder '
+                      '(cfem-sim sweep ... -o OUTDIR) or a recording')
+    try:
+        _study_imports()
+        from cfem_ros import study_plots
+        paths = study_plots.write_sweep_figures(outdir, directory, metric)
+    except CfemError as err:
+        return _error(str(err))
+    except ValueError as err:
+        return _error(str(err))
     except OSError as err:
         return _error(f'{directory}: cannot write ({err.strerror or err})')
     for path in paths:
@@ -254,6 +275,105 @@ def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int
     return EXIT_OK
 
 
+def _dask_client(workers: Optional[int], scheduler: Optional[str]):
+    """Return (client, cluster or None): a LocalCluster of processes, or a scheduler's."""
+    from dask.distributed import Client, LocalCluster
+    if scheduler:
+        client = Client(scheduler, timeout='30s')
+        client.wait_for_workers(1, timeout=60)
+        return client, None
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                           processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def _study_imports():
+    """Import the study layer and Dask, or say how to install them."""
+    try:
+        import dask.distributed  # noqa: F401
+        import pandas  # noqa: F401
+        import pyarrow  # noqa: F401
+    except ImportError as err:
+        raise InputError(f'cfem-sim sweep/summarize need {err.name}, which is not installed; '
+                         "install the study extra: pip install -e '.[study]' "
+                         '(dask[distributed], pandas, pyarrow)') from None
+    from cfem_ros import study
+    return study
+
+
+def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
+              scheduler: Optional[str] = None, runs: Optional[int] = None,
+              record: str = 'none', csv: bool = False) -> int:
+    """Run a sweep on Dask into outdir (resuming it); exit 0, 1 (failed runs) or 2."""
+    if workers is not None and workers < 1:
+        return _error(f'--workers: is {workers}; expected a number of workers >= 1')
+    try:
+        study = _study_imports()
+        sweep = study.Sweep.from_file(sweep_file, runs=runs)
+        outdir = os.path.abspath(outdir)
+        from cfem_ros.study.sweep import prepare, Progress
+        todo = prepare(sweep.spec, outdir, record)
+    except CfemError as err:
+        return _error(str(err))
+    total = sweep.total
+    print(f'{sweep_file}: {total} runs, {total - len(todo)} already in {outdir}',
+          file=sys.stderr)
+    started = time.monotonic()
+    client = cluster = None
+    try:
+        if todo:
+            client, cluster = _dask_client(workers, scheduler)
+        meter = Progress(total, total - len(todo))
+        table = sweep.run(client, outdir, record=record, csv=csv, progress=meter.update)
+    except OSError as err:
+        return _error(f'{scheduler or "local cluster"}: {err}')
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    failed = int((table['status'] == 'failed').sum())
+    wall = time.monotonic() - started
+    print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
+          f'{wall:.3g} s')
+    for _, row in table[table['status'] == 'failed'].head(5).iterrows():
+        print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[int] = None,
+                  scheduler: Optional[str] = None, csv: bool = False) -> int:
+    """Compute a sweep file's metrics over recordings into a table; exit 0, 1 or 2."""
+    try:
+        study = _study_imports()
+        spec = study.load_sweep(metrics_file, runs=1)
+    except CfemError as err:
+        return _error(str(err))
+    client = cluster = None
+    try:
+        if len(recordings) > 1 or scheduler:
+            client, cluster = _dask_client(workers, scheduler)
+        table = study.summarize(recordings, spec.metrics, client)
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    from cfem_ros.study.sweep import write_atomic
+    try:
+        write_atomic(table, output)
+        if csv:
+            write_atomic(table, os.path.splitext(output)[0] + '.csv')
+    except OSError as err:
+        return _error(f'{output}: cannot write ({err.strerror or err})')
+    failed = table[table['status'] == 'failed']
+    for _, row in failed.iterrows():
+        print(f'  {row["message"]}', file=sys.stderr)
+    print(f'{output}: {len(table)} recordings, {len(failed)} unreadable')
+    return EXIT_FAILED if len(failed) else EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser of cfem-sim."""
     parser = argparse.ArgumentParser(
@@ -280,9 +400,13 @@ def build_parser() -> argparse.ArgumentParser:
     plot = sub.add_parser('plot', help='draw the figures of a recording',
                           description='Write PNG figures of a recording: per body CG, '
                           'attitude and rates; per joint force and moment; a 3D view.')
-    plot.add_argument('recording', metavar='RUN.mcap', help='recording to read')
+    plot.add_argument('recording', metavar='RUN.mcap|OUTDIR',
+                      help='recording to read, or a sweep folder')
     plot.add_argument('-o', '--output', required=True, metavar='DIR',
                       help='folder to write the PNG files to')
+    plot.add_argument('--metric', metavar='COLUMN',
+                      help='sweep folder: metric to scatter against the varied parameters '
+                      '(default the first clearance minimum)')
     info = sub.add_parser('info', help='summarize a recording',
                           description='Print topics, message counts, duration and events.')
     info.add_argument('recording', metavar='RUN.mcap', help='recording to read')
@@ -293,6 +417,34 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument('first', metavar='A.mcap', help='reference recording')
     compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
     compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
+    sweep = sub.add_parser('sweep', help='run a separation study (many runs) on Dask',
+                           description='Run the runs of a sweep file (SPEC section 6) on a '
+                           'Dask cluster and write OUTDIR/results.parquet, one row per run. '
+                           'Run again with the same OUTDIR to resume.')
+    sweep.add_argument('sweep', metavar='SWEEP.yaml', help='sweep file')
+    sweep.add_argument('-o', '--output', required=True, metavar='OUTDIR',
+                       help='sweep folder (results.parquet, parts/, runs/)')
+    where = sweep.add_mutually_exclusive_group()
+    where.add_argument('--workers', type=int, metavar='N',
+                       help='local worker processes (default: the CPU count)')
+    where.add_argument('--scheduler', metavar='ADDRESS',
+                       help='use a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
+    sweep.add_argument('--runs', type=int, metavar='K', help='random draws, overriding runs')
+    sweep.add_argument('--record', choices=('none', 'failed', 'all'), default='none',
+                       help='write OUTDIR/runs/run_<k>.mcap for these runs (default none)')
+    sweep.add_argument('--csv', action='store_true', help='also write results.csv')
+    summ = sub.add_parser('summarize', help="a sweep file's metrics over recordings",
+                          description='Compute the metrics of a sweep file over recordings, '
+                          'one row per file, in parallel on Dask.')
+    summ.add_argument('recordings', nargs='+', metavar='RUN.mcap', help='recordings to read')
+    summ.add_argument('--metrics', required=True, metavar='SWEEP.yaml',
+                      help='sweep file whose metrics to compute')
+    summ.add_argument('-o', '--output', required=True, metavar='TABLE.parquet',
+                      help='table to write')
+    where = summ.add_mutually_exclusive_group()
+    where.add_argument('--workers', type=int, metavar='N', help='local worker processes')
+    where.add_argument('--scheduler', metavar='ADDRESS', help='use a running Dask scheduler')
+    summ.add_argument('--csv', action='store_true', help='also write TABLE.csv')
     return parser
 
 
@@ -315,7 +467,14 @@ def main(argv=None) -> int:
         if args.command == 'info':
             return cmd_info(args.recording)
         if args.command == 'plot':
-            return cmd_plot(args.recording, args.output)
+            return cmd_plot(args.recording, args.output, args.metric)
+        if args.command == 'sweep':
+            return cmd_sweep(args.sweep, args.output, workers=args.workers,
+                             scheduler=args.scheduler, runs=args.runs, record=args.record,
+                             csv=args.csv)
+        if args.command == 'summarize':
+            return cmd_summarize(args.recordings, args.metrics, args.output,
+                                 workers=args.workers, scheduler=args.scheduler, csv=args.csv)
         if args.command == 'compare':
             return cmd_compare(args.first, args.second, args.output)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,

@@ -1,0 +1,231 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A run's metrics from its samples: one function for sweeps and for recordings.
+
+``Samples`` holds what a recording holds (per body time, position,
+quaternion; per joint time, force, moment while active; the releases);
+``Collector`` fills one while a ``Session`` runs, ``from_run`` makes one
+from ``recording.analysis.open_run``. Both give the same numbers to the
+bit, so ``compute`` gives the same metrics for a run and its recording.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from cfem_ros.core import rotations
+import numpy as np
+
+NAN = float('nan')
+#: Rows of the collector's buffer handed to the kernel at a time.
+BUFFER_ROWS = 4096
+
+
+@dataclass
+class Samples:
+    """
+    A run's samples: the numbers its recording would hold.
+
+    Attributes
+    ----------
+    bodies : dict of str to (time (n,), position (n, 3), quaternion (n, 4))
+    joints : dict of str to (time (m,), force (m, 3), moment (m, 3))
+        Only the samples where the joint was active.
+    releases : list of (time, joint, cause)
+
+    """
+
+    bodies: dict = field(default_factory=dict)
+    joints: dict = field(default_factory=dict)
+    releases: list = field(default_factory=list)
+
+
+def from_run(run) -> Samples:
+    """Return the samples of a recording read by ``recording.analysis.open_run``."""
+    return Samples(
+        bodies={name: (b.time, b.position, b.quaternion) for name, b in run.bodies.items()},
+        joints={name: (j.time, j.force, j.moment) for name, j in run.joints.items()},
+        releases=list(run.releases()))
+
+
+def sample_times(times) -> np.ndarray:
+    """Return sample times as a recording gives them back (whole ns, then s)."""
+    return np.rint(np.asarray(times) * 1e9).astype(np.int64) / 1e9
+
+
+class Collector:
+    """
+    A ``Session`` output that keeps every sample's bodies and active joints' loads.
+
+    It offers ``sample_rows()``/``took_rows(times)``, so ``Session.run``
+    lets the kernel write the rows; with ``forward`` (a ``StateRecorder``)
+    the rows are the recorder's own and the samples are recorded as well.
+
+    Parameters
+    ----------
+    sim : Simulator
+    forward : StateRecorder, optional
+
+    """
+
+    def __init__(self, sim, forward=None):
+        self.sim = sim
+        self.forward = forward
+        self._blocks = []       # (active joints, times, rows)
+        self._buffers = {}
+        self._rows = None
+        self._active = None
+
+    def sample_rows(self) -> np.ndarray:
+        """Return rows for the next samples (``Simulator.outputs`` layout)."""
+        self._active = self.sim.active_joints
+        if self.forward is not None:
+            self._rows = self.forward.sample_rows()
+            return self._rows
+        rows = self._buffers.get(self._active)
+        if rows is None:
+            rows = self._buffers[self._active] = np.empty(
+                (BUFFER_ROWS, self.sim._outputs_size()))
+        self._rows = rows
+        return rows
+
+    def took_rows(self, times: np.ndarray):
+        """Keep the samples at these times, in the first rows handed out."""
+        k = len(times)
+        self._blocks.append((self._active, sample_times(times), self._rows[:k].copy()))
+        if self.forward is not None:
+            self.forward.took_rows(times)
+
+    def sample(self):
+        """Keep one sample of the current state."""
+        row = self.sim.outputs()
+        self._blocks.append((self.sim.active_joints, sample_times([self.sim.t]), row[None]))
+        if self.forward is not None:
+            self.forward.sample()
+
+    def events(self):
+        """Pass the events on to the recorder, if any."""
+        if self.forward is not None:
+            self.forward.events()
+
+    def received(self, item, t: float):
+        """Pass an input on to the recorder, if any."""
+        if self.forward is not None:
+            self.forward.received(item, t)
+
+    def samples(self) -> Samples:
+        """Return the samples kept, with the simulator's releases."""
+        model = self.sim.model
+        n = len(model.bodies)
+        times = (np.concatenate([b[1] for b in self._blocks]) if self._blocks
+                 else np.empty(0))
+        rows = [b[2][:, :13 * n] for b in self._blocks]
+        bodies_rows = np.concatenate(rows) if rows else np.empty((0, 13 * n))
+        bodies = {b.name: (times, bodies_rows[:, 13 * i:13 * i + 3],
+                           bodies_rows[:, 13 * i + 3:13 * i + 7])
+                  for i, b in enumerate(model.bodies)}
+        joints = {}
+        for j, joint in enumerate(model.joints):
+            parts = [(t, rows[:, 13 * n + 6 * active.index(j):13 * n + 6 * active.index(j) + 6])
+                     for active, t, rows in self._blocks if j in active]
+            if parts:
+                loads = np.concatenate([p[1] for p in parts])
+                joints[joint.name] = (np.concatenate([p[0] for p in parts]),
+                                      loads[:, :3], loads[:, 3:])
+        releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
+                          for e in self.sim.events if e.get('event') == 'release')
+        return Samples(bodies=bodies, joints=joints, releases=releases)
+
+
+def _points_world(position, quaternion, points):
+    """World positions of body-axis points, shape (samples, points, 3)."""
+    rot = rotations.matrices(quaternion)
+    return position[:, None, :] + np.einsum('nij,pj->npi', rot, points)
+
+
+def compute(samples: Samples, metrics) -> dict:
+    """
+    Return the metrics of one run (``spec.Metrics``) as a dict of column -> value.
+
+    Clearance: the least distance over samples and point pairs, its time and
+    the two points' indices (the first such sample if several tie). Releases:
+    each joint's release time (NaN if none) and cause ('' if none). Peaks:
+    the largest |force| and |moment| of each joint over the samples while it
+    was active (NaN if never sampled). ``at``: the body's CG position and
+    Z-Y-X roll, pitch, yaw at the sample at that time (NaN if the run has no
+    sample there), relative to the ``relative_to`` body's frame if given.
+
+    Raises
+    ------
+    KeyError
+        If a body the metrics need is not in the samples.
+
+    """
+    out = {}
+    for c in metrics.clearance:
+        for name in (c.body_a, c.body_b):
+            if name not in samples.bodies:
+                raise KeyError(f'no body {name!r} in the run')
+        t, pos_a, quat_a = samples.bodies[c.body_a]
+        _, pos_b, quat_b = samples.bodies[c.body_b]
+        if len(t):
+            wa = _points_world(pos_a, quat_a, c.points_a)
+            wb = _points_world(pos_b, quat_b, c.points_b)
+            dist = np.sqrt(((wa[:, :, None, :] - wb[:, None, :, :]) ** 2).sum(axis=-1))
+            k, ia, ib = np.unravel_index(int(np.argmin(dist)), dist.shape)
+            values = (float(dist[k, ia, ib]), float(t[k]), int(ia), int(ib))
+        else:
+            values = (NAN, NAN, -1, -1)
+        for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
+            out[f'{c.prefix}_{suffix}'] = value
+    released = {}
+    for t, joint, cause in samples.releases:
+        released.setdefault(joint, (float(t), str(cause)))
+    for joint in metrics.joints:
+        t, cause = released.get(joint, (NAN, ''))
+        out[f'release_{joint}_time'] = t
+        out[f'release_{joint}_cause'] = cause
+    for joint in metrics.joints:
+        track = samples.joints.get(joint)
+        if track is None or not len(track[0]):
+            force = moment = NAN
+        else:
+            force = float(np.sqrt((track[1] ** 2).sum(axis=1)).max())
+            moment = float(np.sqrt((track[2] ** 2).sum(axis=1)).max())
+        out[f'peak_force_{joint}'] = force
+        out[f'peak_moment_{joint}'] = moment
+    for entry in metrics.at:
+        names = [entry.prefix + s for s in ('x', 'y', 'z', 'roll_deg', 'pitch_deg',
+                                            'yaw_deg')]
+        values = [NAN] * 6
+        for name in (entry.body, entry.relative_to):
+            if name is not None and name not in samples.bodies:
+                raise KeyError(f'no body {name!r} in the run')
+        t, pos, quat = samples.bodies[entry.body]
+        want = int(round(entry.time * 1e9))
+        k = int(np.searchsorted(t, entry.time - 0.5e-9))
+        if k < len(t) and int(round(t[k] * 1e9)) == want:
+            p, q = pos[k], quat[k]
+            if entry.relative_to is not None:
+                _, pos_r, quat_r = samples.bodies[entry.relative_to]
+                rot = rotations.matrices(quat_r[k:k + 1])[0]
+                p = rot.T @ (p - pos_r[k])
+                q = rotations.multiply(rotations.conjugate(quat_r[k:k + 1]), q[None])[0]
+            rpy = rotations.to_rpy_deg(q)
+            values = [float(p[0]), float(p[1]), float(p[2])] + [float(a) for a in rpy]
+        out.update(zip(names, values))
+    return out
+
+
+def empty(metrics) -> dict:
+    """Return the metrics of a run that produced nothing (NaN, -1 indices, '' causes)."""
+    out = {}
+    for name in metrics.columns():
+        if name.endswith('_cause'):
+            out[name] = ''
+        elif name.endswith(('_point_a', '_point_b')):
+            out[name] = -1
+        else:
+            out[name] = NAN
+    return out

@@ -1,0 +1,505 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Sweep files (SPEC section 6): YAML in, a checked ``SweepSpec`` out, with its draws.
+
+Everything is checked before any run starts, with a ``SweepError`` naming
+the file, the key path, the value and what would be right. The random
+values are drawn here, once, from the seed: each varied key path has its
+own generator (``numpy.random.SeedSequence(seed).spawn``), so the table
+never depends on how the runs are shared out.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+import hashlib
+import itertools
+import json
+import math
+import os
+import re
+from typing import Any, Optional
+
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.scenario import _UniqueKeyLoader, parse_scenario
+import numpy as np
+from scipy.stats import truncnorm
+import yaml
+
+TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'metrics')
+METRIC_KEYS = ('clearance', 'at')
+CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b')
+AT_KEYS = ('time', 'body', 'relative_to')
+#: Distribution name -> what its list holds.
+DISTRIBUTIONS = {
+    'uniform': '[low, high] with low < high',
+    'normal': '[mean, standard deviation >= 0]',
+    'truncnormal': '[mean, standard deviation > 0, low, high] with low < high',
+    'choice': 'a non-empty list of values, each drawn with equal probability',
+    'grid': 'a non-empty list of values, each run with every draw',
+}
+RANDOM_NUMBERS = ('uniform', 'normal', 'truncnormal')
+#: A sample time within this many samples of the grid is on it.
+ON_GRID = 1e-9
+
+_TOKEN = re.compile(r'\.?([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]')
+
+
+class SweepError(ScenarioError):
+    """A sweep file that cannot be run (file, key path, problem, expected)."""
+
+
+def parse_key_path(text: str) -> tuple:
+    """
+    Split a key path into mapping keys (str) and list indices (int).
+
+    ``wrenches[1].force[2]`` -> ('wrenches', 1, 'force', 2). Raises
+    ValueError if the text is not a key path.
+    """
+    if not isinstance(text, str) or not text or text[0] in '.[':
+        raise ValueError('not a key path')
+    tokens, at = [], 0
+    while at < len(text):
+        match = _TOKEN.match(text, at)
+        if match is None or (at > 0 and match.group(1) and text[at] != '.') \
+                or (at == 0 and text[0] == '.'):
+            raise ValueError('not a key path')
+        tokens.append(match.group(1) if match.group(1) else int(match.group(2)))
+        at = match.end()
+    return tuple(tokens)
+
+
+def format_key_path(tokens) -> str:
+    """Return the text of a key path (the inverse of ``parse_key_path``)."""
+    out = ''
+    for token in tokens:
+        out += f'[{token}]' if isinstance(token, int) else (f'.{token}' if out else token)
+    return out
+
+
+def resolve(document, tokens) -> tuple:
+    """
+    Find where a key path points in a document.
+
+    Returns (container, last token, existing value or None, exists). The
+    path must lead through existing mappings and lists; its last key may
+    be new in an existing mapping. Raises KeyError with what went wrong.
+    """
+    node = document
+    for depth, token in enumerate(tokens[:-1]):
+        node = _step(node, token, tokens[:depth + 1])
+    last = tokens[-1]
+    if isinstance(last, int):
+        if not isinstance(node, list):
+            raise KeyError(f'{format_key_path(tokens[:-1]) or "the document"} is '
+                           f'{_kind(node)}, not a list')
+        if last >= len(node):
+            raise KeyError(f'index {last} is past the end of a list of {len(node)}')
+        return node, last, node[last], True
+    if not isinstance(node, dict):
+        raise KeyError(f'{format_key_path(tokens[:-1]) or "the document"} is '
+                       f'{_kind(node)}, not a mapping')
+    return node, last, node.get(last), last in node
+
+
+def _step(node, token, path):
+    if isinstance(token, int):
+        if not isinstance(node, list):
+            raise KeyError(f'{format_key_path(path[:-1])} is {_kind(node)}, not a list')
+        if token >= len(node):
+            raise KeyError(f'{format_key_path(path)}: index {token} is past the end of a '
+                           f'list of {len(node)}')
+        return node[token]
+    if not isinstance(node, dict):
+        raise KeyError(f'{format_key_path(path[:-1]) or "the document"} is {_kind(node)}, '
+                       'not a mapping')
+    if token not in node:
+        raise KeyError(f'{format_key_path(path)} does not exist in the scenario')
+    return node[token]
+
+
+def _kind(value) -> str:
+    if value is None:
+        return 'empty'
+    return {dict: 'a mapping', list: 'a list', str: 'a string'}.get(type(value), 'a number')
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + '...'
+
+
+def _plain(value):
+    """Return a value as plain Python (floats, ints, str, lists), as YAML would give it."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+@dataclass
+class Variable:
+    """One varied key path: its distribution and its parameters."""
+
+    path: str
+    tokens: tuple
+    kind: str
+    params: list
+
+
+@dataclass
+class Clearance:
+    """Minimum distance between points carried by two bodies (body axes, m)."""
+
+    body_a: str
+    body_b: str
+    points_a: np.ndarray
+    points_b: np.ndarray
+
+    @property
+    def prefix(self) -> str:
+        """Return the column prefix, ``clearance_<a>_<b>``."""
+        return f'clearance_{self.body_a}_{self.body_b}'
+
+
+@dataclass
+class At:
+    """A body's state at a sample time, optionally in another body's frame."""
+
+    time: float
+    body: str
+    relative_to: Optional[str] = None
+
+    @property
+    def prefix(self) -> str:
+        """Return the column prefix, ``<body>_at_<time>_``."""
+        return f'{self.body}_at_{self.time:g}_'
+
+
+@dataclass
+class Metrics:
+    """What is measured on every run: clearances, states at times, joints' loads."""
+
+    clearance: list = field(default_factory=list)
+    at: list = field(default_factory=list)
+    joints: list = field(default_factory=list)
+
+    def columns(self) -> list:
+        """Return the metric column names, in table order."""
+        names = []
+        for c in self.clearance:
+            names += [f'{c.prefix}_min', f'{c.prefix}_time', f'{c.prefix}_point_a',
+                      f'{c.prefix}_point_b']
+        for joint in self.joints:
+            names += [f'release_{joint}_time', f'release_{joint}_cause']
+        for joint in self.joints:
+            names += [f'peak_force_{joint}', f'peak_moment_{joint}']
+        for entry in self.at:
+            names += [entry.prefix + s for s in ('x', 'y', 'z', 'roll_deg', 'pitch_deg',
+                                                 'yaw_deg')]
+        return names
+
+
+@dataclass
+class SweepSpec:
+    """
+    A checked sweep: the base scenario, what varies, what is measured, the draws.
+
+    Attributes
+    ----------
+    path : str
+        The sweep file.
+    scenario : str
+        The base scenario file.
+    document : dict
+        The base scenario as loaded from YAML.
+    runs : int
+        Random draws; the table has ``runs`` times the grids' sizes rows.
+    seed : int
+    rate_hz : float
+        Sample rate the metrics are computed at.
+    variables : list of Variable
+    metrics : Metrics
+    values : dict of str to list
+        Each varied key path's value for every run (run k is index k).
+
+    """
+
+    path: str
+    scenario: str
+    document: dict
+    runs: int
+    seed: int
+    rate_hz: float
+    variables: list
+    metrics: Metrics
+    values: dict
+
+    @property
+    def total(self) -> int:
+        """Return the number of runs (rows of the table)."""
+        return self.runs * math.prod(len(v.params) for v in self.variables if v.kind == 'grid')
+
+    def run_values(self, k: int) -> dict:
+        """Return run k's value of every varied key path."""
+        return {path: values[k] for path, values in self.values.items()}
+
+    def run_document(self, k: int) -> dict:
+        """Return run k's scenario document: the base with run k's values set."""
+        return apply_values(self.document, self.variables, self.run_values(k))
+
+    def digest(self) -> str:
+        """Return a hash of everything that decides the table (SHA-256, hex)."""
+        return hashlib.sha256(self.describe().encode()).hexdigest()
+
+    def describe(self) -> str:
+        """Return the resolved sweep as JSON text (what the hash is of)."""
+        return json.dumps({
+            'scenario': os.path.abspath(self.scenario), 'document': self.document,
+            'runs': self.runs, 'seed': self.seed, 'rate_hz': repr(self.rate_hz),
+            'vary': [[v.path, v.kind, v.params] for v in self.variables],
+            'metrics': {
+                'clearance': [[c.body_a, c.body_b, c.points_a.tolist(), c.points_b.tolist()]
+                              for c in self.metrics.clearance],
+                'at': [[a.time, a.body, a.relative_to] for a in self.metrics.at],
+                'joints': self.metrics.joints},
+            'total': self.total}, sort_keys=True, default=repr)
+
+
+def apply_values(document: dict, variables, values: dict) -> dict:
+    """Return a copy of document with each variable's key path set to its value."""
+    out = copy.deepcopy(document)
+    for variable in variables:
+        container, last, _, _ = resolve(out, variable.tokens)
+        container[last] = copy.deepcopy(values[variable.path])
+    return out
+
+
+def _load_yaml(path: str, what: str):
+    try:
+        with open(path, encoding='utf-8') as stream:
+            text = stream.read()
+    except OSError as err:
+        raise SweepError(path, '', f'cannot read the file ({err.strerror})',
+                         f'a readable {what}') from err
+    try:
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (safe loader)
+    except yaml.YAMLError as err:
+        mark = getattr(err, 'problem_mark', None)
+        where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
+        problem = getattr(err, 'problem', None) or str(err)
+        raise SweepError(path, '', f'{where}not valid YAML: {problem}',
+                         f'a YAML mapping ({what})') from err
+
+
+def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
+    """
+    Read and check a sweep file, load its base scenario and draw the values.
+
+    Parameters
+    ----------
+    path : str
+        The sweep file (SPEC section 6).
+    runs : int, optional
+        Overrides the file's ``runs``.
+
+    Raises
+    ------
+    SweepError
+        For anything wrong in the sweep file; a ``ScenarioError`` (its
+        parent) if the base scenario itself is not valid.
+
+    """
+    document = _load_yaml(path, 'sweep file as in SPEC section 6')
+
+    def fail(key, problem, expected=''):
+        raise SweepError(path, key, problem, expected)
+
+    if not isinstance(document, dict):
+        fail('', f'is {_show(document)}', 'a mapping with scenario, runs, seed, vary, metrics')
+    for key in document:
+        if key not in TOP_KEYS:
+            fail(str(key), 'unknown key', 'one of ' + ', '.join(TOP_KEYS))
+    if 'scenario' not in document:
+        fail('scenario', 'missing', 'the base scenario file, relative to the sweep file')
+    if not isinstance(document['scenario'], str):
+        fail('scenario', f'is {_show(document["scenario"])}', 'a file name')
+    scenario = os.path.join(os.path.dirname(os.path.abspath(path)), document['scenario'])
+    base = _load_yaml(scenario, 'scenario file (SPEC section 1)')
+    parse_scenario(base, source=scenario)   # the base scenario must be valid
+    count = document.get('runs', 1) if runs is None else runs
+    key = 'runs' if runs is None else '--runs'
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        fail(key, f'is {_show(count)}', 'a whole number of runs >= 1')
+    seed = document.get('seed', 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        fail('seed', f'is {_show(seed)}', 'a whole number >= 0')
+    rate = document.get('rate_hz', 100.0)
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) \
+            or not math.isfinite(rate) or rate <= 0:
+        fail('rate_hz', f'is {_show(rate)}', 'a sample rate > 0 Hz')
+    rate = float(rate)
+    variables = _parse_vary(fail, document.get('vary') or {}, base)
+    metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate)
+    values = draw(variables, count, seed)
+    return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
+                     rate_hz=rate, variables=variables, metrics=metrics, values=values)
+
+
+def _number_list(fail, key, value, length=None):
+    if not isinstance(value, list) or (length is not None and len(value) != length):
+        fail(key, f'is {_show(value)}', f'a list of {length} numbers' if length
+             else 'a list of numbers')
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            fail(key, f'holds {_show(v)}', 'finite numbers')
+    return [float(v) for v in value]
+
+
+def _parse_vary(fail, vary, base) -> list:
+    if not isinstance(vary, dict):
+        fail('vary', f'is {_show(vary)}', 'a mapping of key path -> distribution')
+    variables = []
+    for path, spec in vary.items():
+        key = f'vary.{path}'
+        try:
+            tokens = parse_key_path(path)
+        except ValueError:
+            fail(key, f'{_show(path)} is not a key path',
+                 'keys joined by dots, list indices in brackets: wrenches[1].force[2]')
+        try:
+            _, _, existing, exists = resolve(base, tokens)
+        except KeyError as err:
+            fail(key, f'{err.args[0]}', 'a key path to a value of the base scenario '
+                 '(or a new key under one of its mappings)')
+        if not isinstance(spec, dict) or len(spec) != 1:
+            fail(key, f'is {_show(spec)}', 'one distribution: ' + ', '.join(
+                f'{{{name}: {what}}}' for name, what in DISTRIBUTIONS.items()))
+        kind, params = next(iter(spec.items()))
+        if kind not in DISTRIBUTIONS:
+            fail(f'{key}.{kind}', 'unknown distribution', 'one of ' + ', '.join(DISTRIBUTIONS))
+        where = f'{key}.{kind}'
+        if kind in RANDOM_NUMBERS:
+            if exists and (isinstance(existing, bool)
+                           or not isinstance(existing, (int, float))):
+                fail(key, f'draws numbers but the base scenario has {_show(existing)} there',
+                     'a key path to a number (choice or grid for other values)')
+            length = {'uniform': 2, 'normal': 2, 'truncnormal': 4}[kind]
+            params = _number_list(fail, where, params, length)
+            if kind == 'uniform' and not params[0] < params[1]:
+                fail(where, f'is {_show(params)}', DISTRIBUTIONS[kind])
+            if kind == 'normal' and params[1] < 0:
+                fail(where, f'is {_show(params)}', DISTRIBUTIONS[kind])
+            if kind == 'truncnormal' and not (params[1] > 0 and params[2] < params[3]):
+                fail(where, f'is {_show(params)}', DISTRIBUTIONS[kind])
+        elif not isinstance(params, list) or not params:
+            fail(where, f'is {_show(params)}', DISTRIBUTIONS[kind])
+        variables.append(Variable(path=path, tokens=tokens, kind=kind, params=params))
+    return variables
+
+
+def _points(fail, key, value):
+    if value is None:
+        return np.zeros((1, 3))
+    if not isinstance(value, list) or not value:
+        fail(key, f'is {_show(value)}', 'a list of points [x, y, z] in body axes, m')
+    return np.array([_number_list(fail, f'{key}[{i}]', p, 3) for i, p in enumerate(value)])
+
+
+def _parse_metrics(fail, metrics, base, rate) -> Metrics:
+    if not isinstance(metrics, dict):
+        fail('metrics', f'is {_show(metrics)}', 'a mapping with clearance and at')
+    for name in metrics:
+        if name not in METRIC_KEYS:
+            fail(f'metrics.{name}', 'unknown key', 'one of ' + ', '.join(METRIC_KEYS))
+    bodies = list((base.get('bodies') or {}).keys())
+    joints = list((base.get('joints') or {}).keys())
+
+    def body(key, name):
+        if name not in bodies:
+            fail(key, f'{_show(name)} is not a body of the scenario', 'one of ' +
+                 ', '.join(bodies))
+        return name
+
+    out = Metrics(joints=joints)
+    clearance = metrics.get('clearance') or []
+    if not isinstance(clearance, list):
+        fail('metrics.clearance', f'is {_show(clearance)}', 'a list of body pairs')
+    seen = set()
+    for i, entry in enumerate(clearance):
+        key = f'metrics.clearance[{i}]'
+        if not isinstance(entry, dict):
+            fail(key, f'is {_show(entry)}', 'a mapping with bodies, points_a, points_b')
+        for name in entry:
+            if name not in CLEARANCE_KEYS:
+                fail(f'{key}.{name}', 'unknown key', 'one of ' + ', '.join(CLEARANCE_KEYS))
+        pair = entry.get('bodies')
+        if not isinstance(pair, list) or len(pair) != 2 or pair[0] == pair[1]:
+            fail(f'{key}.bodies', f'is {_show(pair)}', 'two different body names')
+        a, b = body(f'{key}.bodies[0]', pair[0]), body(f'{key}.bodies[1]', pair[1])
+        if (a, b) in seen:
+            fail(f'{key}.bodies', f'{_show(pair)} is given twice', 'each pair once')
+        seen.add((a, b))
+        out.clearance.append(Clearance(a, b, _points(fail, f'{key}.points_a',
+                                                     entry.get('points_a')),
+                                       _points(fail, f'{key}.points_b', entry.get('points_b'))))
+    at = metrics.get('at') or []
+    if not isinstance(at, list):
+        fail('metrics.at', f'is {_show(at)}', 'a list of {time, body, relative_to}')
+    for i, entry in enumerate(at):
+        key = f'metrics.at[{i}]'
+        if not isinstance(entry, dict):
+            fail(key, f'is {_show(entry)}', 'a mapping {time, body, relative_to}')
+        for name in entry:
+            if name not in AT_KEYS:
+                fail(f'{key}.{name}', 'unknown key', 'one of ' + ', '.join(AT_KEYS))
+        t = entry.get('time')
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) \
+                or t < 0:
+            fail(f'{key}.time', f'is {_show(t)}', 'a time >= 0 s')
+        if abs(t * rate - round(t * rate)) > ON_GRID * max(1.0, t * rate):
+            fail(f'{key}.time', f'is {t!r} s, between two samples at rate_hz {rate:g}',
+                 f'a multiple of 1/rate_hz = {1 / rate:g} s')
+        relative = entry.get('relative_to')
+        out.at.append(At(float(t), body(f'{key}.body', entry.get('body')),
+                         None if relative is None else body(f'{key}.relative_to', relative)))
+    return out
+
+
+def draw(variables, runs: int, seed: int) -> dict:
+    """
+    Draw every variable's values: ``runs`` random draws times every grid point.
+
+    Run k = g * runs + i is draw i at grid point g (grids in file order, the
+    last varying fastest), so every grid point sees the same random draws.
+    """
+    sequences = np.random.SeedSequence(seed).spawn(len(variables))
+    drawn = {}
+    for variable, sequence in zip(variables, sequences):
+        rng = np.random.default_rng(sequence)
+        p = variable.params
+        if variable.kind == 'uniform':
+            values = rng.uniform(p[0], p[1], size=runs)
+        elif variable.kind == 'normal':
+            values = rng.normal(p[0], p[1], size=runs)
+        elif variable.kind == 'truncnormal':
+            a, b = (p[2] - p[0]) / p[1], (p[3] - p[0]) / p[1]
+            values = truncnorm.rvs(a, b, loc=p[0], scale=p[1], size=runs, random_state=rng)
+        elif variable.kind == 'choice':
+            values = [p[i] for i in rng.integers(0, len(p), size=runs)]
+        else:
+            continue
+        drawn[variable.path] = [_plain(v) for v in values]
+    grids = [v for v in variables if v.kind == 'grid']
+    points = list(itertools.product(*[v.params for v in grids])) or [()]
+    values = {}
+    for variable in variables:
+        if variable.kind == 'grid':
+            g = grids.index(variable)
+            values[variable.path] = [_plain(point[g]) for point in points for _ in range(runs)]
+        else:
+            values[variable.path] = drawn[variable.path] * len(points)
+    return values

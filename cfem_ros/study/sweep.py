@@ -1,0 +1,343 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Sweeps on Dask: many runs per task, each task's rows one Parquet part, resumable.
+
+A sweep folder holds ``sweep.json`` (the resolved sweep and its hash: a
+folder holds one sweep), ``parts/part_<first>_<last>.parquet`` (each
+written by one task, atomically: a temporary file then ``os.replace``),
+optionally ``runs/run_<k>.mcap``, and at the end ``results.parquet``
+(every part, sorted by run). Running the same sweep again in the same
+folder only does the runs that no part holds yet.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from typing import Callable, Optional
+import uuid
+
+from cfem_ros.core.engine import Simulator
+from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.session import Session
+from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.study.metrics import Collector, compute, empty
+from cfem_ros.study.spec import (
+    apply_values, load_sweep, RANDOM_NUMBERS, SweepError, SweepSpec)
+
+#: How the runs are recorded to MCAP: every run, the failed ones, none.
+RECORD = ('none', 'failed', 'all')
+#: Tasks per worker (a task is many runs: total / (TASKS_PER_WORKER x workers)).
+TASKS_PER_WORKER = 8
+MANIFEST = 'sweep.json'
+RESULTS = 'results.parquet'
+
+
+def _missing_study_packages(err: ImportError) -> SweepError:
+    return SweepError('cfem-sim sweep', '', f'needs {err.name or "dask"}, not installed',
+                      "pip install -e '.[study]' (dask[distributed], pandas, pyarrow)")
+
+
+def column_value(value, numeric: bool):
+    """
+    Return a varied value as a table cell.
+
+    A variable whose values are all numbers has a float column; any other
+    has a text column: strings as they are, other values as JSON.
+    """
+    if numeric:
+        return float(value)
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def numeric(variable) -> bool:
+    """Tell whether every value a variable takes is a number."""
+    return variable.kind in RANDOM_NUMBERS or all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in variable.params)
+
+
+def run_one(spec: SweepSpec, k: int, record: Optional[str] = None) -> dict:
+    """
+    Run run k of a sweep and return its table row (a dict, columns in order).
+
+    A run whose values make an invalid scenario, or that fails, is a row
+    with ``status`` 'failed' and the reason in ``message``; its metrics are
+    those of the samples it did take. record: the path of an MCAP
+    recording to write of it.
+    """
+    values = spec.run_values(k)
+    row = {'run': k}
+    row.update((v.path, column_value(values[v.path], numeric(v))) for v in spec.variables)
+    row.update(status='ok', message='')
+    try:
+        document = apply_values(spec.document, spec.variables, values)
+        model = parse_scenario(document, source=f'{spec.scenario} (run {k})')
+        sim = Simulator(model)
+    except Exception as err:   # noqa: B902 (any refusal is this run's failure)
+        row.update(status='failed', message=str(err))
+        row.update(empty(spec.metrics))
+        return row
+    try:
+        if record is None:
+            collector = Collector(sim)
+            _session_run(sim, model, spec, collector)
+        else:
+            meta = run_metadata(model, spec.scenario, spec.rate_hz, 0,
+                                sweep=os.path.abspath(spec.path), run=k,
+                                values=json.dumps(values))
+            with Recorder(record, overwrite=True, metadata=meta) as recorder:
+                collector = Collector(sim, forward=StateRecorder(recorder, sim))
+                _session_run(sim, model, spec, collector)
+        row.update(compute(collector.samples(), spec.metrics))
+    except Exception as err:   # noqa: B902
+        row.update(status='failed', message=f'{type(err).__name__}: {err}')
+        row.update(empty(spec.metrics))
+        return row
+    if sim.status != 'running':
+        row.update(status='failed', message=f'the run failed {sim.message}')
+    return row
+
+
+def _session_run(sim, model, spec, collector):
+    Session(sim, rate_hz=spec.rate_hz, duration=model.duration, outputs=[collector]).run()
+
+
+def run_rows(spec: SweepSpec, runs, outdir: Optional[str] = None,
+             record: str = 'none') -> list:
+    """Return the rows of the given runs, recording them under outdir/runs as asked."""
+    rows = []
+    for k in runs:
+        path = None
+        if record == 'all':
+            path = os.path.join(outdir, 'runs', f'run_{k}.mcap')
+        row = run_one(spec, k, path)
+        if record == 'failed' and row['status'] == 'failed':
+            run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'))
+        rows.append(row)
+    return rows
+
+
+def columns(spec: SweepSpec) -> list:
+    """Return the table's columns in order."""
+    return (['run'] + [v.path for v in spec.variables] + ['status', 'message']
+            + spec.metrics.columns())
+
+
+def frame(rows, names):
+    """Return rows as a pandas DataFrame with these columns, in order."""
+    import pandas as pd
+    return pd.DataFrame.from_records(rows, columns=names)
+
+
+def write_atomic(table, path: str):
+    """Write a DataFrame to Parquet (or CSV for .csv) through a temporary file."""
+    tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
+    try:
+        if path.endswith('.csv'):
+            table.to_csv(tmp, index=False)
+        else:
+            table.to_parquet(tmp, index=False, engine='pyarrow')
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none') -> tuple:
+    """
+    Run a group of runs and write their rows as one Parquet part (a Dask task).
+
+    Returns (runs done, runs failed).
+    """
+    rows = run_rows(spec, runs, outdir, record)
+    part = os.path.join(outdir, 'parts', f'part_{runs[0]:07d}_{runs[-1]:07d}.parquet')
+    write_atomic(frame(rows, columns(spec)), part)
+    return len(rows), sum(r['status'] == 'failed' for r in rows)
+
+
+def _done_runs(outdir: str) -> set:
+    """Return the runs the finished parts hold (removing leftovers of killed tasks)."""
+    import pyarrow.parquet as pq
+    done = set()
+    for path in glob.glob(os.path.join(outdir, 'parts', '*.tmp-*')):
+        os.remove(path)
+    for path in sorted(glob.glob(os.path.join(outdir, 'parts', '*.parquet'))):
+        done.update(pq.read_table(path, columns=['run']).column('run').to_pylist())
+    return done
+
+
+def prepare(spec: SweepSpec, outdir: str, record: str = 'none') -> list:
+    """
+    Make or reopen a sweep folder; return the runs still to do.
+
+    Raises
+    ------
+    SweepError
+        If the folder holds another sweep, or cannot be written.
+
+    """
+    manifest = os.path.join(outdir, MANIFEST)
+    digest = spec.digest()
+    try:
+        os.makedirs(os.path.join(outdir, 'parts'), exist_ok=True)
+        if record != 'none':
+            os.makedirs(os.path.join(outdir, 'runs'), exist_ok=True)
+        if os.path.exists(manifest):
+            with open(manifest, encoding='utf-8') as stream:
+                held = json.load(stream)
+            if held.get('digest') != digest:
+                raise SweepError(outdir, '', f'holds another sweep ({held.get("sweep")}, '
+                                 f'{held.get("total")} runs, hash {held.get("digest", "")[:12]})',
+                                 'a new folder, or the same sweep file, seed and runs '
+                                 'to resume it')
+        else:
+            tmp = manifest + '.tmp'
+            with open(tmp, 'w', encoding='utf-8') as stream:
+                json.dump({'digest': digest, 'sweep': os.path.abspath(spec.path),
+                           'total': spec.total, 'resolved': json.loads(spec.describe())},
+                          stream, indent=1)
+            os.replace(tmp, manifest)
+        done = _done_runs(outdir)
+    except OSError as err:
+        raise SweepError(outdir, '', f'cannot write ({err.strerror})',
+                         'a folder this user can write') from err
+    return [k for k in range(spec.total) if k not in done]
+
+
+def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
+    """Gather the parts into ``results.parquet`` (sorted by run) and return the table."""
+    import pandas as pd
+    paths = sorted(glob.glob(os.path.join(outdir, 'parts', '*.parquet')))
+    table = pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True) if paths \
+        else frame([], columns(spec))
+    table = table.drop_duplicates('run').sort_values('run', kind='stable')
+    table = table.reset_index(drop=True)[columns(spec)]
+    missing = sorted(set(range(spec.total)) - set(table['run'].tolist()))
+    if missing:
+        raise RuntimeError(f'{outdir}: runs {missing[:10]} are missing from the parts')
+    write_atomic(table, os.path.join(outdir, RESULTS))
+    if csv:
+        write_atomic(table, os.path.join(outdir, 'results.csv'))
+    return table
+
+
+def groups(runs, workers: int) -> list:
+    """Split runs into about TASKS_PER_WORKER tasks per worker, in order."""
+    if not runs:
+        return []
+    size = max(1, math.ceil(len(runs) / (TASKS_PER_WORKER * max(1, workers))))
+    return [runs[i:i + size] for i in range(0, len(runs), size)]
+
+
+def _part_of(spec: SweepSpec, runs) -> SweepSpec:
+    """Return the spec with only these runs' values (what a task needs)."""
+    return dataclasses.replace(spec, values={
+        path: {k: values[k] for k in runs} for path, values in spec.values.items()})
+
+
+class Progress:
+    """A progress line on stderr: runs done, failures, runs/s, ETA."""
+
+    def __init__(self, total: int, done: int, stream=None):
+        self.total, self.done, self.failed = total, done, 0
+        self.start_done = done
+        self.started = time.monotonic()
+        self.stream = stream or sys.stderr
+
+    def update(self, runs: int, failed: int):
+        """Count a finished task and print the line."""
+        self.done += runs
+        self.failed += failed
+        spent = max(time.monotonic() - self.started, 1e-9)
+        rate = (self.done - self.start_done) / spent
+        eta = (self.total - self.done) / rate if rate > 0 else math.inf
+        print(f'sweep: {self.done}/{self.total} runs, {self.failed} failed, '
+              f'{rate:.1f} runs/s, ETA {eta:.0f} s', file=self.stream, flush=True)
+
+
+class Sweep:
+    """
+    A sweep (SPEC section 6) to run on a Dask client, in process, or resume.
+
+    Use ``Sweep.from_file(path)``, then ``run(client, outdir)``: a pandas
+    DataFrame, one row per run.
+    """
+
+    def __init__(self, spec: SweepSpec):
+        self.spec = spec
+
+    @classmethod
+    def from_file(cls, path: str, runs: Optional[int] = None) -> 'Sweep':
+        """Read and check a sweep file (``runs`` overrides its runs)."""
+        return cls(load_sweep(path, runs=runs))
+
+    @property
+    def total(self) -> int:
+        """Return the number of runs."""
+        return self.spec.total
+
+    def columns(self) -> list:
+        """Return the table's columns."""
+        return columns(self.spec)
+
+    def run_one(self, k: int, record: Optional[str] = None) -> dict:
+        """Run run k here and return its row."""
+        return run_one(self.spec, k, record)
+
+    def scenario(self, k: int) -> dict:
+        """Return run k's scenario document (YAML-ready)."""
+        return self.spec.run_document(k)
+
+    def run(self, client=None, outdir: Optional[str] = None, *, record: str = 'none',
+            csv: bool = False, progress: Optional[Callable[[int, int], None]] = None):
+        """
+        Run every run not yet done in outdir and return the whole table.
+
+        Parameters
+        ----------
+        client : dask.distributed.Client, optional
+            Where the tasks run; in this process, one task after another, if None.
+        outdir : str, optional
+            The sweep folder (kept, resumable); a temporary one if None.
+        record : str
+            'none', 'failed' or 'all': MCAP recordings under outdir/runs.
+        csv : bool
+            Also write results.csv.
+        progress : callable, optional
+            Called with (runs, failed runs) of each finished task.
+
+        """
+        if record not in RECORD:
+            raise ValueError(f'record is {record!r}; expected one of {", ".join(RECORD)}')
+        if outdir is None:
+            with tempfile.TemporaryDirectory(prefix='cfem-sweep-') as tmp:
+                return self.run(client, tmp, record=record, csv=csv, progress=progress)
+        todo = prepare(self.spec, outdir, record)
+        if client is None:
+            for runs in groups(todo, 1):
+                done = run_task(self.spec, runs, outdir, record)
+                if progress:
+                    progress(*done)
+        else:
+            from dask.distributed import as_completed
+            workers = max(1, len(client.scheduler_info().get('workers', {})))
+            # each task carries its own runs' values (no shared data to lose with a worker)
+            futures = [client.submit(run_task, _part_of(self.spec, runs), runs, outdir,
+                                     record, pure=False, retries=2)
+                       for runs in groups(todo, workers)]
+            try:
+                for future in as_completed(futures):
+                    done = future.result()
+                    if progress:
+                        progress(*done)
+            finally:
+                for future in futures:
+                    future.cancel()
+        return assemble(self.spec, outdir, csv=csv)

@@ -1,0 +1,189 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""A sweep's runs: the same metrics as cfem-sim run's recordings, failures as rows."""
+
+import copy
+import math
+import os
+
+from cfem_ros import cli
+from cfem_ros.core.model import STANDARD_GRAVITY
+from cfem_ros.study import Sweep
+from cfem_ros.study.metrics import compute, from_run
+import numpy as np
+import pandas as pd
+import pytest
+from sweeps import STORE, write_sweep
+import yaml
+
+
+def metric_columns(sweep):
+    return sweep.spec.metrics.columns()
+
+
+def test_sweep_rows_match_cfem_sim_run_recordings_summarized(tmp_path):
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=2))
+    table = sweep.run(None, str(tmp_path / 'sweep'), record='all')
+    assert list(table['run']) == [0, 1, 2, 3]
+    assert (table['status'] == 'ok').all()
+    assert table['release_pivot_cause'].eq('angle').all()
+    recordings = []
+    for k in range(sweep.total):
+        scenario = tmp_path / f'run_{k}.yaml'
+        scenario.write_text(yaml.safe_dump(sweep.scenario(k)))
+        out = str(tmp_path / f'run_{k}.mcap')
+        assert cli.main(['run', str(scenario), '-o', out]) == 0
+        recordings.append(out)
+    summary = str(tmp_path / 'summary.parquet')
+    assert cli.main(['summarize', *recordings, '--metrics', sweep.spec.path,
+                     '-o', summary]) == 0
+    from_runs = pd.read_parquet(summary)
+    names = metric_columns(sweep)
+    pd.testing.assert_frame_equal(from_runs[names], table[names], check_exact=True)
+    # the sweep's own recordings give the same numbers again
+    own = [str(tmp_path / 'sweep' / 'runs' / f'run_{k}.mcap') for k in range(4)]
+    from cfem_ros.study import summarize
+    pd.testing.assert_frame_equal(summarize(own, sweep.spec.metrics)[names], table[names],
+                                  check_exact=True)
+    # different draws give different metrics (the values were applied)
+    assert table['clearance_store_pylon_min'].nunique() == 4
+
+
+def test_an_invalid_drawn_scenario_is_a_failed_row_not_the_end(tmp_path):
+    path = write_sweep(tmp_path, runs=1, vary={
+        'bodies.store.mass': {'grid': [907.1848, -5.0, 'heavy']}})
+    table = Sweep.from_file(path).run(None)
+    assert list(table['status']) == ['ok', 'failed', 'failed']
+    assert 'bodies.store.mass: is -5' in table['message'][1]
+    assert "bodies.store.mass: is 'heavy'" in table['message'][2]
+    assert '(run 1)' in table['message'][1]
+    assert math.isnan(table['clearance_store_pylon_min'][1])
+    assert table['clearance_store_pylon_min'][0] > 0
+
+
+def test_a_diverging_run_is_a_failed_row_with_its_reason(tmp_path):
+    # a store swinging at 5000 deg/s on its hinge: RK4 holds it at dt = 2 ms, not at 50 ms
+    scenario = copy.deepcopy(STORE)
+    del scenario['joints']['pivot']['release']
+    scenario['bodies']['store']['angular_velocity_deg'] = [0, 5000, 0]
+    scenario['baumgarte'] = 0.0
+    path = write_sweep(tmp_path, runs=1, vary={'dt': {'grid': [0.002, 0.05]}},
+                       scenario=scenario)
+    table = Sweep.from_file(path).run(None)
+    assert table['status'][0] == 'ok'
+    assert table['status'][1] == 'failed', table.loc[1].to_dict()
+    assert table['message'][1].startswith('the run failed at t = ')
+    assert 'diverged' in table['message'][1]
+
+
+def test_metrics_of_a_falling_body_are_analytic(tmp_path):
+    # a free store falls from rest beside a pylon turned 90 deg in yaw: z = g t^2 / 2
+    # (RK4 is exact on it); relative to the pylon, world x is -y and the yaw -90 deg
+    scenario = copy.deepcopy(STORE)
+    scenario['joints'] = {}
+    scenario['bodies']['pylon']['orientation_rpy_deg'] = [0, 0, 90]
+    scenario['bodies']['store']['position'] = [1.0, 0, 0]
+    metrics = {'clearance': [{'bodies': ['store', 'pylon']}],
+               'at': [{'time': 0.5, 'body': 'store', 'relative_to': 'pylon'},
+                      {'time': 0.25, 'body': 'store'}]}
+    path = write_sweep(tmp_path, runs=1, vary={}, metrics=metrics, scenario=scenario)
+    row = Sweep.from_file(path).run(None).iloc[0]
+    g = STANDARD_GRAVITY
+    assert row['clearance_store_pylon_min'] == pytest.approx(1.0, abs=1e-12)
+    assert row['clearance_store_pylon_time'] == 0.0
+    z = 0.5 * g * 0.5 ** 2
+    position = [row[f'store_at_0.5_{c}'] for c in 'xyz']
+    assert position == pytest.approx([0.0, -1.0, z], abs=1e-9)
+    assert row['store_at_0.5_yaw_deg'] == pytest.approx(-90.0, abs=1e-9)
+    assert row['store_at_0.25_z'] == pytest.approx(0.5 * g * 0.25 ** 2, abs=1e-9)
+    assert row['store_at_0.25_x'] == pytest.approx(1.0, abs=1e-12)
+
+
+def test_peak_load_of_the_hinge_is_its_weight_at_the_start(tmp_path):
+    # released at once, the hinge only ever holds the store at rest: the sample at
+    # t = 0 has the static load; check it against m g on the recorded samples
+    metrics = {'clearance': [], 'at': []}
+    scenario = copy.deepcopy(STORE)
+    scenario['joints']['pivot']['anchor'] = [0, 0, -0.25]   # above the CG: no moment arm
+    scenario['joints']['pivot']['release'] = {'time': 0.1}
+    path = write_sweep(tmp_path, runs=1, vary={}, metrics=metrics, scenario=scenario)
+    sweep = Sweep.from_file(path)
+    row = sweep.run(None, str(tmp_path / 'out'), record='all').iloc[0]
+    weight = 907.1848 * STANDARD_GRAVITY
+    assert row['peak_force_pivot'] == pytest.approx(weight, rel=1e-9)
+    assert row['release_pivot_time'] == 0.1
+    assert row['release_pivot_cause'] == 'time'
+    from cfem_ros.recording.analysis import open_run
+    run = open_run(str(tmp_path / 'out' / 'runs' / 'run_0.mcap'))
+    assert compute(from_run(run), sweep.spec.metrics)['peak_force_pivot'] \
+        == row['peak_force_pivot']
+    assert np.all(run.joints['pivot'].time < 0.1 + 1e-12)
+
+
+def test_summarize_reports_a_truncated_or_foreign_file_as_a_row(tmp_path, capsys):
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, vary={}))
+    good = str(tmp_path / 'good.mcap')
+    scenario = tmp_path / 'scenario.yaml'
+    assert cli.main(['run', str(scenario), '-o', good]) == 0
+    cut = tmp_path / 'cut.mcap'
+    data = open(good, 'rb').read()
+    cut.write_bytes(data[:len(data) // 3])
+    foreign = tmp_path / 'notes.mcap'
+    foreign.write_text('not a recording')
+    out = str(tmp_path / 'table.parquet')
+    code = cli.main(['summarize', good, str(cut), str(foreign), '--metrics',
+                     sweep.spec.path, '-o', out, '--workers', '1'])
+    assert code == 1
+    table = pd.read_parquet(out)
+    assert list(table['file']) == ['good.mcap', 'cut.mcap', 'notes.mcap']
+    assert list(table['status']) == ['ok', 'failed', 'failed']
+    assert table['start_stamp_ns'][0] == 0
+    assert 'cut.mcap' in table['message'][1] and 'notes.mcap' in table['message'][2]
+    assert table['clearance_store_pylon_min'][0] > 0
+    assert os.path.exists(out)
+
+
+def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path, capsys):
+    path = write_sweep(tmp_path, runs=3, vary={
+        'bodies.store.mass': {'normal': [907.1848, 10.0]},
+        'joints.pivot.release.angle_deg': {'choice': [8, 12, -1]}})
+    out = str(tmp_path / 'sweep')
+    table = Sweep.from_file(path).run(None, out, record='all')
+    assert (table['status'] == 'failed').any() and (table['status'] == 'ok').any()
+    figures = str(tmp_path / 'figures')
+    assert cli.main(['plot', out, '-o', figures]) == 0
+    names = sorted(os.listdir(figures))
+    assert 'hist_clearance_store_pylon_min.png' in names
+    assert 'scatter_clearance_store_pylon_min.png' in names
+    assert 'envelope_store_pylon.png' in names
+    assert 'hist_store_at_0.5_y.png' not in names   # no spread, no histogram
+    assert cli.main(['plot', out, '-o', figures, '--metric', 'nope']) == 2
+    assert "--metric: 'nope' is not a column" in capsys.readouterr().err
+
+
+def test_collected_samples_are_the_recordings_numbers_at_any_rate(tmp_path):
+    # at 30 Hz the sample times k / 30 are not whole nanoseconds: the collector must
+    # give them back as a recording does (stamped in ns), and every number alike
+    from cfem_ros.core.engine import Simulator
+    from cfem_ros.core.scenario import parse_scenario
+    from cfem_ros.core.session import Session
+    from cfem_ros.recording.analysis import open_run
+    from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+    from cfem_ros.study.metrics import Collector
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, vary={}, rate_hz=30))
+    model = parse_scenario(sweep.scenario(0))
+    sim = Simulator(model)
+    path = str(tmp_path / 'run.mcap')
+    with Recorder(path, metadata=run_metadata(model, 'scenario.yaml', 30.0, 0)) as recorder:
+        collector = Collector(sim, forward=StateRecorder(recorder, sim))
+        Session(sim, rate_hz=30.0, duration=model.duration, outputs=[collector]).run()
+    mine, theirs = collector.samples(), from_run(open_run(path))
+    assert sorted(mine.bodies) == sorted(theirs.bodies)
+    assert sorted(mine.joints) == sorted(theirs.joints) == ['pivot']
+    for name in mine.bodies:
+        for a, b in zip(mine.bodies[name], theirs.bodies[name]):
+            np.testing.assert_array_equal(a, b)
+    for a, b in zip(mine.joints['pivot'], theirs.joints['pivot']):
+        np.testing.assert_array_equal(a, b)
+    assert mine.releases == theirs.releases and len(mine.releases) == 1
+    assert not np.array_equal(mine.bodies['store'][0], np.arange(19) / 30.0)
