@@ -23,10 +23,9 @@ import re
 from typing import Any, Optional
 
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import _UniqueKeyLoader, parse_scenario
+from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
 import numpy as np
 from scipy.stats import truncnorm
-import yaml
 
 TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'metrics')
 METRIC_KEYS = ('clearance', 'at')
@@ -279,20 +278,12 @@ def apply_values(document: dict, variables, values: dict) -> dict:
 
 
 def _load_yaml(path: str, what: str):
+    """Read a YAML file within the scenario loader's bounds (size, kind, depth, aliases)."""
     try:
-        with open(path, encoding='utf-8') as stream:
-            text = stream.read()
-    except OSError as err:
-        raise SweepError(path, '', f'cannot read the file ({err.strerror})',
-                         f'a readable {what}') from err
-    try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (safe loader)
-    except yaml.YAMLError as err:
-        mark = getattr(err, 'problem_mark', None)
-        where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
-        problem = getattr(err, 'problem', None) or str(err)
-        raise SweepError(path, '', f'{where}not valid YAML: {problem}',
-                         f'a YAML mapping ({what})') from err
+        return load_yaml(read_text(path), source=path)
+    except ScenarioError as err:
+        raise SweepError(path, err.key, err.problem, err.expected or f'a readable {what}') \
+            from err
 
 
 def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
