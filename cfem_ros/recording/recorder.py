@@ -34,17 +34,18 @@ STRING = 'std_msgs/msg/String'
 #: What the node offers, in the integer form rosbag2 writes and every
 #: distro's ``ros2 bag play`` reads (rmw enums: history 1 keep last,
 #: reliability 1 reliable, durability 2 volatile / 1 transient local,
-#: liveliness 1 automatic; durations {sec, nsec}, here infinite): reliable,
+#: liveliness 1 automatic; durations {sec, nsec}, 0 0 being rmw's default,
+#: i.e. infinite, which also fits the uint32 older distros parse): reliable,
 #: volatile, keep last 10.
 OFFERED_QOS = (
     '- history: 1\n'
     '  depth: 10\n'
     '  reliability: 1\n'
     '  durability: 2\n'
-    '  deadline:\n    sec: 9223372036\n    nsec: 854775807\n'
-    '  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n'
+    '  deadline:\n    sec: 0\n    nsec: 0\n'
+    '  lifespan:\n    sec: 0\n    nsec: 0\n'
     '  liveliness: 1\n'
-    '  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n'
+    '  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n'
     '  avoid_ros_namespace_conventions: false'
 )
 #: What the node offers on its events topic: transient local, keep last 100,

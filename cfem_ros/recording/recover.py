@@ -172,8 +172,9 @@ def recover(broken: str, fixed: str) -> Recovery:
                     break
                 body = source.read(length)
                 if opcode == Opcode.FOOTER:
-                    report.complete = True
                     position += 9 + length
+                    report.complete = source.read(len(MAGIC)) == MAGIC
+                    report.note = '' if report.complete else 'ends inside the closing magic'
                     break
                 if opcode in (Opcode.DATA_END,):
                     position += 9 + length

@@ -40,8 +40,15 @@ def test_recording_follows_the_ros2_profile(store_run):
         assert schema.encoding == 'ros2msg'
     for channel in summary.channels.values():
         assert channel.message_encoding == 'cdr'
+        # the integer form rosbag2 writes, which every distro's ros2 bag play reads
         qos = yaml.safe_load(channel.metadata['offered_qos_profiles'])
-        assert qos[0]['reliability'] == 'reliable'
+        events = channel.topic.endswith('/events')
+        assert qos == [{'history': 1, 'depth': 100 if events else 10, 'reliability': 1,
+                        'durability': 1 if events else 2,
+                        'deadline': {'sec': 0, 'nsec': 0}, 'lifespan': {'sec': 0, 'nsec': 0},
+                        'liveliness': 1,
+                        'liveliness_lease_duration': {'sec': 0, 'nsec': 0},
+                        'avoid_ros_namespace_conventions': False}]
     topics = {c.topic for c in summary.channels.values()}
     assert topics == {'/cfem/bodies/pylon/pose', '/cfem/bodies/pylon/twist',
                       '/cfem/bodies/store/pose', '/cfem/bodies/store/twist',
