@@ -20,7 +20,7 @@ from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.recording import analysis, offline
-from cfem_ros.recording.recorder import partial_path, Recorder, run_metadata, StateRecorder
+from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from cfem_ros.recording.recover import recover
 from cfem_ros.recording.replay import read_inputs
 from cfem_ros.recording.summary import read_summary
@@ -341,7 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument('-o', '--output', required=True, metavar='DIR',
                       help='folder to write the PNG files to')
     info = sub.add_parser('info', help='summarize a recording',
-                          description="Print topics, message counts, time range, chunks, "
+                          description='Print topics, message counts, time range, chunks, '
                           "metadata and events, from the file's summary.")
     info.add_argument('recording', metavar='RUN.mcap', help='recording to read')
     rec = sub.add_parser('recover', help='salvage a cut recording',

@@ -85,7 +85,7 @@ def run_metadata(model, scenario: str, rate_hz: float, start_ns: int, **extra) -
 
 
 def partial_path(path: str) -> str:
-    """Return where an atomic recording of path is written: ``.NAME.partial-<pid>``, same folder."""
+    """Return where an atomic recording of path is written: ``.NAME.partial-<pid>`` beside it."""
     directory, name = os.path.split(path)
     return os.path.join(directory, f'.{name}.partial-{os.getpid()}')
 

@@ -122,8 +122,8 @@ def test_kills_leave_complete_or_recoverable_files(tmp_path):
                     str(out), '--duration', '0.1'], check=True, capture_output=True)
     old = out.read_bytes()
     started = time.monotonic()
-    process = subprocess.run([CFEM_SIM, 'check', str(ROOT / 'config' / 'double_pendulum.yaml')],
-                             capture_output=True, check=True)
+    subprocess.run([CFEM_SIM, 'check', str(ROOT / 'config' / 'double_pendulum.yaml')],
+                   capture_output=True, check=True)
     start_up = time.monotonic() - started   # imports, compilation from the cache
     rng = random.Random(int(os.environ.get('CFEM_KILL_SEED', '2026')))
     figures = collections.Counter()

@@ -192,7 +192,7 @@ def test_recover_keeps_every_complete_message_of_a_cut_file(store, tmp_path, cap
         expected = sum(end <= cut for end in ends)
         out = capsys.readouterr().out
         assert f'{fixed}: {expected} messages recovered' in out, (cut, out)
-        assert f'cut at byte' in out and f'of {cut} ' in out
+        assert 'cut at byte' in out and f'of {cut} ' in out
         _, summary, messages = read_mcap(fixed)   # indexed, CRCs checked
         assert summary.statistics.message_count == len(messages) == expected
         assert [(t, lt) for t, lt, _, _ in messages] == [
