@@ -5,8 +5,10 @@ Kill ``cfem-sim run`` at random moments and check what it leaves.
 
 Each kill starts ``cfem-sim run config/double_pendulum.yaml --duration 300
 --rate 1000 --overwrite`` over an existing good recording and sends
-SIGINT, SIGTERM or SIGKILL (in turn) after a random delay: during start-up
-(imports, compilation, scenario loading) or mid-run. Then:
+SIGINT, SIGTERM or SIGKILL (in turn) a random delay after the process has
+installed its handlers (the interpreter's first tenth of a second is not
+cfem-sim's): during start-up (imports, compilation, scenario loading) or
+mid-run. Then:
 
 - SIGINT exits 130 and SIGTERM 143, with one line on stderr and no
   traceback; OUT is the old recording (stopped before recording) or a new
@@ -77,11 +79,33 @@ def _check_recovered(partial, tmp_path):
     return lost, len(stamps)
 
 
+def _wait_for_handlers(pid: int, timeout: float = 60.0):
+    """
+    Wait until cfem-sim's own code runs: the process catches SIGTERM.
+
+    Before that, the Python interpreter is starting (a tenth of a second),
+    and a signal ends it as it ends any Python program.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with open(f'/proc/{pid}/status') as status:
+                caught = next(int(line.split()[1], 16) for line in status
+                              if line.startswith('SigCgt:'))
+        except (OSError, StopIteration):
+            return
+        if caught >> (signal.SIGTERM - 1) & 1:
+            return
+        time.sleep(0.002)
+    raise AssertionError('cfem-sim did not start within 60 s')
+
+
 def _kill_once(sig, delay, out, old, tmp_path):
     process = subprocess.Popen(
         [CFEM_SIM, 'run', str(ROOT / 'config' / 'double_pendulum.yaml'), '-o', str(out),
          '--duration', '300', '--rate', '1000', '--overwrite'],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for_handlers(process.pid)
     time.sleep(delay)
     process.send_signal(sig)
     try:

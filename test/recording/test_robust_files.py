@@ -15,6 +15,8 @@ import os
 import pathlib
 import re
 import struct
+import subprocess
+import sys
 import warnings
 
 from cfem_ros import cli, load_scenario, Simulator
@@ -205,3 +207,16 @@ def test_recover_keeps_every_complete_message_of_a_cut_file(store, tmp_path, cap
     assert report.complete and report.messages == total
     assert cli.main(['recover', str(store), '-o', str(fixed)]) == 2
     assert 'already exists' in capsys.readouterr().err
+
+
+def test_a_closed_stdout_ends_quietly(store):
+    """``cfem-sim info RUN.mcap | head -0``: no BrokenPipeError traceback."""
+    read, write = os.pipe()
+    os.close(read)   # the reader has gone before anything is written
+    try:
+        done = subprocess.run([str(pathlib.Path(sys.executable).with_name('cfem-sim')), 'info',
+                               str(store)], stdout=write, stderr=subprocess.PIPE, text=True,
+                              timeout=120)
+    finally:
+        os.close(write)
+    assert done.stderr == '' and done.returncode == 141, done
