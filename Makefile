@@ -19,6 +19,7 @@ $(STAMP): setup.py setup.cfg package.xml
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[ros,test]'
+	$(BIN)/python -m cfem_ros.core.warmup
 	@touch $(STAMP)
 
 demo: $(STAMP)

@@ -8,7 +8,7 @@ Python loop of mj_step, as a user would drive it). Times are medians over
 repeats; the error is the largest CG position difference (m) at the end of
 a short run from a reference: cfem_ros itself at dt / 16. Also: the cost of
 recording at 100 Hz, 1,000 store separations in one batch call against
-1,000 sequential runs, and the scale figure (docs/scale.png).
+1,000 sequential runs, and the scale figure (runs/bench/scale.png unless --figure says).
 
 Usage: .venv/bin/python benchmarks/suite.py [--quick]
 (MuJoCo comes with the ``bench`` extra: pip install -e .[bench]).
@@ -297,6 +297,7 @@ def scale_figure(results, sizes, path):
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     fig.savefig(path, dpi=110)
     print(f'wrote {path}')
 
@@ -305,7 +306,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--quick', action='store_true', help='fewer sizes and repeats')
     parser.add_argument('--repeats', type=int, default=5)
-    parser.add_argument('--figure', default=str(ROOT / 'docs' / 'scale.png'))
+    parser.add_argument('--figure', default=str(ROOT / 'runs' / 'bench' / 'scale.png'),
+                        help='where to write the scale figure (docs/scale.png to refresh '
+                             "the README's)")
     args = parser.parse_args()
     logging.getLogger('cfem_ros').setLevel(logging.ERROR)
     repeats = 2 if args.quick else args.repeats

@@ -13,9 +13,8 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros import plots
 from cfem_ros.console import interrupt, Interrupted, quiet_broken_pipe
-from cfem_ros.core import rotations
+from cfem_ros.core import rotations, warmup
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.scenario import load_scenario
@@ -154,6 +153,10 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     except CfemError as err:
         return _error(str(err))
     interactive = sys.stderr.isatty()
+    if not warmup.compiled_code_ready():
+        print('compiling the numerical core (once per install, about a minute); '
+              '`make` does this at install time', file=sys.stderr, flush=True)
+        print(f'compiled in {warmup.warm_up():.0f} s', file=sys.stderr)
     stop = []
 
     def hold(signum, frame):   # while recording: stop at the next safe point
@@ -266,6 +269,7 @@ def cmd_plot(recording: str, directory: str) -> int:
     except CfemError as err:
         return _error(str(err))
     try:
+        from cfem_ros import plots   # matplotlib only for the commands that draw
         paths = plots.write_figures(run, directory)
     except OSError as err:
         return _error(f'{directory}: cannot write ({err.strerror or err})')
@@ -297,6 +301,7 @@ def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int
         print(f'only in B: {name}')
     if directory:
         try:
+            from cfem_ros import plots
             paths = plots.write_comparison(a, b, directory)
         except OSError as err:
             return _error(f'{directory}: cannot write ({err.strerror or err})')

@@ -14,7 +14,7 @@ import os
 
 from cfem_ros.core import rotations
 from cfem_ros.core.errors import CfemError
-from cfem_ros.recording.analysis import Run
+from cfem_ros.recording.analysis import attitude_difference_deg, Run
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -23,6 +23,11 @@ import numpy as np  # noqa: E402, I100
 AXES = ('x', 'y', 'z')
 EULER = ('roll', 'pitch', 'yaw')
 RATES = ('p', 'q', 'r')
+QUATERNION = ('x', 'y', 'z', 'w')
+
+#: Loads smaller than this fraction of a joint's largest load (forces, and
+#: moments counted with a lever arm of 1 m) are rounding, drawn as zero.
+ROUNDING = 1e-9
 COLORS = ('tab:blue', 'tab:orange', 'tab:green', 'black')
 DPI = 110
 
@@ -64,19 +69,44 @@ def _two(ta, va, tb, vb, labels):
     return [(ta, va, '-', f' {labels[0]}'), (tb, vb, '--', f' {labels[1]}')]
 
 
+def _attitude(ax, series, singular_tracks):
+    """Draw attitudes as continuous Euler angles, or as quaternions where those are singular."""
+    if not any(track.euler_singular for track in singular_tracks):
+        _lines(ax, [(t, track.euler_continuous_deg, style, suffix)
+                    for t, track, style, suffix in series], EULER, 'angle [deg]',
+               'attitude: roll, pitch, yaw (Z-Y-X, continuous)')
+        return
+    _lines(ax, [(t, track.quaternion_continuous, style, suffix)
+                for t, track, style, suffix in series], QUATERNION, 'quaternion',
+           'attitude as a quaternion (body to world): pitch passes near +-90 deg, '
+           'where roll and yaw are undefined')
+
+
 def body_figure(run: Run, name: str):
-    """CG position, attitude (continuous Z-Y-X angles) and body rates of one body."""
+    """CG position, attitude (continuous Z-Y-X angles, or a quaternion) and body rates."""
     track = run.bodies[name]
     fig = plt.figure(figsize=(10, 9), layout='constrained')
     fig.suptitle(f'{name}: motion of the CG and attitude ({os.path.basename(run.path)})')
     axes = _time_axes(fig, run, 3)
     t = track.time
     _lines(axes[0], _one(t, track.position), AXES, 'position [m]', 'CG position, world axes')
-    _lines(axes[1], _one(t, track.euler_continuous_deg), EULER, 'angle [deg]',
-           'attitude: roll, pitch, yaw (Z-Y-X, continuous)')
+    _attitude(axes[1], [(t, track, '-', '')], [track])
     _lines(axes[2], _one(t, np.degrees(track.rates)), RATES, 'rate [deg/s]',
            'body rates p, q, r (body axes)')
     return fig
+
+
+def _without_rounding(values: np.ndarray, scale: float) -> np.ndarray:
+    """Return values with every number below ROUNDING x scale set to zero."""
+    out = np.array(values, dtype=float, copy=True)
+    out[np.abs(out) <= ROUNDING * scale] = 0.0
+    return out
+
+
+def _load_scales(force: np.ndarray, moment: np.ndarray):
+    """Scales of a joint's force (N) and moment (N m, a 1 m lever arm on the force)."""
+    biggest_force = float(np.nanmax(np.abs(force), initial=0.0))
+    return biggest_force, max(float(np.nanmax(np.abs(moment), initial=0.0)), biggest_force)
 
 
 def joint_figure(run: Run, name: str):
@@ -86,12 +116,25 @@ def joint_figure(run: Run, name: str):
     fig.suptitle(f'joint {name}: load on the child, world axes '
                  f'({os.path.basename(run.path)})')
     axes = _time_axes(fig, run, 2)
-    for ax, values, unit, title in ((axes[0], track.force, 'force [N]', 'constraint force'),
-                                    (axes[1], track.moment, 'moment [N m]',
-                                     'constraint moment about the joint point')):
-        with_norm = np.column_stack([values, np.linalg.norm(values, axis=1)])
+    scales = _load_scales(track.force, track.moment)
+    for ax, values, scale, unit, title in (
+            (axes[0], track.force, scales[0], 'force [N]', 'constraint force'),
+            (axes[1], track.moment, scales[1], 'moment [N m]',
+             'constraint moment about the joint point')):
+        with_norm = _without_rounding(
+            np.column_stack([values, np.linalg.norm(values, axis=1)]), scale)
         _lines(ax, _one(track.time, with_norm), AXES + ('magnitude',), unit, title)
+        _zero_floor(ax, scale)
     return fig
+
+
+def _zero_floor(ax, scale: float):
+    """Keep a panel's y span at least ROUNDING x scale x 1e3, so rounding never fills it."""
+    low, high = ax.get_ylim()
+    floor = max(ROUNDING * scale * 1e3, 1e-300)
+    if high - low < 2 * floor:
+        middle = (high + low) / 2
+        ax.set_ylim(middle - floor, middle + floor)
 
 
 def _at(track, t):
@@ -174,19 +217,35 @@ def trajectory_figure(run: Run):
 
 
 def compare_body_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
-    """Overlay one body's motion from two runs (A solid, B dashed)."""
+    """Overlay one body's motion from two runs (A solid, B dashed), with A - B below."""
     ta, tb = a.bodies[name], b.bodies[name]
-    fig = plt.figure(figsize=(10, 9), layout='constrained')
+    fig = plt.figure(figsize=(10, 11), layout='constrained')
     fig.suptitle(f'{name}: {labels[0]} (solid) against {labels[1]} (dashed)')
-    axes = _time_axes(fig, a, 3)
+    axes = _time_axes(fig, a, 4)
     _lines(axes[0], _two(ta.time, ta.position, tb.time, tb.position, labels), AXES,
            'position [m]', 'CG position, world axes')
-    _lines(axes[1], _two(ta.time, ta.euler_continuous_deg, tb.time, tb.euler_continuous_deg,
-                         labels), EULER, 'angle [deg]',
-           'attitude: roll, pitch, yaw (Z-Y-X, continuous)')
+    _attitude(axes[1], [(ta.time, ta, '-', f' {labels[0]}'), (tb.time, tb, '--', f' {labels[1]}')],
+              [ta, tb])
     _lines(axes[2], _two(ta.time, np.degrees(ta.rates), tb.time, np.degrees(tb.rates),
                          labels), RATES, 'rate [deg/s]', 'body rates p, q, r (body axes)')
+    t, diff = _difference(ta.time, ta.position, tb.time, tb.position)
+    _lines(axes[3], _one(t, diff), AXES, 'position [m]',
+           f'{labels[0]} - {labels[1]}: CG position (world axes); attitude angle (right)')
+    t, angle = attitude_difference_deg(ta, tb)
+    right = axes[3].twinx()
+    right.plot(t, angle, color=COLORS[3], linestyle=':', label='attitude angle')
+    right.set_ylabel('attitude angle [deg]')
+    right.legend(loc='upper right', fontsize=8)
     return fig
+
+
+def _difference(t_a, values_a, t_b, values_b):
+    """Return A's times inside B's span and A - B there (B interpolated linearly)."""
+    inside = (t_a >= t_b[0] - 1e-12) & (t_a <= t_b[-1] + 1e-12) if len(t_b) else t_a < -1
+    t = t_a[inside]
+    theirs = np.column_stack([np.interp(t, t_b, values_b[:, k])
+                              for k in range(values_b.shape[1])])
+    return t, values_a[inside] - theirs
 
 
 def compare_joint_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
@@ -194,11 +253,20 @@ def compare_joint_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     ja, jb = a.joints[name], b.joints[name]
     fig = plt.figure(figsize=(10, 7), layout='constrained')
     fig.suptitle(f'joint {name}: {labels[0]} (solid) against {labels[1]} (dashed)')
-    axes = _time_axes(fig, a, 2)
-    _lines(axes[0], _two(ja.time, ja.force, jb.time, jb.force, labels), AXES, 'force [N]',
+    axes = _time_axes(fig, a, 3)
+    force_scale, moment_scale = _load_scales(np.vstack([ja.force, jb.force]),
+                                             np.vstack([ja.moment, jb.moment]))
+    _lines(axes[0], _two(ja.time, _without_rounding(ja.force, force_scale), jb.time,
+                         _without_rounding(jb.force, force_scale), labels), AXES, 'force [N]',
            'constraint force')
-    _lines(axes[1], _two(ja.time, ja.moment, jb.time, jb.moment, labels), AXES,
+    _lines(axes[1], _two(ja.time, _without_rounding(ja.moment, moment_scale), jb.time,
+                         _without_rounding(jb.moment, moment_scale), labels), AXES,
            'moment [N m]', 'constraint moment about the joint point')
+    t, diff = _difference(ja.time, ja.force, jb.time, jb.force)
+    _lines(axes[2], _one(t, _without_rounding(diff, force_scale)), AXES, 'force [N]',
+           f'{labels[0]} - {labels[1]}: constraint force')
+    for ax, scale in zip(axes, (force_scale, moment_scale, force_scale)):
+        _zero_floor(ax, scale)
     return fig
 
 

@@ -50,6 +50,21 @@ def fields(message):
     """Flatten a decoded message of either library into comparable values."""
     if hasattr(message, 'data') and isinstance(message.data, str):
         return [message.data]
+    if hasattr(message, 'transforms'):
+        out = []
+        for t in message.transforms:
+            a, b = t.transform.translation, t.transform.rotation
+            out += [t.header.stamp.sec, t.header.stamp.nanosec, t.header.frame_id,
+                    t.child_frame_id, a.x, a.y, a.z, b.x, b.y, b.z, b.w]
+        return out
+    if hasattr(message, 'markers'):
+        out = []
+        for m in message.markers:
+            p, q, s, c = m.pose.position, m.pose.orientation, m.scale, m.color
+            out += [m.header.frame_id, m.ns, m.id, m.type, m.action, p.x, p.y, p.z, q.x, q.y,
+                    q.z, q.w, s.x, s.y, s.z, c.r, c.g, c.b, c.a, m.frame_locked, m.text,
+                    m.mesh_resource]
+        return out
     header = [message.header.stamp.sec, message.header.stamp.nanosec, message.header.frame_id]
     if hasattr(message, 'pose'):
         p, q = message.pose.position, message.pose.orientation

@@ -110,3 +110,14 @@ def test_core_and_recording_run_without_ros(module):
                          timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == '[]'
+
+
+def test_the_command_line_imports_matplotlib_only_to_draw():
+    code = ('import sys\n'
+            'from cfem_ros import cli\n'
+            'parser_ok = callable(cli.main)\n'
+            'print("matplotlib" in sys.modules, parser_ok)')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ['False', 'True']

@@ -44,8 +44,10 @@ class Result:
         Its final state (``Simulator.y``).
     events : list of dict
         Its releases.
-    status, message : str
-        As ``Simulator.status`` and ``Simulator.message``.
+    status : str
+        'ok' if the copy ran to its duration, 'failed' if it did not.
+    message : str
+        Why it failed, with the time ('' if ok).
     steps : int
         RK4 steps taken.
 
@@ -68,8 +70,8 @@ def _copy(model, spec: dict, duration: float) -> Result:
         sim.y = y0.copy()
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
-    sim.advance_to(duration)
-    return Result(sim.t, sim.y, sim.events, sim.status, sim.message, sim.steps)
+    ok = sim.advance_to(duration)
+    return Result(sim.t, sim.y, sim.events, 'ok' if ok else 'failed', sim.message, sim.steps)
 
 
 def run(model, copies: Sequence[dict], *, duration: Optional[float] = None,

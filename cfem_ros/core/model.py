@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+from cfem_ros.core.shapes import Shape
 import numpy as np
 
 #: Standard gravity, m/s^2.
@@ -100,6 +101,8 @@ class Body:
         CG velocity, world axes, m/s.
     rates_body : ndarray, shape (3,)
         Angular velocity (P, Q, R), body axes, rad/s.
+    shape : Shape or None
+        What viewers draw (``shapes.Shape``); None: ``shapes.default_shape``.
 
     """
 
@@ -111,6 +114,7 @@ class Body:
     orientation_xyzw: np.ndarray
     velocity_world: np.ndarray
     rates_body: np.ndarray
+    shape: Optional[Shape] = None
 
 
 @dataclass(frozen=True)

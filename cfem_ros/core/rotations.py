@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -89,8 +91,20 @@ def to_rpy_deg(quat_xyzw: np.ndarray) -> np.ndarray:
     Z-Y-X Euler angles (roll, pitch, yaw), deg, of quaternions, shape (..., 3).
 
     At pitch = +-90 deg roll and yaw are not unique; scipy's convention then
-    puts the whole rotation about the vertical into yaw.
+    puts the whole rotation about the vertical into yaw (without its "gimbal
+    lock" warning: callers that care test the pitch themselves).
     """
     q = np.asarray(quat_xyzw, dtype=float)
-    zyx = Rotation.from_quat(q.reshape(-1, 4)).as_euler('ZYX', degrees=True)
+    with warnings.catch_warnings():
+        warnings.filterwarnings('ignore', message='Gimbal lock detected')
+        zyx = Rotation.from_quat(q.reshape(-1, 4)).as_euler('ZYX', degrees=True)
     return zyx[:, ::-1].reshape(q.shape[:-1] + (3,))
+
+
+def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles of the rotations taking attitudes a to attitudes b, rad in [0, pi], shape (...)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    return rotation_angle(multiply(conjugate(a), b))

@@ -14,7 +14,7 @@ import os
 import re
 from typing import Any, Optional
 
-from cfem_ros.core import rotations
+from cfem_ros.core import rotations, shapes
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
     AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
@@ -24,7 +24,7 @@ import yaml
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
-             'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity')
+             'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape')
 JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
 RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 
@@ -253,8 +253,13 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     else:
         rates = np.radians(check.vector(spec.get('angular_velocity_deg', [0, 0, 0]),
                                         f'{key}.angular_velocity_deg'))
+    shape = None
+    if 'shape' in spec:
+        shape = shapes.parse_shape(
+            spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
+            os.path.dirname(check.source) if os.path.isfile(check.source) else '')
     return Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
-                orientation_xyzw=quat, velocity_world=velocity, rates_body=rates)
+                orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape)
 
 
 def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:

@@ -28,15 +28,22 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
-__all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'check_mcap', 'compare_runs',
-           'euler_continuous', 'open_run']
+__all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_deg',
+           'check_mcap', 'compare_runs', 'euler_continuous', 'open_run']
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
 NAN = float('nan')
+
+#: Near pitch +-90 deg roll and yaw are each undefined (only their sum or
+#: difference is): a body whose roll or yaw moves more than this (deg) from
+#: one sample to the next, and ten times more than the body turns, is shown
+#: with a quaternion instead of Euler angles.
+EULER_JUMP_DEG = 10.0
 
 
 @dataclass
@@ -81,6 +88,31 @@ class BodyTrack:
     rates: np.ndarray
     velocity: np.ndarray
     velocity_world: np.ndarray
+
+    @property
+    def euler_singular(self) -> bool:
+        """
+        Tell whether the Euler angles misrepresent the motion near pitch +-90 deg.
+
+        True when roll or yaw moves by more than ``EULER_JUMP_DEG`` between two
+        samples and by more than ten times the angle the body turned between
+        them (a pure pitch through 90 deg keeps its roll and yaw and is fine).
+        """
+        if len(self.time) < 2:
+            return False
+        turned = np.degrees(rotations.angle_between(self.quaternion[:-1], self.quaternion[1:]))
+        moved = np.abs(np.diff(self.euler_continuous_deg[:, [0, 2]], axis=0)).max(axis=1)
+        return bool(np.any((moved > EULER_JUMP_DEG) & (moved > 10.0 * turned)))
+
+    @property
+    def quaternion_continuous(self) -> np.ndarray:
+        """Return the attitudes as quaternions whose sign never jumps (q, -q: one attitude)."""
+        q = np.array(self.quaternion, dtype=float, copy=True)
+        if len(q) > 1:
+            flips = np.einsum('ij,ij->i', q[1:], q[:-1]) < 0.0
+            sign = np.concatenate([[1.0], np.where(np.cumsum(flips) % 2, -1.0, 1.0)])
+            q *= sign[:, None]
+        return q
 
     @property
     def moves(self) -> bool:
@@ -369,13 +401,37 @@ def _resampled_difference(t_a, values_a, t_b, values_b):
     return t, ours - theirs, ours
 
 
+def attitude_difference_deg(a: BodyTrack, b: BodyTrack):
+    """
+    Return A's times inside B's span and the angle from A's attitude to B's there, deg.
+
+    The angle is that of the rotation q_A^-1 q_B, in [0, 180] deg: it has no
+    singularity (Euler angles do at pitch +-90 deg). B's attitudes are
+    interpolated onto A's times by spherical linear interpolation.
+    """
+    if not len(a.time) or not len(b.time):
+        return np.zeros(0), np.zeros(0)
+    inside = (a.time >= b.time[0] - 1e-12) & (a.time <= b.time[-1] + 1e-12)
+    t = a.time[inside]
+    theirs = np.repeat(b.quaternion[:1], len(t), axis=0)
+    if len(b.time) > 1:
+        slerp = Slerp(b.time, Rotation.from_quat(b.quaternion))
+        theirs = slerp(np.clip(t, b.time[0], b.time[-1])).as_quat()
+    # at B's own sample times, B's own attitudes (no interpolation rounding)
+    k = np.clip(np.searchsorted(b.time, t), 0, len(b.time) - 1)
+    same = b.time[k] == t
+    theirs[same] = b.quaternion[k[same]]
+    return t, np.degrees(rotations.angle_between(a.quaternion[inside], theirs))
+
+
 def compare_runs(a: Run, b: Run) -> tuple:
     """
     Compare the bodies and joints two runs share, quantity by quantity.
 
     B is interpolated linearly onto A's sample times where they differ (only
     inside B's time span). Quantities: ``<body> position`` (m, world),
-    ``attitude`` (continuous roll, pitch, yaw, deg), ``rates`` (body, deg/s),
+    ``attitude`` (the angle of the rotation from A's attitude to B's, deg;
+    B's quaternions interpolated by slerp), ``rates`` (body, deg/s),
     ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
     ``release`` (time, s). Returns (differences, only_in_a, only_in_b), where
     the last two list body and joint names present in one run only.
@@ -397,8 +453,13 @@ def compare_runs(a: Run, b: Run) -> tuple:
         if tb is None:
             continue
         add(f'{name} position', 'm', ta.time, ta.position, tb.time, tb.position)
-        add(f'{name} attitude', 'deg', ta.time, ta.euler_continuous_deg,
-            tb.time, tb.euler_continuous_deg)
+        t, angle = attitude_difference_deg(ta, tb)
+        if len(t):
+            k = int(np.argmax(angle))
+            rows.append(Difference(f'{name} attitude', 'deg', float(angle[k]), float(t[k]),
+                                   180.0, len(t)))
+        else:
+            rows.append(Difference(f'{name} attitude', 'deg', NAN, NAN, NAN, 0))
         add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
             np.degrees(tb.rates))
         add(f'{name} velocity', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)

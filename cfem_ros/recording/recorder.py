@@ -11,6 +11,7 @@ messages of SPEC section 3.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 import functools
 import json
 import os
@@ -18,6 +19,7 @@ import struct
 from typing import Optional
 
 from cfem_ros import __version__
+from cfem_ros.recording import visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.msgdefs import DEFINITIONS
@@ -30,6 +32,8 @@ POSE = 'geometry_msgs/msg/PoseStamped'
 TWIST = 'geometry_msgs/msg/TwistStamped'
 WRENCH = 'geometry_msgs/msg/WrenchStamped'
 STRING = 'std_msgs/msg/String'
+TF = 'tf2_msgs/msg/TFMessage'
+MARKERS = 'visualization_msgs/msg/MarkerArray'
 
 #: What the node offers, in the integer form rosbag2 writes and every
 #: distro's ``ros2 bag play`` reads (rmw enums: history 1 keep last,
@@ -53,6 +57,10 @@ OFFERED_QOS = (
 EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
     'durability: 2', 'durability: 1')
 
+#: Latched topics (/tf_static, markers): transient local, keep last 1, as
+#: tf2's static broadcaster offers them.
+LATCHED_QOS = EVENTS_QOS.replace('depth: 100', 'depth: 1')
+
 #: Chunk size in bytes: small, so that a hard kill loses little.
 CHUNK_SIZE = 64 * 1024
 #: Samples handed over a batch at a time (``Recorder.free_rows``) are
@@ -63,6 +71,20 @@ BATCH_CHUNKS = 16
 _STAMP = np.dtype([('sec', '<i4'), ('nanosec', '<u4')])
 #: CDR encapsulation header: plain CDR, little endian.
 CDR_LE = b'\x00\x01\x00\x00'
+
+
+@dataclass(frozen=True)
+class TransformsOf:
+    """
+    A sample's tf2_msgs/TFMessage: some bodies' poses as transforms from one frame.
+
+    It takes no numbers of its own: each child's 7 (translation, rotation
+    x y z w) are the sample's pose numbers starting at ``columns[j]``.
+    """
+
+    parent: str
+    children: tuple
+    columns: tuple
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -313,15 +335,18 @@ class SampleLayout:
     channels : list of int
         Channel of each message.
     messages : list of (str, int)
-        frame_id and number of float64 of each message.
+        frame_id and number of float64 of each message; or (TransformsOf,
+        None) for a TFMessage made of other messages' numbers.
 
     """
 
     def __init__(self, channels, messages):
         self.channels = [int(c) for c in channels]
         self.dtype, self.columns, self.offsets, template = _layout_template(
-            tuple(self.channels), tuple((str(f), int(c)) for f, c in messages))
-        self.size = self.columns[-1][1] if self.columns else 0
+            tuple(self.channels), tuple(
+                (f, None) if isinstance(f, TransformsOf) else (str(f), int(c))
+                for f, c in messages))
+        self.size = max((b for part in self.columns for _, (_, b) in part), default=0)
         #: Samples whose records make a chunk.
         self.chunk_rows = len(template)
         capacity = BATCH_CHUNKS * self.chunk_rows
@@ -332,10 +357,11 @@ class SampleLayout:
         self._records = template.copy()
         # the fields each sample changes, as views made once (making them is slow)
         self._fields = []
-        for i in range(len(self.channels)):
+        for i, part in enumerate(self.columns):
             record = self._records[f'm{i}']
-            self._fields.append((record['sequence'], record['times'], record['data']['stamp'],
-                                 record['data']['values']))
+            self._fields.append((record['sequence'], record['times'], [
+                (record['data'][stamp_field], record['data'][values_field])
+                for (stamp_field, values_field), _ in part]))
 
     def next_row(self) -> np.ndarray:
         """Return the buffer row the next sample's numbers go to (filled by ``append``)."""
@@ -373,11 +399,12 @@ class SampleLayout:
         stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
         times = stamps[:, None]
         sequence = first_sequence + per * np.arange(k)
-        for i, ((a, b), (seq, log, head, values)) in enumerate(zip(self.columns, self._fields)):
+        for i, (part, (seq, log, views)) in enumerate(zip(self.columns, self._fields)):
             seq[:k] = sequence + i
             log[:k] = times
-            head[:k] = stamp
-            values[:k] = self.values[start:stop, a:b]
+            for ((_, (a, b)), (head, values)) in zip(part, views):
+                head[:k] = stamp
+                values[:k] = self.values[start:stop, a:b]
         offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
         return records.tobytes(), self.channels, stamps.copy(), offsets
 
@@ -390,32 +417,78 @@ def _layout_template(channels: tuple, messages: tuple):
     The buffer holds a chunk's worth of samples with every constant field
     set (opcode, length, channel, encapsulation, frame_id); kept per kind
     of sample, since building numpy's structured dtypes is most of a
-    recording's fixed cost.
+    recording's fixed cost. The columns of message i are a list of
+    ((stamp field, values field), (first, end column)), one per stamp of
+    the message (a TFMessage has one per transform).
     """
-    fields, columns, column = [], [], 0
+    fields, columns, constants, column = [], [], [], 0
     for i, (frame_id, count) in enumerate(messages):
-        frame = _frame_bytes(frame_id)
-        data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
-        pad = -(8 + len(frame)) % 8
-        if pad:
-            data.append(('pad', f'V{pad}'))
-        data.append(('values', '<f8', (count,)))
+        if isinstance(frame_id, TransformsOf):
+            data, parts, constant = _transforms_template(frame_id)
+            columns.append([(names, (first, first + 7))
+                            for names, first in zip(parts, frame_id.columns)])
+        else:
+            frame = _frame_bytes(frame_id)
+            data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
+            pad = -(8 + len(frame)) % 8
+            if pad:
+                data.append(('pad', f'V{pad}'))
+            data.append(('values', '<f8', (count,)))
+            columns.append([(('stamp', 'values'), (column, column + count))])
+            constant = {'encapsulation': CDR_LE, 'frame': frame}
+            column += count
         fields.append((f'm{i}', message_record_fields(np.dtype(data))))
-        columns.append((column, column + count))
-        column += count
+        constants.append(constant)
     dtype = np.dtype(fields)
     capacity = max(1, -(-CHUNK_SIZE // dtype.itemsize))
     template = np.zeros(capacity, dtype=dtype)
     offsets = np.array([dtype.fields[f'm{i}'][1] for i in range(len(messages))])
-    for i, (frame_id, _) in enumerate(messages):
+    for i, constant in enumerate(constants):
         record = template[f'm{i}']
         record['opcode'] = Opcode.MESSAGE
         record['length'] = record.dtype.itemsize - 9
         record['channel'] = channels[i]
-        record['data']['encapsulation'] = np.void(CDR_LE)
-        record['data']['frame'] = np.void(_frame_bytes(frame_id))
+        for name, value in constant.items():
+            record['data'][name] = np.void(value)
     template.flags.writeable = False
     return dtype, columns, offsets, template
+
+
+def _transforms_template(transforms: TransformsOf):
+    """
+    Return the CDR layout of a TFMessage: numpy fields, (stamp, values) names, constants.
+
+    The message is encoded once by ``mcap_ros2`` with marker numbers in
+    its stamps and transforms; where those land gives the offsets of the
+    fields a sample changes, and every other byte is constant.
+    """
+    encode = serialize_dynamic(TF, DEFINITIONS[TF])[TF]
+    marks = [(0x5A000000 + j, 0x3B000000 + j,
+              [1.0 + 2.0 ** -40 * (7 * j + c + 1) for c in range(7)])
+             for j in range(len(transforms.children))]
+    data = encode({'transforms': [
+        {'header': {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': transforms.parent},
+         'child_frame_id': child,
+         'transform': {'translation': dict(zip('xyz', values[:3])),
+                       'rotation': dict(zip('xyzw', values[3:]))}}
+        for child, (sec, nanosec, values) in zip(transforms.children, marks)]})
+    variable = []
+    for j, (sec, nanosec, values) in enumerate(marks):
+        at_stamp = data.index(struct.pack('<iI', sec, nanosec))
+        at_values = data.index(struct.pack('<7d', *values))
+        variable += [(at_stamp, f's{j}', _STAMP), (at_values, f'v{j}', np.dtype(('<f8', (7,))))]
+    fields, constant, at = [], {}, 0
+    for offset, name, kind in sorted(variable):
+        if offset > at:
+            fields.append((f'c{len(constant)}', f'V{offset - at}'))
+            constant[f'c{len(constant)}'] = data[at:offset]
+        fields.append((name, kind))
+        at = offset + kind.itemsize
+    if at < len(data):
+        fields.append((f'c{len(constant)}', f'V{len(data) - at}'))
+        constant[f'c{len(constant)}'] = data[at:]
+    parts = [(f's{j}', f'v{j}') for j in range(len(marks))]
+    return fields, parts, constant
 
 
 def _frame_bytes(frame_id: str) -> bytes:
@@ -454,6 +527,11 @@ class StateRecorder:
         self._rows_layout = None   # the layout of the rows last handed out
         #: Samples recorded so far.
         self.samples = 0
+        moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
+        self._transforms = TransformsOf(
+            self.world, tuple(model.bodies[i].name for i in moving),
+            tuple(13 * i for i in moving)) if moving else None
+        self._scene_written = False
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -463,8 +541,24 @@ class StateRecorder:
         """Stamp of simulated time t, ns."""
         return self.start_ns + seconds_to_ns(t)
 
+    def _scene(self):
+        """Record the fixed bodies' frames and the markers, once, at t = 0."""
+        self._scene_written = True
+        when = self.stamp_ns(0.0)
+        self.recorder.write('/tf_static', TF, visuals.static_transforms(
+            self.sim.model, stamp(when)), when, qos=LATCHED_QOS)
+        self._markers(when)
+
+    def _markers(self, stamp_ns: int):
+        released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
+        self.recorder.write(self.topic('markers'), MARKERS, visuals.markers(
+            self.sim.model, stamp(stamp_ns), self.namespace, released), stamp_ns,
+            qos=LATCHED_QOS)
+
     def sample(self):
         """Record poses, twists and active joints' wrenches at the current state."""
+        if not self._scene_written:
+            self._scene()
         sim = self.sim
         layout = self._layout(sim.active_joints)
         sim.outputs(out=layout.next_row())
@@ -473,6 +567,8 @@ class StateRecorder:
 
     def sample_rows(self) -> np.ndarray:
         """Return buffer rows for the next samples' ``Simulator.outputs`` (see ``took_rows``)."""
+        if not self._scene_written:
+            self._scene()
         self._rows_layout = self._layout(self.sim.active_joints)
         return self.recorder.free_rows(self._rows_layout)
 
@@ -495,6 +591,8 @@ class StateRecorder:
             messages.append((self._pose_topics[i], POSE, self.world, 7))
             messages.append((self._twist_topics[i], TWIST, body.name, 6))
         messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
+        if self._transforms is not None:
+            messages.append(('/tf', TF, self._transforms, None))
         return messages
 
     def events(self):
@@ -502,10 +600,13 @@ class StateRecorder:
         if len(self.sim.events) == self._events_written:
             return
         topic = self.topic('events')
-        for event in self.sim.events[self._events_written:]:
+        new = self.sim.events[self._events_written:]
+        for event in new:
             self.recorder.write(topic, STRING, {'data': json.dumps(event)},
                                 self.stamp_ns(event['time']), qos=EVENTS_QOS)
         self._events_written = len(self.sim.events)
+        if self._scene_written and any(e.get('event') == 'release' for e in new):
+            self._markers(self.stamp_ns(new[-1]['time']))   # released joints change colour
 
     def received(self, item, t: float):
         """

@@ -149,12 +149,15 @@ def _rosbags_copy(source, directory, plant=None):
             force=Vector3(x=a.x, y=a.y, z=a.z), torque=Vector3(x=b.x, y=b.y, z=b.z)))
 
     _, summary, messages = read_mcap(source)
-    kinds = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+    kinds = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()
+             if not c.topic.startswith('/tf') and not c.topic.endswith('/markers')}
     bag = pathlib.Path(directory) / 'bag'
     with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         connections = {topic: writer.add_connection(topic, kind, typestore=store)
                        for topic, kind in sorted(kinds.items())}
         for topic, log_time, _, m in messages:
+            if topic not in kinds:
+                continue   # what the analysis does not read (tf, markers)
             msg = convert(kinds[topic], m)
             if plant is not None:
                 msg = plant(topic, log_time, msg)

@@ -42,9 +42,10 @@ def test_recording_follows_the_ros2_profile(store_run):
         assert channel.message_encoding == 'cdr'
         # the integer form rosbag2 writes, which every distro's ros2 bag play reads
         qos = yaml.safe_load(channel.metadata['offered_qos_profiles'])
-        events = channel.topic.endswith('/events')
-        assert qos == [{'history': 1, 'depth': 100 if events else 10, 'reliability': 1,
-                        'durability': 1 if events else 2,
+        depth, durability = {'/cfem/events': (100, 1), '/tf_static': (1, 1),
+                             '/cfem/markers': (1, 1)}.get(channel.topic, (10, 2))
+        assert qos == [{'history': 1, 'depth': depth, 'reliability': 1,
+                        'durability': durability,
                         'deadline': {'sec': 0, 'nsec': 0}, 'lifespan': {'sec': 0, 'nsec': 0},
                         'liveliness': 1,
                         'liveliness_lease_duration': {'sec': 0, 'nsec': 0},
@@ -52,7 +53,8 @@ def test_recording_follows_the_ros2_profile(store_run):
     topics = {c.topic for c in summary.channels.values()}
     assert topics == {'/cfem/bodies/pylon/pose', '/cfem/bodies/pylon/twist',
                       '/cfem/bodies/store/pose', '/cfem/bodies/store/twist',
-                      '/cfem/joints/pivot/wrench', '/cfem/events'}
+                      '/cfem/joints/pivot/wrench', '/cfem/events', '/cfem/markers', '/tf',
+                      '/tf_static'}
 
 
 def test_both_readers_agree_message_by_message(store_run):
@@ -62,11 +64,14 @@ def test_both_readers_agree_message_by_message(store_run):
     for (topic, log_time, publish_time, a), (topic_b, time_b, b) in zip(ours, theirs):
         assert topic == topic_b and log_time == time_b == publish_time
         assert list(map(repr, fields(a))) == list(map(repr, fields(b)))
-        if hasattr(a, 'header'):
-            assert a.header.stamp.sec * 10 ** 9 + a.header.stamp.nanosec == log_time
+        headers = [a.header] if hasattr(a, 'header') else [
+            t.header for t in getattr(a, 'transforms', [])]
+        for header in headers:
+            assert header.stamp.sec * 10 ** 9 + header.stamp.nanosec == log_time
     assert msgtypes == {
         'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/TwistStamped',
-        'geometry_msgs/msg/WrenchStamped', 'std_msgs/msg/String'}
+        'geometry_msgs/msg/WrenchStamped', 'std_msgs/msg/String', 'tf2_msgs/msg/TFMessage',
+        'visualization_msgs/msg/MarkerArray'}
 
 
 def test_samples_lie_on_exact_multiples_of_the_period(store_run):

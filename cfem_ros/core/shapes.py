@@ -1,0 +1,135 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+What a body looks like (SPEC section 5): a box, a cylinder, a sphere or a mesh.
+
+Shapes are for viewers only (markers in RViz and Foxglove); they change no
+number of the simulation. A body without a ``shape`` is drawn as the box
+with its mass and inertia (a uniform solid box with the same principal
+moments, turned to the principal axes), so that a long, slender store looks
+long and slender; a fixed body without one is a small cube.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+import os
+from typing import Callable
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+#: Edge of the cube drawn for a fixed body without a shape, m.
+FIXED_BODY_CUBE = 0.1
+#: Smallest edge of an inertia-equivalent box, m (a flat plate keeps some thickness).
+THINNEST = 0.01
+
+KINDS = ('box', 'cylinder', 'sphere', 'mesh')
+
+
+@dataclass(frozen=True)
+class Shape:
+    """
+    A body's shape in its own axes.
+
+    Attributes
+    ----------
+    kind : str
+        'box', 'cylinder' (along the body's x axis), 'sphere' or 'mesh'.
+    size : tuple of float
+        box: edges along x, y, z; cylinder: radius, length; sphere: radius;
+        mesh: scale factors along x, y, z. m.
+    offset : tuple of float
+        The shape's centre from the CG, body axes, m.
+    orientation_xyzw : tuple of float
+        The shape's axes relative to the body's (identity but for the
+        inertia-equivalent box of a body whose inertia has products).
+    mesh : str
+        The mesh's file or URL (mesh only): ``package://``, ``file://``,
+        ``http(s)://``, or a path (made absolute, as a ``file://`` URL).
+    given : bool
+        False for a shape made up from the body's mass and inertia.
+
+    """
+
+    kind: str
+    size: tuple
+    offset: tuple = (0.0, 0.0, 0.0)
+    orientation_xyzw: tuple = (0.0, 0.0, 0.0, 1.0)
+    mesh: str = ''
+    given: bool = True
+
+
+def equivalent_box(mass: float, inertia: np.ndarray) -> Shape:
+    """
+    Return the uniform solid box with a body's mass and principal moments.
+
+    A box of edges a, b, c has Ixx = m (b^2 + c^2) / 12 and so on, so
+    a^2 = 6 (Iyy + Izz - Ixx) / m; edges below ``THINNEST`` are raised to it.
+    """
+    moments, axes = np.linalg.eigh(np.asarray(inertia, dtype=float))
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1.0
+    total = moments.sum()
+    edges = tuple(max(THINNEST, math.sqrt(max(0.0, 6.0 * (total - 2.0 * moments[k]) / mass)))
+                  for k in range(3))
+    return Shape('box', edges, orientation_xyzw=_quaternion_of(axes), given=False)
+
+
+def _quaternion_of(matrix: np.ndarray) -> tuple:
+    """Quaternion (x, y, z, w) of a rotation matrix (columns: the new axes)."""
+    return tuple(float(v) for v in Rotation.from_matrix(matrix).as_quat())
+
+
+def default_shape(fixed: bool, mass: float, inertia: np.ndarray) -> Shape:
+    """Return the shape drawn for a body whose scenario gives none."""
+    if fixed:
+        return Shape('box', (FIXED_BODY_CUBE,) * 3, given=False)
+    return equivalent_box(mass, inertia)
+
+
+def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Callable,
+                base_dir: str = '') -> Shape:
+    """
+    Read a body's ``shape`` mapping; ``fail``, ``number``, ``vector`` report errors.
+
+    Forms: ``{box: [x, y, z]}``, ``{cylinder: [radius, length]}``,
+    ``{sphere: radius}``, ``{mesh: file or URL, scale: [sx, sy, sz]}``, each
+    with an optional ``offset: [x, y, z]`` (body axes, m, from the CG).
+    """
+    if not isinstance(value, dict):
+        fail(key, f'is {value!r:.80}', 'a mapping such as {box: [x, y, z]}')
+    kinds = [k for k in value if k in KINDS]
+    extra = [k for k in value if k not in KINDS + ('offset', 'scale')]
+    if extra:
+        fail(f'{key}.{extra[0]}', 'unknown key', 'one of ' + ', '.join(KINDS + ('offset',)))
+    if len(kinds) != 1:
+        fail(key, f'names {len(kinds)} kinds of shape', 'exactly one of ' + ', '.join(KINDS))
+    kind = kinds[0]
+    if 'scale' in value and kind != 'mesh':
+        fail(f'{key}.scale', f'is given for a {kind}', 'scale only with mesh')
+    offset = tuple(float(v) for v in vector(value.get('offset', [0, 0, 0]), f'{key}.offset'))
+    spec, where = value[kind], f'{key}.{kind}'
+    if kind == 'box':
+        size = tuple(float(v) for v in vector(spec, where))
+    elif kind == 'cylinder':
+        size = tuple(float(v) for v in vector(spec, where, 2))
+    elif kind == 'sphere':
+        size = (number(spec, where, positive=True),)
+    else:
+        if not isinstance(spec, str) or not spec.strip():
+            fail(where, f'is {spec!r:.80}', 'a mesh file or URL (package://, file://, http://)')
+        size = tuple(float(v) for v in vector(value.get('scale', [1, 1, 1]), f'{key}.scale'))
+        return Shape('mesh', size, offset, mesh=_mesh_url(spec.strip(), base_dir))
+    if min(size) <= 0.0:
+        fail(where, f'is {list(size)}', 'sizes > 0 m')
+    return Shape(kind, size, offset)
+
+
+def _mesh_url(spec: str, base_dir: str) -> str:
+    """Return a mesh reference as a URL viewers resolve (paths become file:// URLs)."""
+    if '://' in spec:
+        return spec
+    path = spec if os.path.isabs(spec) else os.path.join(base_dir or os.getcwd(), spec)
+    return 'file://' + os.path.abspath(path)

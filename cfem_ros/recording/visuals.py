@@ -1,0 +1,135 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+What viewers draw: a body's shape and each joint's point as markers, bodies as frames.
+
+Every body is a tf frame named after it, child of the world frame: fixed
+bodies on ``/tf_static``, the others on ``/tf`` at every sample (the same
+numbers as the body's pose). The markers (``visualization_msgs/MarkerArray``
+on ``<namespace>/markers``) are frame-locked to those frames, so they are
+sent once and move with the frames in RViz and in Foxglove's 3D panel: one
+marker per body (its ``shape``, drawn about its CG), one sphere per joint at
+the joint's point on the parent, green while the joint holds, red and faded
+once released.
+"""
+
+from __future__ import annotations
+
+from cfem_ros.core import rotations
+from cfem_ros.core.shapes import default_shape, Shape
+import numpy as np
+
+#: visualization_msgs/Marker types.
+CUBE, SPHERE, CYLINDER, MESH_RESOURCE = 1, 2, 3, 10
+#: Colours (r, g, b, a) of moving bodies, in turn; fixed bodies are grey.
+PALETTE = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
+           (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0), (0.89, 0.47, 0.76, 1.0))
+FIXED_COLOR = (0.6, 0.6, 0.6, 0.6)
+HELD_COLOR = (0.1, 0.8, 0.1, 1.0)
+RELEASED_COLOR = (0.9, 0.1, 0.1, 0.35)
+#: A joint's sphere is this fraction of the largest body's size (at least 2 cm).
+JOINT_SIZE = 0.04
+#: A cylinder marker stands along z; ours lie along the body's x axis.
+_Z_TO_X = np.array([0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5)])   # +90 deg about y
+
+
+def body_shape(body) -> Shape:
+    """Return a body's shape: as given, or made up from its mass and inertia."""
+    return body.shape if body.shape is not None else default_shape(
+        body.fixed, body.mass, body.inertia)
+
+
+def _xyz(v) -> dict:
+    return {'x': float(v[0]), 'y': float(v[1]), 'z': float(v[2])}
+
+
+def _quat(q) -> dict:
+    return {'x': float(q[0]), 'y': float(q[1]), 'z': float(q[2]), 'w': float(q[3])}
+
+
+def _color(c) -> dict:
+    return dict(zip('rgba', (float(v) for v in c)))
+
+
+def _shape_marker(shape: Shape) -> dict:
+    """Return a marker's type, pose and scale (and mesh) for a shape, in its body's frame."""
+    orientation = np.array(shape.orientation_xyzw, dtype=float)
+    if shape.kind == 'box':
+        kind, scale = CUBE, shape.size
+    elif shape.kind == 'sphere':
+        kind, scale = SPHERE, (2 * shape.size[0],) * 3
+    elif shape.kind == 'cylinder':
+        radius, length = shape.size
+        kind, scale = CYLINDER, (2 * radius, 2 * radius, length)
+        orientation = rotations.multiply(orientation, _Z_TO_X)
+    else:
+        kind, scale = MESH_RESOURCE, shape.size
+    marker = {'type': kind, 'pose': {'position': _xyz(shape.offset),
+                                     'orientation': _quat(orientation)},
+              'scale': _xyz(scale)}
+    if kind == MESH_RESOURCE:
+        marker['mesh_resource'] = shape.mesh
+    return marker
+
+
+def _extent(shape: Shape) -> float:
+    if shape.kind == 'cylinder':
+        return max(2 * shape.size[0], shape.size[1])
+    if shape.kind == 'sphere':
+        return 2 * shape.size[0]
+    return max(shape.size)
+
+
+def joint_points_on_parents(model) -> np.ndarray:
+    """Each joint's point in its parent's body axes (from t = 0), m, shape (n_joints, 3)."""
+    out = np.zeros((len(model.joints), 3))
+    for k, joint in enumerate(model.joints):
+        parent = model.bodies[joint.parent]
+        rot = rotations.matrices(np.asarray(parent.orientation_xyzw)[None])[0]
+        out[k] = rot.T @ (np.asarray(joint.anchor) - np.asarray(parent.position))
+    return out
+
+
+def markers(model, stamp: dict, namespace: str, released=()) -> dict:
+    """
+    Return the MarkerArray of a model: its bodies' shapes and its joints' points.
+
+    Parameters
+    ----------
+    model : Model
+        The bodies (with their shapes) and joints.
+    stamp : dict
+        builtin_interfaces/Time of the message.
+    namespace : str
+        The markers' ``ns`` prefix (the node's namespace).
+    released : collection of str
+        Joints already released (drawn red and faded).
+
+    """
+    out = []
+    colors = iter(PALETTE * (1 + len(model.bodies) // len(PALETTE)))
+    shapes = [body_shape(body) for body in model.bodies]
+    for i, (body, shape) in enumerate(zip(model.bodies, shapes)):
+        marker = _shape_marker(shape)
+        marker.update(header={'stamp': stamp, 'frame_id': body.name},
+                      ns=f'{namespace}/bodies', id=i, action=0, frame_locked=True,
+                      color=_color(FIXED_COLOR if body.fixed else next(colors)), text=body.name)
+        out.append(marker)
+    size = max(0.02, JOINT_SIZE * max((_extent(s) for s in shapes), default=1.0))
+    for k, (joint, point) in enumerate(zip(model.joints, joint_points_on_parents(model))):
+        out.append({'header': {'stamp': stamp, 'frame_id': model.bodies[joint.parent].name},
+                    'ns': f'{namespace}/joints', 'id': k, 'type': SPHERE, 'action': 0,
+                    'pose': {'position': _xyz(point), 'orientation': _quat((0, 0, 0, 1))},
+                    'scale': _xyz((size, size, size)), 'frame_locked': True,
+                    'color': _color(RELEASED_COLOR if joint.name in released else HELD_COLOR),
+                    'text': joint.name})
+    return {'markers': out}
+
+
+def static_transforms(model, stamp: dict) -> dict:
+    """Return the TFMessage of the fixed bodies: world frame to each, at its pose."""
+    return {'transforms': [
+        {'header': {'stamp': stamp, 'frame_id': model.frame_id}, 'child_frame_id': body.name,
+         'transform': {'translation': _xyz(body.position),
+                       'rotation': _quat(body.orientation_xyzw)}}
+        for body in model.bodies if body.fixed]}

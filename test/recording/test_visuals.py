@@ -1,0 +1,157 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Recordings carry /tf, /tf_static and markers that place each body where its pose says.
+
+Read back with rosbags (types built from the file's schemas, an independent
+CDR decoder): every /tf transform equals the body's pose at that stamp, the
+fixed bodies are on /tf_static, and each body's marker, composed with its
+frame, lands on the body's CG (plus the shape's offset turned with the body).
+"""
+
+import math
+import pathlib
+
+from cfem_ros import cli, load_scenario, parse_scenario
+from cfem_ros.core import rotations
+from cfem_ros.core.shapes import equivalent_box
+from cfem_ros.recording import visuals
+import numpy as np
+import pytest
+from recordings import read_rosbags
+import yaml
+
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
+
+
+@pytest.fixture(scope='module')
+def store(tmp_path_factory):
+    out = tmp_path_factory.mktemp('visuals') / 'store.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out)]) == 0
+    messages, _ = read_rosbags(out)
+    return messages
+
+
+def _apply(translation, rotation, point):
+    matrix = rotations.matrices(np.array([rotation]))[0]
+    return np.asarray(translation) + matrix @ np.asarray(point)
+
+
+def test_tf_carries_every_pose_and_static_the_fixed_bodies(store):
+    poses = {t: m for topic, t, m in store if topic == '/cfem/bodies/store/pose'}
+    tfs = [(t, m) for topic, t, m in store if topic == '/tf']
+    assert len(tfs) == len(poses) == 151
+    for t, message in tfs:
+        (transform,) = message.transforms
+        assert (transform.header.frame_id, transform.child_frame_id) == ('world', 'store')
+        pose = poses[t].pose
+        a, b = transform.transform.translation, transform.transform.rotation
+        assert (a.x, a.y, a.z) == (pose.position.x, pose.position.y, pose.position.z)
+        assert (b.x, b.y, b.z, b.w) == (pose.orientation.x, pose.orientation.y,
+                                        pose.orientation.z, pose.orientation.w)
+    (static,) = [m for topic, _, m in store if topic == '/tf_static']
+    assert [t.child_frame_id for t in static.transforms] == ['pylon']
+
+
+def test_markers_place_the_shapes_and_mark_the_release(store):
+    arrays = [(t, m) for topic, t, m in store if topic == '/cfem/markers']
+    assert len(arrays) == 2   # at t = 0, and when the pivot lets go
+    (t0, first), (t1, second) = arrays
+    release = next(m for topic, _, m in store if topic == '/cfem/events')
+    assert t0 == 0 and t1 == round(yaml.safe_load(release.data)['time'] * 1e9)
+    bodies = {m.text: m for m in first.markers if m.ns == '/cfem/bodies'}
+    store_marker, pylon_marker = bodies['store'], bodies['pylon']
+    assert store_marker.header.frame_id == 'store' and store_marker.frame_locked
+    assert store_marker.type == visuals.CYLINDER
+    assert (store_marker.scale.x, store_marker.scale.y, store_marker.scale.z) == (0.5, 0.5, 2.5)
+    # a cylinder marker stands on z: turned so that its axis is the store's x axis
+    q = store_marker.pose.orientation
+    axis = rotations.matrices(np.array([[q.x, q.y, q.z, q.w]]))[0] @ [0, 0, 1]
+    np.testing.assert_allclose(axis, [1, 0, 0], atol=1e-15)
+    assert pylon_marker.type == visuals.CUBE and pylon_marker.header.frame_id == 'pylon'
+    # the pylon's box sits 0.45 m above the store's CG (z down), through /tf_static
+    (static,) = [m for topic, _, m in store if topic == '/tf_static']
+    frame = static.transforms[0].transform
+    p = pylon_marker.pose.position
+    centre = _apply([frame.translation.x, frame.translation.y, frame.translation.z],
+                    [frame.rotation.x, frame.rotation.y, frame.rotation.z, frame.rotation.w],
+                    [p.x, p.y, p.z])
+    np.testing.assert_allclose(centre, [0, 0, -0.45])
+    # the joint's sphere, on its parent's frame, is at the anchor
+    (joint,) = [m for m in first.markers if m.ns == '/cfem/joints']
+    assert joint.header.frame_id == 'pylon' and joint.text == 'pivot'
+    j = joint.pose.position
+    anchor = _apply([frame.translation.x, frame.translation.y, frame.translation.z],
+                    [frame.rotation.x, frame.rotation.y, frame.rotation.z, frame.rotation.w],
+                    [j.x, j.y, j.z])
+    np.testing.assert_allclose(anchor, [-0.3292, 0, -0.25], atol=1e-15)
+    held = (joint.color.r, joint.color.g, joint.color.b, joint.color.a)
+    (after,) = [m for m in second.markers if m.ns == '/cfem/joints']
+    assert (after.color.r, after.color.g, after.color.b, after.color.a) != held
+    assert after.color.a < held[3]
+
+
+def test_a_marker_follows_its_body_with_its_offset(tmp_path):
+    document = {
+        'name': 'offset', 'gravity': [0, 0, 0], 'duration': 0.5,
+        'bodies': {'box': {'mass': 2.0, 'inertia': [1.0, 2.0, 3.0], 'velocity': [1, 2, 3],
+                           'angular_velocity_deg': [40, 30, 20],
+                           'shape': {'sphere': 0.2, 'offset': [0.3, -0.1, 0.2]}}},
+    }
+    scenario = tmp_path / 'offset.yaml'
+    scenario.write_text(yaml.safe_dump(document))
+    out = tmp_path / 'offset.mcap'
+    assert cli.main(['run', str(scenario), '-o', str(out)]) == 0
+    messages, _ = read_rosbags(out)
+    (array,) = [m for topic, _, m in messages if topic == '/cfem/markers']
+    (marker,) = array.markers
+    assert marker.type == visuals.SPHERE and marker.scale.x == 0.4
+    offset = [marker.pose.position.x, marker.pose.position.y, marker.pose.position.z]
+    poses = {t: m.pose for topic, t, m in messages if topic == '/cfem/bodies/box/pose'}
+    for t, message in [(t, m) for topic, t, m in messages if topic == '/tf']:
+        transform = message.transforms[0].transform
+        a, b = transform.translation, transform.rotation
+        centre = _apply([a.x, a.y, a.z], [b.x, b.y, b.z, b.w], offset)
+        pose = poses[t]
+        expected = _apply([pose.position.x, pose.position.y, pose.position.z],
+                          [pose.orientation.x, pose.orientation.y, pose.orientation.z,
+                           pose.orientation.w], [0.3, -0.1, 0.2])
+        np.testing.assert_allclose(centre, expected, atol=1e-15)
+
+
+def test_the_default_shape_is_the_box_of_the_inertia():
+    mass, inertia = 3.0, np.diag([1.0, 2.0, 2.5])
+    box = equivalent_box(mass, inertia)
+    a, b, c = sorted(box.size, reverse=True)
+    # a uniform box of these edges has the given principal moments
+    moments = sorted([mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12,
+                      mass * (a * a + b * b) / 12])
+    np.testing.assert_allclose(moments, [1.0, 2.0, 2.5])
+    # products of inertia turn the box to the principal axes
+    turned = rotations.matrices(np.array([rotations.from_rpy_deg([0, 0, 30])]))[0]
+    box = equivalent_box(mass, turned @ inertia @ turned.T)
+    axes = rotations.matrices(np.array([box.orientation_xyzw]))[0]
+    inertia_back = axes @ np.diag([mass * (box.size[1] ** 2 + box.size[2] ** 2) / 12,
+                                   mass * (box.size[0] ** 2 + box.size[2] ** 2) / 12,
+                                   mass * (box.size[0] ** 2 + box.size[1] ** 2) / 12]) @ axes.T
+    np.testing.assert_allclose(inertia_back, turned @ inertia @ turned.T, atol=1e-12)
+    model = load_scenario(str(CONFIG / 'double_pendulum.yaml'))
+    assert all(visuals.body_shape(b).given is False for b in model.bodies)
+    assert math.isclose(visuals.body_shape(model.bodies[0]).size[0], 0.1) or \
+        not model.bodies[0].fixed
+
+
+@pytest.mark.parametrize('shape, fragment', [
+    ({'box': [1, 2]}, 'bodies.b.shape.box'),
+    ({'cone': 1}, 'bodies.b.shape.cone'),
+    ({'box': [1, 1, 1], 'sphere': 1}, 'exactly one'),
+    ({'sphere': -1}, 'bodies.b.shape.sphere'),
+    ({'cylinder': [0.1, 0]}, 'sizes > 0'),
+    ({'mesh': ''}, 'mesh file or URL'),
+    ({'box': [1, 1, 1], 'scale': [1, 1, 1]}, 'scale only with mesh'),
+])
+def test_bad_shapes_are_refused_with_the_key_path(shape, fragment):
+    document = {'bodies': {'b': {'mass': 1.0, 'inertia': [1, 1, 1], 'shape': shape}}}
+    with pytest.raises(Exception) as err:
+        parse_scenario(document)
+    assert type(err.value).__name__ == 'ScenarioError' and fragment in str(err.value)
