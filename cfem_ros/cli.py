@@ -13,7 +13,7 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.console import interrupt, Interrupted, quiet_broken_pipe
+from cfem_ros.console import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.core import rotations, warmup
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
@@ -367,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run cfem-sim (SIGINT exits 130, SIGTERM 143; a running recording is finished first)."""
-    previous = [signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)]
+    previous = [signal.signal(s, exit_now) for s in (signal.SIGINT, signal.SIGTERM)]
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter('WARNING: %(message)s'))
     LOG.addHandler(handler)
@@ -388,7 +388,7 @@ def main(argv=None) -> int:
                        dt=args.dt, inputs=args.inputs, overwrite=args.overwrite,
                        max_samples=args.max_samples, max_gb=args.max_gb)
     except Interrupted as stop:
-        print(f'interrupted ({stop})', file=sys.stderr)
+        print(f'interrupted by {stop}', file=sys.stderr)
         return stop.exit_status
     except BrokenPipeError:
         return quiet_broken_pipe()

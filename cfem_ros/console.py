@@ -4,9 +4,11 @@
 The ``cfem-sim`` console script: signals and broken pipes handled from the first instant.
 
 Ctrl-C (SIGINT) and SIGTERM during start-up (imports, compilation, scenario
-loading) end the command with one line and exit status 130 or 143, without
-a traceback; ``cfem_ros.cli`` then takes over (a running recording is
-finished first). A closed stdout or stderr (``cfem-sim info ... | head``)
+loading) end the command at once with one line and exit status 130 or 143,
+without a traceback (``exit_now``: nothing is being written then; an
+exception raised from the handler could be wrapped by the code it lands in,
+e.g. into a RuntimeError by a class being created). While ``cfem-sim run``
+records, its own handlers stop it between two chunks instead. A closed stdout or stderr (``cfem-sim info ... | head``)
 ends the command quietly.
 """
 
@@ -32,9 +34,13 @@ class Interrupted(BaseException):
         return 128 + self.signum
 
 
-def interrupt(signum, frame):
-    """Raise Interrupted: the handler of SIGINT and SIGTERM outside a recording."""
-    raise Interrupted(signum)
+def exit_now(signum, frame):
+    """Say so on stderr and exit 128 + signum at once: SIGINT's and SIGTERM's handler."""
+    try:
+        os.write(2, f'interrupted by {signal.Signals(signum).name}\n'.encode())
+    except OSError:
+        pass
+    os._exit(128 + signum)
 
 
 def quiet_broken_pipe() -> int:
@@ -50,14 +56,14 @@ def quiet_broken_pipe() -> int:
 
 def main(argv=None) -> int:
     """Run cfem-sim with SIGINT and SIGTERM handled before anything heavy is imported."""
-    signal.signal(signal.SIGINT, interrupt)
-    signal.signal(signal.SIGTERM, interrupt)
+    signal.signal(signal.SIGINT, exit_now)
+    signal.signal(signal.SIGTERM, exit_now)
     try:
         from cfem_ros import cli
         return cli.main(argv)
     except Interrupted as stop:
         try:
-            print(f'interrupted ({stop}) during start-up; nothing written', file=sys.stderr)
+            print(f'interrupted by {stop}', file=sys.stderr)
         except (BrokenPipeError, OSError):
             pass
         return stop.exit_status
