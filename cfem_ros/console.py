@@ -8,8 +8,8 @@ loading) end the command at once with one line and exit status 130 or 143,
 without a traceback (``exit_now``: nothing is being written then; an
 exception raised from the handler could be wrapped by the code it lands in,
 e.g. into a RuntimeError by a class being created). While ``cfem-sim run``
-records, its own handlers stop it between two chunks instead. A closed stdout or stderr (``cfem-sim info ... | head``)
-ends the command quietly.
+records, its own handlers stop it between two chunks instead. A closed
+stdout or stderr (``cfem-sim info ... | head``) ends the command quietly.
 """
 
 import os
