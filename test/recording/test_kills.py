@@ -107,7 +107,9 @@ def _kill_once(sig, delay, out, old, tmp_path):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _wait_for_handlers(process.pid)
     time.sleep(delay)
-    process.send_signal(sig)
+    finished = process.poll() is not None   # the whole run done before the signal
+    if not finished:
+        process.send_signal(sig)
     try:
         stdout, stderr = process.communicate(timeout=60)
     except subprocess.TimeoutExpired:
@@ -115,6 +117,10 @@ def _kill_once(sig, delay, out, old, tmp_path):
         process.communicate()
         raise
     partials = list(tmp_path.glob(f'.{out.name}.partial-*'))
+    if finished or process.returncode == 0:   # or the signal came as it was exiting
+        assert process.returncode == 0 and '300 s simulated' in stdout, (stdout, stderr)
+        assert not partials and _counts(out)[0] == 9 * 300001 + 2
+        return 'finished', 300001, 0
     if sig == signal.SIGKILL:
         assert process.returncode == -signal.SIGKILL
         assert out.read_bytes() == old, 'the old recording was damaged'
@@ -156,7 +162,7 @@ def test_kills_leave_complete_or_recoverable_files(tmp_path):
         sig = SIGNALS[k % 3]
         # half during start-up, half in the run's first moments (seconds if LONG)
         delay = (rng.uniform(0.0, start_up) if k % 2
-                 else start_up + rng.uniform(0.0, 3.0 if LONG else 0.6))
+                 else start_up + rng.uniform(0.0, 2.0 if LONG else 0.6))
         when, samples, lost = _kill_once(sig, delay, out, old, tmp_path)
         figures[signal.Signals(sig).name, when] += 1
         if LONG:
@@ -167,6 +173,8 @@ def test_kills_leave_complete_or_recoverable_files(tmp_path):
         if out.read_bytes() != old:   # a complete new recording: the next run replaces it
             old = out.read_bytes()
     assert sum(figures.values()) == KILLS
+    # the runs did get stopped mid-run (a signal ignored while recording would not)
+    assert figures['SIGINT', 'mid-run'] + figures['SIGTERM', 'mid-run'] >= KILLS // 6
     if LONG or KILLS > 12:
         print(f'\n{KILLS} kills (start-up {start_up:.2f} s):')
         for (name, when), count in sorted(figures.items()):
