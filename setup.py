@@ -75,7 +75,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'cfem-sim = cfem_ros.cli:main',
+            'cfem-sim = cfem_ros.console:main',
             'cfem_node = cfem_ros.ros.node:entry_point',
             'cfem_pub = cfem_ros.ros.publish:entry_point',
         ],

@@ -13,6 +13,7 @@ import sys
 import time
 from typing import Optional
 
+from cfem_ros.console import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.core import rotations, warmup
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
@@ -124,19 +125,56 @@ def _print_state(sim):
               f'rates {_vec(rates[i])} deg/s (body)')
 
 
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
+    """Return why a run is too large to record (None if it is not)."""
+    samples = offline.expected_samples(rate, model.duration)
+    size = offline.estimate_bytes(model, samples)
+    if samples > max_samples:
+        return (f'--rate {rate:g} Hz over {model.duration:g} s: {samples:.4g} samples, more '
+                f'than --max-samples {max_samples:.4g}; lower --rate or --duration, or raise '
+                '--max-samples')
+    if size > max_gb * 1e9:
+        return (f'--rate {rate:g} Hz over {model.duration:g} s: about {size / 1e9:.3g} GB '
+                f'of recording, more than --max-gb {max_gb:g}; lower --rate or --duration, '
+                'or raise --max-gb')
+    return None
+
+
 def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[float] = None,
             dt: Optional[float] = None, inputs: Optional[str] = None,
-            overwrite: bool = False) -> int:
-    """Run a scenario offline and record it; exit status 0, 1 or 2."""
-    if not (math.isfinite(rate) and rate > 0):
-        return _error(f'--rate: is {rate:g}; expected a sample rate > 0 Hz')
+            overwrite: bool = False, max_samples: float = offline.MAX_SAMPLES,
+            max_gb: float = offline.MAX_GB) -> int:
+    """
+    Run a scenario offline and record it; exit status 0, 1, 2, 130 or 143.
+
+    The recording is written to a partial file next to output and moved
+    onto it when finished, also after SIGINT (130) or SIGTERM (143), which
+    stop the run between two chunks.
+    """
+    low, high = offline.RATE_RANGE
+    if not (math.isfinite(rate) and low <= rate <= high):
+        return _error(f'--rate: is {rate:g}; expected a sample rate from {low:g} to {high:g} Hz')
+    if _same_file(output, scenario):
+        return _error(f'-o {output}: is the scenario file itself; choose another output')
+    if inputs and _same_file(output, inputs):
+        return _error(f'-o {output}: is the --inputs log itself; choose another output')
     try:
         model = load_scenario(scenario, duration=duration, dt=dt)
+        too_large = _check_run_size(model, rate, max_samples, max_gb)
+        if too_large:
+            return _error(too_large)
         replay = []
         if inputs:
             from cfem_ros.recording.replay import read_inputs   # mcap's reader only to replay
             replay = read_inputs(inputs)
-        if os.path.exists(output) and not overwrite:
+        if os.path.lexists(output) and not overwrite:
             return _error(f'{output}: already exists; pass --overwrite to replace it')
         sim = Simulator(model)
     except CfemError as err:
@@ -146,23 +184,46 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         print('compiling the numerical core (once per install, about a minute); '
               '`make` does this at install time', file=sys.stderr, flush=True)
         print(f'compiled in {warmup.warm_up():.0f} s', file=sys.stderr)
+    stop = []
+
+    def hold(signum, frame):   # while recording: stop at the next safe point
+        stop.append(signum)
 
     def progress(t):
+        if stop:
+            raise Interrupted(stop[0])
         if interactive:
             print(f'\r  t = {t:.3f} / {model.duration:g} s', end='', file=sys.stderr)
 
     started = time.monotonic()
+    state = None
+    ok = True
+    previous = [signal.signal(s, hold) for s in (signal.SIGINT, signal.SIGTERM)]
     try:
-        with Recorder(output, overwrite=overwrite,
+        with Recorder(output, overwrite=overwrite, atomic=True,
                       metadata=run_metadata(model, scenario, rate, 0)) as recorder:
-            state = StateRecorder(recorder, sim)
-            ok = offline.run(sim, state, rate_hz=rate, duration=model.duration,
-                             inputs=replay, progress=progress)
+            try:
+                if stop:
+                    raise Interrupted(stop[0])
+                state = StateRecorder(recorder, sim)
+                ok = offline.run(sim, state, rate_hz=rate, duration=model.duration,
+                                 inputs=replay, progress=progress, progress_every=0.2)
+            except Interrupted:
+                pass   # the recording is finished (and moved onto output) on the way out
     except CfemError as err:
         return _error(str(err))
-    wall = time.monotonic() - started
+    finally:
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
     if interactive:
         print('\r' + ' ' * 40 + '\r', end='', file=sys.stderr)
+    if stop:
+        name = signal.Signals(stop[0]).name
+        samples = state.samples if state is not None else 0
+        print(f'{name}: stopped at t = {sim.t:.9g} s; {samples} samples '
+              f'({recorder.message_count} messages) in {output}, complete', file=sys.stderr)
+        return 128 + stop[0]
+    wall = time.monotonic() - started
     print(f'{model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
           f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
     for event in sim.events:
@@ -179,28 +240,55 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
 
 
 def cmd_info(recording: str) -> int:
-    """Print a recording's topics, message counts, duration and events; exit 0 or 2."""
+    """Print a recording's topics, message counts, time range, chunks and events; exit 0 or 2."""
     from cfem_ros.recording import analysis   # the reader only for the commands that read
+    from cfem_ros.recording.summary import read_summary
     try:
-        run = analysis.open_run(recording)
+        summary = read_summary(recording)
     except CfemError as err:
         return _error(str(err))
-    print(f'{recording}: namespace {run.namespace!r}, {run.duration:.6g} s '
-          f'(t = 0 at stamp {run.start_ns} ns)')
-    if run.metadata:
-        print('  ' + ', '.join(f'{k} {v}' for k, v in sorted(run.metadata.items())))
-    width = max(len(topic) for topic in run.topics)
+    ours = summary.metadata.get('cfem_ros', {})
+    start_ns = int(ours.get('start_stamp_ns', summary.start_ns))
+    span = (summary.end_ns - summary.start_ns) / 1e9 if summary.message_count else 0.0
+    print(f'{recording}: {summary.message_count} messages in {summary.chunk_count} chunks, '
+          f'log times {summary.start_ns} to {summary.end_ns} ns ({span:.6g} s; '
+          f't = 0 at stamp {start_ns} ns)')
+    for name, values in sorted(summary.metadata.items()):
+        print(f'  metadata {name}: ' + ', '.join(f'{k} {v}' for k, v in sorted(values.items())))
+    width = max([len(topic) for topic in summary.topics] + [5])
     print(f'  {"topic":<{width}}  {"messages":>8}  type')
-    for topic, (kind, count) in sorted(run.topics.items()):
+    for topic, (kind, count) in sorted(summary.topics.items()):
         print(f'  {topic:<{width}}  {count:>8}  {kind}')
-    moving = [b.name for b in run.moving_bodies()]
-    print(f'  bodies: {", ".join(run.bodies)} (moving: {", ".join(moving) or "none"}); '
-          f'joints: {", ".join(run.joints) or "none"}')
-    releases = run.releases()
+    bodies = sorted({m['name'] for t in summary.topics for m in [analysis.BODY_TOPIC.match(t)]
+                     if m and m['kind'] == 'pose'})
+    joints = sorted({m['name'] for t in summary.topics for m in [analysis.JOINT_TOPIC.match(t)]
+                     if m})
+    print(f'  bodies: {", ".join(bodies) or "none"}; joints: {", ".join(joints) or "none"}')
+    releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
+                      for e in summary.events if e.get('event') == 'release' and 'time' in e)
     for t, joint, cause in releases:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
         print('  no release')
+    return EXIT_OK
+
+
+def cmd_recover(broken: str, fixed: str) -> int:
+    """Copy the complete messages of a cut recording into a new one; exit 0 or 2."""
+    if _same_file(broken, fixed):
+        return _error(f'-o {fixed}: is the broken file itself; choose another output')
+    try:
+        from cfem_ros.recording.recover import recover
+        report = recover(broken, fixed)
+    except CfemError as err:
+        return _error(str(err))
+    if report.complete:
+        where = 'the file was complete (footer found)'
+    else:
+        where = (f'the file was cut at byte {report.cut_at} of {report.size} '
+                 f'({report.note})')
+    print(f'{fixed}: {report.messages} messages recovered from {report.chunks} complete '
+          f'chunks, up to log time {report.end_ns} ns; {where}')
     return EXIT_OK
 
 
@@ -392,7 +480,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument('--dt', type=float, metavar='S', help="RK4 step, overriding the scenario's")
     run.add_argument('--inputs', metavar='LOG.mcap',
                      help='replay the wrenches and release commands of a recording')
-    run.add_argument('--overwrite', action='store_true', help='replace OUT if it exists')
+    run.add_argument('--overwrite', action='store_true',
+                     help='replace OUT if it exists (once the new recording is complete)')
+    run.add_argument('--max-samples', type=float, default=offline.MAX_SAMPLES, metavar='N',
+                     help='refuse a run of more samples (default %(default).0f)')
+    run.add_argument('--max-gb', type=float, default=offline.MAX_GB, metavar='GB',
+                     help='refuse a run whose recording would exceed this size '
+                     '(default %(default)g GB)')
     check = sub.add_parser('check', help='validate a scenario and summarize it',
                            description='Validate a scenario and print its bodies, joints '
                            'and degrees of freedom.')
@@ -408,8 +502,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help='sweep folder: metric to scatter against the varied parameters '
                       '(default the first clearance minimum)')
     info = sub.add_parser('info', help='summarize a recording',
-                          description='Print topics, message counts, duration and events.')
+                          description='Print topics, message counts, time range, chunks, '
+                          "metadata and events, from the file's summary.")
     info.add_argument('recording', metavar='RUN.mcap', help='recording to read')
+    rec = sub.add_parser('recover', help='salvage a cut recording',
+                         description='Copy every complete message of a recording cut by a '
+                         'hard kill (no footer) into a new, indexed file.')
+    rec.add_argument('broken', metavar='BROKEN.mcap', help='cut recording to read')
+    rec.add_argument('-o', '--output', required=True, metavar='FIXED.mcap',
+                     help='new recording to write (must not exist)')
     compare = sub.add_parser('compare', help='compare two recordings',
                              description='Print the largest difference of each quantity '
                              'between two recordings of the same topics (B resampled onto '
@@ -448,24 +549,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt
-
-
 def main(argv=None) -> int:
-    """Entry point of the cfem-sim console script."""
-    args = build_parser().parse_args(argv)
+    """Run cfem-sim (SIGINT exits 130, SIGTERM 143; a running recording is finished first)."""
+    previous = [signal.signal(s, exit_now) for s in (signal.SIGINT, signal.SIGTERM)]
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter('WARNING: %(message)s'))
     LOG.addHandler(handler)
     LOG.propagate = False
-    # SIGTERM unwinds like Ctrl-C, so that an open recording is finished.
-    signal.signal(signal.SIGTERM, _terminate)
     try:
+        args = build_parser().parse_args(argv)
         if args.command == 'check':
             return cmd_check(args.scenario)
         if args.command == 'info':
             return cmd_info(args.recording)
+        if args.command == 'recover':
+            return cmd_recover(args.broken, args.output)
         if args.command == 'plot':
             return cmd_plot(args.recording, args.output, args.metric)
         if args.command == 'sweep':
@@ -478,12 +576,17 @@ def main(argv=None) -> int:
         if args.command == 'compare':
             return cmd_compare(args.first, args.second, args.output)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
-                       dt=args.dt, inputs=args.inputs, overwrite=args.overwrite)
-    except KeyboardInterrupt:
-        print('interrupted', file=sys.stderr)
-        return 130
+                       dt=args.dt, inputs=args.inputs, overwrite=args.overwrite,
+                       max_samples=args.max_samples, max_gb=args.max_gb)
+    except Interrupted as stop:
+        print(f'interrupted by {stop}', file=sys.stderr)
+        return stop.exit_status
+    except BrokenPipeError:
+        return quiet_broken_pipe()
     finally:
         LOG.removeHandler(handler)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
 
 
 if __name__ == '__main__':

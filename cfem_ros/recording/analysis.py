@@ -242,8 +242,8 @@ def check_mcap(path: str) -> None:
     if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
         raise RecordingError(
             f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
-            'finish it (killed?). Its messages up to the cut can be recovered with '
-            '`mcap recover` (mcap CLI) or read with mcap.stream_reader.StreamReader')
+            'finish it (killed?). Its complete messages can be recovered with '
+            f'`cfem-sim recover {path} -o FIXED.mcap`')
 
 
 def _choose_namespace(path, found: set, namespace: Optional[str]) -> str:

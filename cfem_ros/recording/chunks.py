@@ -14,10 +14,20 @@ every record except the two that come by the thousand: Message records,
 which the caller builds many at once (``message_records``), and
 MessageIndex records, built here with numpy. The readers in the tests
 (``mcap``'s with CRC checks, and ``rosbags``) read what it writes.
+
+Schema and channel records are written in the data section when they are
+registered and again at the start of the first chunk that holds a message
+of the channel, so that every chunk read on its own (a stream reader, a
+recovery tool) meets a message's channel and schema before the message.
+
+A chunk is written with SIGINT and SIGTERM held (``signals_held``): a
+signal handler runs only between chunks, never inside a half-written one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import struct
 from typing import BinaryIO, Dict, List
 import zlib
@@ -42,6 +52,29 @@ _CHUNK_HEADER = struct.Struct('<BQQQQIIQ')
 #: A MessageIndex record up to its entries: opcode, record length, channel
 #: id, byte length of the (log time, offset) entries.
 _MESSAGE_INDEX_HEADER = struct.Struct('<BQHI')
+
+
+#: The signals held while a chunk (or the summary) is written.
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+@contextlib.contextmanager
+def signals_held():
+    """
+    Hold SIGINT and SIGTERM in this thread while the block runs; deliver them after.
+
+    A Python signal handler (e.g. one raising KeyboardInterrupt) then runs
+    after the block, never in the middle of it.
+    """
+    try:
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+    except (AttributeError, OSError, ValueError):   # no pthread_sigmask here
+        previous = None
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def message_record_fields(data_dtype: np.dtype) -> list:
@@ -86,6 +119,9 @@ class ChunkedWriter:
         self._parts: List[tuple] = []   # (channels, log times, offsets) added to the chunk
         self._schemas: Dict[int, bytes] = {}    # serialized records, by id
         self._channels: Dict[int, bytes] = {}
+        self._channel_schema: Dict[int, int] = {}
+        self._chunked_schemas = set()    # ids written in a chunk already
+        self._chunked_channels = set()
         self._chunk_indexes: List[ChunkIndex] = []
         self._metadata_indexes: List[MetadataIndex] = []
         self.statistics = Statistics(
@@ -101,7 +137,7 @@ class ChunkedWriter:
         """Write a schema record; return its id."""
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
         record = _serialize(schema)
-        self._schemas[schema.id] = record   # written again in the summary
+        self._schemas[schema.id] = record   # written again in a chunk and the summary
         self.statistics.schema_count += 1
         self._write_data(record)
         return schema.id
@@ -113,7 +149,8 @@ class ChunkedWriter:
                           message_encoding=message_encoding, schema_id=schema_id,
                           metadata=metadata)
         record = _serialize(channel)
-        self._channels[channel.id] = record   # written again in the summary
+        self._channels[channel.id] = record   # written again in a chunk and the summary
+        self._channel_schema[channel.id] = schema_id
         self.statistics.channel_count += 1
         self.statistics.channel_message_counts[channel.id] = 0
         self._write_data(record)
@@ -146,6 +183,9 @@ class ChunkedWriter:
         k = len(log_times)
         if not k:
             return
+        for channel in channels:
+            if channel not in self._chunked_channels:
+                self._add_to_chunk(channel)
         base = self._chunk_bytes
         stats = self.statistics
         self._parts.append((channels, log_times, offsets + base))
@@ -165,8 +205,27 @@ class ChunkedWriter:
         if self._chunk_bytes >= self._chunk_size:
             self.close_chunk()
 
+    def _add_to_chunk(self, channel: int):
+        """Put the channel's record (and its schema's, the first time) in the chunk."""
+        schema = self._channel_schema[channel]
+        records = []
+        if schema and schema not in self._chunked_schemas:
+            records.append(self._schemas[schema])
+            self._chunked_schemas.add(schema)
+        records.append(self._channels[channel])
+        self._chunked_channels.add(channel)
+        for record in records:
+            self._chunk.append(record)
+            self._chunk_bytes += len(record)
+
     def close_chunk(self):
         """Write the chunk in progress (if it has messages) and its message indexes."""
+        if not self._chunk:
+            return
+        with signals_held():
+            self._close_chunk()
+
+    def _close_chunk(self):
         if not self._chunk:
             return
         size = self._chunk_bytes
@@ -223,7 +282,11 @@ class ChunkedWriter:
 
     def finish(self):
         """Close the last chunk and write the summary and footer."""
-        self.close_chunk()
+        with signals_held():
+            self._close_chunk()
+            self._finish()
+
+    def _finish(self):
         self._write_data(_serialize(DataEnd(data_section_crc=self._data_crc)))
         summary_start = self._offset
         parts, offsets = [], []

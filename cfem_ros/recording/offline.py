@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from typing import Callable, Optional
 
 from cfem_ros.core.session import Session
@@ -12,7 +13,8 @@ from cfem_ros.core.session import Session
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
         log: Optional[logging.Logger] = None,
-        progress: Optional[Callable[[float], None]] = None) -> bool:
+        progress: Optional[Callable[[float], None]] = None,
+        progress_every: float = 1.0) -> bool:
     """
     Run sim to duration, recording a sample at every multiple of 1/rate_hz.
 
@@ -32,7 +34,10 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     log : logging.Logger, optional
         Where those warnings go.
     progress : callable, optional
-        Called now and then with the simulated time.
+        Called with the simulated time about every ``progress_every`` s of
+        wall time, between kernel calls (a safe point to stop at by raising).
+    progress_every : float
+        s of wall time.
 
     Returns
     -------
@@ -45,7 +50,35 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
                       outputs=[recorder] if recorder is not None else [], warn=log.warning)
     for item in inputs:
         session.submit(item, check=False)
-    session.run(progress)
+    session.run(progress, progress_every)
     if session.failed and hasattr(recorder, 'failed'):
         recorder.failed()   # the recording says why it ends there
     return not session.failed
+
+
+#: Sample rates a run accepts, Hz: the node's ``rate_hz`` bounds.
+RATE_RANGE = (0.01, 1e5)
+#: Default bounds of a run's size: samples, and recording size in GB.
+MAX_SAMPLES = 10_000_000
+MAX_GB = 20.0
+
+
+def expected_samples(rate_hz: float, duration: float) -> int:
+    """Return the number of samples of a run: k / rate_hz for k = 0, 1, ... up to duration."""
+    return int(math.floor(duration * rate_hz * (1 + 1e-12))) + 1
+
+
+def estimate_bytes(model, samples: int) -> float:
+    """
+    Return about how many bytes a run of so many samples records.
+
+    Per sample: a pose (7 float64) and a twist (6) per body and a wrench (6)
+    per joint, each a Message record (31 bytes), CDR header and stamp (12),
+    frame_id (about 16) and its index entry (16); and a /tf message with a
+    transform (7 float64, stamp, two frame names) per moving body.
+    """
+    doubles = 13 * len(model.bodies) + 6 * len(model.joints)
+    messages = 2 * len(model.bodies) + len(model.joints)
+    moving = sum(not body.fixed for body in model.bodies)
+    tf = (31 + 8 + 16 + moving * (8 * 7 + 8 + 32)) if moving else 0
+    return float(samples) * (8 * doubles + (31 + 12 + 16 + 16) * messages + tf)

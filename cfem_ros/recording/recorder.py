@@ -20,7 +20,7 @@ from typing import Optional
 
 from cfem_ros import __version__
 from cfem_ros.recording import visuals
-from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields
+from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.msgdefs import DEFINITIONS
 import mcap
@@ -35,22 +35,27 @@ STRING = 'std_msgs/msg/String'
 TF = 'tf2_msgs/msg/TFMessage'
 MARKERS = 'visualization_msgs/msg/MarkerArray'
 
-#: What the node offers (and rosbag2 would note): reliable, volatile, keep last 10.
+#: What the node offers, in the integer form rosbag2 writes and every
+#: distro's ``ros2 bag play`` reads (rmw enums: history 1 keep last,
+#: reliability 1 reliable, durability 2 volatile / 1 transient local,
+#: liveliness 1 automatic; durations {sec, nsec}, 0 0 being rmw's default,
+#: i.e. infinite, which also fits the uint32 older distros parse): reliable,
+#: volatile, keep last 10.
 OFFERED_QOS = (
-    '- history: keep_last\n'
+    '- history: 1\n'
     '  depth: 10\n'
-    '  reliability: reliable\n'
-    '  durability: volatile\n'
-    '  deadline:\n    sec: 9223372036\n    nsec: 854775807\n'
-    '  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n'
-    '  liveliness: automatic\n'
-    '  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n'
+    '  reliability: 1\n'
+    '  durability: 2\n'
+    '  deadline:\n    sec: 0\n    nsec: 0\n'
+    '  lifespan:\n    sec: 0\n    nsec: 0\n'
+    '  liveliness: 1\n'
+    '  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n'
     '  avoid_ros_namespace_conventions: false'
 )
 #: What the node offers on its events topic: transient local, keep last 100,
 #: so that a late subscriber asking for it still gets the releases.
 EVENTS_QOS = OFFERED_QOS.replace('depth: 10', 'depth: 100').replace(
-    'durability: volatile', 'durability: transient_local')
+    'durability: 2', 'durability: 1')
 
 #: Latched topics (/tf_static, markers): transient local, keep last 1, as
 #: tf2's static broadcaster offers them.
@@ -101,6 +106,12 @@ def run_metadata(model, scenario: str, rate_hz: float, start_ns: int, **extra) -
             'gravity': '[' + ', '.join(repr(float(g)) for g in model.gravity) + ']', **extra}
 
 
+def partial_path(path: str) -> str:
+    """Return where an atomic recording of path is written: ``.NAME.partial-<pid>`` beside it."""
+    directory, name = os.path.split(path)
+    return os.path.join(directory, f'.{name}.partial-{os.getpid()}')
+
+
 def _vector(v) -> dict:
     return {'x': float(v[0]), 'y': float(v[1]), 'z': float(v[2])}
 
@@ -127,21 +138,34 @@ class Recorder:
         Replace an existing file; without it an existing file is an error.
     metadata : dict of str to str, optional
         Written as an MCAP metadata record named ``cfem_ros``.
+    atomic : bool
+        Write to ``partial_path(path)`` (same folder) and move it onto path
+        once finished: an existing file is untouched until then, and a hard
+        kill leaves the partial file under that name.
 
     """
 
     def __init__(self, path: str, *, overwrite: bool = False,
-                 metadata: Optional[dict] = None):
+                 metadata: Optional[dict] = None, atomic: bool = False):
         self.path = path
+        self.overwrite = overwrite
+        #: Where the messages go until ``finish`` (path itself unless atomic).
+        self.writing_path = partial_path(path) if atomic else path
         directory = os.path.dirname(os.path.abspath(path))
         try:
             os.makedirs(directory, exist_ok=True)
-            self._stream = open(path, 'wb' if overwrite else 'xb')
+            if atomic and not overwrite and os.path.lexists(path):
+                raise FileExistsError
+            self._stream = open(self.writing_path, 'wb' if overwrite and not atomic else 'xb')
         except FileExistsError:
-            raise RecordingError(
-                f'{path}: already exists; pass --overwrite to replace it') from None
+            if os.path.lexists(path):
+                raise RecordingError(
+                    f'{path}: already exists; pass --overwrite to replace it') from None
+            raise RecordingError(f'{self.writing_path}: already exists (left by another run '
+                                 'with the same process id?); remove it') from None
         except OSError as err:
-            raise RecordingError(f'{path}: cannot write ({err.strerror})') from err
+            raise RecordingError(
+                f'{self.writing_path}: cannot write ({err.strerror})') from err
         self._writer = ChunkedWriter(
             self._stream, profile='ros2', chunk_size=CHUNK_SIZE,
             library=f'cfem_ros {__version__}; mcap {mcap.__version__}')
@@ -233,28 +257,59 @@ class Recorder:
             self._flush_samples()
 
     def _flush_samples(self):
-        layout, self._pending = self._pending, None
-        if layout is None or not layout.count:
+        if self._pending is None:
             return
-        per = len(layout.channels)
-        for start in range(0, layout.count, layout.chunk_rows):
-            stop = min(start + layout.chunk_rows, layout.count)
-            self._writer.add_messages(*layout.records(self.message_count, start, stop))
-            self.message_count += (stop - start) * per
-        layout.count = 0
+        with signals_held():   # no handler sees half the samples written
+            layout, self._pending = self._pending, None
+            if not layout.count:
+                return
+            per = len(layout.channels)
+            for start in range(0, layout.count, layout.chunk_rows):
+                stop = min(start + layout.chunk_rows, layout.count)
+                self._writer.add_messages(*layout.records(self.message_count, start, stop))
+                self.message_count += (stop - start) * per
+            layout.count = 0
 
     def finish(self):
-        """Write the summary and close the file (idempotent)."""
+        """
+        Write the summary and close the file (idempotent).
+
+        An atomic recorder then moves the file onto its path (replacing an
+        existing file only with ``overwrite``).
+        """
         if self._finished:
             return
         self._finished = True
+        with signals_held():
+            try:
+                self._flush_samples()
+                self._writer.finish()
+            except OSError as err:
+                raise RecordingError(
+                    f'{self.writing_path}: cannot write ({err.strerror})') from err
+            finally:
+                self._stream.close()
+            if self.writing_path != self.path:
+                self._move_into_place()
+
+    def _move_into_place(self):
         try:
-            self._flush_samples()
-            self._writer.finish()
+            if self.overwrite:
+                os.replace(self.writing_path, self.path)
+                return
+            try:
+                os.link(self.writing_path, self.path)   # fails if path appeared meanwhile
+            except FileExistsError:
+                raise RecordingError(
+                    f'{self.path}: appeared during the run; the recording is left in '
+                    f'{self.writing_path}') from None
+            except OSError:   # no hard links on this file system
+                os.replace(self.writing_path, self.path)
+                return
+            os.unlink(self.writing_path)
         except OSError as err:
-            raise RecordingError(f'{self.path}: cannot write ({err.strerror})') from err
-        finally:
-            self._stream.close()
+            raise RecordingError(f'{self.path}: cannot move {self.writing_path} there '
+                                 f'({err.strerror}); the recording is left there') from err
 
     def __enter__(self) -> 'Recorder':
         return self
@@ -470,6 +525,8 @@ class StateRecorder:
         self._events_written = 0
         self._layouts = {}   # active joints -> SampleLayout
         self._rows_layout = None   # the layout of the rows last handed out
+        #: Samples recorded so far.
+        self.samples = 0
         moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
         self._transforms = TransformsOf(
             self.world, tuple(model.bodies[i].name for i in moving),
@@ -506,6 +563,7 @@ class StateRecorder:
         layout = self._layout(sim.active_joints)
         sim.outputs(out=layout.next_row())
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
+        self.samples += 1
 
     def sample_rows(self) -> np.ndarray:
         """Return buffer rows for the next samples' ``Simulator.outputs`` (see ``took_rows``)."""
@@ -518,6 +576,7 @@ class StateRecorder:
         """Record the samples at these simulated times (s), in the first rows given."""
         stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
         self.recorder.commit_rows(self._rows_layout, stamps)
+        self.samples += len(stamps)
 
     def _layout(self, active) -> 'SampleLayout':
         layout = self._layouts.get(active)

@@ -284,11 +284,17 @@ def test_bad_files_exit_2_with_a_clear_message(store, tmp_path, capsys, command)
                       ).received(release_input('pivot'), 0.1)
     cases = {text: 'not an MCAP file', cut: 'truncated', inputs_only: 'no <namespace>/bodies',
              tmp_path / 'missing.mcap': 'cannot read'}
+    if command == 'info':   # info reads any finished MCAP file's summary
+        del cases[inputs_only]
+        assert cli.main(['info', str(inputs_only)]) == 0
+        assert '/cfem/release         1  std_msgs/msg/String' in capsys.readouterr().out
     for path, reason in cases.items():
         args = {'info': ['info', str(path)], 'plot': ['plot', str(path), '-o', str(tmp_path)],
                 'compare': ['compare', str(store), str(path)]}[command]
         assert cli.main(args) == 2
         err = capsys.readouterr().err
         assert err.startswith(f'ERROR: {path}: ') and reason in err, err
+        if path == cut:
+            assert f'cfem-sim recover {path} -o FIXED.mcap' in err, err
     with pytest.raises(RecordingError):
         analysis.open_run(str(cut))

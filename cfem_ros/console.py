@@ -1,0 +1,74 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The ``cfem-sim`` console script: signals and broken pipes handled from the first instant.
+
+Ctrl-C (SIGINT) and SIGTERM during start-up (imports, compilation, scenario
+loading) end the command at once with one line and exit status 130 or 143,
+without a traceback (``exit_now``: nothing is being written then; an
+exception raised from the handler could be wrapped by the code it lands in,
+e.g. into a RuntimeError by a class being created). While ``cfem-sim run``
+records, its own handlers stop it between two chunks instead. A closed
+stdout or stderr (``cfem-sim info ... | head``) ends the command quietly.
+"""
+
+import os
+import signal
+import sys
+
+#: Exit status after a signal: 128 + its number.
+EXIT_SIGINT = 128 + signal.SIGINT
+EXIT_SIGTERM = 128 + signal.SIGTERM
+
+
+class Interrupted(BaseException):
+    """A SIGINT or SIGTERM received; ``signum`` says which."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_status(self) -> int:
+        """Return 128 + the signal's number (130 for SIGINT, 143 for SIGTERM)."""
+        return 128 + self.signum
+
+
+def exit_now(signum, frame):
+    """Say so on stderr and exit 128 + signum at once: SIGINT's and SIGTERM's handler."""
+    try:
+        os.write(2, f'interrupted by {signal.Signals(signum).name}\n'.encode())
+    except OSError:
+        pass
+    os._exit(128 + signum)
+
+
+def quiet_broken_pipe() -> int:
+    """Point stdout and stderr at /dev/null (so that exiting flushes nothing); return 141."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.dup2(devnull, sys.stderr.fileno())
+    except (OSError, ValueError):
+        pass
+    return 128 + signal.SIGPIPE
+
+
+def main(argv=None) -> int:
+    """Run cfem-sim with SIGINT and SIGTERM handled before anything heavy is imported."""
+    signal.signal(signal.SIGINT, exit_now)
+    signal.signal(signal.SIGTERM, exit_now)
+    try:
+        from cfem_ros import cli
+        return cli.main(argv)
+    except Interrupted as stop:
+        try:
+            print(f'interrupted by {stop}', file=sys.stderr)
+        except (BrokenPipeError, OSError):
+            pass
+        return stop.exit_status
+    except BrokenPipeError:
+        return quiet_broken_pipe()
+    finally:   # the command is over: a late signal changes nothing
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
