@@ -76,7 +76,7 @@ setup(
     entry_points={
         'console_scripts': [
             'cfem-sim = cfem_ros.console:main',
-            'cfem_node = cfem_ros.ros.node:entry_point',
+            'cfem_node = cfem_ros.console:node_entry_point',
             'cfem_pub = cfem_ros.ros.publish:entry_point',
         ],
     },

@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The ``cfem-sim`` console script: signals and broken pipes handled from the first instant.
+The console scripts ``cfem-sim`` and ``cfem_node``: signals handled from the first instant.
 
 Ctrl-C (SIGINT) and SIGTERM during start-up (imports, compilation, scenario
 loading) end the command at once with one line and exit status 130 or 143,
@@ -72,3 +72,21 @@ def main(argv=None) -> int:
     finally:   # the command is over: a late signal changes nothing
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def node_main() -> int:
+    """
+    Run cfem_node with SIGINT and SIGTERM ending its imports at once (exit 130 or 143).
+
+    Nothing is open then; once ROS 2 is initialised, the node's own handlers
+    take over and stop it cleanly, its recording finished (exit 0).
+    """
+    signal.signal(signal.SIGINT, exit_now)
+    signal.signal(signal.SIGTERM, exit_now)
+    from cfem_ros.ros import node
+    return node.main()
+
+
+def node_entry_point():
+    """Console script wrapper of ``node_main``."""
+    sys.exit(node_main())

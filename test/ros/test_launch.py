@@ -58,7 +58,7 @@ def test_launch_file_starts_cfem_node_with_declared_parameters(monkeypatch):
     assert (node['package'], node['executable'], node['name']) == (
         'cfem_ros', 'cfem_node', 'cfem_sim')
     setup = (ROOT / 'setup.py').read_text()
-    assert "'cfem_node = cfem_ros.ros.node:entry_point'" in setup
+    assert "'cfem_node = cfem_ros.console:node_entry_point'" in setup
     overrides = node['parameters'][1]
     assert set(overrides) <= set(PARAMETERS) | {'use_sim_time'}
     declared = {a.args[0] for a in actions if type(a).__name__ == 'DeclareLaunchArgument'}
