@@ -174,6 +174,12 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         if inputs:
             from cfem_ros.recording.replay import read_inputs   # mcap's reader only to replay
             replay = read_inputs(inputs)
+            late = [item for item in replay if item.time > model.duration]
+            if late:
+                print(f'warning: {len(late)} input(s) of {inputs} come after the run ends at '
+                      f't = {model.duration:g} s (the first at t = {late[0].time:.6g} s) and '
+                      'are not replayed; give a longer --duration to replay them',
+                      file=sys.stderr)
         if os.path.lexists(output) and not overwrite:
             return _error(f'{output}: already exists; pass --overwrite to replace it')
         sim = Simulator(model)
@@ -371,7 +377,7 @@ def _dask_client(workers: Optional[int], scheduler: Optional[str]):
         client.wait_for_workers(1, timeout=60)
         return client, None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=None,
+                           processes=True, dashboard_address=':0',
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
 

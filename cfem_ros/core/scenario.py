@@ -48,7 +48,7 @@ WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'en
                'reacts_on')
 TABLE_KEYS = ('against', 'table')
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'alpha_deg', 'beta_deg',
-             'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr')
+             'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr', 'scale')
 AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
 
 #: Largest scenario file, bytes.
@@ -848,6 +848,15 @@ def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
             table[at[0], at[1] if len(at) > 1 else slice(None), c] = number
     damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
                         for d in ('Clp', 'Cmq', 'Cnr')])
+    # multipliers of the coefficients and damping derivatives (what a study varies)
+    scales = check.mapping(spec.get('scale', {}), f'{key}.scale',
+                           AERO_COEFFICIENTS + ('Clp', 'Cmq', 'Cnr'))
+    for c, coefficient in enumerate(AERO_COEFFICIENTS):
+        if coefficient in scales:
+            table[:, :, c] *= check.number(scales[coefficient], f'{key}.scale.{coefficient}')
+    for d, derivative in enumerate(('Clp', 'Cmq', 'Cnr')):
+        if derivative in scales:
+            damping[d] *= check.number(scales[derivative], f'{key}.scale.{derivative}')
     return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
                 length=check.number(spec['length'], f'{key}.length', positive=True),
                 density=density, freestream=check.vector(spec['freestream'],

@@ -468,8 +468,9 @@ def compare_runs(a: Run, b: Run) -> tuple:
         t, angle = attitude_difference_deg(ta, tb)
         if len(t):
             k = int(np.argmax(angle))
+            turned = rotations.angle_between(ta.quaternion[:1], ta.quaternion)   # from its start
             rows.append(Difference(f'{name} attitude', 'deg', float(angle[k]), float(t[k]),
-                                   180.0, len(t)))
+                                   float(np.degrees(turned.max())), len(t)))
         else:
             rows.append(Difference(f'{name} attitude', 'deg', NAN, NAN, NAN, 0))
         add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,

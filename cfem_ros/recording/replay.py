@@ -11,6 +11,8 @@ from typing import Optional
 from cfem_ros.core.errors import InputError
 from cfem_ros.core.inputs import (POSE_TOPIC, release_input, RELEASE_TOPIC, wrench_input,
                                   WRENCH_TOPIC)
+from cfem_ros.recording.analysis import check_mcap
+from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -32,6 +34,10 @@ def read_inputs(path: str) -> list:
         message's payload does not decode.
 
     """
+    try:
+        check_mcap(path)   # the same words as info and plot for a foreign or cut file
+    except RecordingError as err:
+        raise InputError(str(err)) from err
     try:
         with open(path, 'rb') as stream:
             reader = make_reader(stream, decoder_factories=[DecoderFactory()])

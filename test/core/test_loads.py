@@ -4,6 +4,7 @@
 
 import math
 import os
+import pathlib
 
 from cfem_ros.core import batch
 from cfem_ros.core.engine import Simulator
@@ -16,7 +17,9 @@ import pytest
 from reference import quat_matrix, skew
 from scipy.integrate import solve_ivp
 from scipy.interpolate import RegularGridInterpolator
+import yaml
 
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 MASS = 907.1848
 INERTIA = [27.1164, 488.0944, 488.0944]   # the Eglin store's, as in config/
 STORE = {'mass': MASS, 'inertia': INERTIA, 'angular_velocity': [0.3, -0.2, 0.5]}
@@ -438,3 +441,17 @@ def test_batch_copies_measure_strokes_from_their_own_start():
     here = run(Simulator(m), 0.5)
     np.testing.assert_allclose(moved.y[3:6], here.velocity[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(moved.y[0:3], here.position[0] + [5.0, -2.0, 1.0], atol=1e-12)
+
+
+def test_an_aerodynamic_scale_multiplies_its_coefficient():
+    # what a study varies: aero.<body>.scale.<coefficient>, here the pitching moment
+    doc = yaml.safe_load((CONFIG / 'store_separation_aero.yaml').read_text())
+    base = parse_scenario(doc).aero[0]
+    doc['aero']['store']['scale'] = {'Cm': 2.0, 'Cmq': 0.5}
+    scaled = parse_scenario(doc).aero[0]
+    np.testing.assert_array_equal(scaled.coefficients[..., 4], 2.0 * base.coefficients[..., 4])
+    np.testing.assert_array_equal(scaled.coefficients[..., :4], base.coefficients[..., :4])
+    assert scaled.damping[1] == 0.5 * base.damping[1] and scaled.damping[0] == base.damping[0]
+    doc['aero']['store']['scale'] = {'Cq': 1.0}
+    with pytest.raises(ScenarioError, match=r'aero\.store\.scale\.Cq'):
+        parse_scenario(doc)

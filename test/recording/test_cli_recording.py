@@ -15,6 +15,7 @@ import sys
 
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.inputs import release_input, wrench_input
+from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np
 import pytest
 from recordings import fields, read_checked, read_mcap, read_rosbags
@@ -171,3 +172,26 @@ def test_console_script_and_help():
     assert result.returncode == 0 and '--overwrite' in result.stdout
     result = subprocess.run([str(exe), 'run'], capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and 'Traceback' not in result.stderr
+
+
+def test_inputs_after_the_run_are_named_and_foreign_logs_refused_clearly(tmp_path, capsys):
+    log = tmp_path / 'late.mcap'
+    sim = Simulator(load_scenario(str(CONFIG / 'store_release_on_command.yaml')))
+    with Recorder(str(log), metadata={'start_stamp_ns': 0}) as recorder:   # t = 0 at stamp 0
+        StateRecorder(recorder, sim).received(release_input('pivot'), 5.0)
+    out = tmp_path / 'short.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_release_on_command.yaml'), '-o', str(out),
+                     '--inputs', str(log), '--duration', '1']) == 0
+    captured = capsys.readouterr()
+    assert '1 input(s)' in captured.err and 't = 5 s' in captured.err
+    assert 'no joint released' in captured.out
+    # a scenario given as the log, and a cut log: the words of info and plot
+    for bad, words in ((CONFIG / 'store_separation.yaml', 'not an MCAP file'),):
+        assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o',
+                         str(tmp_path / 'x.mcap'), '--inputs', str(bad)]) == 2
+        assert words in capsys.readouterr().err
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(log.read_bytes()[:len(log.read_bytes()) // 2])
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o',
+                     str(tmp_path / 'y.mcap'), '--inputs', str(cut)]) == 2
+    assert 'cfem-sim recover' in capsys.readouterr().err

@@ -76,4 +76,5 @@ def test_stamps_are_ros_time_at_publication_and_inputs_act_on_arrival(
     for msg in poses:
         t = stamp_ns(msg.header)
         expected = 4.0 * (max(t - t_on, 0) / 1e9) ** 2 / (2 * 2.0)
-        assert abs(msg.pose.position.x - expected) <= 1e-12
+        # RK4 is exact for a constant force; what is left is rounding, relative to x
+        assert abs(msg.pose.position.x - expected) <= 1e-12 * max(1.0, expected)
