@@ -187,7 +187,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         return _error(str(err))
     interactive = sys.stderr.isatty()
     if not warmup.compiled_code_ready():
-        print('compiling the numerical core (once per install, about a minute); '
+        print('compiling the numerical core (once per install, a few minutes); '
               '`make` does this at install time', file=sys.stderr, flush=True)
         print(f'compiled in {warmup.warm_up():.0f} s', file=sys.stderr)
     stop = []

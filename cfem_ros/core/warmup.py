@@ -107,7 +107,7 @@ def main() -> int:
         return 0
     ready = compiled_code_ready()
     if not ready:
-        print('cfem_ros: compiling the numerical core (once per install, about a minute)...',
+        print('cfem_ros: compiling the numerical core (once per install, a few minutes)...',
               file=sys.stderr, flush=True)
     seconds = warm_up()
     print(f'cfem_ros: numerical core {"loaded" if ready else "compiled"} in {seconds:.1f} s',
