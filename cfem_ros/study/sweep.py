@@ -231,34 +231,11 @@ def frame(rows, names):
     return pd.DataFrame.from_records(rows, columns=names)
 
 
-def arrow_table(rows, spec: SweepSpec):
-    """
-    Return rows as a pyarrow Table of the table's columns and types (no pandas).
-
-    What ``frame`` gives written to Parquet (NaN as null), typed from the
-    sweep rather than guessed from the rows (a part of one failed run has
-    only NaN); a task writes its part so, without importing pandas (a
-    third of a second per worker).
-    """
-    import pyarrow as pa
-    kinds = {'run': pa.int64(), 'status': pa.string(), 'message': pa.string()}
-    kinds.update((v.path, pa.float64() if numeric(v) else pa.string())
-                 for v in spec.variables)
-    for name, value in empty(spec.metrics).items():
-        kinds[name] = pa.string() if isinstance(value, str) else \
-            pa.int64() if isinstance(value, int) else pa.float64()
-    return pa.table({name: pa.array([row[name] for row in rows], type=kinds[name],
-                                    from_pandas=True) for name in columns(spec)})
-
-
 def write_atomic(table, path: str):
-    """Write a DataFrame or pyarrow Table to Parquet (CSV for .csv) through a temporary file."""
+    """Write a DataFrame to Parquet (or CSV for .csv) through a temporary file."""
     tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
     try:
-        if not hasattr(table, 'to_parquet'):
-            import pyarrow.parquet as pq
-            pq.write_table(table, tmp)
-        elif path.endswith('.csv'):
+        if path.endswith('.csv'):
             table.to_csv(tmp, index=False)
         else:
             table.to_parquet(tmp, index=False, engine='pyarrow')
@@ -277,7 +254,7 @@ def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
     """
     rows = run_rows(spec, runs, outdir, record, threads)
     part = os.path.join(outdir, 'parts', f'part_{runs[0]:07d}_{runs[-1]:07d}.parquet')
-    write_atomic(arrow_table(rows, spec), part)
+    write_atomic(frame(rows, columns(spec)), part)
     return len(rows), sum(r['status'] == 'failed' for r in rows)
 
 

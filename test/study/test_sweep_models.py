@@ -102,19 +102,3 @@ def test_the_table_is_the_same_on_any_number_of_threads(tmp_path):
     single = pd.DataFrame.from_records([sweep.run_one(k) for k in range(sweep.total)],
                                        columns=sweep.columns())
     pd.testing.assert_frame_equal(one, single, check_exact=True)
-
-
-def test_a_part_written_without_pandas_reads_back_as_the_frame(tmp_path):
-    # one-row parts too: a failed run's metrics are all NaN, typed by the sweep
-    from cfem_ros.study.sweep import arrow_table, columns, frame, write_atomic
-    path = write_sweep(tmp_path, runs=1, vary={
-        'bodies.store.mass': {'grid': [907.1848, -5.0, 'heavy']}})
-    spec = Sweep.from_file(path).spec
-    rows = run_rows(spec, range(spec.total))
-    assert [r['status'] for r in rows] == ['ok', 'failed', 'failed']
-    for part in ([rows[1]], rows):
-        write_atomic(arrow_table(part, spec), str(tmp_path / 'arrow.parquet'))
-        write_atomic(frame(part, columns(spec)), str(tmp_path / 'pandas.parquet'))
-        pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / 'arrow.parquet'),
-                                      pd.read_parquet(tmp_path / 'pandas.parquet'),
-                                      check_exact=True)
