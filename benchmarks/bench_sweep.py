@@ -113,6 +113,16 @@ def cfem_sweep(path, workers, folder, with_cluster):
     return spent, used
 
 
+def in_process(path, threads, folder):
+    """Return (wall s, CPU s) of one sweep in this process on threads (``Sweep.run(None)``)."""
+    sweep = Sweep.from_file(path)
+    started, cpu = time.perf_counter(), _cpu()
+    table = sweep.run(None, tempfile.mkdtemp(dir=folder), threads=threads)
+    spent, used = time.perf_counter() - started, _cpu() - cpu
+    assert (table['status'] == 'ok').all() and len(table) == sweep.total
+    return spent, used
+
+
 def mujoco_rollout(runs, threads):
     """Return (wall s, CPU s) of ``runs`` rollouts of STEPS steps of the store on its hinge."""
     model = models.store(DT)
@@ -194,12 +204,29 @@ def main():
                         help='only run one sweep of RUNS runs on --workers and print what '
                         'sizes a 1,000,000-run sweep')
     parser.add_argument('--workers', type=int, default=2)
+    parser.add_argument('--in-process', action='store_true',
+                        help='only time the sweep in this process (no Dask) on 1 and 2 '
+                        'threads, each against mujoco.rollout')
     parser.add_argument('--profile', type=int, metavar='RUNS',
                         help='only print where the time of RUNS runs goes, in this process')
     args = parser.parse_args()
     if args.profile:
         with tempfile.TemporaryDirectory() as folder:
             return profile(sweep_file(folder, args.profile, args.scenario), args.profile)
+    if args.in_process:
+        with tempfile.TemporaryDirectory() as folder:
+            path = sweep_file(folder, args.runs, args.scenario)
+            in_process(path, 1, folder)   # imports, once
+            for _ in range(args.repeats):
+                for threads in (1, 2):
+                    load = os.getloadavg()[0]
+                    wall, cpu = in_process(path, threads, folder)
+                    wall_mj, cpu_mj = mujoco_rollout(args.runs, threads)
+                    print(f'{args.runs} runs in this process, {threads} thread(s): {wall:.2f} s '
+                          f'({args.runs * STEPS / wall:.3g} run-steps/s, CPU {cpu:.2f} s); '
+                          f'mujoco.rollout {wall_mj:.2f} s (CPU {cpu_mj:.2f} s): '
+                          f'{wall_mj / wall:.2f}x; load average {load:.1f}')
+        return None
     if args.size:
         with tempfile.TemporaryDirectory() as folder:
             return size(sweep_file(folder, args.size, args.scenario), args.workers, folder)
