@@ -93,8 +93,9 @@ class Models:
     A key path inside a body (but its ``fixed``) or a joint only needs that
     body or joint parsed again (``scenario.reparse``); the others (``dt``,
     wrenches, ...) need a whole parse, done once per distinct set of their
-    values. A run whose values do not parse is parsed whole again, so
-    that its message is the whole parse's. Safe to share between threads.
+    values if they are choices or grids (a run drawing numbers for them is
+    parsed whole). A run whose values do not parse is parsed whole again,
+    so that its message is the whole parse's. Safe to share between threads.
     """
 
     def __init__(self, spec: SweepSpec):
@@ -102,6 +103,8 @@ class Models:
         sections = {v.path: _section(v.tokens, spec.document) for v in spec.variables}
         self.touched = sorted({s for s in sections.values() if s is not None})
         self.slow = [v for v in spec.variables if sections[v.path] is None]
+        if any(v.kind in RANDOM_NUMBERS for v in self.slow):
+            self.touched = []   # a whole parse per run anyway
         self.inside = {s: [v for v in spec.variables if v.tokens[:2] == s]
                        for s in self.touched}
         self._bases = {}
@@ -130,14 +133,14 @@ class Models:
         document, model = base
         if model is None:
             return self.full(k, values)
-        top = dict(document)
-        for kind, name in self.touched:
-            top[kind] = dict(top[kind])
-            part = top[kind][name] = copy.deepcopy(document[kind][name])
-            for variable in self.inside[kind, name]:
-                container, last, _, _ = resolve(part, variable.tokens[2:])
-                container[last] = copy.deepcopy(values[variable.path])
         try:
+            top = dict(document)
+            for kind, name in self.touched:
+                top[kind] = dict(top[kind])
+                part = top[kind][name] = copy.deepcopy(document[kind][name])
+                for variable in self.inside[kind, name]:
+                    container, last, _, _ = resolve(part, variable.tokens[2:])
+                    container[last] = copy.deepcopy(values[variable.path])
             return reparse(model, top, source=_source(self.spec, k),
                            bodies=[n for kind, n in self.touched if kind == 'bodies'],
                            joints=[n for kind, n in self.touched if kind == 'joints'])
