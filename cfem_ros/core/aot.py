@@ -78,15 +78,23 @@ def load_extension():
     return extension
 
 
+#: Array kinds' dtypes by name (``dtype.name`` is slow to compute on every call).
+_DTYPES = {}
+
+
 def _matches(kind, value):
     """Tell whether numba's JIT would type value as kind (so that the compiled code fits)."""
     if kind[0] == 'array':
         if type(value) is not np.ndarray:
             return False
+        dtype = _DTYPES.get(kind[1])
+        if dtype is None:
+            dtype = _DTYPES[kind[1]] = np.dtype(kind[1])
+        if value.dtype != dtype or value.ndim != kind[2]:
+            return False
         flags = value.flags
         layout = 'C' if flags.c_contiguous else 'F' if flags.f_contiguous else 'A'
-        return (value.dtype.name == kind[1] and value.ndim == kind[2] and layout == kind[3]
-                and flags.writeable == kind[4] and flags.aligned)
+        return layout == kind[3] and flags.writeable == kind[4] and flags.aligned
     if kind[0] == 'int64':
         return (type(value) is int and -2 ** 63 <= value < 2 ** 63) or type(value) is np.int64
     return kind[0] == 'float64' and (type(value) is float or type(value) is np.float64)

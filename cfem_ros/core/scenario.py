@@ -12,6 +12,7 @@ can represent (see the constants below) are refused by ``check`` already.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -862,3 +863,35 @@ def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
                 density=density, freestream=check.vector(spec['freestream'],
                                                          f'{key}.freestream'),
                 alpha=alpha, beta=beta, coefficients=table, damping=damping)
+
+
+def reparse(model: Model, document: Any, *, bodies=(), joints=(),
+            source: str = '<scenario>') -> Model:
+    """
+    Return a model with some bodies and joints parsed again from a document.
+
+    For sweeps: ``parse_scenario(document)`` where document differs from
+    the one ``model`` was parsed from only inside the named bodies (not in
+    their ``fixed``) and joints, without parsing the rest again. A body's
+    parse reads nothing else, a joint's only the bodies' names and
+    ``fixed``, and the rest reads of a body only its name and ``fixed``:
+    so the result is the whole parse's, number for number, when it does
+    not raise. A ``ScenarioError`` here may not be the first one the whole
+    parse would name: parse the whole document for the message.
+    """
+    check = _Checker(_clip(source, 400))
+    top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
+    new_bodies = list(model.bodies)
+    for name in bodies:
+        i = model.body_index(name)
+        new_bodies[i] = _parse_body(check, name, top['bodies'][name])
+        if new_bodies[i].fixed != model.bodies[i].fixed:
+            check.fail(_key('bodies', name) + '.fixed', 'changed', 'a whole parse')
+    index = {b.name: i for i, b in enumerate(new_bodies)}
+    new_joints = list(model.joints)
+    for name in joints:
+        new_joints[model.joint_index(name)] = _parse_joint(
+            check, name, top['joints'][name], index, new_bodies)
+    default_name = os.path.splitext(os.path.basename(source))[0]
+    return dataclasses.replace(model, name=top.get('name', default_name),
+                               bodies=tuple(new_bodies), joints=tuple(new_joints))

@@ -18,7 +18,6 @@ import os
 from typing import Callable
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 #: Edge of the cube drawn for a fixed body without a shape, m.
 FIXED_BODY_CUBE = 0.1
@@ -79,6 +78,7 @@ def equivalent_box(mass: float, inertia: np.ndarray) -> Shape:
 
 def _quaternion_of(matrix: np.ndarray) -> tuple:
     """Quaternion (x, y, z, w) of a rotation matrix (columns: the new axes)."""
+    from scipy.spatial.transform import Rotation   # a second to import: only when drawn
     return tuple(float(v) for v in Rotation.from_matrix(matrix).as_quat())
 
 

@@ -25,7 +25,6 @@ from typing import Any, Optional
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
 import numpy as np
-from scipy.stats import truncnorm
 
 TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'metrics')
 METRIC_KEYS = ('clearance', 'at')
@@ -477,6 +476,7 @@ def draw(variables, runs: int, seed: int) -> dict:
         elif variable.kind == 'normal':
             values = rng.normal(p[0], p[1], size=runs)
         elif variable.kind == 'truncnormal':
+            from scipy.stats import truncnorm   # only where drawn: a second to import
             a, b = (p[2] - p[0]) / p[1], (p[3] - p[0]) / p[1]
             values = truncnorm.rvs(a, b, loc=p[0], scale=p[1], size=runs, random_state=rng)
         elif variable.kind == 'choice':

@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 
 from cfem_ros.core.errors import CfemError
-from cfem_ros.recording.analysis import open_run
 from cfem_ros.study.metrics import compute, empty, from_run
 
 
@@ -20,6 +19,7 @@ def summarize_file(path: str, metrics) -> dict:
     """
     row = {'file': os.path.basename(path), 'path': os.path.abspath(path),
            'start_stamp_ns': -1, 'status': 'ok', 'message': ''}
+    from cfem_ros.recording.analysis import open_run   # scipy: not on a sweep's path
     try:
         run = open_run(path)
         row['start_stamp_ns'] = int(run.start_ns)

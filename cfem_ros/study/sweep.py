@@ -13,6 +13,8 @@ folder only does the runs that no part holds yet.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+import copy
 import dataclasses
 import glob
 import json
@@ -20,17 +22,17 @@ import math
 import os
 import sys
 import tempfile
+import threading
 import time
 from typing import Callable, Optional
 import uuid
 
 from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
-from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from cfem_ros.study.metrics import Collector, compute, empty
 from cfem_ros.study.spec import (
-    apply_values, load_sweep, RANDOM_NUMBERS, SweepError, SweepSpec)
+    apply_values, load_sweep, RANDOM_NUMBERS, resolve, SweepError, SweepSpec)
 
 #: How the runs are recorded to MCAP: every run, the failed ones, none.
 RECORD = ('none', 'failed', 'all')
@@ -63,22 +65,106 @@ def numeric(variable) -> bool:
         isinstance(v, (int, float)) and not isinstance(v, bool) for v in variable.params)
 
 
-def run_one(spec: SweepSpec, k: int, record: Optional[str] = None) -> dict:
+def _section(tokens, document) -> Optional[tuple]:
+    """Return ('bodies'|'joints', name) if a key path lies inside one, else None."""
+    if len(tokens) < 3 or tokens[0] not in ('bodies', 'joints') \
+            or not isinstance(tokens[1], str) or tokens[:3] == ('bodies', tokens[1], 'fixed'):
+        return None
+    mapping = document.get(tokens[0])
+    if not isinstance(mapping, dict) or not isinstance(mapping.get(tokens[1]), dict):
+        return None
+    return tokens[0], tokens[1]
+
+
+def _source(spec: SweepSpec, k: int) -> str:
+    return f'{spec.scenario} (run {k})'
+
+
+def full_model(spec: SweepSpec, k: int, values: dict):
+    """Return run k's model, its whole document parsed."""
+    return parse_scenario(apply_values(spec.document, spec.variables, values),
+                          source=_source(spec, k))
+
+
+class Models:
+    """
+    The runs' models, the base scenario parsed once per task.
+
+    A key path inside a body (but its ``fixed``) or a joint only needs that
+    body or joint parsed again (``scenario.reparse``); the others (``dt``,
+    wrenches, ...) need a whole parse, done once per distinct set of their
+    values if they are choices or grids (a run drawing numbers for them is
+    parsed whole). A run whose values do not parse is parsed whole again,
+    so that its message is the whole parse's. Safe to share between threads.
+    """
+
+    def __init__(self, spec: SweepSpec):
+        self.spec = spec
+        sections = {v.path: _section(v.tokens, spec.document) for v in spec.variables}
+        self.touched = sorted({s for s in sections.values() if s is not None})
+        self.slow = [v for v in spec.variables if sections[v.path] is None]
+        if any(v.kind in RANDOM_NUMBERS for v in self.slow):
+            self.touched = []   # a whole parse per run anyway
+        self.inside = {s: [v for v in spec.variables if v.tokens[:2] == s]
+                       for s in self.touched}
+        self._bases = {}
+        self._lock = threading.Lock()
+
+    def full(self, k: int, values: dict):
+        """Return run k's model parsed whole from its document."""
+        return full_model(self.spec, k, values)
+
+    def model(self, k: int, values: dict):
+        """Return run k's model, the same to the bit as a whole parse gives."""
+        if not self.touched:
+            return self.full(k, values)
+        key = json.dumps([values[v.path] for v in self.slow], default=repr)
+        with self._lock:
+            base = self._bases.get(key)
+        if base is None:
+            document = apply_values(self.spec.document, self.slow, values)
+            try:
+                model = parse_scenario(document, source=_source(self.spec, k))
+            except Exception:   # noqa: B902 (this run's whole parse names the error)
+                model = None
+            base = (document, model)
+            with self._lock:
+                self._bases.setdefault(key, base)
+        document, model = base
+        if model is None:
+            return self.full(k, values)
+        try:
+            top = dict(document)
+            for kind, name in self.touched:
+                top[kind] = dict(top[kind])
+                part = top[kind][name] = copy.deepcopy(document[kind][name])
+                for variable in self.inside[kind, name]:
+                    container, last, _, _ = resolve(part, variable.tokens[2:])
+                    container[last] = copy.deepcopy(values[variable.path])
+            return reparse(model, top, source=_source(self.spec, k),
+                           bodies=[n for kind, n in self.touched if kind == 'bodies'],
+                           joints=[n for kind, n in self.touched if kind == 'joints'])
+        except Exception:   # noqa: B902
+            return self.full(k, values)
+
+
+def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
+            models: Optional[Models] = None) -> dict:
     """
     Run run k of a sweep and return its table row (a dict, columns in order).
 
     A run whose values make an invalid scenario, or that fails, is a row
     with ``status`` 'failed' and the reason in ``message``; its metrics are
     those of the samples it did take. record: the path of an MCAP
-    recording to write of it.
+    recording to write of it. models: where the model comes from (a
+    ``Models`` of spec, shared by a task's runs); the whole parse if None.
     """
     values = spec.run_values(k)
     row = {'run': k}
     row.update((v.path, column_value(values[v.path], numeric(v))) for v in spec.variables)
     row.update(status='ok', message='')
     try:
-        document = apply_values(spec.document, spec.variables, values)
-        model = parse_scenario(document, source=f'{spec.scenario} (run {k})')
+        model = full_model(spec, k, values) if models is None else models.model(k, values)
         sim = Simulator(model)
     except Exception as err:   # noqa: B902 (any refusal is this run's failure)
         row.update(status='failed', message=str(err))
@@ -89,6 +175,7 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None) -> dict:
             collector = Collector(sim)
             _session_run(sim, model, spec, collector)
         else:
+            from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
             meta = run_metadata(model, spec.scenario, spec.rate_hz, 0,
                                 sweep=os.path.abspath(spec.path), run=k,
                                 values=json.dumps(values))
@@ -110,18 +197,29 @@ def _session_run(sim, model, spec, collector):
 
 
 def run_rows(spec: SweepSpec, runs, outdir: Optional[str] = None,
-             record: str = 'none') -> list:
-    """Return the rows of the given runs, recording them under outdir/runs as asked."""
-    rows = []
-    for k in runs:
+             record: str = 'none', threads: int = 1) -> list:
+    """
+    Return the rows of the given runs, recording them under outdir/runs as asked.
+
+    The base scenario is parsed once (``Models``); with threads > 1 the
+    runs go to that many threads, which run in parallel (the compiled
+    stepping releases the GIL), the rows in the order of runs.
+    """
+    models = Models(spec)
+
+    def one(k):
         path = None
         if record == 'all':
             path = os.path.join(outdir, 'runs', f'run_{k}.mcap')
-        row = run_one(spec, k, path)
+        row = run_one(spec, k, path, models)
         if record == 'failed' and row['status'] == 'failed':
-            run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'))
-        rows.append(row)
-    return rows
+            run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'), models)
+        return row
+
+    if threads > 1 and len(runs) > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            return list(pool.map(one, runs))
+    return [one(k) for k in runs]
 
 
 def columns(spec: SweepSpec) -> list:
@@ -150,13 +248,14 @@ def write_atomic(table, path: str):
             os.remove(tmp)
 
 
-def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none') -> tuple:
+def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
+             threads: int = 1) -> tuple:
     """
     Run a group of runs and write their rows as one Parquet part (a Dask task).
 
     Returns (runs done, runs failed).
     """
-    rows = run_rows(spec, runs, outdir, record)
+    rows = run_rows(spec, runs, outdir, record, threads)
     part = os.path.join(outdir, 'parts', f'part_{runs[0]:07d}_{runs[-1]:07d}.parquet')
     write_atomic(frame(rows, columns(spec)), part)
     return len(rows), sum(r['status'] == 'failed' for r in rows)
@@ -296,7 +395,8 @@ class Sweep:
         return self.spec.run_document(k)
 
     def run(self, client=None, outdir: Optional[str] = None, *, record: str = 'none',
-            csv: bool = False, progress: Optional[Callable[[int, int], None]] = None):
+            csv: bool = False, progress: Optional[Callable[[int, int], None]] = None,
+            threads: Optional[int] = None):
         """
         Run every run not yet done in outdir and return the whole table.
 
@@ -312,17 +412,23 @@ class Sweep:
             Also write results.csv.
         progress : callable, optional
             Called with (runs, failed runs) of each finished task.
+        threads : int, optional
+            Threads each task runs its runs on: by default the CPU count
+            in this process, 1 on Dask (whose workers' threads run tasks
+            side by side). The table is the same with any number.
 
         """
         if record not in RECORD:
             raise ValueError(f'record is {record!r}; expected one of {", ".join(RECORD)}')
         if outdir is None:
             with tempfile.TemporaryDirectory(prefix='cfem-sweep-') as tmp:
-                return self.run(client, tmp, record=record, csv=csv, progress=progress)
+                return self.run(client, tmp, record=record, csv=csv, progress=progress,
+                                threads=threads)
         todo = prepare(self.spec, outdir, record)
         if client is None:
+            threads = threads or os.cpu_count() or 1
             for runs in groups(todo, 1):
-                done = run_task(self.spec, runs, outdir, record)
+                done = run_task(self.spec, runs, outdir, record, threads)
                 if progress:
                     progress(*done)
         else:
@@ -330,7 +436,7 @@ class Sweep:
             workers = max(1, len(client.scheduler_info().get('workers', {})))
             # each task carries its own runs' values (no shared data to lose with a worker)
             futures = [client.submit(run_task, _part_of(self.spec, runs), runs, outdir,
-                                     record, pure=False, retries=2)
+                                     record, threads or 1, pure=False, retries=2)
                        for runs in groups(todo, workers)]
             try:
                 for future in as_completed(futures):

@@ -92,8 +92,9 @@ def test_stale_extension_falls_back_to_the_jit():
 
 def test_arguments_the_compiled_code_does_not_fit_go_to_the_jit():
     ensure_built()
-    # float32, non-contiguous or read-only arrays would crash the compiled code
-    # (it trusts its arguments' types): the JIT takes them, as it always did
+    # float32, byte-swapped, non-contiguous or read-only arrays would crash the
+    # compiled code or read wrong numbers (it trusts its arguments' types): the JIT
+    # takes them, as it always did
     code = """
 import sys
 import numpy as np
@@ -102,7 +103,7 @@ size = kernel.workspace_size(2, 3, 1)
 work = np.arange(size, dtype=float)
 ahead = kernel.constraint_values(work, 2, 3, 1).copy()
 print('numba' in sys.modules)
-for bad in (work.astype(np.float32), np.repeat(work, 2)[::2]):
+for bad in (work.astype(np.float32), work.astype('>f8'), np.repeat(work, 2)[::2]):
     try:
         print(np.array_equal(kernel.constraint_values(bad, 2, 3, 1), ahead))
     except Exception as err:   # the JIT's own refusal, not a crash
@@ -115,4 +116,5 @@ print('numba' in sys.modules)
     done = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           timeout=900)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ['False', 'True', 'TypingError', 'True', 'True', 'True']
+    assert done.stdout.split() == ['False', 'True', 'TypingError', 'TypingError', 'True',
+                                   'True', 'True']

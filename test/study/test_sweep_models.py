@@ -1,0 +1,108 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""A task's models, parsed once and varied in place, are the whole parse's to the bit."""
+
+import copy
+import dataclasses
+import os
+
+from cfem_ros.study import Sweep
+from cfem_ros.study.sweep import full_model, Models, run_rows
+import numpy as np
+import pandas as pd
+import pytest
+from sweeps import STORE, write_sweep
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def same(a, b, where='model'):
+    """Assert two parsed models (dataclasses, arrays, tuples) are equal to the bit."""
+    assert type(a) is type(b), where
+    if dataclasses.is_dataclass(a):
+        for f in dataclasses.fields(a):
+            same(getattr(a, f.name), getattr(b, f.name), f'{where}.{f.name}')
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape, where
+        assert a.tobytes() == b.tobytes(), where
+    elif isinstance(a, (tuple, list)):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b)):
+            same(x, y, f'{where}[{i}]')
+    elif isinstance(a, dict):
+        assert list(a) == list(b), where
+        for key in a:
+            same(a[key], b[key], f'{where}.{key}')
+    elif isinstance(a, float):
+        assert np.float64(a).tobytes() == np.float64(b).tobytes(), where
+    else:
+        assert a == b, where
+
+
+def check_models(spec):
+    models = Models(spec)
+    for k in range(spec.total):
+        values = spec.run_values(k)
+        try:
+            whole = full_model(spec, k, values)
+        except Exception as err:   # noqa: B902
+            with pytest.raises(type(err)) as caught:
+                models.model(k, values)
+            assert str(caught.value) == str(err)
+            continue
+        same(models.model(k, values), whole)
+    return models
+
+
+def test_varied_bodies_and_joints_are_parsed_alone_and_give_the_whole_parse(tmp_path):
+    # mass, a joint's anchor and release angle in place; dt by a whole parse per value
+    spec = Sweep.from_file(write_sweep(tmp_path, runs=4)).spec
+    models = check_models(spec)
+    assert models.touched == [('bodies', 'store'), ('joints', 'pivot')]
+    assert [v.path for v in models.slow] == ['dt']
+    assert len(models._bases) == 2   # one whole parse per dt
+
+
+def test_the_example_sweep_and_the_ejectors_give_the_whole_parse(tmp_path):
+    spec = Sweep.from_file(os.path.join(ROOT, 'config', 'sweeps',
+                                        'store_separation_sweep.yaml'), runs=3).spec
+    check_models(spec)
+    scenario = os.path.join(ROOT, 'config', 'store_separation_ejectors.yaml')
+    sweep = tmp_path / 'ejectors.yaml'
+    sweep.write_text(
+        f'scenario: {scenario}\nruns: 3\nvary:\n'
+        '  bodies.store.inertia[1]: {uniform: [480, 500]}\n'
+        '  bodies.store.orientation_rpy_deg: {choice: [[0, 1, 0], [0, -1, 0]]}\n'
+        '  wrenches[1].force[2]: {normal: [42703, 500]}\n'
+        'metrics: {clearance: [{bodies: [store, pylon]}]}\n')
+    models = check_models(Sweep.from_file(str(sweep)).spec)
+    assert models.touched == [] and not models._bases   # a force drawn: whole parses
+    sweep.write_text(sweep.read_text().replace('{normal: [42703, 500]}',
+                                               '{choice: [42000, 43000]}'))
+    models = check_models(Sweep.from_file(str(sweep)).spec)
+    assert models.touched == [('bodies', 'store')]
+    assert 1 <= len(models._bases) <= 2   # one whole parse per force chosen
+
+
+def test_invalid_values_give_the_whole_parse_message(tmp_path):
+    scenario = copy.deepcopy(STORE)
+    path = write_sweep(tmp_path, runs=1, scenario=scenario, vary={
+        'bodies.store.mass': {'grid': [907.1848, -5.0, 'heavy']},
+        'joints.pivot.axis': {'grid': [[0, 1, 0], [0, 0, 0]]},
+        'bodies.store.fixed': {'grid': [False, True]}})
+    spec = Sweep.from_file(path).spec
+    check_models(spec)
+    rows = run_rows(spec, range(spec.total), threads=2)
+    assert [r['status'] for r in rows].count('ok') == 1
+    assert 'bodies.store.mass: is -5' in rows[4]['message']
+    assert 'joints.pivot.axis: has zero length' in rows[2]['message']
+
+
+def test_the_table_is_the_same_on_any_number_of_threads(tmp_path):
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=5))
+    one = sweep.run(None, str(tmp_path / 'one'), threads=1)
+    two = sweep.run(None, str(tmp_path / 'two'), threads=3)
+    pd.testing.assert_frame_equal(one, two, check_exact=True)
+    single = pd.DataFrame.from_records([sweep.run_one(k) for k in range(sweep.total)],
+                                       columns=sweep.columns())
+    pd.testing.assert_frame_equal(one, single, check_exact=True)
