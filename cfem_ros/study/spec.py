@@ -335,8 +335,31 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     variables = _parse_vary(fail, document.get('vary') or {}, base)
     metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate)
     values = draw(variables, count, seed)
+    _check_new_keys(fail, base, variables, values, scenario)
     return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
                      rate_hz=rate, variables=variables, metrics=metrics, values=values)
+
+
+def _check_new_keys(fail, base, variables, values, scenario):
+    """
+    Refuse a key path that adds a key the scenario format does not have (a typo).
+
+    Each path that is not in the base scenario is set alone to run 0's value
+    and the document parsed: an unknown key there is the sweep file's
+    mistake, found before any run (a value a draw makes invalid is left to
+    that run, a failed row with its reason).
+    """
+    for variable in variables:
+        if resolve(base, variable.tokens)[3]:
+            continue
+        document = apply_values(base, [variable], {variable.path: values[variable.path][0]})
+        try:
+            parse_scenario(document, source=scenario)
+        except ScenarioError as err:
+            if err.problem == 'unknown key' and err.key.startswith(
+                    format_key_path(variable.tokens[:-1])):
+                fail(f'vary.{variable.path}', f'adds {err.key}, a key the scenario format '
+                     f'does not have', err.expected or 'a key path of the scenario format')
 
 
 def _number_list(fail, key, value, length=None):

@@ -74,6 +74,7 @@ def test_distributions_have_their_moments_and_bounds(tmp_path):
 
 @pytest.mark.parametrize('change, key', [
     ({'vary': {'bodies.rocket.mass': {'normal': [1, 1]}}}, 'vary.bodies.rocket.mass'),
+    ({'vary': {'bodies.store.mas': {'normal': [900, 1]}}}, 'vary.bodies.store.mas'),   # typo
     ({'vary': {'joints.pivot.anchor[5]': {'grid': [0]}}}, 'vary.joints.pivot.anchor[5]'),
     ({'vary': {'bodies.store.mass': {'normal': [900, -1]}}}, 'vary.bodies.store.mass.normal'),
     ({'vary': {'bodies.store.mass': {'gauss': [900, 1]}}}, 'vary.bodies.store.mass.gauss'),
