@@ -71,6 +71,10 @@ def cmd_check(scenario: str) -> int:
     for body in model.bodies:
         if body.fixed:
             detail = 'fixed'
+        elif body.motion is not None:
+            detail = (f'kinematic, a table of {len(body.motion.times)} rows' if len(
+                body.motion.times) else f'kinematic, velocity {_vec(body.motion.velocity)} m/s, '
+                f'rates {_vec(np.degrees(body.motion.rates))} deg/s')
         else:
             detail = (f'{body.mass:g} kg, principal inertia '
                       f'{_vec(np.linalg.eigvalsh(body.inertia), "{:.6g}")} kg m^2')
@@ -89,7 +93,7 @@ def cmd_check(scenario: str) -> int:
               f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
               f'air {_vec(aero.freestream)} m/s, '
               f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
-    free = sum(not b.fixed for b in model.bodies)
+    free = sum(b.dynamic for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
           f'removed by the joints)')

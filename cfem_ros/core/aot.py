@@ -45,13 +45,13 @@ TABLE = os.path.join(_HERE, '_kernel_aot.json')
 
 
 #: The modules whose numba functions the kernel compiles together (kernel.py
-#: calls those of loads.py): an extension, or numba's cache, is only as current
+#: calls those of loads.py and motion.py): an extension, or numba's cache, is only as current
 #: as the oldest of them.
-COMPILED_SOURCES = ('kernel.py', 'loads.py')
+COMPILED_SOURCES = ('kernel.py', 'loads.py', 'motion.py')
 
 
 def source_hash(path: str = _SOURCE) -> int:
-    """Return the hash of the kernel's sources (kernel.py at path, and loads.py beside it)."""
+    """Return the hash of the kernel's sources (kernel.py at path, the others beside it)."""
     digest = hashlib.sha256()
     for name in COMPILED_SOURCES:
         with open(os.path.join(os.path.dirname(path), name), 'rb') as handle:

@@ -27,7 +27,7 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, rotations, sampling
+from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
@@ -88,18 +88,24 @@ class Simulator(SampledState):
         self.eta = float(model.baumgarte)
         bodies = model.bodies
         n = self.n = len(bodies)
-        self.free = np.array([not b.fixed for b in bodies])
-        self.mass = np.array([0.0 if b.fixed else b.mass for b in bodies])
+        # fixed and kinematic bodies are carried with zero inverse mass and inertia
+        self.free = np.array([b.dynamic for b in bodies])
+        self.mass = np.array([b.mass if b.dynamic else 0.0 for b in bodies])
         self.inv_mass = np.where(self.free, 1.0 / np.where(self.free, self.mass, 1.0), 0.0)
         self.inertia_body = np.array([
-            np.zeros((3, 3)) if b.fixed else b.inertia for b in bodies])
+            b.inertia if b.dynamic else np.zeros((3, 3)) for b in bodies])
         self.inv_inertia_body = np.array([
-            np.zeros((3, 3)) if b.fixed else np.linalg.inv(b.inertia) for b in bodies])
+            np.linalg.inv(b.inertia) if b.dynamic else np.zeros((3, 3)) for b in bodies])
         self._check_inverses()
         self.gravity = np.asarray(model.gravity, dtype=float)
         self._bodies = np.column_stack([
             self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
             self.inv_inertia_body.reshape(n, 9)])
+        # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
+        trajectories = motion.columns(model)
+        self.kinematic = trajectories.shape[1] > 0
+        if self.kinematic:
+            self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
         self._scheduled = ScheduledLoads(model, n)
@@ -119,6 +125,9 @@ class Simulator(SampledState):
         self.max_violation = 0.0
         self._stage_violation = 0.0
         self._info = np.zeros(6)
+        if self.kinematic:
+            self._place(0.0)
+            self._carry()
 
         pos0, _, quat0, _ = self._split(self.y)
         self.joints = JointTables(model, pos0, quat0)
@@ -127,6 +136,41 @@ class Simulator(SampledState):
         self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
+
+    def _place(self, t: float):
+        """Put the kinematic bodies where their trajectories are at time t (motion.py)."""
+        kernel.motion_set_time(self._bodies, float(t))
+        kernel.motion_place(self.y, self._bodies, 0.0)
+
+    def _carry(self):
+        """
+        Start the bodies joined to a kinematic one, and given no velocity, moving with it.
+
+        Through the joints (and the bodies between): the carrier's velocity at
+        the body's CG and the carrier's angular velocity.
+        """
+        model, n = self.model, self.n
+        pos, vel, quat, rates = self._split(self.y)
+        rot = rotations.matrices(quat)
+        carrier = [i if b.motion is not None else -1 for i, b in enumerate(model.bodies)]
+        queue = [i for i in range(n) if carrier[i] >= 0]
+        while queue:
+            i = queue.pop(0)
+            for joint in model.joints:
+                ends = (joint.parent, joint.child)
+                if i not in ends:
+                    continue
+                other = ends[1] if ends[0] == i else ends[0]
+                if carrier[other] >= 0 or not model.bodies[other].dynamic:
+                    continue
+                carrier[other] = carrier[i]
+                queue.append(other)
+                if model.bodies[other].velocity_given:
+                    continue
+                c = carrier[i]
+                omega = rot[c] @ rates[c]
+                vel[other] = vel[c] + np.cross(omega, pos[other] - pos[c])
+                rates[other] = rot[other].T @ omega
 
     # ------------------------------------------------------------ hot path
 
@@ -163,7 +207,7 @@ class Simulator(SampledState):
     def _check_inverses(self):
         """Refuse a body whose inverse mass or inertia is not a finite number."""
         for i, body in enumerate(self.model.bodies):
-            if body.fixed:
+            if not body.dynamic:
                 continue
             if not math.isfinite(self.inv_mass[i]):
                 raise ScenarioError(
@@ -243,7 +287,8 @@ class Simulator(SampledState):
                 and np.isfinite(point).all()):
             raise ValueError('force, torque and point must be finite')
         if not self.free[i]:
-            raise ValueError(f'body {self.model.bodies[i].name!r} is fixed and cannot be loaded')
+            what = 'fixed' if self.model.bodies[i].fixed else 'kinematic (it follows its motion)'
+            raise ValueError(f'body {self.model.bodies[i].name!r} is {what} and cannot be loaded')
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
 
@@ -254,7 +299,35 @@ class Simulator(SampledState):
 
     def applied_loads(self) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
-        return self.outputs()[13 * self.n + 6 * len(self._outputs_key):].reshape(-1, 6)
+        first = 13 * self.n + 6 * len(self._outputs_key)
+        return self.outputs()[first:first + self._scheduled.outputs_size].reshape(-1, 6)
+
+    def relative_states(self) -> np.ndarray:
+        """
+        Return each ``model.references`` body's state in its reference's frame, (k, 13).
+
+        Per pair: CG position relative to the reference's CG (3) and attitude
+        (x y z w, body to reference), then the CG velocity seen from the
+        reference and the relative angular velocity (3 + 3); all in the
+        reference's axes (``motion.sample_relative``, computed here in numpy).
+        """
+        pairs = self.model.references
+        out = np.empty((len(pairs), 13))
+        if not pairs:
+            return out
+        body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
+        pos, vel, quat, rates = self._split(self.y)
+        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
+        rot = rotations.matrices(quat)
+        omega = np.einsum('nij,nj->ni', rot, rates)
+        d = pos[body] - pos[ref]
+        v = vel[body] - vel[ref] - np.cross(omega[ref], d)
+        turn = rot[ref].transpose(0, 2, 1)
+        out[:, :3] = np.einsum('nij,nj->ni', turn, d)
+        out[:, 3:7] = rotations.multiply(rotations.conjugate(quat[ref]), quat[body])
+        out[:, 7:10] = np.einsum('nij,nj->ni', turn, v)
+        out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
+        return out
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
@@ -448,6 +521,8 @@ class Simulator(SampledState):
         self._stage_violation = 0.0
         y0 = self.y
         self._scheduled.set_time(self.t)
+        if self.kinematic:
+            kernel.motion_set_time(self._bodies, self.t)   # motion.py
         y1 = self._rk4(y0, h)
         crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
         if self._scheduled.count and self._stroke_end(y0, y1, h, t_end, crossing):
@@ -485,4 +560,6 @@ class Simulator(SampledState):
         self.y = y1
         self.t = t1
         self._scheduled.set_time(t1)
+        if self.kinematic:
+            self._place(t1)   # the state, and accelerations, at t1 (motion.py)
         self.steps += 1

@@ -118,8 +118,10 @@ def validate_input(sim, item: Input):
                          'followed by @x,y,z, the point in body axes)')
     if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
         raise ValueError('force and torque must be finite')
-    if model.bodies[names.index(item.target)].fixed:
-        raise ValueError(f'body {item.target!r} is fixed and cannot be loaded')
+    body = model.bodies[names.index(item.target)]
+    if not body.dynamic:
+        what = 'fixed' if body.fixed else 'kinematic'
+        raise ValueError(f'body {item.target!r} is {what} and cannot be loaded')
 
 
 def apply_input(sim, item: Input):

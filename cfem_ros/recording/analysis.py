@@ -39,6 +39,8 @@ BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
+RELATIVE_TOPIC = re.compile(
+    r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/relative_(?P<kind>pose|twist)$')
 NAN = float('nan')
 
 #: Near pitch +-90 deg roll and yaw are each undefined (only their sum or
@@ -149,6 +151,36 @@ class JointTrack:
 
 
 @dataclass
+class RelativeTrack:
+    """
+    One body's recorded pose and twist in its reference's (carrier's) frame.
+
+    Attributes
+    ----------
+    name, reference : str
+        The body and the frame (``frame_id``) its numbers are in.
+    time : ndarray (n,)
+        s from the run's start.
+    position : ndarray (n, 3)
+        CG relative to the reference's CG, reference axes, m.
+    quaternion : ndarray (n, 4)
+        Attitude relative to the reference, x y z w.
+    velocity, rates : ndarray (n, 3)
+        CG velocity seen from the reference (m/s) and angular velocity
+        relative to it (rad/s), reference axes; NaN where no twist matches.
+
+    """
+
+    name: str
+    reference: str
+    time: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    velocity: np.ndarray
+    rates: np.ndarray
+
+
+@dataclass
 class Run:
     """
     A recording, read.
@@ -174,6 +206,8 @@ class Run:
     applied : dict of str to JointTrack
         Scheduled loads (``bodies/<body>/applied/<source>``) by '<body>/<source>':
         force and moment about the body's CG, world axes.
+    relative : dict of str to RelativeTrack
+        Poses and twists in a carrier's frame (``bodies/<body>/relative_pose``).
 
     """
 
@@ -187,6 +221,7 @@ class Run:
     metadata: dict = field(default_factory=dict)
     duration: float = 0.0
     applied: dict = field(default_factory=dict)
+    relative: dict = field(default_factory=dict)
 
     def releases(self) -> list:
         """Return the release events as (time, joint, cause), in time order."""
@@ -315,9 +350,24 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
 
 
 def _read_messages(reader, ns: str) -> dict:
-    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': []}
+    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
+           'relative_pose': {}, 'relative_twist': {}, 'reference': {}}
     for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
         topic = channel.topic
+        relative = RELATIVE_TOPIC.match(topic)
+        if relative and relative['ns'] == ns:
+            stamp = decoded.header.stamp
+            when = stamp.sec * 1_000_000_000 + stamp.nanosec
+            if relative['kind'] == 'pose':
+                p, q = decoded.pose.position, decoded.pose.orientation
+                values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+                raw['reference'][relative['name']] = decoded.header.frame_id
+            else:
+                a, b = decoded.twist.linear, decoded.twist.angular
+                values = (a.x, a.y, a.z, b.x, b.y, b.z)
+            raw[f'relative_{relative["kind"]}'].setdefault(relative['name'], []).append(
+                (when, values))
+            continue
         body = BODY_TOPIC.match(topic)
         if body and body['ns'] == ns and body['kind'] in ('pose', 'twist'):
             stamp = decoded.header.stamp
@@ -385,10 +435,24 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             tracks[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9,
                                       stamp_ns=stamps, force=values[:, 0:3],
                                       moment=values[:, 3:6])
+    relative = {}
+    for name, rows in raw['relative_pose'].items():
+        rows.sort(key=lambda r: r[0])
+        stamps = np.array([r[0] for r in rows], dtype=np.int64)
+        values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)
+        twist = np.full((len(rows), 6), np.nan)
+        index = {s: i for i, s in enumerate(stamps.tolist())}
+        for when, v in raw['relative_twist'].get(name, []):
+            if when in index:
+                twist[index[when]] = v
+        relative[name] = RelativeTrack(
+            name=name, reference=raw['reference'][name], time=(stamps - start_ns) / 1e9,
+            position=values[:, :3], quaternion=values[:, 3:], velocity=twist[:, :3],
+            rates=twist[:, 3:])
     last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
     return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
                events=raw['events'], topics=topics, metadata=metadata, duration=float(last),
-               applied=applied)
+               applied=applied, relative=relative)
 
 
 @dataclass(frozen=True)

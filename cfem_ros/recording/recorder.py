@@ -534,6 +534,12 @@ class StateRecorder:
         messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
         messages.extend((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, self.world, 6)
                         for body, source in self.sim.applied_sources)   # scheduled loads
+        bodies = self.sim.model.bodies
+        for body, ref in self.sim.model.references:   # in a carrier's frame (core/motion.py)
+            messages.append((self.topic(f'bodies/{bodies[body].name}/relative_pose'), POSE,
+                             bodies[ref].name, 7))
+            messages.append((self.topic(f'bodies/{bodies[body].name}/relative_twist'), TWIST,
+                             bodies[ref].name, 6))
         if self._transforms is not None:
             messages.append(('/tf', TF, self._transforms, None))
         return messages

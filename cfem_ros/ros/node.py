@@ -257,6 +257,16 @@ class _Publishers:
             wrench.header.frame_id = world
             self.wrenches[k] = (node.create_publisher(
                 WrenchStamped, f'joints/{joint.name}/wrench', TOPIC_QOS), wrench)
+        self.relative = []   # poses and twists in a carrier's frame, per model.references
+        for body, ref in model.references:
+            pose, twist = PoseStamped(), TwistStamped()
+            name = model.bodies[body].name
+            pose.header.frame_id = twist.header.frame_id = model.bodies[ref].name
+            self.relative.append((
+                node.create_publisher(PoseStamped, f'bodies/{name}/relative_pose', TOPIC_QOS),
+                pose,
+                node.create_publisher(TwistStamped, f'bodies/{name}/relative_twist', TOPIC_QOS),
+                twist))
         self.applied = []   # scheduled loads, per source
         for body, source in sim.applied_sources:
             wrench = WrenchStamped()
@@ -336,6 +346,18 @@ class _Publishers:
                 _vector3(wrench.wrench.force, load[:3])
                 _vector3(wrench.wrench.torque, load[3:])
                 publisher.publish(wrench)
+        if self.relative:
+            for (pose_pub, pose, twist_pub, twist), state in zip(
+                    self.relative, sim.relative_states()):
+                _time_msg(pose.header.stamp, stamp_ns)
+                _vector3(pose.pose.position, state[:3])
+                q = pose.pose.orientation
+                q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+                pose_pub.publish(pose)
+                _time_msg(twist.header.stamp, stamp_ns)
+                _vector3(twist.twist.linear, state[7:10])
+                _vector3(twist.twist.angular, state[10:])
+                twist_pub.publish(twist)
 
     def prepare(self):
         """Fill every message once without publishing (the first sample's set-up)."""
