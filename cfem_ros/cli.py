@@ -421,6 +421,22 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument('first', metavar='A.mcap', help='reference recording')
     compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
     compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
+    play = sub.add_parser('play', help='publish a recording over ROS 2',
+                          description='Publish the messages of a recording over ROS 2 at '
+                          'their log times, with their recorded types and QoS, like ros2 '
+                          'bag play.')
+    play.add_argument('recording', metavar='LOG.mcap', help='recording to play')
+    play.add_argument('--clock', action='store_true',
+                      help='publish /clock with the log time (for use_sim_time nodes)')
+    play.add_argument('--rate', type=float, default=1.0, metavar='R',
+                      help='playback speed (default 1: real time)')
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
+    play.add_argument('--remap', action='append', default=[], metavar='FROM:=TO',
+                      help='publish topic FROM on TO (repeatable)')
+    play.add_argument('--wait', type=float, default=2.0, metavar='S',
+                      help='wait up to S s for every topic to have a subscriber (default 2)')
+    play.add_argument('--delay', type=float, default=1.0, metavar='S',
+                      help='then wait S s more before the first message (default 1)')
     sweep = sub.add_parser('sweep', help='run a separation study (many runs) on Dask',
                            description='Run the runs of a sweep file (SPEC section 6) on a '
                            'Dask cluster and write OUTDIR/results.parquet, one row per run. '
@@ -452,6 +468,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def cmd_play(recording: str, *, clock: bool = False, rate: float = 1.0, topics=None,
+             remaps=(), wait: float = 2.0, delay: float = 1.0) -> int:
+    """Publish a recording's messages over ROS 2; exit status 0, or 2 for bad input."""
+    if not (math.isfinite(rate) and rate > 0.0):
+        return _error(f'--rate is {rate!r}; expected a playback speed > 0 (1: real time)')
+    for name, value in (('--wait', wait), ('--delay', delay)):
+        if not (math.isfinite(value) and value >= 0.0):
+            return _error(f'{name} is {value!r}; expected seconds >= 0')
+    try:
+        from cfem_ros.ros import player
+    except ImportError as err:
+        return _error(f'cfem-sim play needs rclpy ({err}); install the ros extra')
+    try:
+        mapping = player.parse_remaps(remaps)
+        def warn(text):
+            print(f'WARNING: {text}', file=sys.stderr)
+
+        count = player.play(recording, clock=clock, rate=rate, topics=topics, remaps=mapping,
+                            wait=wait, delay=delay, log=warn)
+    except CfemError as err:
+        return _error(str(err))
+    except ValueError as err:
+        return _error(str(err))
+    print(f'{recording}: {count} messages played')
+    return EXIT_OK
+
+
 def _terminate(signum, frame):
     raise KeyboardInterrupt
 
@@ -481,6 +524,10 @@ def main(argv=None) -> int:
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv)
         if args.command == 'compare':
             return cmd_compare(args.first, args.second, args.output)
+        if args.command == 'play':
+            return cmd_play(args.recording, clock=args.clock, rate=args.rate,
+                            topics=args.topics, remaps=args.remap, wait=args.wait,
+                            delay=args.delay)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
                        dt=args.dt, inputs=args.inputs, overwrite=args.overwrite)
     except KeyboardInterrupt:

@@ -28,6 +28,8 @@ import yaml
 
 #: Log time between two /clock messages when no message falls in between, s.
 CLOCK_PERIOD = 0.01
+#: Wall-clock seconds the publishers stay after the last message.
+LINGER = 0.5
 #: QoS of /clock, as ``ros2 bag play --clock``.
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 #: When a channel has no readable QoS: what ``ros2 bag play`` uses by default.
@@ -143,7 +145,7 @@ def read_log(path: str, topics=None) -> tuple:
 
 def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, remaps=None,
          node: Optional[Node] = None, log: Callable[[str], None] = print,
-         start_delay: float = 0.5) -> int:
+         wait: float = 2.0, delay: float = 1.0, settle: float = 0.02) -> int:
     """
     Publish a recording's messages; return how many were published.
 
@@ -163,9 +165,18 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
         Publish from this node (rclpy initialised by the caller); else one is made.
     log : callable
         Where warnings (a type that cannot be imported) go.
-    start_delay : float
-        Wall-clock seconds between making the publishers and the first
-        message, for subscribers to discover them.
+    wait : float
+        Wall-clock seconds to wait at most for every publisher to have a
+        subscriber (discovery) before the first message.
+    delay : float
+        Wall-clock seconds between discovery and the first message (both
+        ends see each other only after a while); with ``clock``, /clock at
+        the first message's time is sent every 50 ms meanwhile.
+    settle : float
+        With ``clock``: wall-clock seconds between a /clock message at a
+        message's log time and the message, so that a node following the
+        clock has reached that time when the message arrives (a command
+        applied on arrival then acts at its recorded time).
 
     """
     if not rate > 0.0:
@@ -203,10 +214,19 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             tick.clock.sec, tick.clock.nanosec = divmod(int(ns), 1_000_000_000)
             clock_pub.publish(tick)
 
-        deadline = time.monotonic() + start_delay
-        if clock_pub is not None:
-            send_clock(first)
-        _sleep_until(deadline)
+        deadline = time.monotonic() + wait
+        watched = list(by_topic.values()) + ([clock_pub] if clock_pub is not None else [])
+        while (time.monotonic() < deadline
+               and not all(p.get_subscription_count() > 0 for p in watched)):
+            time.sleep(0.02)
+        deadline = time.monotonic() + delay
+        while True:
+            if clock_pub is not None:
+                send_clock(first)
+            if time.monotonic() >= deadline:
+                break
+            time.sleep(min(0.05, max(0.0, deadline - time.monotonic())))
+        time.sleep(settle)
         start = time.monotonic()
         last_clock = first
         period = int(CLOCK_PERIOD * 1e9)
@@ -220,7 +240,9 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             if clock_pub is not None and log_time != last_clock:
                 send_clock(log_time)
                 last_clock = log_time
+                time.sleep(settle)
             publishers[cid].publish(data)
+        time.sleep(LINGER)   # reliable messages still in flight reach their readers
         return len(messages)
     finally:
         if own:
