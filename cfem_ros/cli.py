@@ -480,11 +480,11 @@ def cmd_play(recording: str, *, clock: bool = False, rate: float = 1.0, topics=N
         from cfem_ros.ros import player
     except ImportError as err:
         return _error(f'cfem-sim play needs rclpy ({err}); install the ros extra')
+    def warn(text):
+        print(f'WARNING: {text}', file=sys.stderr)
+
     try:
         mapping = player.parse_remaps(remaps)
-        def warn(text):
-            print(f'WARNING: {text}', file=sys.stderr)
-
         count = player.play(recording, clock=clock, rate=rate, topics=topics, remaps=mapping,
                             wait=wait, delay=delay, log=warn)
     except CfemError as err:
