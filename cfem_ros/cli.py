@@ -480,6 +480,7 @@ def cmd_play(recording: str, *, clock: bool = False, rate: float = 1.0, topics=N
         from cfem_ros.ros import player
     except ImportError as err:
         return _error(f'cfem-sim play needs rclpy ({err}); install the ros extra')
+
     def warn(text):
         print(f'WARNING: {text}', file=sys.stderr)
 
