@@ -45,6 +45,11 @@ DIVERGENCE_VIOLATION = 1e-3
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
 
+#: How long after its last odometry message a kinematic body is extrapolated to
+#: second order (velocity and the acceleration from the last two messages), s;
+#: beyond it, a warning and constant velocity and body rates.
+ODOMETRY_HORIZON = 0.1
+
 #: What ``kernel.advance`` gets for no sample grid.
 _NO_GRID = np.zeros(3)
 _NO_ROWS = np.empty((0, 0))
@@ -104,6 +109,8 @@ class Simulator(SampledState):
         # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
         trajectories = motion.columns(model)
         self.kinematic = trajectories.shape[1] > 0
+        self._odometry = {}   # body -> (time, body-axis velocity, body rates) of its last message
+        self._odometry_end = {}   # body -> end of its second-order extrapolation, s
         if self.kinematic:
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
@@ -292,6 +299,76 @@ class Simulator(SampledState):
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
 
+    def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
+        """
+        Drive a kinematic body from an odometry message (REP-105) from now on.
+
+        Parameters
+        ----------
+        body : str or int
+            A body with ``motion``: the message replaces it.
+        t : float
+            The message's time, s (at or before now: extrapolated to now).
+        position, quaternion : array_like
+            CG in world, m; attitude x y z w, body to world.
+        velocity_body, rates_body : array_like, shape (3,)
+            CG velocity (m/s) and angular velocity (rad/s), body axes.
+
+        Notes
+        -----
+        From t the body moves with this velocity and acceleration for
+        ``ODOMETRY_HORIZON`` s, then at constant velocity and body rates,
+        with a warning. The acceleration is w x v (the velocity turning with
+        the body) plus the change of the body-axis velocity since the
+        previous message; the angular acceleration, the change of the body
+        rates since it (zero for the first message).
+
+        """
+        i = self._body(body)
+        name = self.model.bodies[i].name
+        if self.model.bodies[i].motion is None:
+            raise ValueError(f'body {name!r} is not kinematic (no motion): odometry drives '
+                             'only kinematic bodies')
+        values = [np.asarray(v, dtype=float)
+                  for v in (position, quaternion, velocity_body, rates_body)]
+        if [v.shape for v in values] != [(3,), (4,), (3,), (3,)] or not all(
+                np.isfinite(v).all() for v in values) or not math.isfinite(t):
+            raise ValueError('odometry must have a finite time, position (3), quaternion (4), '
+                             'linear and angular velocity (3 each)')
+        position, quat, velocity, rates = values
+        norm = np.linalg.norm(quat)
+        if abs(norm - 1.0) > 1e-3:
+            raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
+                             'quaternion (to 1e-3)')
+        quat = quat / norm
+        turn = rotations.matrices(quat[None])[0]
+        # the velocity turns with the body (w x v), and changes in body axes as
+        # between the last two messages; the body rates change as between them
+        acc, alpha = np.cross(turn @ rates, turn @ velocity), np.zeros(3)
+        last = self._odometry.get(i)
+        if last is not None and t > last[0]:
+            acc += turn @ (velocity - last[1]) / (t - last[0])
+            alpha = (rates - last[2]) / (t - last[0])
+        self._odometry[i] = (float(t), velocity, rates)
+        velocity = turn @ velocity
+        data = motion.odometry(float(t), position, quat, velocity, rates, acc, alpha,
+                               ODOMETRY_HORIZON)
+        self._bodies[i, motion.M_KIND] = motion.KIND_TABLE
+        self._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
+        self._odometry_end[i] = float(t) + ODOMETRY_HORIZON
+        self._place(self.t)
+
+    def _odometry_check(self):
+        """Warn once per message when a body's odometry is older than the horizon."""
+        for i, end in list(self._odometry_end.items()):
+            if self.t > end:
+                self.log.warning(
+                    'no odometry for body %r since t = %.6f s (%.3f s ago, beyond the %.3g s '
+                    'horizon): held at constant velocity and body rates',
+                    self.model.bodies[i].name, self._odometry[i][0],
+                    self.t - self._odometry[i][0], ODOMETRY_HORIZON)
+                del self._odometry_end[i]
+
     @property
     def applied_sources(self) -> list:
         """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
@@ -440,6 +517,8 @@ class Simulator(SampledState):
                     break   # the next step would end after limit
             if self.t >= t_target and self.steps > steps:
                 self._check_violation()   # the kernel checks each step's start, not the end
+            if self._odometry_end:
+                self._odometry_check()
         except NumericalFailure as err:
             self.fail(str(err))
             return False

@@ -285,7 +285,7 @@ def columns(model) -> np.ndarray:
     references = dict(getattr(model, 'references', ()))
     if not references and not any(m is not None for m in motions):
         return np.zeros((len(motions), 0))
-    packed = []
+    packed = [np.zeros(ODOMETRY_WIDTH)]   # room for odometry (``odometry``)
     for i, (body, motion) in enumerate(zip(model.bodies, motions)):
         head = np.zeros(M_DATA - BODY_COLUMNS)
         head[M_REF - BODY_COLUMNS] = references.get(i, -1) + 1
@@ -301,6 +301,7 @@ def columns(model) -> np.ndarray:
                                    motion.rates])
         packed.append(np.concatenate([head, data]))
     width = max(len(p) for p in packed)
+    packed = packed[1:]
     out = np.zeros((len(packed), width))
     for i, p in enumerate(packed):
         out[i, :len(p)] = p
@@ -324,6 +325,40 @@ def _table_data(motion) -> np.ndarray:
         segments[k, 12:16] = keys[k]
         segments[k, 16:] = attitude.interpolator.c[:, k, :].T.reshape(12)
     return np.concatenate([[count], times, segments.reshape(-1)])
+
+
+#: Width of the columns of a body driven by odometry (two segments: see ``odometry``).
+ODOMETRY_WIDTH = M_DATA + 1 + 3 + 2 * SEGMENT - BODY_COLUMNS
+
+
+def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acceleration,
+             horizon: float) -> np.ndarray:
+    """
+    Pack a trajectory from one odometry message: the data columns (``M_DATA`` on).
+
+    From time t, the pose (world), the CG velocity (world) and body rates,
+    with the acceleration (world) and body angular acceleration estimated
+    from the message before (zero for the first): second order for
+    ``horizon`` s, then constant velocity and body rates from where that
+    leaves the body. The rotation vector from the key attitude is
+    w s + alpha s^2 / 2, whose rates at s = 0 are w.
+    """
+    def segment(p, v, a, q, w, alpha):
+        out = np.zeros(SEGMENT)
+        for k in range(3):
+            out[4 * k:4 * k + 4] = (0.0, 0.5 * a[k], v[k], p[k])
+            out[16 + 4 * k:16 + 4 * k + 4] = (0.0, 0.5 * alpha[k], w[k], 0.0)
+        out[12:16] = q
+        return out
+
+    first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration)
+    probe = np.zeros((1, M_DATA + 1 + 2 + SEGMENT))
+    probe[0, M_KIND] = KIND_TABLE
+    probe[0, M_DATA:] = np.concatenate([[1, t, t + horizon], first])
+    y = np.zeros(13)
+    _table(probe, 0, t + horizon, y, 1)
+    second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))
+    return np.concatenate([[2, t, t + horizon, t + horizon + 1.0], first, second])
 
 
 def state_at(model, t: float):

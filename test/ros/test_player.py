@@ -7,6 +7,7 @@ import pathlib
 import signal
 import subprocess
 import sys
+import time
 
 from cfem_ros import cli
 from cfem_ros.recording.recorder import EVENTS_QOS, OFFERED_QOS, Recorder, STRING, WRENCH
@@ -80,6 +81,15 @@ def test_play_refuses_bad_arguments(tmp_path, capsys):
     assert 'missing.mcap' in err and err.count('\n') == 1
 
 
+def wait_for_clock_subscription(node, timeout=120.0):
+    """Wait (bounded) until the node says it waits for /clock: its subscription exists."""
+    deadline = time.monotonic() + timeout
+    while 'waiting for /clock' not in node.output:
+        assert node.alive(), node.output
+        assert time.monotonic() < deadline, f'node not ready after {timeout:g} s'
+        time.sleep(0.1)
+
+
 def _samples(path, start_ns):
     _, _, messages = read_checked(path)
     out = {}
@@ -109,6 +119,7 @@ def test_player_with_clock_drives_a_sim_time_node_like_the_offline_replay(tmp_pa
     recording = tmp_path / 'node.mcap'
     node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
     try:
+        wait_for_clock_subscription(node)
         done = subprocess.run(
             [str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait', '60',
              '--topics', '/cfem/bodies/store/wrench', '/cfem/release'],
@@ -148,3 +159,79 @@ def test_player_with_clock_drives_a_sim_time_node_like_the_offline_replay(tmp_pa
     pose = [m for (topic, t), m in ours.items() if topic.endswith('store/pose') and t == last]
     assert abs(pose[0].pose.position.z + 0.5) > 0.05
     assert stamp_ns(pose[0].header) == start_ns + last
+
+
+def _odometry(t_ns, position, quat, velocity, rates):
+    return {'header': {'stamp': {'sec': t_ns // 10 ** 9, 'nanosec': t_ns % 10 ** 9},
+                       'frame_id': 'world'},
+            'child_frame_id': 'aircraft',
+            'pose': {'pose': {'position': dict(zip('xyz', map(float, position))),
+                              'orientation': dict(zip('xyzw', map(float, quat)))},
+                     'covariance': [0.0] * 36},
+            'twist': {'twist': {'linear': dict(zip('xyz', map(float, velocity))),
+                                'angular': dict(zip('xyz', map(float, rates)))},
+                      'covariance': [0.0] * 36}}
+
+
+def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
+    from cfem_ros.recording.analysis import open_run
+    from cfem_ros.recording.recorder import ODOMETRY
+    from scipy.spatial.transform import Rotation
+    speed, rate = 250.0, -9.80665 / 250.0   # a 2 g pull-up
+    scenario = tmp_path / 'carrier.yaml'
+    doc = {'name': 'carrier', 'duration': 100.0, 'dt': 0.001,
+           'bodies': {'aircraft': {'motion': {'velocity': [speed, 0, 0],
+                                              'angular_velocity': [0, rate, 0]}},
+                      'store': {'mass': 200.0, 'inertia': [5.0, 60.0, 60.0],
+                                'position': [0.0, 0, -1.0]}},
+           'joints': {'hook': {'type': 'hinge', 'parent': 'aircraft', 'child': 'store',
+                               'anchor': [0.5, 0, -0.6], 'axis': [0, 1, 0]}}}
+    scenario.write_text(yaml.safe_dump(doc))
+    log = tmp_path / 'flight.mcap'
+    with Recorder(str(log)) as rec:
+        for k in range(61):
+            t, t_ns = 0.01 * k, T0 + 10 * k * MS
+            phi = rate * t
+            position = [speed / rate * np.sin(phi), 0, speed / rate * (np.cos(phi) - 1)]
+            quat = Rotation.from_rotvec([0, phi, 0]).as_quat()
+            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY,
+                      _odometry(t_ns, position, quat, [speed, 0, 0], [0, rate, 0]), t_ns)
+            if k == 30:
+                rec.write('/cfem/release', STRING, {'data': 'hook'}, t_ns + 5 * MS)
+    recording = tmp_path / 'node.mcap'
+    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
+    try:
+        wait_for_clock_subscription(node)
+        done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait',
+                               '60'], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert '62 messages played' in done.stdout
+    finally:
+        status = node.stop(signal.SIGINT)
+    assert status == 0, node.output
+    start_ns = T0
+    ours, our_events, messages = _samples(recording, start_ns)
+    odometry = [log - start_ns for topic, log, _, _ in messages
+                if topic == '/cfem/bodies/aircraft/odom']
+    assert odometry == [10 * k * MS for k in range(61)]   # each at its own time
+    last = max(t for _, t in ours)
+    assert last >= 600 * MS
+    out = tmp_path / 'offline.mcap'
+    assert cli.main(['run', str(scenario), '-o', str(out), '--inputs', str(log),
+                     '--duration', repr(last / 1e9)]) == 0
+    theirs, their_events, _ = _samples(out, 0)
+    assert set(ours) <= set(theirs) and len(ours) >= 0.9 * len(theirs)
+    worst = max(np.abs(_numbers(m) - _numbers(theirs[key])).max() for key, m in ours.items())
+    bad = sorted((key[1], key[0]) for key, m in ours.items()
+                 if np.abs(_numbers(m) - _numbers(theirs[key])).max() > 1e-9)
+    assert worst <= 1e-9, (worst, bad[:5])
+    assert [e['joint'] for e in our_events] == [e['joint'] for e in their_events] == ['hook']
+    assert abs(our_events[0]['time'] - their_events[0]['time']) <= 1e-9
+    # the carrier followed the log: at 0.6 s, on the circle
+    phi = rate * 0.6
+    carrier = open_run(str(recording)).bodies['aircraft']
+    k = int(np.argmin(np.abs(carrier.time - 0.6)))
+    assert np.allclose(carrier.position[k], [speed / rate * np.sin(phi), 0,
+                                             speed / rate * (np.cos(phi) - 1)], atol=1e-6)
+    # and the store's pose in the carrier's frame was recorded
+    assert open_run(str(recording)).relative['store'].reference == 'aircraft'
