@@ -246,11 +246,18 @@ def _plot_sweep(outdir: str, directory: str, metric: Optional[str]) -> int:
     return EXIT_OK
 
 
-def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int:
+def cmd_compare(first: str, second: str, directory: Optional[str] = None, maps=()) -> int:
     """Print the largest differences of two recordings (and overlay figures); exit 0 or 2."""
     from cfem_ros.recording import analysis   # the reader only for the commands that read
+    topic_map = {}
+    for item in maps or ():
+        ours, sep, theirs = item.partition('=')
+        if not sep or not ours.startswith('/') or not theirs.startswith('/'):
+            return _error(f'--map {item!r}; expected A_TOPIC=B_TOPIC, absolute topic names '
+                          '(e.g. /cfem/bodies/store/pose=/flight/store/pose)')
+        topic_map[theirs] = ours
     try:
-        a, b = analysis.open_run(first), analysis.open_run(second)
+        a, b = analysis.open_run(first), analysis.open_run(second, topic_map=topic_map)
     except CfemError as err:
         return _error(str(err))
     rows, only_a, only_b = analysis.compare_runs(a, b)
@@ -421,6 +428,8 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument('first', metavar='A.mcap', help='reference recording')
     compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
     compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
+    compare.add_argument('--map', action='append', default=[], metavar='A_TOPIC=B_TOPIC',
+                         help="read B's topic B_TOPIC as A's A_TOPIC (repeatable)")
     play = sub.add_parser('play', help='publish a recording over ROS 2',
                           description='Publish the messages of a recording over ROS 2 at '
                           'their log times, with their recorded types and QoS, like ros2 '
@@ -524,7 +533,7 @@ def main(argv=None) -> int:
             return cmd_summarize(args.recordings, args.metrics, args.output,
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv)
         if args.command == 'compare':
-            return cmd_compare(args.first, args.second, args.output)
+            return cmd_compare(args.first, args.second, args.output, args.map)
         if args.command == 'play':
             return cmd_play(args.recording, clock=args.clock, rate=args.rate,
                             topics=args.topics, remaps=args.remap, wait=args.wait,

@@ -300,7 +300,8 @@ def _vectors(rows, n):
     return np.array(rows, dtype=float).reshape(n, 3)
 
 
-def open_run(path: str, namespace: Optional[str] = None) -> Run:
+def open_run(path: str, namespace: Optional[str] = None,
+             topic_map: Optional[dict] = None) -> Run:
     """
     Read a recording into arrays.
 
@@ -310,6 +311,9 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
         An MCAP recording of the SPEC section 3 topics.
     namespace : str, optional
         The topics' prefix; needed only if the file holds several.
+    topic_map : dict, optional
+        Topic in the file -> the topic it is read as (e.g. a flight log's
+        '/flight/store/pose' read as '/cfem/bodies/store/pose').
 
     Raises
     ------
@@ -328,7 +332,9 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
                                      'expected a finished recording')
             schemas = summary.schemas
             topics = {}
+            renamed = dict(topic_map or {})
             for channel in summary.channels.values():
+                channel = _renamed(channel, renamed)
                 count = (summary.statistics.channel_message_counts.get(channel.id, 0)
                          if summary.statistics else 0)
                 schema = schemas.get(channel.schema_id)
@@ -340,7 +346,7 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
             for record in reader.iter_metadata():
                 if record.name == 'cfem_ros':
                     metadata = dict(record.metadata)
-            raw = _read_messages(reader, ns)
+            raw = _read_messages(reader, ns, renamed)
     except RecordingError:
         raise
     except (McapError, ValueError, KeyError, AttributeError, EOFError) as err:
@@ -349,11 +355,19 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
     return _assemble(path, ns, topics, metadata, raw)
 
 
-def _read_messages(reader, ns: str) -> dict:
+def _renamed(channel, renamed: dict):
+    """Return the channel, under the topic the map gives it (a copy), if any."""
+    if channel.topic not in renamed:
+        return channel
+    from dataclasses import replace as _replace
+    return _replace(channel, topic=renamed[channel.topic])
+
+
+def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
     raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
            'relative_pose': {}, 'relative_twist': {}, 'reference': {}}
     for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
-        topic = channel.topic
+        topic = (renamed or {}).get(channel.topic, channel.topic)
         relative = RELATIVE_TOPIC.match(topic)
         if relative and relative['ns'] == ns:
             stamp = decoded.header.stamp
@@ -500,6 +514,25 @@ def attitude_difference_deg(a: BodyTrack, b: BodyTrack):
     return t, np.degrees(rotations.angle_between(a.quaternion[inside], theirs))
 
 
+def relative_position(body: BodyTrack, carrier: BodyTrack):
+    """
+    Return a body's times inside the carrier's span and its CG in the carrier's axes there.
+
+    The carrier's pose is interpolated onto the body's times (position
+    linearly, attitude by slerp).
+    """
+    inside = (body.time >= carrier.time[0] - 1e-12) & (body.time <= carrier.time[-1] + 1e-12)
+    t = body.time[inside]
+    origin = np.column_stack([np.interp(t, carrier.time, carrier.position[:, k])
+                              for k in range(3)])
+    if len(carrier.time) > 1:
+        turn = Slerp(carrier.time, Rotation.from_quat(carrier.quaternion))(
+            np.clip(t, carrier.time[0], carrier.time[-1]))
+    else:
+        turn = Rotation.from_quat(np.repeat(carrier.quaternion[:1], len(t), axis=0))
+    return t, turn.inv().apply(body.position[inside] - origin)
+
+
 def compare_runs(a: Run, b: Run) -> tuple:
     """
     Compare the bodies and joints two runs share, quantity by quantity.
@@ -509,7 +542,9 @@ def compare_runs(a: Run, b: Run) -> tuple:
     ``attitude`` (the angle of the rotation from A's attitude to B's, deg;
     B's quaternions interpolated by slerp), ``rates`` (body, deg/s),
     ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
-    ``release`` (time, s). Returns (differences, only_in_a, only_in_b), where
+    ``release`` (time, s); with a carrier in A (``Run.relative``),
+    ``<body> position in <carrier> axes`` (m: B's relative track, or B's
+    body and carrier poses). Returns (differences, only_in_a, only_in_b), where
     the last two list body and joint names present in one run only.
     """
     rows = []
@@ -545,6 +580,17 @@ def compare_runs(a: Run, b: Run) -> tuple:
             continue
         add(f'{name} force', 'N', ja.time, ja.force, jb.time, jb.force)
         add(f'{name} moment', 'N m', ja.time, ja.moment, jb.time, jb.moment)
+    for name, ra in a.relative.items():   # in the carrier's frame (SPEC section 5)
+        rb = b.relative.get(name)
+        if rb is not None and rb.reference == ra.reference:
+            add(f'{name} position in {ra.reference} axes', 'm', ra.time, ra.position,
+                rb.time, rb.position)
+            continue
+        body, carrier = b.bodies.get(name), b.bodies.get(ra.reference)
+        if body is None or carrier is None or len(carrier.time) < 1:
+            continue
+        t, position = relative_position(body, carrier)
+        add(f'{name} position in {ra.reference} axes', 'm', ra.time, ra.position, t, position)
     releases_a = {joint: t for t, joint, _ in a.releases()}
     releases_b = {joint: t for t, joint, _ in b.releases()}
     for joint in sorted(set(releases_a) & set(releases_b)):
