@@ -320,8 +320,9 @@ class Simulator(SampledState):
         ``ODOMETRY_HORIZON`` s, then at constant velocity and body rates,
         with a warning. The acceleration is w x v (the velocity turning with
         the body) plus the change of the body-axis velocity since the
-        previous message; the angular acceleration, the change of the body
-        rates since it (zero for the first message).
+        previous message, itself turning with the body (w x a); the angular
+        acceleration, the change of the body rates since it (zero for the
+        first message).
 
         """
         i = self._body(body)
@@ -351,8 +352,9 @@ class Simulator(SampledState):
             alpha = (rates - last[2]) / (t - last[0])
         self._odometry[i] = (float(t), velocity, rates)
         velocity = turn @ velocity
+        # an acceleration fixed in the body turns with it: its rate of change w x a
         data = motion.odometry(float(t), position, quat, velocity, rates, acc, alpha,
-                               ODOMETRY_HORIZON)
+                               ODOMETRY_HORIZON, jerk=np.cross(turn @ rates, acc))
         self._bodies[i, motion.M_KIND] = motion.KIND_TABLE
         self._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
         self._odometry_end[i] = float(t) + ODOMETRY_HORIZON

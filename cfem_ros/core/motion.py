@@ -332,26 +332,27 @@ ODOMETRY_WIDTH = M_DATA + 1 + 3 + 2 * SEGMENT - BODY_COLUMNS
 
 
 def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acceleration,
-             horizon: float) -> np.ndarray:
+             horizon: float, jerk=(0.0, 0.0, 0.0)) -> np.ndarray:
     """
     Pack a trajectory from one odometry message: the data columns (``M_DATA`` on).
 
     From time t, the pose (world), the CG velocity (world) and body rates,
-    with the acceleration (world) and body angular acceleration estimated
-    from the message before (zero for the first): second order for
+    with the acceleration (world), its rate of change ``jerk`` and the body
+    angular acceleration (estimated by the caller): a cubic in position for
     ``horizon`` s, then constant velocity and body rates from where that
     leaves the body. The rotation vector from the key attitude is
     w s + alpha s^2 / 2, whose rates at s = 0 are w.
     """
-    def segment(p, v, a, q, w, alpha):
+    def segment(p, v, a, q, w, alpha, j=(0.0, 0.0, 0.0)):
         out = np.zeros(SEGMENT)
         for k in range(3):
-            out[4 * k:4 * k + 4] = (0.0, 0.5 * a[k], v[k], p[k])
+            out[4 * k:4 * k + 4] = (j[k] / 6.0, 0.5 * a[k], v[k], p[k])
             out[16 + 4 * k:16 + 4 * k + 4] = (0.0, 0.5 * alpha[k], w[k], 0.0)
         out[12:16] = q
         return out
 
-    first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration)
+    first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration,
+                    jerk)
     probe = np.zeros((1, M_DATA + 1 + 2 + SEGMENT))
     probe[0, M_KIND] = KIND_TABLE
     probe[0, M_DATA:] = np.concatenate([[1, t, t + horizon], first])
