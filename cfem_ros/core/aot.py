@@ -111,9 +111,23 @@ def jit_kernel():
     if _jit is None:
         # under the kernel's own name, as numba's cache knows its functions; not put in
         # sys.modules, where the name stays with the compiled kernel
-        spec = importlib.util.spec_from_file_location(KERNEL, _SOURCE)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        # the modules it calls (loads.py, motion.py) were run with the stand-in, their
+        # functions plain Python that numba cannot call: it imports its own, compiled,
+        # and the package keeps the ones it had
+        package = sys.modules[KERNEL.rsplit('.', 1)[0]]
+        helpers = [name[:-3] for name in COMPILED_SOURCES if name != 'kernel.py']
+        saved = {name: (sys.modules.pop(f'{package.__name__}.{name}', None),
+                        vars(package).pop(name, None)) for name in helpers}
+        try:
+            spec = importlib.util.spec_from_file_location(KERNEL, _SOURCE)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        finally:
+            for name, (entry, attribute) in saved.items():
+                if entry is not None:
+                    sys.modules[f'{package.__name__}.{name}'] = entry
+                if attribute is not None:
+                    setattr(package, name, attribute)
         _jit = module
     return _jit
 
