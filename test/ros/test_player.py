@@ -12,10 +12,11 @@ import time
 from cfem_ros import cli
 from cfem_ros.recording.recorder import EVENTS_QOS, OFFERED_QOS, Recorder, STRING, WRENCH
 from cfem_ros.ros import player
+from geometry_msgs.msg import PoseStamped
 import numpy as np
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from recordings import read_checked
-from rosharness import NodeProcess, stamp_ns
+from rosharness import NodeProcess, Peer, stamp_ns
 import yaml
 
 T0 = 2_000_000_000_000   # the log's first message: 2000 s
@@ -200,15 +201,29 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
                 rec.write('/cfem/release', STRING, {'data': 'hook'}, t_ns + 5 * MS)
     recording = tmp_path / 'node.mcap'
     node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
+    peer = Peer([], [])
+    peer._collect(PoseStamped, 'bodies/store/relative_pose')
     try:
         wait_for_clock_subscription(node)
+        peer.spin_until(lambda: peer.node.count_publishers('/cfem/bodies/store/relative_pose')
+                        > 0, 60.0, 'the relative pose publisher')
         done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait',
                                '60'], capture_output=True, text=True, timeout=120)
         assert done.returncode == 0, done.stderr
         assert '62 messages played' in done.stdout
+        peer.spin_for(1.0)
     finally:
         status = node.stop(signal.SIGINT)
+        published = list(peer.received['bodies/store/relative_pose'])
+        peer.close()
     assert status == 0, node.output
+    # the node publishes the store's pose in the aircraft's frame, as it records it
+    recorded = {stamp_ns(m.header): m for topic, _, _, m in read_checked(recording)[2]
+                if topic == '/cfem/bodies/store/relative_pose'}
+    assert len(published) > 30
+    for msg in published:
+        assert msg.header.frame_id == 'aircraft'
+        assert np.abs(_numbers(msg) - _numbers(recorded[stamp_ns(msg.header)])).max() < 1e-12
     start_ns = T0
     ours, our_events, messages = _samples(recording, start_ns)
     odometry = [log - start_ns for topic, log, _, _ in messages
