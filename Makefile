@@ -24,7 +24,7 @@ $(STAMP): setup.py setup.cfg package.xml
 
 # compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run
 # loads; again whenever the compiled sources change
-$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py
+$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py cfem_ros/core/motion.py
 	$(BIN)/python -m cfem_ros.core.warmup
 	@touch $(CORE)
 

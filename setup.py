@@ -47,6 +47,7 @@ setup(
             'ros-kilted-rosgraph-msgs',
             'ros-kilted-rcl-interfaces',
             'ros-kilted-visualization-msgs',
+            'ros-kilted-nav-msgs',
             'ros-kilted-rmw-fastrtps-cpp',
         ],
         # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros

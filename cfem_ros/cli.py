@@ -72,6 +72,10 @@ def cmd_check(scenario: str) -> int:
     for body in model.bodies:
         if body.fixed:
             detail = 'fixed'
+        elif body.motion is not None:
+            detail = (f'kinematic, a table of {len(body.motion.times)} rows' if len(
+                body.motion.times) else f'kinematic, velocity {_vec(body.motion.velocity)} m/s, '
+                f'rates {_vec(np.degrees(body.motion.rates))} deg/s')
         else:
             detail = (f'{body.mass:g} kg, principal inertia '
                       f'{_vec(np.linalg.eigvalsh(body.inertia), "{:.6g}")} kg m^2')
@@ -90,7 +94,7 @@ def cmd_check(scenario: str) -> int:
               f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
               f'air {_vec(aero.freestream)} m/s, '
               f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
-    free = sum(not b.fixed for b in model.bodies)
+    free = sum(b.dynamic for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
           f'removed by the joints)')
@@ -336,11 +340,18 @@ def _plot_sweep(outdir: str, directory: str, metric: Optional[str]) -> int:
     return EXIT_OK
 
 
-def cmd_compare(first: str, second: str, directory: Optional[str] = None) -> int:
+def cmd_compare(first: str, second: str, directory: Optional[str] = None, maps=()) -> int:
     """Print the largest differences of two recordings (and overlay figures); exit 0 or 2."""
     from cfem_ros.recording import analysis   # the reader only for the commands that read
+    topic_map = {}
+    for item in maps or ():
+        ours, sep, theirs = item.partition('=')
+        if not sep or not ours.startswith('/') or not theirs.startswith('/'):
+            return _error(f'--map {item!r}; expected A_TOPIC=B_TOPIC, absolute topic names '
+                          '(e.g. /cfem/bodies/store/pose=/flight/store/pose)')
+        topic_map[theirs] = ours
     try:
-        a, b = analysis.open_run(first), analysis.open_run(second)
+        a, b = analysis.open_run(first), analysis.open_run(second, topic_map=topic_map)
     except CfemError as err:
         return _error(str(err))
     rows, only_a, only_b = analysis.compare_runs(a, b)
@@ -524,6 +535,24 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument('first', metavar='A.mcap', help='reference recording')
     compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
     compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
+    compare.add_argument('--map', action='append', default=[], metavar='A_TOPIC=B_TOPIC',
+                         help="read B's topic B_TOPIC as A's A_TOPIC (repeatable)")
+    play = sub.add_parser('play', help='publish a recording over ROS 2',
+                          description='Publish the messages of a recording over ROS 2 at '
+                          'their log times, with their recorded types and QoS, like ros2 '
+                          'bag play.')
+    play.add_argument('recording', metavar='LOG.mcap', help='recording to play')
+    play.add_argument('--clock', action='store_true',
+                      help='publish /clock with the log time (for use_sim_time nodes)')
+    play.add_argument('--rate', type=float, default=1.0, metavar='R',
+                      help='playback speed (default 1: real time)')
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
+    play.add_argument('--remap', action='append', default=[], metavar='FROM:=TO',
+                      help='publish topic FROM on TO (repeatable)')
+    play.add_argument('--wait', type=float, default=2.0, metavar='S',
+                      help='wait up to S s for every topic to have a subscriber (default 2)')
+    play.add_argument('--delay', type=float, default=1.0, metavar='S',
+                      help='then wait S s more before the first message (default 1)')
     sweep = sub.add_parser('sweep', help='run a separation study (many runs) on Dask',
                            description='Run the runs of a sweep file (SPEC section 6) on a '
                            'Dask cluster and write OUTDIR/results.parquet, one row per run. '
@@ -555,6 +584,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def cmd_play(recording: str, *, clock: bool = False, rate: float = 1.0, topics=None,
+             remaps=(), wait: float = 2.0, delay: float = 1.0) -> int:
+    """Publish a recording's messages over ROS 2; exit status 0, or 2 for bad input."""
+    if not (math.isfinite(rate) and rate > 0.0):
+        return _error(f'--rate is {rate!r}; expected a playback speed > 0 (1: real time)')
+    for name, value in (('--wait', wait), ('--delay', delay)):
+        if not (math.isfinite(value) and value >= 0.0):
+            return _error(f'{name} is {value!r}; expected seconds >= 0')
+    try:
+        from cfem_ros.ros import player
+    except ImportError as err:
+        return _error(f'cfem-sim play needs rclpy ({err}); install the ros extra')
+
+    def warn(text):
+        print(f'WARNING: {text}', file=sys.stderr)
+
+    try:
+        mapping = player.parse_remaps(remaps)
+        count = player.play(recording, clock=clock, rate=rate, topics=topics, remaps=mapping,
+                            wait=wait, delay=delay, log=warn)
+    except CfemError as err:
+        return _error(str(err))
+    except ValueError as err:
+        return _error(str(err))
+    print(f'{recording}: {count} messages played')
+    return EXIT_OK
+
+
 def main(argv=None) -> int:
     """Run cfem-sim (SIGINT exits 130, SIGTERM 143; a running recording is finished first)."""
     previous = [signal.signal(s, exit_now) for s in (signal.SIGINT, signal.SIGTERM)]
@@ -580,7 +637,11 @@ def main(argv=None) -> int:
             return cmd_summarize(args.recordings, args.metrics, args.output,
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv)
         if args.command == 'compare':
-            return cmd_compare(args.first, args.second, args.output)
+            return cmd_compare(args.first, args.second, args.output, args.map)
+        if args.command == 'play':
+            return cmd_play(args.recording, clock=args.clock, rate=args.rate,
+                            topics=args.topics, remaps=args.remap, wait=args.wait,
+                            delay=args.delay)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
                        dt=args.dt, inputs=args.inputs, overwrite=args.overwrite,
                        max_samples=args.max_samples, max_gb=args.max_gb)

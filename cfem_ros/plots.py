@@ -232,6 +232,33 @@ def trajectory_figure(run: Run):
     return fig
 
 
+def relative_trajectory_figure(run: Run):
+    """CG trajectories in the carrier's frame (x forward, z up or down as recorded)."""
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5), layout='constrained')
+    for k, track in enumerate(run.relative.values()):
+        p = track.position
+        label = f'{track.name} in {track.reference} axes'
+        for ax, (i, j) in zip(axes, ((0, 2), (1, 2))):
+            ax.plot(p[:, i], p[:, j], color=f'C{k}', label=label)
+            ax.scatter(p[0, i], p[0, j], color=f'C{k}', marker='o', s=30)
+            ax.scatter(p[-1, i], p[-1, j], color=f'C{k}', marker='s', s=30)
+            for t, joint, cause in run.releases():
+                if len(track.time) and track.time[0] <= t <= track.time[-1]:
+                    at = [np.interp(t, track.time, p[:, c]) for c in (i, j)]
+                    ax.scatter(*at, color='tab:red', marker='*', s=120)
+    for ax, (a, b) in zip(axes, (('x', 'z'), ('y', 'z'))):
+        ax.set_xlabel(f'{a} [m]')
+        ax.set_ylabel(f'{b} [m]')
+        ax.set_aspect('equal', adjustable='datalim')
+        ax.grid(True, alpha=0.3)
+        if _z_down(run):
+            ax.invert_yaxis()
+    axes[0].set_title('relative to the carrier: side view (x-z)')
+    axes[1].set_title('relative to the carrier: front view (y-z)')
+    axes[0].legend(loc='best', fontsize=8)
+    return fig
+
+
 def compare_body_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     """Overlay one body's motion from two runs (A solid, B dashed), with A - B below."""
     ta, tb = a.bodies[name], b.bodies[name]
@@ -306,6 +333,9 @@ def write_figures(run: Run, directory: str) -> list:
         paths.append(save(applied_figure(run, key), os.path.join(
             directory, f'applied_{key.replace("/", "_")}.png')))
     paths.append(save(trajectory_figure(run), os.path.join(directory, 'trajectories_3d.png')))
+    if run.relative:
+        paths.append(save(relative_trajectory_figure(run),
+                          os.path.join(directory, 'trajectories_relative.png')))
     return paths
 
 

@@ -66,6 +66,12 @@ def fields(message):
                     m.mesh_resource]
         return out
     header = [message.header.stamp.sec, message.header.stamp.nanosec, message.header.frame_id]
+    if hasattr(message, 'child_frame_id'):   # nav_msgs/Odometry
+        p, q = message.pose.pose.position, message.pose.pose.orientation
+        v, w = message.twist.twist.linear, message.twist.twist.angular
+        return header + [message.child_frame_id, p.x, p.y, p.z, q.x, q.y, q.z, q.w, v.x, v.y,
+                         v.z, w.x, w.y, w.z, *map(float, message.pose.covariance),
+                         *map(float, message.twist.covariance)]
     if hasattr(message, 'pose'):
         p, q = message.pose.position, message.pose.orientation
         return header + [p.x, p.y, p.z, q.x, q.y, q.z, q.w]

@@ -45,13 +45,13 @@ TABLE = os.path.join(_HERE, '_kernel_aot.json')
 
 
 #: The modules whose numba functions the kernel compiles together (kernel.py
-#: calls those of loads.py): an extension, or numba's cache, is only as current
+#: calls those of loads.py and motion.py): an extension, or numba's cache, is only as current
 #: as the oldest of them.
-COMPILED_SOURCES = ('kernel.py', 'loads.py')
+COMPILED_SOURCES = ('kernel.py', 'loads.py', 'motion.py')
 
 
 def source_hash(path: str = _SOURCE) -> int:
-    """Return the hash of the kernel's sources (kernel.py at path, and loads.py beside it)."""
+    """Return the hash of the kernel's sources (kernel.py at path, the others beside it)."""
     digest = hashlib.sha256()
     for name in COMPILED_SOURCES:
         with open(os.path.join(os.path.dirname(path), name), 'rb') as handle:
@@ -119,9 +119,23 @@ def jit_kernel():
     if _jit is None:
         # under the kernel's own name, as numba's cache knows its functions; not put in
         # sys.modules, where the name stays with the compiled kernel
-        spec = importlib.util.spec_from_file_location(KERNEL, _SOURCE)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        # the modules it calls (loads.py, motion.py) were run with the stand-in, their
+        # functions plain Python that numba cannot call: it imports its own, compiled,
+        # and the package keeps the ones it had
+        package = sys.modules[KERNEL.rsplit('.', 1)[0]]
+        helpers = [name[:-3] for name in COMPILED_SOURCES if name != 'kernel.py']
+        saved = {name: (sys.modules.pop(f'{package.__name__}.{name}', None),
+                        vars(package).pop(name, None)) for name in helpers}
+        try:
+            spec = importlib.util.spec_from_file_location(KERNEL, _SOURCE)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        finally:
+            for name, (entry, attribute) in saved.items():
+                if entry is not None:
+                    sys.modules[f'{package.__name__}.{name}'] = entry
+                if attribute is not None:
+                    setattr(package, name, attribute)
         _jit = module
     return _jit
 

@@ -27,7 +27,7 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, rotations, sampling
+from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
@@ -44,6 +44,11 @@ DIVERGENCE_VIOLATION = 1e-3
 
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
+
+#: How long after its last odometry message a kinematic body is extrapolated to
+#: second order (velocity and the acceleration from the last two messages), s;
+#: beyond it, a warning and constant velocity and body rates.
+ODOMETRY_HORIZON = 0.1
 
 #: What ``kernel.advance`` gets for no sample grid.
 _NO_GRID = np.zeros(3)
@@ -88,18 +93,26 @@ class Simulator(SampledState):
         self.eta = float(model.baumgarte)
         bodies = model.bodies
         n = self.n = len(bodies)
-        self.free = np.array([not b.fixed for b in bodies])
-        self.mass = np.array([0.0 if b.fixed else b.mass for b in bodies])
+        # fixed and kinematic bodies are carried with zero inverse mass and inertia
+        self.free = np.array([b.dynamic for b in bodies])
+        self.mass = np.array([b.mass if b.dynamic else 0.0 for b in bodies])
         self.inv_mass = np.where(self.free, 1.0 / np.where(self.free, self.mass, 1.0), 0.0)
         self.inertia_body = np.array([
-            np.zeros((3, 3)) if b.fixed else b.inertia for b in bodies])
+            b.inertia if b.dynamic else np.zeros((3, 3)) for b in bodies])
         self.inv_inertia_body = np.array([
-            np.zeros((3, 3)) if b.fixed else np.linalg.inv(b.inertia) for b in bodies])
+            np.linalg.inv(b.inertia) if b.dynamic else np.zeros((3, 3)) for b in bodies])
         self._check_inverses()
         self.gravity = np.asarray(model.gravity, dtype=float)
         self._bodies = np.column_stack([
             self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
             self.inv_inertia_body.reshape(n, 9)])
+        # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
+        trajectories = motion.columns(model)
+        self.kinematic = trajectories.shape[1] > 0
+        self._odometry = {}   # body -> (time, body-axis velocity, body rates) of its last message
+        self._odometry_end = {}   # body -> end of its second-order extrapolation, s
+        if self.kinematic:
+            self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
         self._scheduled = ScheduledLoads(model, n)
@@ -119,6 +132,9 @@ class Simulator(SampledState):
         self.max_violation = 0.0
         self._stage_violation = 0.0
         self._info = np.zeros(6)
+        if self.kinematic:
+            self._place(0.0)
+            self._carry()
 
         pos0, _, quat0, _ = self._split(self.y)
         self.joints = JointTables(model, pos0, quat0)
@@ -127,6 +143,41 @@ class Simulator(SampledState):
         self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
+
+    def _place(self, t: float):
+        """Put the kinematic bodies where their trajectories are at time t (motion.py)."""
+        kernel.motion_set_time(self._bodies, float(t))
+        kernel.motion_place(self.y, self._bodies, 0.0)
+
+    def _carry(self):
+        """
+        Start the bodies joined to a kinematic one, and given no velocity, moving with it.
+
+        Through the joints (and the bodies between): the carrier's velocity at
+        the body's CG and the carrier's angular velocity.
+        """
+        model, n = self.model, self.n
+        pos, vel, quat, rates = self._split(self.y)
+        rot = rotations.matrices(quat)
+        carrier = [i if b.motion is not None else -1 for i, b in enumerate(model.bodies)]
+        queue = [i for i in range(n) if carrier[i] >= 0]
+        while queue:
+            i = queue.pop(0)
+            for joint in model.joints:
+                ends = (joint.parent, joint.child)
+                if i not in ends:
+                    continue
+                other = ends[1] if ends[0] == i else ends[0]
+                if carrier[other] >= 0 or not model.bodies[other].dynamic:
+                    continue
+                carrier[other] = carrier[i]
+                queue.append(other)
+                if model.bodies[other].velocity_given:
+                    continue
+                c = carrier[i]
+                omega = rot[c] @ rates[c]
+                vel[other] = vel[c] + np.cross(omega, pos[other] - pos[c])
+                rates[other] = rot[other].T @ omega
 
     # ------------------------------------------------------------ hot path
 
@@ -163,7 +214,7 @@ class Simulator(SampledState):
     def _check_inverses(self):
         """Refuse a body whose inverse mass or inertia is not a finite number."""
         for i, body in enumerate(self.model.bodies):
-            if body.fixed:
+            if not body.dynamic:
                 continue
             if not math.isfinite(self.inv_mass[i]):
                 raise ScenarioError(
@@ -243,9 +294,82 @@ class Simulator(SampledState):
                 and np.isfinite(point).all()):
             raise ValueError('force, torque and point must be finite')
         if not self.free[i]:
-            raise ValueError(f'body {self.model.bodies[i].name!r} is fixed and cannot be loaded')
+            what = 'fixed' if self.model.bodies[i].fixed else 'kinematic (it follows its motion)'
+            raise ValueError(f'body {self.model.bodies[i].name!r} is {what} and cannot be loaded')
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
+
+    def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
+        """
+        Drive a kinematic body from an odometry message (REP-105) from now on.
+
+        Parameters
+        ----------
+        body : str or int
+            A body with ``motion``: the message replaces it.
+        t : float
+            The message's time, s (at or before now: extrapolated to now).
+        position, quaternion : array_like
+            CG in world, m; attitude x y z w, body to world.
+        velocity_body, rates_body : array_like, shape (3,)
+            CG velocity (m/s) and angular velocity (rad/s), body axes.
+
+        Notes
+        -----
+        From t the body moves with this velocity and acceleration for
+        ``ODOMETRY_HORIZON`` s, then at constant velocity and body rates,
+        with a warning. The acceleration is w x v (the velocity turning with
+        the body) plus the change of the body-axis velocity since the
+        previous message, itself turning with the body (w x a); the angular
+        acceleration, the change of the body rates since it (zero for the
+        first message).
+
+        """
+        i = self._body(body)
+        name = self.model.bodies[i].name
+        if self.model.bodies[i].motion is None:
+            raise ValueError(f'body {name!r} is not kinematic (no motion): odometry drives '
+                             'only kinematic bodies')
+        values = [np.asarray(v, dtype=float)
+                  for v in (position, quaternion, velocity_body, rates_body)]
+        if [v.shape for v in values] != [(3,), (4,), (3,), (3,)] or not all(
+                np.isfinite(v).all() for v in values) or not math.isfinite(t):
+            raise ValueError('odometry must have a finite time, position (3), quaternion (4), '
+                             'linear and angular velocity (3 each)')
+        position, quat, velocity, rates = values
+        norm = np.linalg.norm(quat)
+        if abs(norm - 1.0) > 1e-3:
+            raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
+                             'quaternion (to 1e-3)')
+        quat = quat / norm
+        turn = rotations.matrices(quat[None])[0]
+        # the velocity turns with the body (w x v), and changes in body axes as
+        # between the last two messages; the body rates change as between them
+        acc, alpha = np.cross(turn @ rates, turn @ velocity), np.zeros(3)
+        last = self._odometry.get(i)
+        if last is not None and t > last[0]:
+            acc += turn @ (velocity - last[1]) / (t - last[0])
+            alpha = (rates - last[2]) / (t - last[0])
+        self._odometry[i] = (float(t), velocity, rates)
+        velocity = turn @ velocity
+        # an acceleration fixed in the body turns with it: its rate of change w x a
+        data = motion.odometry(float(t), position, quat, velocity, rates, acc, alpha,
+                               ODOMETRY_HORIZON, jerk=np.cross(turn @ rates, acc))
+        self._bodies[i, motion.M_KIND] = motion.KIND_TABLE
+        self._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
+        self._odometry_end[i] = float(t) + ODOMETRY_HORIZON
+        self._place(self.t)
+
+    def _odometry_check(self):
+        """Warn once per message when a body's odometry is older than the horizon."""
+        for i, end in list(self._odometry_end.items()):
+            if self.t > end:
+                self.log.warning(
+                    'no odometry for body %r since t = %.6f s (%.3f s ago, beyond the %.3g s '
+                    'horizon): held at constant velocity and body rates',
+                    self.model.bodies[i].name, self._odometry[i][0],
+                    self.t - self._odometry[i][0], ODOMETRY_HORIZON)
+                del self._odometry_end[i]
 
     @property
     def applied_sources(self) -> list:
@@ -254,7 +378,35 @@ class Simulator(SampledState):
 
     def applied_loads(self) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
-        return self.outputs()[13 * self.n + 6 * len(self._outputs_key):].reshape(-1, 6)
+        first = 13 * self.n + 6 * len(self._outputs_key)
+        return self.outputs()[first:first + self._scheduled.outputs_size].reshape(-1, 6)
+
+    def relative_states(self) -> np.ndarray:
+        """
+        Return each ``model.references`` body's state in its reference's frame, (k, 13).
+
+        Per pair: CG position relative to the reference's CG (3) and attitude
+        (x y z w, body to reference), then the CG velocity seen from the
+        reference and the relative angular velocity (3 + 3); all in the
+        reference's axes (``motion.sample_relative``, computed here in numpy).
+        """
+        pairs = self.model.references
+        out = np.empty((len(pairs), 13))
+        if not pairs:
+            return out
+        body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
+        pos, vel, quat, rates = self._split(self.y)
+        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
+        rot = rotations.matrices(quat)
+        omega = np.einsum('nij,nj->ni', rot, rates)
+        d = pos[body] - pos[ref]
+        v = vel[body] - vel[ref] - np.cross(omega[ref], d)
+        turn = rot[ref].transpose(0, 2, 1)
+        out[:, :3] = np.einsum('nij,nj->ni', turn, d)
+        out[:, 3:7] = rotations.multiply(rotations.conjugate(quat[ref]), quat[body])
+        out[:, 7:10] = np.einsum('nij,nj->ni', turn, v)
+        out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
+        return out
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
@@ -367,6 +519,8 @@ class Simulator(SampledState):
                     break   # the next step would end after limit
             if self.t >= t_target and self.steps > steps:
                 self._check_violation()   # the kernel checks each step's start, not the end
+            if self._odometry_end:
+                self._odometry_check()
         except NumericalFailure as err:
             self.fail(str(err))
             return False
@@ -448,6 +602,8 @@ class Simulator(SampledState):
         self._stage_violation = 0.0
         y0 = self.y
         self._scheduled.set_time(self.t)
+        if self.kinematic:
+            kernel.motion_set_time(self._bodies, self.t)   # motion.py
         y1 = self._rk4(y0, h)
         crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
         if self._scheduled.count and self._stroke_end(y0, y1, h, t_end, crossing):
@@ -485,4 +641,6 @@ class Simulator(SampledState):
         self.y = y1
         self.t = t1
         self._scheduled.set_time(t1)
+        if self.kinematic:
+            self._place(t1)   # the state, and accelerations, at t1 (motion.py)
         self.steps += 1

@@ -11,6 +11,7 @@ from typing import Optional
 import numpy as np
 
 WRENCH_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/wrench$')
+ODOM_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/odom$')
 RELEASE_TOPIC = re.compile(r'^(?P<ns>.*)/release$')
 POSE_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/[^/]+/pose$')
 
@@ -26,7 +27,7 @@ class Input:
         Simulated time at which it takes effect, s; None: as soon as it is
         received.
     kind : str
-        'wrench' or 'release'.
+        'wrench', 'release' or 'odom'.
     target : str
         The body (wrench) or joint (release) it names.
     force, torque : ndarray, shape (3,), or None
@@ -37,7 +38,11 @@ class Input:
         axes, from the CG, m (``parse_frame_id``); without it, at the CG.
         The world frame wins if the body has the world frame's name.
     header_ns : int or None
-        The message's own header stamp as received, ns (wrench only).
+        The message's own header stamp as received, ns (wrench and odom).
+    values : ndarray, shape (13,), or None
+        Odometry (REP-105): position (world), quaternion x y z w, CG
+        velocity and angular velocity (body axes); ``frame_id`` is the
+        message's, the body its ``child_frame_id`` names by topic.
 
     """
 
@@ -48,6 +53,7 @@ class Input:
     torque: Optional[np.ndarray] = None
     frame_id: str = ''
     header_ns: Optional[int] = None
+    values: Optional[np.ndarray] = None
 
 
 def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[float] = None,
@@ -56,6 +62,14 @@ def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[floa
     return Input(time=time, kind='wrench', target=body,
                  force=np.array(force, dtype=float), torque=np.array(torque, dtype=float),
                  frame_id=frame_id, header_ns=header_ns)
+
+
+def odometry_input(body: str, position, quaternion, velocity, rates, frame_id: str, *,
+                   time: Optional[float] = None, header_ns: Optional[int] = None) -> Input:
+    """Build an odometry input (nav_msgs/Odometry: twist in the body's axes)."""
+    return Input(time=time, kind='odom', target=body, frame_id=frame_id, header_ns=header_ns,
+                 values=np.concatenate([np.asarray(v, dtype=float) for v in (
+                     position, quaternion, velocity, rates)]))
 
 
 def release_input(joint: str, *, time: Optional[float] = None) -> Input:
@@ -85,6 +99,8 @@ def parse_frame_id(frame_id: str):
 
 def input_topic(item: Input) -> str:
     """Topic of an input, relative to the namespace."""
+    if item.kind == 'odom':
+        return f'bodies/{item.target}/odom'
     return 'release' if item.kind == 'release' else f'bodies/{item.target}/wrench'
 
 
@@ -111,6 +127,20 @@ def validate_input(sim, item: Input):
     names = [body.name for body in model.bodies]
     if item.target not in names:
         raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
+    if item.kind == 'odom':
+        if model.bodies[names.index(item.target)].motion is None:
+            raise ValueError(f'body {item.target!r} is not kinematic (no motion): odometry '
+                             'drives only kinematic bodies')
+        if item.frame_id != model.frame_id:
+            raise ValueError(f'odometry frame_id {item.frame_id!r} is not the world frame '
+                             f'{model.frame_id!r}')
+        if item.values is None or not np.isfinite(item.values).all():
+            raise ValueError('odometry must be finite numbers')
+        norm = np.linalg.norm(item.values[3:7])
+        if abs(norm - 1.0) > 1e-3:
+            raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
+                             'quaternion (to 1e-3)')
+        return
     frame, _ = parse_frame_id(item.frame_id)
     if frame not in (model.frame_id, item.target):
         raise ValueError(f'frame_id {item.frame_id!r} is neither the world frame '
@@ -118,13 +148,19 @@ def validate_input(sim, item: Input):
                          'followed by @x,y,z, the point in body axes)')
     if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
         raise ValueError('force and torque must be finite')
-    if model.bodies[names.index(item.target)].fixed:
-        raise ValueError(f'body {item.target!r} is fixed and cannot be loaded')
+    body = model.bodies[names.index(item.target)]
+    if not body.dynamic:
+        what = 'fixed' if body.fixed else 'kinematic'
+        raise ValueError(f'body {item.target!r} is {what} and cannot be loaded')
 
 
 def apply_input(sim, item: Input):
     """Apply one input now (ValueError with the reason if it cannot be)."""
     validate_input(sim, item)
+    if item.kind == 'odom':
+        v = item.values   # from now: the time it takes effect (a sample's at most)
+        sim.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
+        return
     if item.kind == 'wrench':
         # the world frame wins: a body named as the world frame is loaded in world axes
         frame, point = parse_frame_id(item.frame_id)

@@ -11,7 +11,8 @@ State ``y`` (13 n): positions (3 n, world, m), velocities (3 n, world, m/s),
 quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 
 ``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
-the CG), inverse inertia (9; 0 for ground).
+the CG), inverse inertia (9; 0 for ground); with kinematic bodies, more
+columns: their trajectories (``motion.py``; the hooks are marked "motion.py").
 ``loads``: the packed applied loads of ``loads.py`` (per body: force (3),
 torque (3), 1.0 if in body axes, application point (3); then the scheduled
 wrenches and their tables).
@@ -77,7 +78,7 @@ def _guard_cache():
                 return
     except OSError:
         pass
-    for pattern in ('kernel.*.nb[ic]', 'loads.*.nb[ic]'):
+    for pattern in ('kernel.*.nb[ic]', 'loads.*.nb[ic]', 'motion.*.nb[ic]'):
         for path in glob.glob(os.path.join(cache, '**', pattern), recursive=True):
             try:
                 os.remove(path)
@@ -95,6 +96,7 @@ def _guard_cache():
 _guard_cache()
 
 from cfem_ros.core import loads as applied_loads  # noqa: E402, I100 - after the cache guard
+from cfem_ros.core import motion  # noqa: E402, I100 - after the cache guard
 
 #: fastmath only to contract a * b + c into fused multiply-adds (one rounding, not two):
 #: about 12 % off a long chain's step, whose elimination is a chain of dependent
@@ -463,6 +465,8 @@ def _row_terms(y, bodies, rows_i, rows_f, eta, v, dense):
             rate[r] = _d(rel, c)
             gamma[r] = _d(rel, _x(_x(wb, f), e)) + _d(rel, _x(f, _x(wa, e)))
         rhs[r] = -gamma[r] - 2.0 * eta * rate[r] - eta * eta * value[r]
+        if bodies.shape[1] > motion.BODY_COLUMNS:   # kinematic ends' known acceleration
+            rhs[r] -= motion.known(jac, r, bodies, a, b)   # (motion.py)
         if dense:
             for side in range(2):
                 body = a if side == 0 else b
@@ -922,7 +926,8 @@ def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, 
     velocity in body axes, angular velocity (body axes); then per plan line
     in ``order`` 6: the joint's force and moment on its child (world axes,
     N and N m about the joint point); then 6 per applied load source
-    (``loads.sample_applied``).
+    (``loads.sample_applied``); then 13 per body with a reference frame
+    (``motion.sample_relative``).
     """
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
     force = np.empty((plan.shape[0], 3))
@@ -954,6 +959,8 @@ def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
                       + (1 - 2 * (x * x + yy * yy)) * v2)
     if loads.shape[0] > n:   # the scheduled wrenches' applied loads, after the joints' (loads.py)
         applied_loads.sample_applied(y, bodies, loads, out[13 * n + 6 * order.shape[0]:])
+    if bodies.shape[1] > motion.BODY_COLUMNS:   # poses relative to a carrier, last (motion.py)
+        motion.sample_relative(y, bodies, out)
     if order.shape[0] == 0:
         return REACHED
     if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
@@ -1034,6 +1041,8 @@ def _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
             # body-axis angular acceleration: R^T alpha_world
             dy[10 * n + 3 * i + k] = (rot[i, 0, k] * acc[i, 3] + rot[i, 1, k] * acc[i, 4]
                                       + rot[i, 2, k] * acc[i, 5])
+        if bodies.shape[1] > motion.BODY_COLUMNS and bodies[i, motion.M_KIND] > 0.0:
+            motion.derivative(bodies, i, rot, dy, n)   # a kinematic body's own (motion.py)
         # dq/dt = q * (w, 0) / 2, scalar last
         dy[o + 0] = 0.5 * (y[o + 3] * w[0] + y[o + 1] * w[2] - y[o + 2] * w[1])
         dy[o + 1] = 0.5 * (y[o + 3] * w[1] + y[o + 2] * w[0] - y[o + 0] * w[2])
@@ -1064,6 +1073,9 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
         if loads.shape[0] > bodies.shape[0]:   # stage time of scheduled wrenches (loads.py)
             applied_loads.stage_time(loads, bodies.shape[0], 0.0 if s == 0 else (
                 0.5 * h if s < 3 else h))
+        if bodies.shape[1] > motion.BODY_COLUMNS:   # kinematic bodies at the stage time
+            motion.place(y if s == 0 else stage, bodies, 0.0 if s == 0 else (
+                0.5 * h if s < 3 else h))   # (motion.py)
         # one call site: the derivative is inlined once
         w = _derivative(y if s == 0 else stage, stages[s], bodies, gravity, loads, rows_i,
                         rows_f, plan, roots, eta, dense, v, solved and s == 0)
@@ -1085,6 +1097,8 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
         scale = 1.0 / np.sqrt(out[o] ** 2 + out[o + 1] ** 2 + out[o + 2] ** 2 + out[o + 3] ** 2)
         for k in range(4):
             out[o + k] *= scale
+    if bodies.shape[1] > motion.BODY_COLUMNS:   # kinematic bodies at the step's end
+        motion.place(out, bodies, h)   # (motion.py)
     return worst
 
 
@@ -1287,6 +1301,8 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
             info[0] = t
             if loads.shape[0] > bodies.shape[0]:
                 applied_loads.set_time(loads, bodies.shape[0], t)   # loads.py
+            if bodies.shape[1] > motion.BODY_COLUMNS:
+                motion.set_time(bodies, t)   # motion.py
             info[1] += 1
             if t_end >= due:
                 break   # the samples at t first (loop top), then back for the release
@@ -1312,3 +1328,18 @@ def loads_strokes(y, loads, n, out):
 def loads_rotations(y, n, rot):
     """Write the bodies' rotation matrices at y into rot (``loads._rotations``)."""
     applied_loads._rotations(y, n, rot)
+
+
+# ------------------------------------------- kinematic bodies called from Python
+# engine.Simulator calls these through the kernel (aot.py compiles them too)
+
+@numba.njit(**_JIT)
+def motion_place(y, bodies, offset):
+    """Write the kinematic bodies' state at their step start + offset into y (``motion.place``)."""
+    motion.place(y, bodies, offset)
+
+
+@numba.njit(**_JIT)
+def motion_set_time(bodies, t):
+    """Write the time of the step's start into the kinematic bodies' columns."""
+    motion.set_time(bodies, t)

@@ -540,7 +540,7 @@ class ScheduledLoads:
         out = []
         for w in self.model.wrenches:
             out.append((bodies[w.body].name, w.name))
-            if w.reacts_on >= 0 and not bodies[w.reacts_on].fixed:
+            if w.reacts_on >= 0 and bodies[w.reacts_on].dynamic:
                 out.append((bodies[w.reacts_on].name, w.name))
         out.extend((bodies[a.body].name, 'aero') for a in getattr(self.model, 'aero', ()))
         return out

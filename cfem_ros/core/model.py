@@ -80,6 +80,33 @@ class Release:
 
 
 @dataclass(frozen=True)
+class Motion:
+    """
+    The prescribed trajectory of a kinematic body (scenario ``motion``).
+
+    Attributes
+    ----------
+    velocity : ndarray, shape (3,)
+        Constant CG velocity, world axes, m/s (without a table).
+    rates : ndarray, shape (3,)
+        Constant angular velocity, body axes, rad/s (without a table).
+    times : ndarray, shape (k,)
+        Table times, s, increasing; empty for constant motion.
+    positions : ndarray, shape (k, 3)
+        Table CG positions, world, m.
+    quaternions : ndarray, shape (k, 4)
+        Table attitudes, x y z w, body to world.
+
+    """
+
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rates: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    quaternions: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+
+@dataclass(frozen=True)
 class Body:
     """
     A rigid body and its state at t = 0.
@@ -103,6 +130,12 @@ class Body:
         Angular velocity (P, Q, R), body axes, rad/s.
     shape : Shape or None
         What viewers draw (``shapes.Shape``); None: ``shapes.default_shape``.
+    motion : Motion or None
+        A kinematic body: follows this trajectory, forces ignored (its
+        mass and inertia unused; position and attitude at t = 0 from it).
+    velocity_given : bool
+        False when the scenario gave this body no velocity: joined to a
+        kinematic body, it then starts moving rigidly with it.
 
     """
 
@@ -115,6 +148,13 @@ class Body:
     velocity_world: np.ndarray
     rates_body: np.ndarray
     shape: Optional[Shape] = None
+    motion: Optional[Motion] = None
+    velocity_given: bool = True
+
+    @property
+    def dynamic(self) -> bool:
+        """Return True for a body moved by forces (neither fixed nor kinematic)."""
+        return not self.fixed and self.motion is None
 
 
 @dataclass(frozen=True)
@@ -256,6 +296,9 @@ class Model:
         Scheduled loads (SPEC section 5), none by default.
     aero : tuple of Aero
         Aerodynamic loads from coefficient tables, none by default.
+    references : tuple of (int, int)
+        (body, reference body) pairs whose relative pose and twist are
+        sampled: bodies joined to a kinematic one, or given ``reference``.
 
     """
 
@@ -269,6 +312,7 @@ class Model:
     joints: tuple
     wrenches: tuple = ()
     aero: tuple = ()
+    references: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""
@@ -276,6 +320,15 @@ class Model:
             if body.name == name:
                 return i
         raise ValueError(f'no body named {name!r}')
+
+    def carrier(self, body: int) -> int:
+        """Return the kinematic body that body's joints lead to (-1 if none)."""
+        for joint in self.joints:
+            if joint.child == body and self.bodies[joint.parent].motion is not None:
+                return joint.parent
+            if joint.parent == body and self.bodies[joint.child].motion is not None:
+                return joint.child
+        return -1
 
     def joint_index(self, name: str) -> int:
         """Return the index of the joint called name (ValueError if none)."""

@@ -174,7 +174,8 @@ class SampledState:
         return force, moment, value
 
     def _outputs_size(self) -> int:
-        return 13 * self.n + 6 * len(self._outputs_key) + self._scheduled.outputs_size
+        return (13 * self.n + 6 * len(self._outputs_key) + self._scheduled.outputs_size
+                + 13 * len(self.model.references))
 
     def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """
@@ -194,7 +195,9 @@ class SampledState:
             body axes); then per active joint its force and moment on the
             child (world axes, N and N m about the joint point); then per
             scheduled wrench source (``applied_sources``) its force and
-            moment about the CG of the body it acts on (world axes).
+            moment about the CG of the body it acts on (world axes); then
+            per ``model.references`` pair, the body's pose and twist in
+            its reference's frame (``motion.sample_relative``).
 
         """
         if out is None:

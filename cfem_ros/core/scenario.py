@@ -25,7 +25,7 @@ from cfem_ros.core import rotations, shapes
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
     Aero, AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
-    Model, Release, STANDARD_GRAVITY, triad_from_axes, Wrench)
+    Model, Motion, Release, STANDARD_GRAVITY, triad_from_axes, Wrench)
 import numpy as np
 import yaml
 from yaml.composer import Composer
@@ -42,7 +42,13 @@ LOG = logging.getLogger('cfem_ros')
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
             'wrenches', 'aero')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
-             'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape')
+             'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape',
+             'motion', 'reference')
+MOTION_KEYS = ('velocity', 'angular_velocity_deg', 'angular_velocity', 'table')
+#: Columns of a motion table (a CSV file's header may name them in any order).
+MOTION_COLUMNS = ('t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
+#: How far a motion table's quaternion may be from unit length (it is normalized).
+MOTION_QUATERNION_TOLERANCE = 1e-3
 JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
 RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'end', 'stroke',
@@ -517,6 +523,9 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     if all(b.fixed for b in bodies):
         check.fail('bodies', 'every body is fixed, so nothing can move',
                    'at least one body without fixed: true')
+    if not any(b.dynamic for b in bodies):
+        check.fail('bodies', 'every body is fixed or kinematic, so no body is moved by forces',
+                   'at least one body without fixed: true or motion')
     index = {b.name: i for i, b in enumerate(bodies)}
     if frame_id in index:
         check.fail(f'bodies.{frame_id}', 'has the name of the world frame (frame_id), so a '
@@ -529,9 +538,30 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     joints = [_parse_joint(check, joint_name, spec, index, bodies)
               for joint_name, spec in joints_doc.items()]
     wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id)
-    return Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
-                 dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
-                 wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies))
+    model = Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
+                  dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
+                  wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies))
+    references = _parse_references(check, bodies_doc, index, model)
+    if not references:
+        return model
+    return Model(**{**model.__dict__, 'references': references})
+
+
+def _parse_references(check: _Checker, bodies_doc: dict, index: dict, model: Model) -> tuple:
+    """Pair each body with its ``reference`` body, or the kinematic body it is joined to."""
+    pairs = []
+    for name, spec in bodies_doc.items():
+        i = index[name]
+        if isinstance(spec, dict) and 'reference' in spec:
+            key = f'{_key("bodies", name)}.reference'
+            ref = _body_of(check, spec['reference'], key, index)
+            if ref == i:
+                check.fail(key, f'is {_show(spec["reference"])}, the body itself',
+                           'another body')
+            pairs.append((i, ref))
+        elif model.bodies[i].dynamic and model.carrier(i) >= 0:
+            pairs.append((i, model.carrier(i)))
+    return tuple(pairs)
 
 
 def _parse_body(check: _Checker, name, spec) -> Body:
@@ -541,6 +571,8 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     fixed = spec.get('fixed', False)
     if not isinstance(fixed, bool):
         check.fail(f'{key}.fixed', f'is {_show(fixed)}', 'true or false')
+    if 'motion' in spec:
+        return _parse_kinematic(check, name, key, spec, fixed)
     if fixed:
         mass, inertia = 0.0, np.zeros((3, 3))
         for moving in ('velocity', 'angular_velocity_deg', 'angular_velocity'):
@@ -591,7 +623,159 @@ def _parse_body(check: _Checker, name, spec) -> Body:
             spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
             os.path.dirname(check.source) if os.path.isfile(check.source) else '')
     return Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
-                orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape)
+                orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
+                velocity_given=any(k in spec for k in (
+                    'velocity', 'angular_velocity_deg', 'angular_velocity')))
+
+
+def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -> Body:
+    """Parse a body with ``motion``: it follows it, forces ignored (SPEC section 5)."""
+    if fixed:
+        check.fail(f'{key}.motion', 'given on a fixed body', 'fixed: true or motion, not both')
+    for moving in ('velocity', 'angular_velocity_deg', 'angular_velocity'):
+        if moving in spec:
+            check.fail(f'{key}.{moving}', 'given on a kinematic body',
+                       f'{key}.motion.{moving} (the motion gives its velocities)')
+    ignored = [k for k in ('mass', 'inertia') if k in spec]
+    if ignored:
+        LOG.warning('%s: %s: %s ignored: a kinematic body follows its motion', check.source,
+                    key, ' and '.join(ignored))
+    mkey = f'{key}.motion'
+    motion = check.mapping(spec['motion'], mkey, MOTION_KEYS)
+    if not motion:
+        check.fail(mkey, 'is empty', 'velocity and/or angular_velocity_deg, or a table')
+    if 'angular_velocity_deg' in motion and 'angular_velocity' in motion:
+        check.fail(f'{mkey}.angular_velocity', 'given together with angular_velocity_deg',
+                   'one of the two')
+    shape = None
+    if 'shape' in spec:
+        shape = shapes.parse_shape(
+            spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
+            os.path.dirname(check.source) if os.path.isfile(check.source) else '')
+    if 'table' in motion:
+        for other in ('velocity', 'angular_velocity_deg', 'angular_velocity'):
+            if other in motion:
+                check.fail(f'{mkey}.{other}', 'given together with a table',
+                           'a table or constant velocities, not both')
+        for pose in ('position', 'orientation_rpy_deg', 'orientation_xyzw'):
+            if pose in spec:
+                check.fail(f'{key}.{pose}', 'given on a body that follows a table',
+                           'none (the table gives the pose at t = 0)')
+        times, positions, quats = _parse_motion_table(check, motion['table'], f'{mkey}.table')
+        data = Motion(times=times, positions=positions, quaternions=quats)
+        position, quat = _motion_start(data)
+        return Body(name=name, fixed=False, mass=0.0, inertia=np.zeros((3, 3)),
+                    position=position, orientation_xyzw=quat, velocity_world=np.zeros(3),
+                    rates_body=np.zeros(3), shape=shape, motion=data)
+    velocity = check.vector(motion.get('velocity', [0, 0, 0]), f'{mkey}.velocity')
+    if 'angular_velocity' in motion:
+        rates = check.vector(motion['angular_velocity'], f'{mkey}.angular_velocity')
+    else:
+        rates = np.radians(check.vector(motion.get('angular_velocity_deg', [0, 0, 0]),
+                                        f'{mkey}.angular_velocity_deg'))
+    position = check.vector(spec.get('position', [0, 0, 0]), f'{key}.position')
+    if 'orientation_rpy_deg' in spec and 'orientation_xyzw' in spec:
+        check.fail(f'{key}.orientation_xyzw', 'given together with orientation_rpy_deg',
+                   'one of the two')
+    if 'orientation_xyzw' in spec:
+        quat = check.vector(spec['orientation_xyzw'], f'{key}.orientation_xyzw', 4)
+        norm = np.linalg.norm(quat)
+        if abs(norm - 1.0) > 1e-6:
+            check.fail(f'{key}.orientation_xyzw', f'has norm {norm:.9g}',
+                       'a unit quaternion [x, y, z, w]')
+        quat = quat / norm
+    else:
+        quat = rotations.from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
+                                                   f'{key}.orientation_rpy_deg'))
+    return Body(name=name, fixed=False, mass=0.0, inertia=np.zeros((3, 3)), position=position,
+                orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
+                motion=Motion(velocity=velocity, rates=rates))
+
+
+def _motion_start(data: Motion):
+    """Return a table motion's CG position and attitude at t = 0."""
+    from cfem_ros.core import kernel, motion as trajectories  # noqa: F401 - kernel first
+    probe = Model(name='', frame_id='', gravity=np.zeros(3), duration=1.0, dt=1.0,
+                  baumgarte=0.0, bodies=(Body(
+                      name='', fixed=False, mass=0.0, inertia=np.zeros((3, 3)),
+                      position=np.zeros(3), orientation_xyzw=np.array([0.0, 0, 0, 1]),
+                      velocity_world=np.zeros(3), rates_body=np.zeros(3), motion=data),),
+                  joints=())
+    position, _, quat, _, _, _ = trajectories.state_at(probe, 0.0)[0]
+    return position, quat
+
+
+def _parse_motion_table(check: _Checker, value, key: str):
+    """Return the times, positions and unit quaternions of a motion table."""
+    if isinstance(value, str):
+        rows = _read_motion_csv(check, value, key)
+    elif isinstance(value, list):
+        rows = []
+        for k, row in enumerate(value):
+            rows.append(check.vector(row, f'{key}[{k}]', length=8))
+        rows = np.array(rows, dtype=float).reshape(-1, 8)
+    else:
+        check.fail(key, f'is {_show(value)}', 'a CSV file name or a list of rows '
+                   '[t, x, y, z, qx, qy, qz, qw]')
+    if len(rows) < 2:
+        check.fail(key, f'has {len(rows)} row(s)', 'at least 2 rows')
+    times = rows[:, 0]
+    steps = np.diff(times)
+    if not (steps > 0).all():
+        k = int(np.flatnonzero(steps <= 0)[0]) + 1
+        check.fail(f'{key}[{k}]', f'has time {times[k]:g} s after {times[k - 1]:g} s',
+                   'strictly increasing times')
+    if times[0] > 0.0:
+        check.fail(f'{key}[0]', f'starts at {times[0]:g} s', 'a table that starts at or '
+                   'before t = 0')
+    norms = np.linalg.norm(rows[:, 4:8], axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > MOTION_QUATERNION_TOLERANCE)
+    if bad.size:
+        k = int(bad[0])
+        check.fail(f'{key}[{k}]', f'has a quaternion of norm {norms[k]:.9g}',
+                   f'unit quaternions [qx, qy, qz, qw] (within {MOTION_QUATERNION_TOLERANCE:g})')
+    return (times.copy(), rows[:, 1:4].copy(), rows[:, 4:8] / norms[:, None])
+
+
+def _read_motion_csv(check: _Checker, name: str, key: str) -> np.ndarray:
+    """Read a motion table's CSV file, relative to the scenario's folder."""
+    base = os.path.dirname(check.source) if os.path.isfile(check.source) else ''
+    path = name if os.path.isabs(name) else os.path.join(base, name)
+    try:
+        text = read_text(path, path)
+    except ScenarioError as err:
+        check.fail(key, f'{_show(name)} cannot be read ({err})', 'a readable CSV file')
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith('#')]
+    order = list(range(8))
+    if lines and not _numeric(lines[0].split(',')[0]):
+        header = [h.strip() for h in lines[0].split(',')]
+        missing = [c for c in MOTION_COLUMNS if c not in header]
+        if missing:
+            check.fail(key, f'{path}: the header lacks {", ".join(missing)}',
+                       f'columns {", ".join(MOTION_COLUMNS)}')
+        order = [header.index(c) for c in MOTION_COLUMNS]
+        lines = lines[1:]
+    rows = np.empty((len(lines), 8))
+    for k, line in enumerate(lines):
+        cells = [c.strip() for c in line.split(',')]
+        try:
+            values = [float(cells[i]) for i in order]
+        except (IndexError, ValueError):
+            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)}',
+                       f'{len(order)} numbers {", ".join(MOTION_COLUMNS)}')
+        if not np.isfinite(values).all():
+            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)} is not finite',
+                       'finite numbers')
+        rows[k] = values
+    return rows
+
+
+def _numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
@@ -646,6 +830,9 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
     if bodies[parent].fixed and bodies[child].fixed:
         check.fail(f'{key}.child', f'{_show(spec["child"])} and the parent are both fixed',
                    'at least one body that can move')
+    if not bodies[parent].dynamic and not bodies[child].dynamic:
+        check.fail(f'{key}.child', f'{_show(spec["child"])} and the parent are both fixed '
+                   'or kinematic', 'at least one body moved by forces')
     anchor = check.vector(spec['anchor'], f'{key}.anchor')
     if kind in AXIS_REQUIRED and 'axis' not in spec:
         check.fail(f'{key}.axis', 'missing', f'the axis of the {kind} joint')
@@ -716,6 +903,9 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
     body = _body_of(check, spec['body'], f'{key}.body', index)
     if bodies[body].fixed:
         check.fail(f'{key}.body', f'{_show(spec["body"])} is fixed', 'a body that can move')
+    if not bodies[body].dynamic:
+        check.fail(f'{key}.body', f'{_show(spec["body"])} is kinematic',
+                   'a body moved by forces')
     name = check.name(spec.get('name', f'wrench{k}'), f'{key}.name')
     if name == 'wrench':
         check.fail(f'{key}.name', "'wrench' is the source of the wrench topic",
@@ -811,6 +1001,8 @@ def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
     body = _body_of(check, name, key, index)
     if bodies[body].fixed:
         check.fail(key, f'{_show(name)} is fixed', 'a body that can move')
+    if not bodies[body].dynamic:
+        check.fail(key, f'{_show(name)} is kinematic', 'a body moved by forces')
     spec = check.mapping(spec, key, AERO_KEYS,
                          required=('area', 'length', 'freestream', 'alpha_deg'))
     if ('density' in spec) == ('altitude' in spec):

@@ -11,7 +11,8 @@ ahead of time into an extension module (``core.aot``), with which a run
 does not even import numba. The warm-up drives every
 path of the kernel a run uses: the tree solve and the dense one (a closed
 loop), samples taken by the kernel and one by one, release conditions of
-each kind located in a step, velocity projection and the redundancy check.
+each kind located in a step, velocity projection and the redundancy check,
+and a kinematic carrier (a table, then odometry).
 """
 
 from __future__ import annotations
@@ -65,6 +66,21 @@ def _pendulums():
     }
 
 
+def _carrier():
+    """Return a store hinged to a kinematic carrier flying a table (core/motion.py)."""
+    rows = [[t, 250.0 * t, 0, 0, 0, math.sin(0.01 * t), 0, math.cos(0.01 * t)]
+            for t in (0.0, 0.5, 1.0, 1.5)]
+    return {
+        'name': 'warmup_carrier', 'dt': 0.001,
+        'bodies': {'aircraft': {'motion': {'table': rows}},
+                   'store': {'mass': 1.0, 'inertia': [0.1, 0.1, 0.1],
+                             'position': [0, 0, -1.0]}},
+        'joints': {'hook': {'type': 'hinge', 'parent': 'aircraft', 'child': 'store',
+                            'anchor': [0.2, 0, -0.5], 'axis': [0, 1, 0],
+                            'release': {'time': 0.04}}},
+    }
+
+
 def compiled_code_ready() -> bool:
     """Return True if the kernel is compiled ahead of time or cached for its current source."""
     if getattr(kernel, 'COMPILED_AHEAD', False):
@@ -94,6 +110,14 @@ def warm_up() -> float:
         sim.joint_wrenches()
         sim.constraint_violation()
         sim.advance_to(1.0)
+        carrier = Simulator(parse_scenario(_carrier(), source='<warm-up>'))
+        grid = SampleGrid(100.0)
+        grid.reset(0, np.zeros((4, carrier.outputs().size)))
+        carrier.advance_to(0.03, samples=grid)
+        carrier.set_odometry('aircraft', carrier.t, [7.5, 0, 0], [0, 0, 0, 1], [250, 0, 0],
+                             [0, 0.01, 0])
+        carrier.advance_to(0.05)
+        carrier.joint_wrenches()
     finally:
         logging.getLogger('cfem_ros').disabled = was
     return time.monotonic() - started

@@ -39,6 +39,8 @@ BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
+RELATIVE_TOPIC = re.compile(
+    r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/relative_(?P<kind>pose|twist)$')
 NAN = float('nan')
 
 #: Near pitch +-90 deg roll and yaw are each undefined (only their sum or
@@ -149,6 +151,36 @@ class JointTrack:
 
 
 @dataclass
+class RelativeTrack:
+    """
+    One body's recorded pose and twist in its reference's (carrier's) frame.
+
+    Attributes
+    ----------
+    name, reference : str
+        The body and the frame (``frame_id``) its numbers are in.
+    time : ndarray (n,)
+        s from the run's start.
+    position : ndarray (n, 3)
+        CG relative to the reference's CG, reference axes, m.
+    quaternion : ndarray (n, 4)
+        Attitude relative to the reference, x y z w.
+    velocity, rates : ndarray (n, 3)
+        CG velocity seen from the reference (m/s) and angular velocity
+        relative to it (rad/s), reference axes; NaN where no twist matches.
+
+    """
+
+    name: str
+    reference: str
+    time: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    velocity: np.ndarray
+    rates: np.ndarray
+
+
+@dataclass
 class Run:
     """
     A recording, read.
@@ -174,6 +206,8 @@ class Run:
     applied : dict of str to JointTrack
         Scheduled loads (``bodies/<body>/applied/<source>``) by '<body>/<source>':
         force and moment about the body's CG, world axes.
+    relative : dict of str to RelativeTrack
+        Poses and twists in a carrier's frame (``bodies/<body>/relative_pose``).
 
     """
 
@@ -187,6 +221,7 @@ class Run:
     metadata: dict = field(default_factory=dict)
     duration: float = 0.0
     applied: dict = field(default_factory=dict)
+    relative: dict = field(default_factory=dict)
 
     def releases(self) -> list:
         """Return the release events as (time, joint, cause), in time order."""
@@ -265,7 +300,8 @@ def _vectors(rows, n):
     return np.array(rows, dtype=float).reshape(n, 3)
 
 
-def open_run(path: str, namespace: Optional[str] = None) -> Run:
+def open_run(path: str, namespace: Optional[str] = None,
+             topic_map: Optional[dict] = None) -> Run:
     """
     Read a recording into arrays.
 
@@ -275,6 +311,9 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
         An MCAP recording of the SPEC section 3 topics.
     namespace : str, optional
         The topics' prefix; needed only if the file holds several.
+    topic_map : dict, optional
+        Topic in the file -> the topic it is read as (e.g. a flight log's
+        '/flight/store/pose' read as '/cfem/bodies/store/pose').
 
     Raises
     ------
@@ -293,7 +332,9 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
                                      'expected a finished recording')
             schemas = summary.schemas
             topics = {}
+            renamed = dict(topic_map or {})
             for channel in summary.channels.values():
+                channel = _renamed(channel, renamed)
                 count = (summary.statistics.channel_message_counts.get(channel.id, 0)
                          if summary.statistics else 0)
                 schema = schemas.get(channel.schema_id)
@@ -305,7 +346,7 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
             for record in reader.iter_metadata():
                 if record.name == 'cfem_ros':
                     metadata = dict(record.metadata)
-            raw = _read_messages(reader, ns)
+            raw = _read_messages(reader, ns, renamed)
     except RecordingError:
         raise
     except (McapError, ValueError, KeyError, AttributeError, EOFError) as err:
@@ -314,10 +355,33 @@ def open_run(path: str, namespace: Optional[str] = None) -> Run:
     return _assemble(path, ns, topics, metadata, raw)
 
 
-def _read_messages(reader, ns: str) -> dict:
-    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': []}
+def _renamed(channel, renamed: dict):
+    """Return the channel, under the topic the map gives it (a copy), if any."""
+    if channel.topic not in renamed:
+        return channel
+    from dataclasses import replace as _replace
+    return _replace(channel, topic=renamed[channel.topic])
+
+
+def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
+    raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
+           'relative_pose': {}, 'relative_twist': {}, 'reference': {}}
     for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
-        topic = channel.topic
+        topic = (renamed or {}).get(channel.topic, channel.topic)
+        relative = RELATIVE_TOPIC.match(topic)
+        if relative and relative['ns'] == ns:
+            stamp = decoded.header.stamp
+            when = stamp.sec * 1_000_000_000 + stamp.nanosec
+            if relative['kind'] == 'pose':
+                p, q = decoded.pose.position, decoded.pose.orientation
+                values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+                raw['reference'][relative['name']] = decoded.header.frame_id
+            else:
+                a, b = decoded.twist.linear, decoded.twist.angular
+                values = (a.x, a.y, a.z, b.x, b.y, b.z)
+            raw[f'relative_{relative["kind"]}'].setdefault(relative['name'], []).append(
+                (when, values))
+            continue
         body = BODY_TOPIC.match(topic)
         if body and body['ns'] == ns and body['kind'] in ('pose', 'twist'):
             stamp = decoded.header.stamp
@@ -385,10 +449,24 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             tracks[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9,
                                       stamp_ns=stamps, force=values[:, 0:3],
                                       moment=values[:, 3:6])
+    relative = {}
+    for name, rows in raw['relative_pose'].items():
+        rows.sort(key=lambda r: r[0])
+        stamps = np.array([r[0] for r in rows], dtype=np.int64)
+        values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)
+        twist = np.full((len(rows), 6), np.nan)
+        index = {s: i for i, s in enumerate(stamps.tolist())}
+        for when, v in raw['relative_twist'].get(name, []):
+            if when in index:
+                twist[index[when]] = v
+        relative[name] = RelativeTrack(
+            name=name, reference=raw['reference'][name], time=(stamps - start_ns) / 1e9,
+            position=values[:, :3], quaternion=values[:, 3:], velocity=twist[:, :3],
+            rates=twist[:, 3:])
     last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
     return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
                events=raw['events'], topics=topics, metadata=metadata, duration=float(last),
-               applied=applied)
+               applied=applied, relative=relative)
 
 
 @dataclass(frozen=True)
@@ -436,6 +514,25 @@ def attitude_difference_deg(a: BodyTrack, b: BodyTrack):
     return t, np.degrees(rotations.angle_between(a.quaternion[inside], theirs))
 
 
+def relative_position(body: BodyTrack, carrier: BodyTrack):
+    """
+    Return a body's times inside the carrier's span and its CG in the carrier's axes there.
+
+    The carrier's pose is interpolated onto the body's times (position
+    linearly, attitude by slerp).
+    """
+    inside = (body.time >= carrier.time[0] - 1e-12) & (body.time <= carrier.time[-1] + 1e-12)
+    t = body.time[inside]
+    origin = np.column_stack([np.interp(t, carrier.time, carrier.position[:, k])
+                              for k in range(3)])
+    if len(carrier.time) > 1:
+        turn = Slerp(carrier.time, Rotation.from_quat(carrier.quaternion))(
+            np.clip(t, carrier.time[0], carrier.time[-1]))
+    else:
+        turn = Rotation.from_quat(np.repeat(carrier.quaternion[:1], len(t), axis=0))
+    return t, turn.inv().apply(body.position[inside] - origin)
+
+
 def compare_runs(a: Run, b: Run) -> tuple:
     """
     Compare the bodies and joints two runs share, quantity by quantity.
@@ -445,7 +542,9 @@ def compare_runs(a: Run, b: Run) -> tuple:
     ``attitude`` (the angle of the rotation from A's attitude to B's, deg;
     B's quaternions interpolated by slerp), ``rates`` (body, deg/s),
     ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
-    ``release`` (time, s). Returns (differences, only_in_a, only_in_b), where
+    ``release`` (time, s); with a carrier in A (``Run.relative``),
+    ``<body> position in <carrier> axes`` (m: B's relative track, or B's
+    body and carrier poses). Returns (differences, only_in_a, only_in_b), where
     the last two list body and joint names present in one run only.
     """
     rows = []
@@ -482,6 +581,17 @@ def compare_runs(a: Run, b: Run) -> tuple:
             continue
         add(f'{name} force', 'N', ja.time, ja.force, jb.time, jb.force)
         add(f'{name} moment', 'N m', ja.time, ja.moment, jb.time, jb.moment)
+    for name, ra in a.relative.items():   # in the carrier's frame (SPEC section 5)
+        rb = b.relative.get(name)
+        if rb is not None and rb.reference == ra.reference:
+            add(f'{name} position in {ra.reference} axes', 'm', ra.time, ra.position,
+                rb.time, rb.position)
+            continue
+        body, carrier = b.bodies.get(name), b.bodies.get(ra.reference)
+        if body is None or carrier is None or len(carrier.time) < 1:
+            continue
+        t, position = relative_position(body, carrier)
+        add(f'{name} position in {ra.reference} axes', 'm', ra.time, ra.position, t, position)
     releases_a = {joint: t for t, joint, _ in a.releases()}
     releases_b = {joint: t for t, joint, _ in b.releases()}
     for joint in sorted(set(releases_a) & set(releases_b)):

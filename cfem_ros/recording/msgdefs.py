@@ -62,6 +62,18 @@ DEFINITIONS = {
         ('builtin_interfaces/Time', _TIME),
         ('geometry_msgs/Wrench', _WRENCH),
         ('geometry_msgs/Vector3', _VECTOR3)),
+    'nav_msgs/msg/Odometry': _join(
+        'std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n'
+        'geometry_msgs/TwistWithCovariance twist\n',
+        ('std_msgs/Header', _HEADER),
+        ('builtin_interfaces/Time', _TIME),
+        ('geometry_msgs/PoseWithCovariance', 'Pose pose\nfloat64[36] covariance\n'),
+        ('geometry_msgs/Pose', _POSE),
+        ('geometry_msgs/Point', _POINT),
+        ('geometry_msgs/Quaternion', _QUATERNION),
+        ('geometry_msgs/TwistWithCovariance', 'Twist twist\nfloat64[36] covariance\n'),
+        ('geometry_msgs/Twist', _TWIST),
+        ('geometry_msgs/Vector3', _VECTOR3)),
     'std_msgs/msg/String': _join(
         'string data\n'),
     'tf2_msgs/msg/TFMessage': _join(

@@ -32,6 +32,7 @@ POSE = 'geometry_msgs/msg/PoseStamped'
 TWIST = 'geometry_msgs/msg/TwistStamped'
 WRENCH = 'geometry_msgs/msg/WrenchStamped'
 STRING = 'std_msgs/msg/String'
+ODOMETRY = 'nav_msgs/msg/Odometry'
 TF = 'tf2_msgs/msg/TFMessage'
 MARKERS = 'visualization_msgs/msg/MarkerArray'
 
@@ -593,6 +594,12 @@ class StateRecorder:
         messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
         messages.extend((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, self.world, 6)
                         for body, source in self.sim.applied_sources)   # scheduled loads
+        bodies = self.sim.model.bodies
+        for body, ref in self.sim.model.references:   # in a carrier's frame (core/motion.py)
+            messages.append((self.topic(f'bodies/{bodies[body].name}/relative_pose'), POSE,
+                             bodies[ref].name, 7))
+            messages.append((self.topic(f'bodies/{bodies[body].name}/relative_twist'), TWIST,
+                             bodies[ref].name, 6))
         if self._transforms is not None:
             messages.append(('/tf', TF, self._transforms, None))
         return messages
@@ -630,6 +637,18 @@ class StateRecorder:
             self.recorder.write(self.topic('release'), STRING, {'data': item.target}, stamp_ns)
             return
         header_ns = stamp_ns if item.header_ns is None else item.header_ns
+        if item.kind == 'odom':
+            v = item.values
+            self.recorder.write(self.topic(f'bodies/{item.target}/odom'), ODOMETRY, {
+                'header': {'stamp': stamp(header_ns), 'frame_id': item.frame_id},
+                'child_frame_id': item.target,
+                'pose': {'pose': {'position': _vector(v[0:3]),
+                                  'orientation': dict(zip('xyzw', map(float, v[3:7])))},
+                         'covariance': [0.0] * 36},
+                'twist': {'twist': {'linear': _vector(v[7:10]), 'angular': _vector(v[10:13])},
+                          'covariance': [0.0] * 36},
+            }, stamp_ns)
+            return
         self.recorder.write(self.topic(f'bodies/{item.target}/wrench'), WRENCH, {
             'header': {'stamp': stamp(header_ns), 'frame_id': item.frame_id},
             'wrench': {'force': _vector(item.force), 'torque': _vector(item.torque)},

@@ -9,8 +9,8 @@ import struct
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
-from cfem_ros.core.inputs import (POSE_TOPIC, release_input, RELEASE_TOPIC, wrench_input,
-                                  WRENCH_TOPIC)
+from cfem_ros.core.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
+                                  RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
 from cfem_ros.recording.analysis import check_mcap
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
@@ -20,7 +20,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 def read_inputs(path: str) -> list:
     """
-    Read the wrench and release topics of a recording, in time order.
+    Read the wrench, release and odometry topics of a recording, in time order.
 
     Simulated time 0 is the stamp the recording says it started at (its
     ``cfem_ros`` metadata), else its first ``bodies/*/pose`` message (a
@@ -54,6 +54,9 @@ def read_inputs(path: str) -> list:
                         header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
                 elif RELEASE_TOPIC.match(channel.topic):
                     found.append((message.log_time, release_input(decoded.data.strip())))
+                elif ODOM_TOPIC.match(channel.topic):
+                    found.append((message.log_time, _odometry(
+                        ODOM_TOPIC.match(channel.topic)['body'], decoded)))
     except OSError as err:
         raise InputError(f'{path}: cannot read ({err.strerror})') from err
     except (McapError, ValueError, KeyError, AttributeError) as err:
@@ -63,13 +66,23 @@ def read_inputs(path: str) -> list:
         raise InputError(f'{path}: a message cannot be decoded ({type(err).__name__}: {err}); '
                          'expected well-formed ROS 2 CDR payloads') from err
     if not found:
-        raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench or '
-                         '.../release); nothing to replay')
+        raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench, '
+                         '.../bodies/<body>/odom or .../release); nothing to replay')
     if start_ns is None:
         start_ns = min(f[0] for f in found)
     found.sort(key=lambda f: f[0])
     return [replace(item, time=max(0.0, (stamp_ns - start_ns) * 1e-9))
             for stamp_ns, item in found]
+
+
+def _odometry(body: str, msg):
+    """Return the input of a nav_msgs/Odometry message."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    v, w = msg.twist.twist.linear, msg.twist.twist.angular
+    stamp = msg.header.stamp
+    return odometry_input(body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z],
+                          [w.x, w.y, w.z], msg.header.frame_id,
+                          header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec)
 
 
 def _start_ns(reader) -> Optional[int]:

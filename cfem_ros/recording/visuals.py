@@ -36,7 +36,7 @@ _Z_TO_X = np.array([0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5)])   # +90 deg about y
 def body_shape(body) -> Shape:
     """Return a body's shape: as given, or made up from its mass and inertia."""
     return body.shape if body.shape is not None else default_shape(
-        body.fixed, body.mass, body.inertia)
+        not body.dynamic, body.mass, body.inertia)   # a kinematic body has no mass either
 
 
 def _xyz(v) -> dict:

@@ -32,12 +32,13 @@ from typing import Optional
 
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.inputs import Input, release_input, wrench_input
+from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
@@ -257,6 +258,16 @@ class _Publishers:
             wrench.header.frame_id = world
             self.wrenches[k] = (node.create_publisher(
                 WrenchStamped, f'joints/{joint.name}/wrench', TOPIC_QOS), wrench)
+        self.relative = []   # poses and twists in a carrier's frame, per model.references
+        for body, ref in model.references:
+            pose, twist = PoseStamped(), TwistStamped()
+            name = model.bodies[body].name
+            pose.header.frame_id = twist.header.frame_id = model.bodies[ref].name
+            self.relative.append((
+                node.create_publisher(PoseStamped, f'bodies/{name}/relative_pose', TOPIC_QOS),
+                pose,
+                node.create_publisher(TwistStamped, f'bodies/{name}/relative_twist', TOPIC_QOS),
+                twist))
         self.applied = []   # scheduled loads, per source
         for body, source in sim.applied_sources:
             wrench = WrenchStamped()
@@ -336,6 +347,18 @@ class _Publishers:
                 _vector3(wrench.wrench.force, load[:3])
                 _vector3(wrench.wrench.torque, load[3:])
                 publisher.publish(wrench)
+        if self.relative:
+            for (pose_pub, pose, twist_pub, twist), state in zip(
+                    self.relative, sim.relative_states()):
+                _time_msg(pose.header.stamp, stamp_ns)
+                _vector3(pose.pose.position, state[:3])
+                q = pose.pose.orientation
+                q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+                pose_pub.publish(pose)
+                _time_msg(twist.header.stamp, stamp_ns)
+                _vector3(twist.twist.linear, state[7:10])
+                _vector3(twist.twist.angular, state[10:])
+                twist_pub.publish(twist)
 
     def prepare(self):
         """Fill every message once without publishing (the first sample's set-up)."""
@@ -425,6 +448,10 @@ class CfemNode(Node):
                 self.create_subscription(
                     WrenchStamped, f'bodies/{body.name}/wrench',
                     lambda msg, name=body.name: self._on_wrench(name, msg), TOPIC_QOS)
+                if body.motion is not None:   # a kinematic body may follow odometry
+                    self.create_subscription(
+                        Odometry, f'bodies/{body.name}/odom',
+                        lambda msg, name=body.name: self._on_odometry(name, msg), TOPIC_QOS)
         except InvalidTopicNameException as err:
             raise StartupError(self._topic_name_error(model, err)) from None
         self._release_sub = self.create_subscription(String, 'release', self._on_release,
@@ -667,6 +694,16 @@ class CfemNode(Node):
         self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
                                          bounded(msg.header.frame_id), header_ns=header_ns))
 
+    def _on_odometry(self, body: str, msg: Odometry):
+        stamp = msg.header.stamp
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        v, w = msg.twist.twist.linear, msg.twist.twist.angular
+        topic = self.resolve_topic_name(f'bodies/{body}/odom')
+        self._submit(topic, odometry_input(
+            body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z], [w.x, w.y, w.z],
+            bounded(msg.header.frame_id),
+            header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec))
+
     def _on_release(self, msg: String):
         self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())))
 
@@ -697,7 +734,7 @@ class CfemNode(Node):
             self._early.append((topic, item))
             return
         if self.sim_time:
-            if item.kind == 'wrench' and item.header_ns:
+            if item.kind in ('wrench', 'odom') and item.header_ns:
                 t = (item.header_ns - self.start_ns) / 1e9
                 if t > self.sim.t:
                     item = replace(item, time=t)
