@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import math
 
+from cfem_ros.core.roots import brentq   # scipy's brentq, without importing scipy
 import numba
 import numpy as np
-from scipy.optimize import brentq
 
 _JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
 
