@@ -101,7 +101,14 @@ from cfem_ros.core import motion  # noqa: E402, I100 - after the cache guard
 #: fastmath only to contract a * b + c into fused multiply-adds (one rounding, not two):
 #: about 12 % off a long chain's step, whose elimination is a chain of dependent
 #: multiply-adds. No other fast-math flag: non-finite states must still be caught.
-_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
+#: No reference counting (numba's ``_nrt``) in the step's functions: they only take
+#: views of arrays their caller holds, and each view of a counted array costs two atomic
+#: operations, which made up about 70 % of a step of a small model (a store on its
+#: pylon: 7.6 us a step with them, 1.1 without, the same numbers to the bit). A
+#: function that allocates, returns an array or is called from Python counts (``_NRT``).
+_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy',
+        '_nrt': False}
+_NRT = dict(_JIT, _nrt=True)
 
 #: Inlined (numba IR): the two wrappers around the solve, which would otherwise pass
 #: the whole workspace (22 arrays) by value on every derivative, and the helpers
@@ -273,14 +280,14 @@ def _inverse(a, k, out):
 
 # ---------------------------------------------------------------- workspace
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def workspace_size(n, m, nj):
     """Length of the float workspace for n bodies, m rows and nj joints."""
     return (n * (9 + 3 + 9 + 36 + 6 + 6) + m * (12 + 12 + 4) + nj * (18 + 18 + 9 + 3 + 6 + 6)
             + 6 * 13 * n + 4 * 36 + 4 * 9 + 8 * 3)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def carve(work, n, m, nj):
     """
     Cut the workspace into views (see ``workspace_size``), once per call from Python.
@@ -802,7 +809,7 @@ def _shift_add(x, z, y, c, p, mhat_p, fhat_p):
     fhat_p[5] += z5 + r0 * z1 - r1 * z0
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def _dense_solve(bodies, rows_i, plan, v, redundant):
     """Accelerations and joint loads from the whole Schur complement (closed loops)."""
     inv_inertia, fhat, acc, jac, weighted, rhs, wrench = v[2], v[4], v[5], v[6], v[7], v[11], \
@@ -902,7 +909,7 @@ def _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     return True
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
                 force, moment):
     """
@@ -916,7 +923,7 @@ def joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, den
                         force, moment)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
                    order, out):
     """
@@ -978,7 +985,7 @@ def _sample_outputs(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
     return REACHED
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def row_jacobian(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work):
     """Fill the workspace's J and J M^-1 blocks at y (``carve`` items 6 and 7)."""
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
@@ -986,7 +993,7 @@ def row_jacobian(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     _row_terms(y, bodies, rows_i, rows_f, eta, v, True)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def project(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work, delta):
     """
     Find the mass-weighted velocity correction that satisfies the joints at y.
@@ -1017,7 +1024,7 @@ def project(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, 
     return True
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def constraint_values(work, n, m, n_j):
     """Return the constraint values of the last solve (a view of the workspace)."""
     return carve(work, n, m, n_j)[10]
@@ -1054,7 +1061,7 @@ def _derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
     return worst
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def derivative(y, dy, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work):
     """Fill dy with dy/dt at y; return the largest |constraint value| (-1 if singular)."""
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
@@ -1102,7 +1109,7 @@ def _rk4(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, de
     return worst
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense,
              work):
     """
@@ -1118,7 +1125,7 @@ def rk4_step(y, h, out, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta
 
 # ------------------------------------------------------------ release tests
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def conditions(y, joints_i, joints_f, watch, out):
     """
     Angle (rad) and distance (m) of the watched joints at y, into out[:, 0:2].
@@ -1127,10 +1134,13 @@ def conditions(y, joints_i, joints_f, watch, out):
     the parent, anchor on the child (body axes), relative attitude at t = 0
     (x y z w). watch: model joint indices.
     """
+    _conditions(y, joints_i, joints_f, watch, out, np.empty((3, 3)), np.empty(3), np.empty(3))
+
+
+@numba.njit(**_JIT)
+def _conditions(y, joints_i, joints_f, watch, out, rot, pa, pb):
+    """``conditions`` with its scratch (rot (3, 3), pa, pb (3,)) given."""
     n = y.shape[0] // 13
-    rot = np.empty((3, 3))
-    pa = np.empty(3)
-    pb = np.empty(3)
     for w in range(watch.shape[0]):
         k = watch[w]
         a, b = joints_i[k, 0], joints_i[k, 1]
@@ -1170,7 +1180,7 @@ def _qmul(ax, ay, az, aw, bx, by, bz, bw):
 
 # --------------------------------------------------------------- step loop
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, rows_f, plan,
             roots, eta, dense, work, joints_i, joints_f, watch, limits, watch_plan, grid, order,
             samples):
@@ -1200,6 +1210,7 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
     v = carve(work, bodies.shape[0], rows_i.shape[0], plan.shape[0])
     out = v[18][5]
     values = np.empty((watch.shape[0], 2))
+    rot, pa, pb = np.empty((3, 3)), np.empty(3), np.empty(3)
     force = np.empty((plan.shape[0], 3))
     moment = np.empty((plan.shape[0], 3))
     need_force = False
@@ -1265,7 +1276,7 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                 info[3] = SINGULAR
                 return
             if watch.shape[0] > 0:
-                conditions(out, joints_i, joints_f, watch, values)
+                _conditions(out, joints_i, joints_f, watch, values, rot, pa, pb)
                 if need_force and not _joint_loads(out, bodies, gravity, loads, rows_i, rows_f,
                                                    plan, roots, eta, dense, v, force, moment):
                     info[3] = SINGULAR
@@ -1312,19 +1323,19 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
 # loads.ScheduledLoads calls these through the kernel, so that a kernel compiled
 # ahead of time (aot.py) has them compiled too
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def loads_set_time(loads, n, t):
     """Write the time t into the scheduled rows (``loads.set_time``)."""
     applied_loads.set_time(loads, n, t)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def loads_strokes(y, loads, n, out):
     """Write each scheduled wrench's stroke so far at y into out (``loads.strokes``)."""
     applied_loads.strokes(y, loads, n, out)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def loads_rotations(y, n, rot):
     """Write the bodies' rotation matrices at y into rot (``loads._rotations``)."""
     applied_loads._rotations(y, n, rot)
@@ -1333,13 +1344,13 @@ def loads_rotations(y, n, rot):
 # ------------------------------------------- kinematic bodies called from Python
 # engine.Simulator calls these through the kernel (aot.py compiles them too)
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def motion_place(y, bodies, offset):
     """Write the kinematic bodies' state at their step start + offset into y (``motion.place``)."""
     motion.place(y, bodies, offset)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def motion_set_time(bodies, t):
     """Write the time of the step's start into the kinematic bodies' columns."""
     motion.set_time(bodies, t)

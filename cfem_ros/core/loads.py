@@ -35,7 +35,10 @@ from cfem_ros.core.roots import brentq   # scipy's brentq, without importing sci
 import numba
 import numpy as np
 
-_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
+#: No reference counting but where a function allocates (``kernel._JIT`` says why).
+_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy',
+        '_nrt': False}
+_NRT = dict(_JIT, _nrt=True)
 
 #: Columns of a packed row.
 WIDTH = 24
@@ -317,7 +320,7 @@ def stroke_reached(y, loads, n):
     return False
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_NRT)
 def sample_applied(y, bodies, loads, out):
     """
     Write each scheduled wrench's load at y into out, 6 numbers a source (world axes).

@@ -35,7 +35,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy'}
+#: No reference counting (``kernel._JIT`` says why).
+_JIT = {'cache': True, 'nogil': True, 'fastmath': {'contract'}, 'error_model': 'numpy',
+        '_nrt': False}
 
 #: Columns of ``bodies`` the kernel has without kinematic bodies.
 BODY_COLUMNS = 20
