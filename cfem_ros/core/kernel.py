@@ -295,7 +295,7 @@ def carve(work, n, m, nj):
     0 rot, 1 omega, 2 inv_inertia, 3 mhat, 4 fhat, 5 acc, 6 jac, 7 weighted,
     8 rate, 9 gamma, 10 value, 11 rhs, 12 basis, 13 weighted_basis, 14 chol,
     15 projected, 16 particular, 17 wrench, 18 stages, 19 six (4, 6, 6),
-    20 three (4, 3, 3), 21 vec (8, 3).
+    20 three (4, 3, 3), 21 vec (8, 3), 22 the first two rows of vec as one (6,).
     """
     o = 0
     rot = work[o:o + 9 * n].reshape((n, 3, 3))
@@ -342,7 +342,8 @@ def carve(work, n, m, nj):
     o += 4 * 9
     vec = work[o:o + 8 * 3].reshape((8, 3))
     return (rot, omega, inv_inertia, mhat, fhat, acc, jac, weighted, rate, gamma, value, rhs,
-            basis, weighted_basis, chol, projected, particular, wrench, stages, six, three, vec)
+            basis, weighted_basis, chol, projected, particular, wrench, stages, six, three, vec,
+            work[o:o + 6])
 
 
 # --------------------------------------------------------------- the system
@@ -392,6 +393,13 @@ def _body_terms(y, bodies, gravity, loads, v, need_inverse):
         o = 10 * n + 3 * i
         w = _rotate(rot, i, y[o], y[o + 1], y[o + 2])
         omega[i, 0], omega[i, 1], omega[i, 2] = w
+        if bodies[i, 1] == 0.0:
+            # fixed or kinematic: its rows need its rotation and rates only (its mass
+            # terms, never written, stay the workspace's zeros; its load is reset for
+            # the scheduled wrenches, which may act on it)
+            for k in range(6):
+                fhat[i, k] = 0.0
+            continue
         if need_inverse:
             _body_congruence(rot, i, bodies, 11, inv_inertia[i], 0)
         mh = mhat[i]
@@ -500,7 +508,7 @@ def _tree_solve(y, plan, roots, rows_f, v):
     basis, weighted_basis, chol, projected, particular = v[12], v[13], v[14], v[15], v[16]
     scratch, x, full = v[19][0], v[19][1], v[19][2]
     free_t, free_r, gram = v[20][0], v[20][1], v[20][2]
-    vec, t1 = v[21][0:2].reshape(6), v[21][2]
+    vec, t1 = v[22], v[21][2]
     n_j = plan.shape[0]
     n = roots.shape[0]
     # leaves first: pass each child's articulated inertia on to its parent
