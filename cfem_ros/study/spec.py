@@ -7,7 +7,10 @@ Everything is checked before any run starts, with a ``SweepError`` naming
 the file, the key path, the value and what would be right. The random
 values are drawn here, once, from the seed: each varied key path has its
 own generator (``numpy.random.SeedSequence(seed).spawn``), so the table
-never depends on how the runs are shared out.
+never depends on how the runs are shared out. Key paths listed in
+``correlate`` are joined by a Gaussian copula: each still draws its own
+standard normals from its own generator; these are mixed by a factor of the
+correlation matrix and mapped through each declared marginal's inverse CDF.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
 import numpy as np
 
-TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'metrics')
+TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics')
 METRIC_KEYS = ('clearance', 'at')
 CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b')
 AT_KEYS = ('time', 'body', 'relative_to')
@@ -39,6 +42,13 @@ DISTRIBUTIONS = {
     'grid': 'a non-empty list of values, each run with every draw',
 }
 RANDOM_NUMBERS = ('uniform', 'normal', 'truncnormal')
+#: Distributions a key path in ``correlate`` may have.
+CORRELATABLE = RANDOM_NUMBERS + ('choice',)
+#: A correlation matrix whose smallest eigenvalue is above -this is positive semi-definite.
+PSD_TOLERANCE = 1e-10
+#: What a ``correlate`` entry holds.
+CORRELATE_ENTRY = ('[key path, key path, rho] with -1 <= rho <= 1 (quote a key path '
+                   "with brackets: ['wrenches[0].force[2]', 'wrenches[1].force[2]', 0.9])")
 #: A sample time within this many samples of the grid is on it.
 ON_GRID = 1e-9
 
@@ -223,6 +233,8 @@ class SweepSpec:
     metrics : Metrics
     values : dict of str to list
         Each varied key path's value for every run (run k is index k).
+    correlations : list of (str, str, float)
+        The ``correlate`` pairs (key path, key path, rho), each pair once.
 
     """
 
@@ -235,6 +247,7 @@ class SweepSpec:
     variables: list
     metrics: Metrics
     values: dict
+    correlations: list = field(default_factory=list)
 
     @property
     def total(self) -> int:
@@ -255,7 +268,7 @@ class SweepSpec:
 
     def describe(self) -> str:
         """Return the resolved sweep as JSON text (what the hash is of)."""
-        return json.dumps({
+        resolved = {
             'scenario': os.path.abspath(self.scenario), 'document': self.document,
             'runs': self.runs, 'seed': self.seed, 'rate_hz': repr(self.rate_hz),
             'vary': [[v.path, v.kind, v.params] for v in self.variables],
@@ -264,7 +277,10 @@ class SweepSpec:
                               for c in self.metrics.clearance],
                 'at': [[a.time, a.body, a.relative_to] for a in self.metrics.at],
                 'joints': self.metrics.joints},
-            'total': self.total}, sort_keys=True, default=repr)
+            'total': self.total}
+        if self.correlations:   # absent otherwise: a sweep without it keeps its hash
+            resolved['correlate'] = [[a, b, repr(rho)] for a, b, rho in self.correlations]
+        return json.dumps(resolved, sort_keys=True, default=repr)
 
 
 def apply_values(document: dict, variables, values: dict) -> dict:
@@ -333,11 +349,14 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
         fail('rate_hz', f'is {_show(rate)}', 'a sample rate > 0 Hz')
     rate = float(rate)
     variables = _parse_vary(fail, document.get('vary') or {}, base)
+    correlate = document.get('correlate')
+    correlations = _parse_correlate(fail, [] if correlate is None else correlate, variables)
     metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate)
-    values = draw(variables, count, seed)
+    values = draw(variables, count, seed, correlations)
     _check_new_keys(fail, base, variables, values, scenario)
     return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
-                     rate_hz=rate, variables=variables, metrics=metrics, values=values)
+                     rate_hz=rate, variables=variables, metrics=metrics, values=values,
+                     correlations=correlations)
 
 
 def _check_new_keys(fail, base, variables, values, scenario):
@@ -414,6 +433,110 @@ def _parse_vary(fail, vary, base) -> list:
     return variables
 
 
+def _parse_correlate(fail, correlate, variables) -> list:
+    """Check ``correlate``: pairs of random key paths, rho in [-1, 1], a PSD matrix."""
+    if not isinstance(correlate, list):
+        fail('correlate', f'is {_show(correlate)}', 'a list of ' + CORRELATE_ENTRY)
+    kinds = {v.path: v.kind for v in variables}
+    drawn = [v.path for v in variables if v.kind in CORRELATABLE]
+    pairs = {}
+    for i, entry in enumerate(correlate):
+        key = f'correlate[{i}]'
+        if not isinstance(entry, list) or len(entry) != 3:
+            fail(key, f'is {_show(entry)}', CORRELATE_ENTRY)
+        for j in (0, 1):
+            path = entry[j]
+            if not isinstance(path, str) or path not in kinds:
+                fail(f'{key}[{j}]', f'{_show(path)} is not a key path under vary',
+                     'one of the key paths drawn at random: ' + (', '.join(drawn) or 'none'))
+            if kinds[path] not in CORRELATABLE:
+                fail(f'{key}[{j}]', f'{_show(path)} is a {kinds[path]}, not a random draw',
+                     'a key path drawn from ' + ', '.join(CORRELATABLE) + ' (a grid runs '
+                     'every value with every draw)')
+        rho = entry[2]
+        if isinstance(rho, bool) or not isinstance(rho, (int, float)) \
+                or not math.isfinite(rho) or not -1 <= rho <= 1:
+            fail(f'{key}[2]', f'is {_show(rho)}', 'a correlation rho with -1 <= rho <= 1')
+        a, b = entry[0], entry[1]
+        if a == b:
+            fail(key, f'correlates {a} with itself', 'two different key paths')
+        pair = tuple(sorted((a, b), key=list(kinds).index))
+        if pair in pairs and pairs[pair][1] != rho:
+            fail(key, f'gives {a} and {b} rho {rho!r}, correlate[{pairs[pair][0]}] gave '
+                 f'{pairs[pair][1]!r}', 'each pair once')
+        pairs.setdefault(pair, (i, float(rho)))
+    correlations = [(a, b, rho) for (a, b), (_, rho) in pairs.items()]
+    for paths, matrix in _blocks(variables, correlations):
+        smallest = float(np.linalg.eigvalsh(matrix)[0])
+        if smallest < -PSD_TOLERANCE:
+            fail('correlate', f'the correlations of {", ".join(paths)} make a matrix that is '
+                 f'not positive semi-definite (smallest eigenvalue {smallest:.6g})',
+                 'correlations that can hold together (a pair not listed has rho 0; if '
+                 'a~b and b~c are both 0.9, a~c must be at least 0.62)')
+    return correlations
+
+
+def _blocks(variables, correlations) -> list:
+    """
+    Split the correlated key paths into groups joined by correlations.
+
+    Returns a list of (key paths in ``vary`` order, correlation matrix);
+    pairs not given are uncorrelated.
+    """
+    order = [v.path for v in variables]
+    group = {}
+    for a, b, _ in correlations:
+        joined = group.get(a, {a}) | group.get(b, {b})
+        for path in joined:
+            group[path] = joined
+    blocks, seen = [], set()
+    for path in order:
+        if path in group and path not in seen:
+            paths = [p for p in order if p in group[path]]
+            seen.update(paths)
+            matrix = np.eye(len(paths))
+            for a, b, rho in correlations:
+                if a in group[path]:
+                    i, j = paths.index(a), paths.index(b)
+                    matrix[i, j] = matrix[j, i] = rho
+            blocks.append((paths, matrix))
+    return blocks
+
+
+def _factor(matrix: np.ndarray) -> np.ndarray:
+    """
+    Return A with A A^T = matrix: its Cholesky factor, or if singular its eigen-factor.
+
+    A singular matrix (rho = 1, or rows that depend on each other) has no
+    Cholesky factor; V sqrt(diag(lambda)) from its eigen-decomposition,
+    eigenvalues within PSD_TOLERANCE of 0 taken as 0, does the same.
+    """
+    try:
+        return np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        eigenvalues, vectors = np.linalg.eigh(matrix)
+        return vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
+
+
+def _marginal(variable, z: np.ndarray) -> list:
+    """Map standard normals z through the variable's inverse CDF: x = F^-1(Phi(z))."""
+    from scipy.special import ndtr   # only where drawn, as truncnorm below
+    p = variable.params
+    if variable.kind == 'normal':
+        return list(p[0] + p[1] * z)
+    if variable.kind == 'uniform':
+        x = p[0] + (p[1] - p[0]) * ndtr(z)
+        return list(np.minimum(x, np.nextafter(p[1], p[0])))   # [low, high), as drawn alone
+    if variable.kind == 'truncnormal':
+        from scipy.stats import truncnorm
+        a, b = (p[2] - p[0]) / p[1], (p[3] - p[0]) / p[1]
+        lower = truncnorm.ppf(ndtr(z), a, b, loc=p[0], scale=p[1])
+        upper = truncnorm.isf(ndtr(-z), a, b, loc=p[0], scale=p[1])   # each tail exact
+        return list(np.clip(np.where(z < 0, lower, upper), p[2], p[3]))
+    index = np.minimum(np.floor(ndtr(z) * len(p)).astype(int), len(p) - 1)   # choice
+    return [p[i] for i in index]
+
+
 def _points(fail, key, value):
     if value is None:
         return np.zeros((1, 3))
@@ -482,18 +605,26 @@ def _parse_metrics(fail, metrics, base, rate) -> Metrics:
     return out
 
 
-def draw(variables, runs: int, seed: int) -> dict:
+def draw(variables, runs: int, seed: int, correlations=()) -> dict:
     """
     Draw every variable's values: ``runs`` random draws times every grid point.
 
     Run k = g * runs + i is draw i at grid point g (grids in file order, the
     last varying fastest), so every grid point sees the same random draws.
+    A key path in ``correlations`` draws ``runs`` standard normals from its
+    own generator instead; each group's are mixed by a factor of its
+    correlation matrix and mapped through the marginals (``_marginal``).
+    The others' draws are those they would have without ``correlations``.
     """
     sequences = np.random.SeedSequence(seed).spawn(len(variables))
-    drawn = {}
+    correlated = {path for a, b, _ in correlations for path in (a, b)}
+    drawn, normals = {}, {}
     for variable, sequence in zip(variables, sequences):
         rng = np.random.default_rng(sequence)
         p = variable.params
+        if variable.path in correlated:
+            normals[variable.path] = rng.standard_normal(size=runs)
+            continue
         if variable.kind == 'uniform':
             values = rng.uniform(p[0], p[1], size=runs)
         elif variable.kind == 'normal':
@@ -507,6 +638,11 @@ def draw(variables, runs: int, seed: int) -> dict:
         else:
             continue
         drawn[variable.path] = [_plain(v) for v in values]
+    by_path = {v.path: v for v in variables}
+    for paths, matrix in _blocks(variables, correlations):
+        z = _factor(matrix) @ np.array([normals[path] for path in paths])
+        for path, row in zip(paths, z):
+            drawn[path] = [_plain(v) for v in _marginal(by_path[path], row)]
     grids = [v for v in variables if v.kind == 'grid']
     points = list(itertools.product(*[v.params for v in grids])) or [()]
     values = {}
