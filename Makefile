@@ -38,8 +38,10 @@ demo: $(CORE)
 test: $(CORE)
 	$(BIN)/python -m pytest -q test
 
+# MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
+# changes
 bench: $(CORE)
-	$(BIN)/pip install -q -e '.[bench]'
+	@$(BIN)/python -c 'import mujoco' 2>/dev/null || $(BIN)/pip install -q -e '.[bench]'
 	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py
