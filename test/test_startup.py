@@ -64,3 +64,14 @@ def _ahead():
     """Return the modules a run must not import because the kernel is compiled ahead."""
     from cfem_ros.core import aot
     return {'numba', 'cfem_ros.core.warmup'} if aot.load_extension() is not None else set()
+
+
+def test_runs_of_every_paper_scenario_import_no_more(tmp_path):
+    # bodies drawn as their inertia's box (no shape given), ejectors, an aero table,
+    # a carrier flying a pull-up: all of it runs without the modules a run does not use
+    for scenario in ('double_pendulum.yaml', 'fixed_joint_spin.yaml',
+                     'store_separation_ejectors.yaml', 'store_separation_aero.yaml',
+                     'store_release_from_pullup.yaml'):
+        used = run_modules(tmp_path, scenario) & set(UNUSED)
+        assert used <= {'numba', 'cfem_ros.core.warmup'} - _ahead(), (scenario, used)
+
