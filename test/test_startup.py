@@ -74,4 +74,3 @@ def test_runs_of_every_paper_scenario_import_no_more(tmp_path):
                      'store_release_from_pullup.yaml'):
         used = run_modules(tmp_path, scenario) & set(UNUSED)
         assert used <= {'numba', 'cfem_ros.core.warmup'} - _ahead(), (scenario, used)
-

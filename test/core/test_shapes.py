@@ -2,11 +2,10 @@
 # SPDX-License-Identifier: Apache-2.0
 """The drawn box of a body without a shape: turned as scipy turns it, to the bit."""
 
+from cfem_ros.core import shapes
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-
-from cfem_ros.core import shapes
 
 
 def bits(values):
