@@ -63,8 +63,11 @@ def measure(name, body, seconds):
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     log = tempfile.TemporaryFile()   # the node's output, shown if it fails
+    # a namespace of its own: no other node on the same domain can feed the measurement
+    namespace = f'/bench_{os.getpid()}_{name}'
     node_process = subprocess.Popen(
         [str(pathlib.Path(sys.executable).parent / 'cfem_node'), '--ros-args',
+         '-r', f'__ns:={namespace}',
          '-p', f'scenario:={CONFIG / f"{name}.yaml"}', '-p', f'rate_hz:={RATE_HZ}',
          '-p', 'real_time_factor:=1.0', '-p', f'duration:={seconds + START_SLACK}'],
         stdout=log, stderr=subprocess.STDOUT)
@@ -81,7 +84,7 @@ def measure(name, body, seconds):
         elif t - arrivals[0][1] >= seconds and 'end' not in cpu:
             cpu['end'] = (cpu_seconds(node_process.pid), t)
 
-    peer.create_subscription(PoseStamped, f'/cfem/bodies/{body}/pose', on_pose,
+    peer.create_subscription(PoseStamped, f'{namespace}/bodies/{body}/pose', on_pose,
                              QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(peer)
