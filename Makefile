@@ -23,9 +23,12 @@ $(STAMP): setup.py setup.cfg package.xml
 	@touch $(STAMP)
 
 # compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run
-# loads; again whenever the compiled sources change
+# loads; again whenever the compiled sources change. Then the package's bytecode, as pip
+# does for a regular install (an editable one has none until Python writes it, which it
+# never does under PYTHONDONTWRITEBYTECODE: every start would compile the sources again)
 $(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py cfem_ros/core/motion.py
 	$(BIN)/python -m cfem_ros.core.warmup
+	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(CORE)
 
 demo: $(CORE)
@@ -35,8 +38,10 @@ demo: $(CORE)
 test: $(CORE)
 	$(BIN)/python -m pytest -q test
 
+# MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
+# changes
 bench: $(CORE)
-	$(BIN)/pip install -q -e '.[bench]'
+	@$(BIN)/python -c 'import mujoco' 2>/dev/null || $(BIN)/pip install -q -e '.[bench]'
 	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py

@@ -19,6 +19,7 @@ import random
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
@@ -28,6 +29,8 @@ RATE_HZ = 100.0
 #: come seconds after the node starts (discovery, start-up): the node runs
 #: this much longer than the measured span, and is stopped when it is done.
 START_SLACK = 60.0
+#: Seconds a stopped node has to exit before it is killed.
+STOP_WAIT = 30.0
 
 
 def cpu_seconds(pid: int) -> float:
@@ -42,15 +45,32 @@ def percentile(values, q):
     return ordered[min(len(ordered) - 1, int(round(q / 100 * (len(ordered) - 1))))]
 
 
+def stop(process):
+    """End a process: SIGTERM, then SIGKILL if it has not exited within STOP_WAIT s."""
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=STOP_WAIT)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(timeout=STOP_WAIT)
+
+
 def measure(name, body, seconds):
+    """Run the node on a scenario and measure it over `seconds` of its poses."""
     import rclpy
     from geometry_msgs.msg import PoseStamped
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    log = tempfile.TemporaryFile()   # the node's output, shown if it fails
+    # a namespace of its own: no other node on the same domain can feed the measurement
+    namespace = f'/bench_{os.getpid()}_{name}'
     node_process = subprocess.Popen(
         [str(pathlib.Path(sys.executable).parent / 'cfem_node'), '--ros-args',
+         '-r', f'__ns:={namespace}',
          '-p', f'scenario:={CONFIG / f"{name}.yaml"}', '-p', f'rate_hz:={RATE_HZ}',
          '-p', 'real_time_factor:=1.0', '-p', f'duration:={seconds + START_SLACK}'],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        stdout=log, stderr=subprocess.STDOUT)
     context = rclpy.Context()
     rclpy.init(context=context)
     peer = rclpy.create_node('bench_peer', context=context)
@@ -64,21 +84,29 @@ def measure(name, body, seconds):
         elif t - arrivals[0][1] >= seconds and 'end' not in cpu:
             cpu['end'] = (cpu_seconds(node_process.pid), t)
 
-    peer.create_subscription(PoseStamped, f'/cfem/bodies/{body}/pose', on_pose,
+    peer.create_subscription(PoseStamped, f'{namespace}/bodies/{body}/pose', on_pose,
                              QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE))
-    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor = SingleThreadedExecutor(context=context)
     executor.add_node(peer)
     deadline = time.monotonic() + seconds + START_SLACK
     try:
-        while 'end' not in cpu and time.monotonic() < deadline:
+        while ('end' not in cpu and time.monotonic() < deadline
+               and node_process.poll() is None):
             executor.spin_once(timeout_sec=0.05)
     finally:
-        node_process.terminate()
-        node_process.wait(timeout=30)
+        stop(node_process)
+        executor.shutdown()
         peer.destroy_node()
         rclpy.try_shutdown(context=context)
     if 'end' not in cpu:
-        raise RuntimeError(f'{name}: the node did not publish for {seconds} s')
+        log.seek(0)
+        output = log.read().decode(errors='replace').strip().splitlines()[-15:]
+        why = (f'it exited with status {node_process.returncode}'
+               if node_process.returncode not in (None, -15, 143) else
+               f'{len(arrivals)} poses received in {seconds + START_SLACK:g} s')
+        raise RuntimeError(f'{name}: the node did not publish for {seconds:g} s ({why}); '
+                           'its output:\n' + '\n'.join(output))
+    log.close()
     (cpu0, t0), (cpu1, t1) = cpu['start'], cpu['end']
     # skip the first second: discovery and the subscriber's own warm-up
     received = [a for a, t in arrivals if t0 + 1.0 <= t <= t1]

@@ -14,6 +14,8 @@ scenario. Usage: .venv/bin/python benchmarks/bench_startup.py [--repeats N]
 """
 
 import argparse
+import contextlib
+import io
 import os
 import pathlib
 import statistics
@@ -69,6 +71,23 @@ def whole(command):
     return wall
 
 
+def byte_compile():
+    """
+    Byte-compile the installed cfem_ros as pip does for a regular install; say so.
+
+    Python writes a module's bytecode on its first import unless
+    PYTHONDONTWRITEBYTECODE is set; an editable install has none until
+    then, and without it every start compiles the package's sources again.
+    The MuJoCo side's bytecode was written by pip.
+    """
+    import compileall
+    import cfem_ros
+    package = os.path.dirname(cfem_ros.__file__)
+    with contextlib.redirect_stdout(io.StringIO()):
+        fresh = compileall.compile_dir(package, quiet=1)
+    return f'bytecode of {package}: ' + ('current' if fresh else 'FAILED to compile')
+
+
 def chain_yaml(count, path):
     """Write a scenario of count bodies in a hinged chain hanging from the ground."""
     lines = ['name: chain', 'duration: 0.01', 'dt: 0.001', 'bodies:', '  ground:',
@@ -113,19 +132,24 @@ def main():
         out = os.path.join(folder, 'run.mcap')
         ours = [str(CFEM_SIM), 'run', str(SCENARIO), '-o', out, '--overwrite']
         theirs = [sys.executable, str(ROOT / 'benchmarks' / 'mujoco_store.py')]
+        print(byte_compile())
         whole(ours)
         whole(theirs)
         times = {'cfem-sim run': [], 'mujoco script': []}
+        load = [os.getloadavg()[0]]
         for _ in range(args.repeats):
             times['cfem-sim run'].append(whole(ours))
             times['mujoco script'].append(whole(theirs))
+        load.append(os.getloadavg()[0])
         medians = {k: statistics.median(v) for k, v in times.items()}
         print(f'whole process, median of {args.repeats} in turns (load average '
-              f'{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):')
+              f'{min(load):.1f} to {max(load):.1f} on {os.cpu_count()} cores):')
         for name, value in medians.items():
             print(f'  {name:<14} {value * 1e3:8.0f} ms  (min {min(times[name]) * 1e3:.0f})')
-        ratio = medians['cfem-sim run'] / medians['mujoco script']
-        print(f'  ratio cfem-sim / mujoco: {ratio:.2f}')
+        turns = [a / b for a, b in zip(times['cfem-sim run'], times['mujoco script'])]
+        print(f'  ratio cfem-sim / mujoco: {statistics.median(turns):.2f} (median of the '
+              f"turns' ratios; of the medians "
+              f"{medians['cfem-sim run'] / medians['mujoco script']:.2f})")
 
         phases = []
         for _ in range(5):

@@ -77,9 +77,40 @@ def equivalent_box(mass: float, inertia: np.ndarray) -> Shape:
 
 
 def _quaternion_of(matrix: np.ndarray) -> tuple:
-    """Quaternion (x, y, z, w) of a rotation matrix (columns: the new axes)."""
-    from scipy.spatial.transform import Rotation   # a second to import: only when drawn
-    return tuple(float(v) for v in Rotation.from_matrix(matrix).as_quat())
+    """
+    Quaternion (x, y, z, w) of a rotation matrix (columns: the new axes).
+
+    scipy's ``Rotation.from_matrix(matrix).as_quat()``, operation for
+    operation (the same bits), without importing scipy (most of a second):
+    the largest of the trace and the diagonal picks the formula. A matrix
+    that is not orthogonal to scipy's tolerance goes to scipy, which
+    orthogonalizes it first.
+    """
+    m = np.array(matrix, dtype=float)
+    gram = m[np.newaxis] @ np.transpose(m[np.newaxis], (0, 2, 1))
+    if not (np.linalg.det(m) > 0 and np.all(np.isclose(gram, np.eye(3), atol=1e-12))):
+        from scipy.spatial.transform import Rotation
+        return tuple(float(v) for v in Rotation.from_matrix(matrix).as_quat())
+    m = m.tolist()
+    decision = (m[0][0], m[1][1], m[2][2], m[0][0] + m[1][1] + m[2][2])
+    choice = 0
+    for k in (1, 2, 3):
+        if decision[k] > decision[choice]:
+            choice = k
+    quat = [0.0] * 4
+    if choice != 3:
+        i = choice
+        j = (i + 1) % 3
+        k = (j + 1) % 3
+        quat[i] = 1 - decision[3] + 2 * m[i][i]
+        quat[j] = m[j][i] + m[i][j]
+        quat[k] = m[k][i] + m[i][k]
+        quat[3] = m[k][j] - m[j][k]
+    else:
+        quat = [m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1], 1 + decision[3]]
+    norm = math.sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2]
+                     + quat[3] * quat[3])
+    return tuple(q / norm for q in quat)
 
 
 def default_shape(fixed: bool, mass: float, inertia: np.ndarray) -> Shape:

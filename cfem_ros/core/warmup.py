@@ -21,7 +21,6 @@ import glob
 import logging
 import math
 import os
-import subprocess
 import sys
 import time
 
@@ -139,6 +138,7 @@ def main() -> int:
     if os.environ.get(aot.FORCE_JIT):
         return 0   # the JIT is asked for: no extension to build
     # a fresh process: the build must import numba itself, with its own cache
+    import subprocess   # only to build the extension
     if subprocess.run([sys.executable, '-m', 'cfem_ros.core.aot']).returncode:
         print('cfem_ros: WARNING: the ahead-of-time build failed (see above); runs use the '
               'JIT, which imports numba at start-up', file=sys.stderr)
