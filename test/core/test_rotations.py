@@ -58,7 +58,7 @@ def _multiply_term_by_term(a, b):
 
 
 def _quaternions(rng, n):
-    """Return random quaternions, with signed zeros, exact axes and huge and tiny norms among them."""
+    """Return random quaternions, signed zeros, exact axes, huge and tiny norms among them."""
     quats = rng.normal(size=(n, 4)) * 10.0 ** rng.integers(-150, 150, (n, 1))
     quats[::7, rng.integers(0, 4)] = 0.0
     quats[::11, rng.integers(0, 4)] = -0.0
