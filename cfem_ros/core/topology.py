@@ -106,11 +106,9 @@ class Topology:
         self.m = len(self.joint)
         joints = np.flatnonzero(active)
         first = np.searchsorted(self.joint, joints)
-        n_joints = len(active)
-        counts = np.column_stack([   # translation and rotation rows per active joint
-            np.bincount(self.joint[self.translation], minlength=n_joints)[joints],
-            np.bincount(self.joint[~self.translation], minlength=n_joints)[joints],
-        ]).astype(np.int64).reshape(-1, 2)
+        counts = np.array([[np.count_nonzero(self.translation[self.joint == k]),
+                            np.count_nonzero(~self.translation[self.joint == k])]
+                           for k in joints], dtype=np.int64).reshape(-1, 2)
         ends = tables['ends'][joints]
         lines = self._forest(joints, ends, free)
         self.dense = 0 if lines is not None else 1
