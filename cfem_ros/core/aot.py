@@ -78,26 +78,51 @@ def load_extension():
     return extension
 
 
-#: Array kinds' dtypes by name (``dtype.name`` is slow to compute on every call).
-_DTYPES = {}
+class _Signature:
+    """
+    The argument kinds of one compiled variant, checked as numba's dispatcher would type them.
 
+    Checked on every call of the compiled kernel, so the kinds are sorted
+    once into scalars and arrays (with their dtypes made) and each argument
+    costs a few attribute reads; nothing is cached per argument (an array's
+    flags can change between calls).
+    """
 
-def _matches(kind, value):
-    """Tell whether numba's JIT would type value as kind (so that the compiled code fits)."""
-    if kind[0] == 'array':
-        if type(value) is not np.ndarray:
+    def __init__(self, kinds):
+        self.count = len(kinds)
+        self.floats = tuple(i for i, kind in enumerate(kinds) if kind[0] == 'float64')
+        self.ints = tuple(i for i, kind in enumerate(kinds) if kind[0] == 'int64')
+        # (index, dtype, ndim, layout, writeable)
+        self.arrays = tuple((i, np.dtype(kind[1]), kind[2], kind[3], kind[4])
+                            for i, kind in enumerate(kinds) if kind[0] == 'array')
+        if len(self.floats) + len(self.ints) + len(self.arrays) != self.count:
+            self.count = -1   # a kind not checked here: nothing fits
+
+    def admits(self, args) -> bool:
+        """Tell whether numba's JIT would type args as these kinds."""
+        if len(args) != self.count:
             return False
-        dtype = _DTYPES.get(kind[1])
-        if dtype is None:
-            dtype = _DTYPES[kind[1]] = np.dtype(kind[1])
-        if value.dtype != dtype or value.ndim != kind[2]:
-            return False
-        flags = value.flags
-        layout = 'C' if flags.c_contiguous else 'F' if flags.f_contiguous else 'A'
-        return layout == kind[3] and flags.writeable == kind[4] and flags.aligned
-    if kind[0] == 'int64':
-        return (type(value) is int and -2 ** 63 <= value < 2 ** 63) or type(value) is np.int64
-    return kind[0] == 'float64' and (type(value) is float or type(value) is np.float64)
+        for i in self.floats:
+            if type(args[i]) is not float and type(args[i]) is not np.float64:
+                return False
+        for i in self.ints:
+            value = args[i]
+            if not ((type(value) is int and -2 ** 63 <= value < 2 ** 63)
+                    or type(value) is np.int64):
+                return False
+        for i, dtype, ndim, layout, writeable in self.arrays:
+            value = args[i]
+            if type(value) is not np.ndarray or value.ndim != ndim or value.dtype != dtype:
+                return False
+            flags = value.flags
+            if flags.writeable != writeable or not flags.aligned:
+                return False
+            if flags.c_contiguous:   # numba's layout: 'C' first (a 1-d array is both)
+                if layout != 'C':
+                    return False
+            elif layout != ('F' if flags.f_contiguous else 'A'):
+                return False
+        return True
 
 
 class _Numba(types.ModuleType):
@@ -147,13 +172,15 @@ def _compiled(name, variants):
     variants: (function, argument kinds) pairs. The compiled code trusts its
     arguments' types, so they are checked here as numba's dispatcher would.
     """
+    checked = [(function, _Signature(kinds)) for function, kinds in variants]
+
     def call(*args):
-        for function, kinds in variants:
-            if len(args) == len(kinds) and all(map(_matches, kinds, args)):
+        for function, signature in checked:
+            if signature.admits(args):
                 return function(*args)
         return getattr(jit_kernel(), name)(*args)
     call.__name__ = call.__qualname__ = name
-    call.__doc__ = variants[0].__doc__
+    call.__doc__ = variants[0][0].__doc__
     return call
 
 

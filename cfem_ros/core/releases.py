@@ -50,10 +50,13 @@ class Releases:
         self._joints_i = tables.joints_i
         self._joints_f = tables.joints_f
         self.due: Optional[float] = None
+        # the joints with a condition (angle, distance or force), and with a force one
+        self._conditional = np.isfinite(self.triggers[:, 1:]).any(axis=1)
+        self._by_force = np.isfinite(self.triggers[:, 3])
 
     def update(self, active: np.ndarray, line: np.ndarray):
         """Watch the active joints (``line``: each joint's line in the new plan)."""
-        watched = np.flatnonzero(active & np.isfinite(self.triggers[:, 1:]).any(axis=1))
+        watched = np.flatnonzero(active & self._conditional)
         self.watch = watched.astype(np.int64)
         limits = self.triggers[watched, 1:]
         self.watch_limits = np.ascontiguousarray(np.where(np.isfinite(limits), limits, np.inf))
@@ -73,7 +76,7 @@ class Releases:
         out = np.zeros((len(joints), 3))
         kernel.conditions(np.ascontiguousarray(y), self._joints_i, self._joints_f,
                           np.asarray(joints, dtype=np.int64), out)
-        if np.isfinite(self.triggers[joints, 3]).any():
+        if self._by_force[joints].any():
             out[:, 2] = np.linalg.norm(joint_forces(y), axis=1)[joints]
         return out
 
@@ -102,7 +105,7 @@ class Releases:
             the joints that reach it there, and the cause of each.
 
         """
-        watched = np.flatnonzero(active & np.isfinite(self.triggers[:, 1:]).any(axis=1))
+        watched = np.flatnonzero(active & self._conditional)
         if not watched.size:
             return None
         limits = self.triggers[watched, 1:]

@@ -14,6 +14,27 @@ import numpy as np
 SMALL = 64
 
 
+#: The rotation matrix of a unit quaternion (x, y, z, w), entry by entry, row by row:
+#: 1 - 2 (a + b) on the diagonal, 2 (a +- b) off it, a and b products of two components.
+_MATRIX = ('1-2(yy+zz)', '2(xy-wz)', '2(xz+wy)',
+           '2(xy+wz)', '1-2(xx+zz)', '2(yz-wx)',
+           '2(xz-wy)', '2(yz+wx)', '1-2(xx+yy)')
+
+
+def _matrix_terms(entries):
+    """Return the flat indices (into q_i q_j, 4 x 4) of each entry's a and b, and b's signs."""
+    index = {name: k for k, name in enumerate('xyzw')}
+    terms = [entry.split('(')[1].rstrip(')') for entry in entries]
+    first = [4 * index[term[0]] + index[term[1]] for term in terms]
+    second = [4 * index[term[3]] + index[term[4]] for term in terms]
+    signs = [1.0 if term[2] == '+' else -1.0 for term in terms]
+    return np.array(first), np.array(second), np.array(signs)
+
+
+_FIRST, _SECOND, _SIGN = _matrix_terms(_MATRIX)
+_DIAGONAL = np.array([k for k, entry in enumerate(_MATRIX) if entry.startswith('1-')])
+
+
 def matrices(quat_xyzw: np.ndarray) -> np.ndarray:
     """
     Rotation matrices of a stack of quaternions, normalizing them.
@@ -30,21 +51,14 @@ def matrices(quat_xyzw: np.ndarray) -> np.ndarray:
 
     """
     q = quat_xyzw / np.sqrt(np.einsum('ij,ij->i', quat_xyzw, quat_xyzw))[:, None]
-    x, y, z, w = q.T
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz = x * y, x * z, y * z
-    wx, wy, wz = w * x, w * y, w * z
-    out = np.empty((q.shape[0], 3, 3))
-    out[:, 0, 0] = 1 - 2 * (yy + zz)
-    out[:, 0, 1] = 2 * (xy - wz)
-    out[:, 0, 2] = 2 * (xz + wy)
-    out[:, 1, 0] = 2 * (xy + wz)
-    out[:, 1, 1] = 1 - 2 * (xx + zz)
-    out[:, 1, 2] = 2 * (yz - wx)
-    out[:, 2, 0] = 2 * (xz - wy)
-    out[:, 2, 1] = 2 * (yz + wx)
-    out[:, 2, 2] = 1 - 2 * (xx + yy)
-    return out
+    # the nine entries (``_MATRIX``) in a few whole-stack operations, not nine: a run
+    # computes many small stacks. The same bits as entry by entry: products commute
+    # exactly, and a - b is a + (-1) b in floating point
+    products = (q[:, :, None] * q[:, None, :]).reshape(-1, 16)
+    # C order, as callers expect: numpy's matrix products round differently on other layouts
+    out = np.ascontiguousarray(2.0 * (products[:, _FIRST] + _SIGN * products[:, _SECOND]))
+    out[:, _DIAGONAL] = 1.0 - out[:, _DIAGONAL]
+    return out.reshape(-1, 3, 3)
 
 
 def to_body(quat_xyzw: np.ndarray, vectors: np.ndarray) -> np.ndarray:
@@ -52,16 +66,32 @@ def to_body(quat_xyzw: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     return np.einsum('nji,nj->ni', matrices(quat_xyzw), vectors)
 
 
+#: The Hamilton product a * b, component by component (x, y, z, w): four products
+#: a_i b_j each, added and subtracted left to right.
+_PRODUCT = ('wx+xw+yz-zy', 'wy-xz+yw+zx', 'wz+xy-yx+zw', 'ww-xx-yy-zz')
+
+
+def _product_terms(components):
+    """Return the flat indices (into a_i b_j, 4 x 4) of each component's terms, and signs."""
+    index = {name: k for k, name in enumerate('xyzw')}
+    terms = [('+' + c[:2], c[2:5], c[5:8], c[8:]) for c in components]
+    flat = [[4 * index[t[1]] + index[t[2]] for t in row] for row in terms]
+    signs = [[1.0 if t[0] == '+' else -1.0 for t in row] for row in terms]
+    return np.array(flat), np.array(signs)
+
+
+_TERMS, _TERM_SIGNS = _product_terms(_PRODUCT)
+
+
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton products a * b of two stacks of quaternions, shape (..., 4)."""
-    ax, ay, az, aw = np.moveaxis(a, -1, 0)
-    bx, by, bz, bw = np.moveaxis(b, -1, 0)
-    return np.stack([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ], axis=-1)
+    a, b = np.asarray(a), np.asarray(b)
+    # in a few whole-stack operations (``_PRODUCT``), with the bits of the term-by-term
+    # sums: products commute exactly, and u - v is u + (-1) v in floating point
+    products = a[..., :, None] * b[..., None, :]
+    terms = products.reshape(products.shape[:-2] + (16,))[..., _TERMS] * _TERM_SIGNS
+    # C order, as callers expect (numpy's matrix products round differently on other layouts)
+    return np.ascontiguousarray(terms[..., 0] + terms[..., 1] + terms[..., 2] + terms[..., 3])
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:

@@ -118,3 +118,44 @@ print('numba' in sys.modules)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ['False', 'True', 'TypingError', 'TypingError', 'True',
                                    'True', 'True']
+
+
+def test_the_argument_check_admits_what_numba_types_as_the_kind():
+    # the compiled code trusts its arguments: the check before each call must
+    # admit exactly the values numba's own typing gives the compiled kinds (and
+    # aligned arrays only)
+    import numpy as np
+    from numba import typeof
+    from numba.core.errors import NumbaError
+    base = np.arange(24.0)
+    frozen = np.zeros((2, 3))
+    frozen.flags.writeable = False
+    misaligned = np.frombuffer(bytearray(8 * 7), dtype=np.float64, count=6, offset=1)
+    values = [base, base.reshape(4, 6), base.reshape(4, 6).T, base[::2],
+              base.reshape(4, 6)[:, ::2],
+              base.reshape(2, 3, 4), base.astype(np.float32), base.astype('>f8'),
+              base.astype(np.int64), base.astype(np.int64).reshape(4, 6), frozen, misaligned,
+              np.zeros((1, 1)), np.zeros((0, 0)), np.zeros((3, 1))[:, 0],
+              1.5, np.float64(1.5), np.float32(1.5), 3, np.int64(3), np.int32(3), True,
+              2 ** 63, -2 ** 63, 'text', None, [1.0]]
+    kinds = [['float64'], ['int64'], ['array', 'float64', 1, 'C', True],
+             ['array', 'float64', 2, 'C', True], ['array', 'float64', 2, 'F', True],
+             ['array', 'float64', 2, 'A', True], ['array', 'float64', 1, 'A', True],
+             ['array', 'float64', 2, 'C', False], ['array', 'float64', 3, 'C', True],
+             ['array', 'int64', 1, 'C', True], ['array', 'int64', 2, 'C', True]]
+    for value in values:
+        try:
+            numba_kind = aot._describe(typeof(value))
+        except (NumbaError, ValueError):   # a type numba does not take at all
+            numba_kind = None
+        if value is misaligned:   # numba types it as aligned; the compiled code assumes it
+            numba_kind = None
+        for kind in kinds:
+            assert aot._Signature([kind]).admits((value,)) == (numba_kind == kind), \
+                (value, kind, numba_kind)
+    signature = aot._Signature([['float64'], ['array', 'int64', 1, 'C', True], ['int64']])
+    good = (0.5, np.arange(3), 7)
+    assert signature.admits(good)
+    assert not signature.admits(good[:2]) and not signature.admits(good + (1,))
+    assert not signature.admits((good[0], good[1].astype(np.float64), good[2]))
+    assert not aot._Signature([['complex128']]).admits((1j,))

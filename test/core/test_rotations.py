@@ -33,3 +33,56 @@ def test_to_rpy_deg_is_scipys_small_and_large():
     assert np.array_equal(small, expected)                 # computed here, no scipy
     assert np.array_equal(rotations.to_rpy_deg(quats), expected)   # scipy, vectorized
     assert rotations.to_rpy_deg(quats[0]).shape == (3,)
+
+
+def _matrices_entry_by_entry(quat_xyzw):
+    """Return the rotation matrices as written out entry by entry (the reference)."""
+    q = quat_xyzw / np.sqrt(np.einsum('ij,ij->i', quat_xyzw, quat_xyzw))[:, None]
+    x, y, z, w = q.T
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    return np.stack([1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
+                     2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
+                     2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy)], axis=-1).reshape(-1, 3, 3)
+
+
+def _multiply_term_by_term(a, b):
+    """Return Hamilton products as written out term by term (the reference)."""
+    ax, ay, az, aw = np.moveaxis(a, -1, 0)
+    bx, by, bz, bw = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)
+
+
+def _quaternions(rng, n):
+    """Return random quaternions, signed zeros, exact axes, huge and tiny norms among them."""
+    quats = rng.normal(size=(n, 4)) * 10.0 ** rng.integers(-150, 150, (n, 1))
+    quats[::7, rng.integers(0, 4)] = 0.0
+    quats[::11, rng.integers(0, 4)] = -0.0
+    special = [[0, 0, 0, 1], [0, 0, 0, -1], [1, 0, 0, 0], [0, -0.0, 1, 0], [-0.0, 0, 0, 1],
+               [0.5, 0.5, 0.5, 0.5], [-0.0, -0.0, -0.0, -1]]
+    return np.concatenate([quats, special])
+
+
+def test_matrices_and_products_have_the_bits_of_the_written_out_formulas():
+    rng = np.random.default_rng(12)
+    quats = _quaternions(rng, 5000)
+    for n in (1, 2, 3, len(quats)):
+        got, want = rotations.matrices(quats[:n]), _matrices_entry_by_entry(quats[:n])
+        assert got.shape == want.shape == (n, 3, 3)
+        assert got.tobytes() == want.tobytes()   # signed zeros included
+        assert got.flags.c_contiguous   # numpy's matrix products round by layout
+    other = _quaternions(rng, 5000)
+    got = rotations.multiply(quats, other)
+    assert got.tobytes() == _multiply_term_by_term(quats, other).tobytes()
+    assert got.flags.c_contiguous
+    # broadcast stacks, one quaternion, and the shapes callers use
+    stack = quats[:12].reshape(3, 4, 4)
+    for a, b in ((stack, other[0]), (other[:1], stack[0]), (quats[3], other[4]),
+                 (stack[:, :1], stack)):
+        got, want = rotations.multiply(a, b), _multiply_term_by_term(a, b)
+        assert got.shape == want.shape and got.tobytes() == want.tobytes()
+        assert got.flags.c_contiguous

@@ -106,3 +106,35 @@ def test_the_table_is_the_same_on_any_number_of_threads(tmp_path):
     single = pd.DataFrame.from_records([sweep.run_one(k) for k in range(sweep.total)],
                                        columns=sweep.columns())
     pd.testing.assert_frame_equal(one, single, check_exact=True)
+
+
+def test_a_value_set_where_an_alias_points_shows_in_both_places(tmp_path):
+    # one list in two places (written as a YAML anchor and alias): the whole parse
+    # sets both, so every run is parsed whole
+    scenario = copy.deepcopy(STORE)
+    store, pivot = scenario['bodies']['store'], scenario['joints']['pivot']
+    store['velocity'] = store['position']
+    store['angular_velocity'] = pivot['axis']
+    for vary in ({'bodies.store.position[0]': {'uniform': [0.0, 0.01]}},
+                 {'joints.pivot.axis[2]': {'uniform': [0.0, 0.01]}}):
+        path = write_sweep(tmp_path, runs=2, scenario=scenario, vary=vary)
+        assert '&' in (tmp_path / 'scenario.yaml').read_text()
+        models = check_models(Sweep.from_file(path).spec)
+        assert models.touched == []
+    values = models.spec.run_values(0)
+    model = models.model(0, values)
+    assert model.bodies[1].rates_body[2] == values['joints.pivot.axis[2]'] != 0.0
+    assert model.joints[0].triad[0, 2] > 0.0
+
+
+def test_a_varied_value_is_set_on_copies_and_the_base_document_is_kept(tmp_path):
+    spec = Sweep.from_file(write_sweep(tmp_path, runs=3, vary={
+        'joints.pivot.anchor[0]': {'uniform': [-0.34, -0.32]},
+        'joints.pivot.release.angle_deg': {'choice': [8, 12]},
+        'bodies.store.inertia': {'choice': [[27, 488, 488], [28, 490, 490]]}})).spec
+    base = copy.deepcopy(spec.document)
+    models = check_models(spec)
+    assert models.touched == [('bodies', 'store'), ('joints', 'pivot')]
+    assert spec.document == base
+    [(document, _)] = models._bases.values()   # the task's parsed base: kept as it was
+    assert document == base
