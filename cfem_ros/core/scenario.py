@@ -1057,16 +1057,17 @@ def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
                 alpha=alpha, beta=beta, coefficients=table, damping=damping)
 
 
-def reparse(model: Model, document: Any, *, bodies=(), joints=(),
+def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool = False,
             source: str = '<scenario>') -> Model:
     """
-    Return a model with some bodies and joints parsed again from a document.
+    Return a model with some bodies and joints, and the wrenches, parsed again from a document.
 
     For sweeps: ``parse_scenario(document)`` where document differs from
     the one ``model`` was parsed from only inside the named bodies (not in
-    their ``fixed``) and joints, without parsing the rest again. A body's
-    parse reads nothing else, a joint's only the bodies' names and
-    ``fixed``, and the rest reads of a body only its name and ``fixed``:
+    their ``fixed``) and joints, and inside the wrenches if ``wrenches``,
+    without parsing the rest again. A body's parse reads nothing else, a
+    joint's and a wrench's only the bodies' names and ``fixed`` (and the
+    frame's name), and the rest reads of a body only its name and ``fixed``:
     so the result is the whole parse's, number for number, when it does
     not raise. A ``ScenarioError`` here may not be the first one the whole
     parse would name: parse the whole document for the message.
@@ -1084,6 +1085,11 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(),
     for name in joints:
         new_joints[model.joint_index(name)] = _parse_joint(
             check, name, top['joints'][name], index, new_bodies)
+    new_wrenches = model.wrenches
+    if wrenches:
+        new_wrenches = _parse_wrenches(check, top.get('wrenches'), index, new_bodies,
+                                       model.frame_id)
     default_name = os.path.splitext(os.path.basename(source))[0]
     return dataclasses.replace(model, name=top.get('name', default_name),
-                               bodies=tuple(new_bodies), joints=tuple(new_joints))
+                               bodies=tuple(new_bodies), joints=tuple(new_joints),
+                               wrenches=new_wrenches)

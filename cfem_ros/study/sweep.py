@@ -66,7 +66,10 @@ def numeric(variable) -> bool:
 
 
 def _section(tokens, document) -> Optional[tuple]:
-    """Return ('bodies'|'joints', name) if a key path lies inside one, else None."""
+    """Return ('bodies'|'joints', name) or ('wrenches', '') if a key path lies inside one."""
+    if len(tokens) >= 3 and tokens[0] == 'wrenches' and isinstance(tokens[1], int) \
+            and isinstance(document.get('wrenches'), list):
+        return 'wrenches', ''
     if len(tokens) < 3 or tokens[0] not in ('bodies', 'joints') \
             or not isinstance(tokens[1], str) or tokens[:3] == ('bodies', tokens[1], 'fixed'):
         return None
@@ -90,9 +93,10 @@ class Models:
     """
     The runs' models, the base scenario parsed once per task.
 
-    A key path inside a body (but its ``fixed``) or a joint only needs that
-    body or joint parsed again (``scenario.reparse``); the others (``dt``,
-    wrenches, ...) need a whole parse, done once per distinct set of their
+    A key path inside a body (but its ``fixed``), a joint or a wrench only
+    needs that body or joint, or the wrenches, parsed again
+    (``scenario.reparse``); the others (``dt``, ``aero``, ...) need a whole
+    parse, done once per distinct set of their
     values if they are choices or grids (a run drawing numbers for them is
     parsed whole). A run whose values do not parse is parsed whole again,
     so that its message is the whole parse's. A document in which one
@@ -108,7 +112,7 @@ class Models:
         self.slow = [v for v in spec.variables if sections[v.path] is None]
         if any(v.kind in RANDOM_NUMBERS for v in self.slow) or _shared(spec.document):
             self.touched = []   # a whole parse per run
-        self.inside = {s: [v for v in spec.variables if v.tokens[:2] == s]
+        self.inside = {s: [v for v in spec.variables if sections[v.path] == s]
                        for s in self.touched}
         self._bases = {}
         self._lock = threading.Lock()
@@ -139,13 +143,19 @@ class Models:
         try:
             top = dict(document)
             for kind, name in self.touched:
+                if kind == 'wrenches':
+                    part = top[kind] = list(document[kind])
+                    for variable in self.inside[kind, name]:
+                        _set_copying(part, variable.tokens[1:], values[variable.path])
+                    continue
                 top[kind] = dict(top[kind])
                 part = top[kind][name] = dict(document[kind][name])
                 for variable in self.inside[kind, name]:
                     _set_copying(part, variable.tokens[2:], values[variable.path])
             return reparse(model, top, source=_source(self.spec, k),
                            bodies=[n for kind, n in self.touched if kind == 'bodies'],
-                           joints=[n for kind, n in self.touched if kind == 'joints'])
+                           joints=[n for kind, n in self.touched if kind == 'joints'],
+                           wrenches=('wrenches', '') in self.touched)
         except Exception:   # noqa: B902
             return self.full(k, values)
 

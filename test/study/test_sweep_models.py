@@ -76,12 +76,25 @@ def test_the_example_sweep_and_the_ejectors_give_the_whole_parse(tmp_path):
         '  wrenches[1].force[2]: {normal: [42703, 500]}\n'
         'metrics: {clearance: [{bodies: [store, pylon]}]}\n')
     models = check_models(Sweep.from_file(str(sweep)).spec)
-    assert models.touched == [] and not models._bases   # a force drawn: whole parses
+    # a force drawn: the wrenches parsed again with the body, no whole parse
+    assert models.touched == [('bodies', 'store'), ('wrenches', '')]
+    assert len(models._bases) == 1
     sweep.write_text(sweep.read_text().replace('{normal: [42703, 500]}',
                                                '{choice: [42000, 43000]}'))
     models = check_models(Sweep.from_file(str(sweep)).spec)
-    assert models.touched == [('bodies', 'store')]
-    assert 1 <= len(models._bases) <= 2   # one whole parse per force chosen
+    assert models.touched == [('bodies', 'store'), ('wrenches', '')]
+    # a wrench's body, frame and table too; a value the wrench refuses gets the whole
+    # parse's message
+    sweep.write_text(sweep.read_text().replace(
+        '  wrenches[1].force[2]: {choice: [42000, 43000]}\n',
+        '  wrenches[1].force[2]: {choice: [42000, 43000]}\n'
+        '  wrenches[0].frame: {choice: [store, world, pylon]}\n'
+        '  wrenches[0].force[0]: {grid: [0.0, 1.0e3, .nan]}\n'))
+    spec = Sweep.from_file(str(sweep)).spec
+    models = check_models(spec)
+    assert models.touched == [('bodies', 'store'), ('wrenches', '')]
+    messages = {r['message'] for r in run_rows(spec, range(spec.total)) if r['message']}
+    assert any('wrenches[0].force' in m for m in messages), messages
 
 
 def test_invalid_values_give_the_whole_parse_message(tmp_path):
