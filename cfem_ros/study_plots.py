@@ -14,7 +14,9 @@ from __future__ import annotations
 import glob
 import json
 import os
+import sys
 
+from cfem_ros import plots
 from cfem_ros.core import rotations
 from cfem_ros.recording.analysis import open_run
 import matplotlib
@@ -47,26 +49,66 @@ def varied_columns(table, manifest: dict) -> list:
     return [v[0] for v in vary if v[0] in table.columns]
 
 
-def histogram_figure(table, column: str):
-    """Histogram of a metric over the runs that finished, with its 5/50/95 percentiles."""
-    ok = table['status'] == 'ok'
+def drawn_values(table, column: str) -> np.ndarray:
+    """
+    Return a metric's finite values over the runs that finished, as the figures draw them.
+
+    A joint's peak moment below ``plots.ROUNDING`` times that joint's largest
+    load in the run (its peak moment, or its peak force on a 1 m lever arm)
+    is rounding and drawn as zero, as in the figures of a run.
+    """
+    ok = (table['status'] == 'ok').to_numpy()
     values = table.loc[ok, column].to_numpy(dtype=float)
-    values = values[np.isfinite(values)]
+    force = 'peak_force_' + column[len('peak_moment_'):]
+    if column.startswith('peak_moment_') and force in table.columns:
+        scale = np.fmax(np.abs(values), np.abs(table.loc[ok, force].to_numpy(dtype=float)))
+        values = np.where(np.abs(values) <= plots.ROUNDING * scale, 0.0, values)
+    return values[np.isfinite(values)]
+
+
+def at_rounding_level(values: np.ndarray) -> bool:
+    """Return whether values spread by no more than ROUNDING x their largest magnitude."""
+    if not len(values):
+        return False
+    return float(values.max() - values.min()) <= plots.ROUNDING * float(np.abs(values).max())
+
+
+def histogram_figure(table, column: str):
+    """
+    Histogram of a metric over the runs that finished, with its 5/50/95 percentiles.
+
+    A metric whose spread is rounding (see ``at_rounding_level``) is drawn
+    as one value with a note instead.
+    """
+    ok = table['status'] == 'ok'
+    values = drawn_values(table, column)
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.hist(values, bins=max(10, min(60, int(np.sqrt(len(values))) * 2)), color='tab:blue',
-            alpha=0.8)
-    if len(values):
-        for p, value in zip(PERCENTILES, np.percentile(values, PERCENTILES)):
-            ax.axvline(value, color='tab:red', linestyle='--', linewidth=1.0)
-            ax.annotate(f'P{p} = {value:.6g}', xy=(value, 1.0),
-                        xycoords=('data', 'axes fraction'), xytext=(3, -12 - p // 10),
-                        textcoords='offset points', color='tab:red', fontsize=8,
-                        rotation=90, va='top')
+    if at_rounding_level(values):
+        raw = table.loc[ok, column].to_numpy(dtype=float)
+        raw = raw[np.isfinite(raw)]
+        value = float(np.median(values))
+        ax.axvline(value, color='tab:blue', linewidth=2.0)
+        ax.text(0.02, 0.95, f'{column} = {value:.6g} in every run: its values '
+                f'({raw.min():.6g} to {raw.max():.6g}) differ by rounding only\n'
+                f'(within {plots.ROUNDING:g} of the largest, or of the largest load of '
+                'the joint), so no histogram', transform=ax.transAxes, fontsize=8,
+                va='top')
+        ax.set_yticks([])
+    else:
+        ax.hist(values, bins=max(10, min(60, int(np.sqrt(len(values))) * 2)),
+                color='tab:blue', alpha=0.8)
+        if len(values):
+            for p, value in zip(PERCENTILES, np.percentile(values, PERCENTILES)):
+                ax.axvline(value, color='tab:red', linestyle='--', linewidth=1.0)
+                ax.annotate(f'P{p} = {value:.6g}', xy=(value, 1.0),
+                            xycoords=('data', 'axes fraction'), xytext=(3, -12 - p // 10),
+                            textcoords='offset points', color='tab:red', fontsize=8,
+                            rotation=90, va='top')
+        ax.set_ylabel('runs')
     failed = int((~ok).sum())
     note = f', {failed} failed (not shown)' if failed else ''
     ax.set_title(f'{column}: {len(values)} runs{note}', fontsize=10, loc='left')
     ax.set_xlabel(column)
-    ax.set_ylabel('runs')
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return fig
@@ -114,14 +156,17 @@ def envelope_figure(recordings, parent: str, child: str):
 
     Each run is a thin line in the parent's x-z plane and against time;
     the shaded band is the least and largest value over the runs at each
-    sample time the runs share.
+    sample time the runs share, its edges drawn over the runs. With gravity
+    along +z (z down) the z axes point down, as in ``cfem-sim plot`` of a run.
     """
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     tracks = []
+    z_down = False
     for path in recordings:
         run = open_run(path)
         if parent not in run.bodies or child not in run.bodies:
             continue
+        z_down = z_down or plots._z_down(run)
         p, c = run.bodies[parent], run.bodies[child]
         rot = rotations.matrices(p.quaternion)
         rel = np.einsum('nji,nj->ni', rot, c.position - p.position)
@@ -131,8 +176,11 @@ def envelope_figure(recordings, parent: str, child: str):
     if tracks:
         n = min(len(t) for t, _ in tracks)
         z = np.array([rel[:n, 2] for _, rel in tracks])
-        axes[1].fill_between(tracks[0][0][:n], z.min(axis=0), z.max(axis=0),
-                             color='tab:orange', alpha=0.3, label='envelope')
+        t = tracks[0][0][:n]
+        axes[1].fill_between(t, z.min(axis=0), z.max(axis=0), color='tab:orange',
+                             alpha=0.25, zorder=3, label='envelope')
+        for edge in (z.min(axis=0), z.max(axis=0)):
+            axes[1].plot(t, edge, color='tab:orange', linewidth=1.5, zorder=4)
         axes[1].legend(fontsize=8)
     axes[0].set_xlabel(f'x in {parent} axes [m]')
     axes[0].set_ylabel(f'z in {parent} axes [m]')
@@ -142,8 +190,31 @@ def envelope_figure(recordings, parent: str, child: str):
     axes[1].set_ylabel(f'z in {parent} axes [m]')
     for ax in axes:
         ax.grid(True, alpha=0.3)
+        if z_down:
+            ax.invert_yaxis()
     fig.tight_layout()
     return fig
+
+
+def default_metric(table, metrics: list):
+    """
+    Return (the metric the scatter figure draws by default, a note or None).
+
+    The first clearance minimum, or when it is the same in every run the
+    first metric that varies; the note says so.
+    """
+    is_min = [c for c in table.columns if c.startswith('clearance_') and c.endswith('_min')]
+    chosen = next((m for m in metrics if m in is_min), metrics[0] if metrics else None)
+    first = is_min[0] if is_min else None
+    if first is None or first == chosen:
+        return chosen, None
+    values = table[first].to_numpy(dtype=float)
+    values = values[np.isfinite(values)]
+    same = (f'the same in every run ({values[0]:.6g})' if len(values)
+            else 'not a number in any run')
+    instead = (f'the scatter figure draws {chosen} instead' if chosen
+               else 'no metric varies: no scatter figure')
+    return chosen, f'cfem-sim plot: {first} is {same}; {instead} (choose with --metric)'
 
 
 def _save(fig, path: str) -> str:
@@ -168,8 +239,9 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
         manifest = json.load(stream)
     metrics = metric_columns(table, manifest)
     if metric is None:
-        metric = next((m for m in metrics if m.startswith('clearance_') and m.endswith('_min')),
-                      metrics[0] if metrics else None)
+        metric, note = default_metric(table, metrics)
+        if note:
+            print(note, file=sys.stderr)
     elif metric not in table.columns:
         raise ValueError(f'--metric: {metric!r} is not a column of the table; expected one of '
                          + ', '.join(metrics))
