@@ -389,10 +389,17 @@ def _dask_client(workers: Optional[int], scheduler: Optional[str]):
         client = Client(scheduler, timeout='30s')
         client.wait_for_workers(1, timeout=60)
         return client, None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=':0',
-                           silence_logs=logging.ERROR)
-    return Client(cluster), cluster
+    # the worker processes start with SIGINT ignored (and keep it so): a Ctrl-C at the
+    # terminal, sent to every process of the group, stops only this one, which then closes
+    # the cluster (no tracebacks from the workers, no leaked semaphores)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+                               threads_per_worker=1, processes=True, dashboard_address=':0',
+                               silence_logs=logging.ERROR)
+        return Client(cluster), cluster
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _study_imports():
@@ -407,6 +414,18 @@ def _study_imports():
                          '(dask[distributed], pandas, pyarrow)') from None
     from cfem_ros import study
     return study
+
+
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def _close(client, cluster):
+    """Close a Dask client and its local cluster (either may be None)."""
+    if client is not None:
+        client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
@@ -428,18 +447,29 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
           file=sys.stderr)
     started = time.monotonic()
     client = cluster = None
+    # SIGINT and SIGTERM stop the waiting here, so that the cluster is closed (no leaked
+    # worker processes or semaphores) and the user is told what is kept
+    previous = [signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)]
     try:
         if todo:
             client, cluster = _dask_client(workers, scheduler)
         meter = Progress(total, total - len(todo))
         table = sweep.run(client, outdir, record=record, csv=csv, progress=meter.update)
+    except Interrupted as stop:
+        for s in (signal.SIGINT, signal.SIGTERM):   # a second one ends at once
+            signal.signal(s, exit_now)
+        _close(client, cluster)
+        client = cluster = None
+        from cfem_ros.study.sweep import saved_runs
+        print(f'\ninterrupted by {stop}: {saved_runs(outdir)} of {total} runs are saved in '
+              f'{outdir}; run the same command again to resume', file=sys.stderr)
+        return stop.exit_status
     except OSError as err:
         return _error(f'{scheduler or "local cluster"}: {err}')
     finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        _close(client, cluster)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
     failed = int((table['status'] == 'failed').sum())
     wall = time.monotonic() - started
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '

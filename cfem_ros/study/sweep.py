@@ -316,6 +316,13 @@ def _done_runs(outdir: str) -> set:
     return done
 
 
+def saved_runs(outdir: str) -> int:
+    """Return how many runs the finished parts in outdir hold (touching nothing)."""
+    import pyarrow.parquet as pq
+    return len(set().union(*[pq.read_table(path, columns=['run']).column('run').to_pylist()
+                             for path in glob.glob(os.path.join(outdir, 'parts', '*.parquet'))]))
+
+
 def prepare(spec: SweepSpec, outdir: str, record: str = 'none') -> list:
     """
     Make or reopen a sweep folder; return the runs still to do.

@@ -85,7 +85,8 @@ def test_a_sweep_runs_on_a_separate_scheduler_and_workers(tmp_path):
             _stop(process)
 
 
-def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tmp_path):
+@pytest.mark.parametrize('sig', [signal.SIGKILL, signal.SIGINT], ids=['SIGKILL', 'SIGINT'])
+def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tmp_path, sig):
     path = write_sweep(tmp_path, runs=50)
     out = str(tmp_path / 'out')
     command = [sys.executable, '-m', 'cfem_ros.cli', 'sweep', path, '-o', out,
@@ -97,13 +98,27 @@ def test_a_killed_sweep_resumes_without_losing_or_repeating_runs(tmp_path):
     try:
         while not glob.glob(parts) and process.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
+        # to the whole group, as a terminal's Ctrl-C: the client, its cluster and workers
+        os.killpg(process.pid, sig)
+        status = process.wait(STARTUP)
     finally:
-        os.killpg(process.pid, signal.SIGKILL)   # the client, its cluster and workers
+        try:
+            os.killpg(process.pid, signal.SIGKILL)   # whatever is left of the group
+        except ProcessLookupError:
+            pass
         process.wait(10)
-    assert glob.glob(parts), process.stderr.read().decode()
+    time.sleep(0.5)   # anything the workers or the resource tracker would still say
+    stderr = process.stderr.read().decode()
+    assert glob.glob(parts), stderr
     assert not os.path.exists(os.path.join(out, 'results.parquet'))
     done = sum(len(pd.read_parquet(p)) for p in glob.glob(parts))
     assert 0 < done < 100
+    if sig == signal.SIGINT:   # stopped cleanly: what is kept and how to go on, nothing else
+        assert status == 130, stderr
+        assert stderr.splitlines()[-1] == (
+            f'interrupted by SIGINT: {done} of 100 runs are saved in {out}; '
+            'run the same command again to resume'), stderr
+        assert 'Traceback' not in stderr and 'leaked' not in stderr, stderr
     # a different sweep is refused in that folder
     os.makedirs(tmp_path / 'other')
     other = write_sweep(tmp_path / 'other', runs=50, seed=8)
