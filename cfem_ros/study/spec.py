@@ -123,8 +123,9 @@ def _step(node, token, path):
     if not isinstance(node, dict):
         raise KeyError(f'{format_key_path(path[:-1]) or "the document"} is {_kind(node)}, '
                        'not a mapping')
-    if token not in node:
-        raise KeyError(f'{format_key_path(path)} does not exist in the scenario')
+    if token not in node:   # with the keys there are, for the message
+        raise KeyError(f'{format_key_path(path)} does not exist in the scenario',
+                       [format_key_path([*path[:-1], str(key)]) for key in node])
     return node[token]
 
 
@@ -297,8 +298,11 @@ def _load_yaml(path: str, what: str):
     try:
         return load_yaml(read_text(path), source=path)
     except ScenarioError as err:
-        raise SweepError(path, err.key, err.problem, err.expected or f'a readable {what}') \
-            from err
+        expected = err.expected or f'a readable {what}'
+        if 'SPEC section 6' in what and 'SPEC section 1' in expected:
+            expected = ('a YAML mapping as in SPEC section 6 (key paths with brackets '
+                        "in a [...] list must be quoted: ['wrenches[1].force[2]', dt])")
+        raise SweepError(path, err.key, err.problem, expected) from err
 
 
 def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
@@ -405,8 +409,10 @@ def _parse_vary(fail, vary, base) -> list:
         try:
             _, _, existing, exists = resolve(base, tokens)
         except KeyError as err:
-            fail(key, f'{err.args[0]}', 'a key path to a value of the base scenario '
-                 '(or a new key under one of its mappings)')
+            there = ('one of ' + ', '.join(err.args[1]) + ' (' if len(err.args) > 1
+                     and err.args[1] else '(')
+            fail(key, f'{err.args[0]}', there + 'a key path to a value of the base '
+                 'scenario, or a new key under one of its mappings)')
         if not isinstance(spec, dict) or len(spec) != 1:
             fail(key, f'is {_show(spec)}', 'one distribution: ' + ', '.join(
                 f'{{{name}: {what}}}' for name, what in DISTRIBUTIONS.items()))

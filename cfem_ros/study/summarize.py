@@ -26,7 +26,9 @@ def summarize_file(path: str, metrics) -> dict:
         row.update(compute(from_run(run), metrics))
     except (CfemError, KeyError, ValueError, OSError) as err:
         message = err.args[0] if isinstance(err, KeyError) else str(err)
-        row.update(status='failed', message=f'{path}: {message}')
+        if not message.startswith(f'{path}: '):   # the reader's messages name the file
+            message = f'{path}: {message}'
+        row.update(status='failed', message=message)
         row.update(empty(metrics))
     return row
 

@@ -117,3 +117,45 @@ def test_every_shipped_sweep_file_loads():
         spec = load_sweep(os.path.join(folder, name))
         assert spec.total == spec.runs * 2   # the dt grid
         assert spec.run_document(0)['bodies']['store']['mass'] != 907.1848
+
+
+@pytest.mark.parametrize('path, missing, there', [
+    ('bodies.stor.mass', 'bodies.stor', 'bodies.pylon, bodies.store'),
+    ('joints.pivot.relase.angle_deg', 'joints.pivot.relase',
+     'joints.pivot.anchor, joints.pivot.axis, joints.pivot.child, joints.pivot.parent, '
+     'joints.pivot.release, joints.pivot.type'),
+])
+def test_a_typo_inside_a_key_path_names_the_keys_there_are(tmp_path, capsys, path,
+                                                           missing, there):
+    sweep = write_sweep(tmp_path, vary={path: {'uniform': [1, 2]}})
+    assert cli.main(['sweep', sweep, '-o', str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f'ERROR: {sweep}: vary.{path}: {missing} does not exist in the scenario; '
+                   f'expected one of {there} (a key path to a value of the base scenario, '
+                   'or a new key under one of its mappings)')
+
+
+def test_a_sweep_file_that_is_not_yaml_points_to_section_6(tmp_path, capsys):
+    write_sweep(tmp_path)
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('scenario: scenario.yaml\nvary:\n  a: {uniform: [1, 2]}\n  - x\n')
+    assert cli.main(['sweep', str(bad), '-o', str(tmp_path / 'out')]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f'ERROR: {bad}: line 4, column 3: not valid YAML'), err
+    assert err.endswith('expected a YAML mapping as in SPEC section 6 (key paths with '
+                        "brackets in a [...] list must be quoted: ['wrenches[1].force[2]', "
+                        'dt])'), err
+    assert 'section 1' not in err
+
+
+def test_summarize_names_an_unreadable_file_once(tmp_path, capsys):
+    sweep = write_sweep(tmp_path)
+    foreign = tmp_path / 'flight.mcap'
+    foreign.write_text('not a recording')
+    out = str(tmp_path / 'table.parquet')
+    assert cli.main(['summarize', str(foreign), '--metrics', sweep, '-o', out]) == 1
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if str(foreign) in line]
+    assert len(lines) == 1 and lines[0].count(str(foreign)) == 1, err
+    assert lines[0].strip().startswith(f'{foreign}: '), err
