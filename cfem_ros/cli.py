@@ -342,6 +342,17 @@ def _plot_sweep(outdir: str, directory: str, metric: Optional[str]) -> int:
     return EXIT_OK
 
 
+def _compared_span(a, b):
+    """Return (first, last) of the times both runs' shared bodies cover, or None."""
+    spans = [(max(ta.time[0], tb.time[0]), min(ta.time[-1], tb.time[-1]))
+             for name, ta in a.bodies.items()
+             for tb in [b.bodies.get(name)] if tb is not None and len(ta.time) and len(tb.time)]
+    spans = [(float(lo), float(hi)) for lo, hi in spans if lo <= hi]
+    if not spans:
+        return None
+    return min(lo for lo, _ in spans), max(hi for _, hi in spans)
+
+
 def cmd_compare(first: str, second: str, directory: Optional[str] = None, maps=()) -> int:
     """Print the largest differences of two recordings (and overlay figures); exit 0 or 2."""
     from cfem_ros.recording import analysis   # the reader only for the commands that read
@@ -361,6 +372,13 @@ def cmd_compare(first: str, second: str, directory: Optional[str] = None, maps=(
         return _error(f'{first} and {second} share no body or joint; nothing to compare')
     print(f'A = {first}')
     print(f"B = {second} (interpolated onto A's sample times)")
+    span = _compared_span(a, b)
+    if span:
+        print(f"compared: t = {span[0]:.6g} to {span[1]:.6g} s (A's samples inside B's "
+              'span); every column is over these times only')
+    print('vectors: the largest component (position: world axes; rates p, q, r and '
+          'velocity u, v, w: body axes)')
+    print("attitude: the angle from A's attitude to B's; its max |A|: A's turn from its start")
     width = max(len(r.quantity) for r in rows)
     print(f'{"quantity":<{width}}  {"max |A - B|":>12}  {"unit":<5}  {"at t [s]":>10}  '
           f'{"max |A|":>12}  {"samples":>7}')

@@ -481,9 +481,16 @@ class Difference:
     samples: int
 
 
+def _overlap(t_a, t_b):
+    """Tell which of A's times lie inside B's span (a boolean mask; all False if B is empty)."""
+    if not len(t_b):
+        return np.zeros(len(t_a), dtype=bool)
+    return (t_a >= t_b[0] - 1e-12) & (t_a <= t_b[-1] + 1e-12)
+
+
 def _resampled_difference(t_a, values_a, t_b, values_b):
     """Differences of A and B at A's times inside B's span (B linearly interpolated)."""
-    inside = (t_a >= t_b[0] - 1e-12) & (t_a <= t_b[-1] + 1e-12) if len(t_b) else t_a < -1
+    inside = _overlap(t_a, t_b)
     t = t_a[inside]
     ours = values_a[inside]
     theirs = np.column_stack([np.interp(t, t_b, values_b[:, k])
@@ -501,7 +508,7 @@ def attitude_difference_deg(a: BodyTrack, b: BodyTrack):
     """
     if not len(a.time) or not len(b.time):
         return np.zeros(0), np.zeros(0)
-    inside = (a.time >= b.time[0] - 1e-12) & (a.time <= b.time[-1] + 1e-12)
+    inside = _overlap(a.time, b.time)
     t = a.time[inside]
     theirs = np.repeat(b.quaternion[:1], len(t), axis=0)
     if len(b.time) > 1:
@@ -538,10 +545,14 @@ def compare_runs(a: Run, b: Run) -> tuple:
     Compare the bodies and joints two runs share, quantity by quantity.
 
     B is interpolated linearly onto A's sample times where they differ (only
-    inside B's time span). Quantities: ``<body> position`` (m, world),
-    ``attitude`` (the angle of the rotation from A's attitude to B's, deg;
-    B's quaternions interpolated by slerp), ``rates`` (body, deg/s),
-    ``velocity`` (body axes, m/s); ``<joint> force`` (N), ``moment`` (N m),
+    inside B's time span: every column, ``max_abs``, ``at_time`` and
+    ``scale`` (max |A|), is over these compared times only). A vector's
+    difference and scale are its largest component. Quantities:
+    ``<body> position`` (m, world axes), ``attitude`` (the angle of the
+    rotation from A's attitude to B's, deg; B's quaternions interpolated by
+    slerp; scale: A's turn from its first sample), ``rates`` (body axes,
+    deg/s), ``velocity`` (CG velocity in body axes u, v, w, m/s);
+    ``<joint> force`` (N), ``moment`` (N m),
     ``release`` (time, s); with a carrier in A (``Run.relative``),
     ``<body> position in <carrier> axes`` (m: B's relative track, or B's
     body and carrier poses). Returns (differences, only_in_a, only_in_b), where
@@ -567,7 +578,9 @@ def compare_runs(a: Run, b: Run) -> tuple:
         t, angle = attitude_difference_deg(ta, tb)
         if len(t):
             k = int(np.argmax(angle))
-            turned = rotations.angle_between(ta.quaternion[:1], ta.quaternion)   # from its start
+            # A's turn from its start, at the compared times only (as every other column)
+            turned = rotations.angle_between(ta.quaternion[:1],
+                                             ta.quaternion[_overlap(ta.time, tb.time)])
             rows.append(Difference(f'{name} attitude', 'deg', float(angle[k]), float(t[k]),
                                    float(np.degrees(turned.max())), len(t)))
         else:

@@ -298,3 +298,42 @@ def test_bad_files_exit_2_with_a_clear_message(store, tmp_path, capsys, command)
             assert f'cfem-sim recover {path} -o FIXED.mcap' in err, err
     with pytest.raises(RecordingError):
         analysis.open_run(str(cut))
+
+
+def test_compare_of_runs_of_different_lengths_is_over_the_overlap_only(store, tmp_path, capsys):
+    short = tmp_path / 'short.mcap'
+    assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(short),
+                     '--duration', '1.0', '--rate', '30']) == 0
+    a, b = analysis.open_run(str(store)), analysis.open_run(str(short))
+    rows = {r.quantity: r for r in analysis.compare_runs(a, b)[0]}
+    ta, tb = a.bodies['store'], b.bodies['store']
+    assert ta.time[-1] == 1.5 and tb.time[-1] == 1.0
+    inside = ta.time <= 1.0 + 1e-12
+    assert inside.sum() == 101
+    by_hand = {
+        'store position': np.abs(ta.position[inside]).max(),
+        'store velocity': np.abs(ta.velocity[inside]).max(),
+        'store rates': np.abs(np.degrees(ta.rates[inside])).max(),
+        # A's turn from its first attitude, from scipy (independent of rotations.py)
+        'store attitude': np.degrees(
+            (Rotation.from_quat(ta.quaternion[0]).inv()
+             * Rotation.from_quat(ta.quaternion[inside])).magnitude()).max(),
+    }
+    for quantity, value in by_hand.items():
+        assert rows[quantity].samples == 101, quantity
+        assert math.isclose(rows[quantity].scale, value, rel_tol=1e-9), quantity
+        assert rows[quantity].at_time <= 1.0, quantity
+    # the store tumbles on after t = 1 s: the whole run's turn would be much larger
+    whole = np.degrees((Rotation.from_quat(ta.quaternion[0]).inv()
+                        * Rotation.from_quat(ta.quaternion)).magnitude()).max()
+    assert whole > by_hand['store attitude'] + 20.0
+    pivot_a, pivot_b = a.joints['pivot'], b.joints['pivot']
+    joint_inside = (pivot_a.time >= pivot_b.time[0]) & (pivot_a.time <= pivot_b.time[-1])
+    assert math.isclose(rows['pivot force'].scale,
+                        np.abs(pivot_a.force[joint_inside]).max(), rel_tol=1e-12)
+    capsys.readouterr()
+    assert cli.main(['compare', str(store), str(short)]) == 0
+    out = capsys.readouterr().out
+    assert 'compared: t = 0 to 1 s' in out and 'velocity u, v, w: body axes' in out
+    attitude = next(line for line in out.splitlines() if line.startswith('store attitude'))
+    assert math.isclose(float(attitude.split()[5]), by_hand['store attitude'], rel_tol=1e-3)
