@@ -393,13 +393,20 @@ def _part_of(spec: SweepSpec, runs) -> SweepSpec:
 
 
 class Progress:
-    """A progress line on stderr: runs done, failures, runs/s, ETA."""
+    """
+    A progress line on stderr: runs done, failures, runs/s, ETA.
+
+    On a terminal the line is rewritten in place (ended when every run is
+    done); to a file or pipe each finished task adds a line.
+    """
 
     def __init__(self, total: int, done: int, stream=None):
         self.total, self.done, self.failed = total, done, 0
         self.start_done = done
         self.started = time.monotonic()
         self.stream = stream or sys.stderr
+        isatty = getattr(self.stream, 'isatty', None)
+        self.in_place = bool(isatty and isatty())
 
     def update(self, runs: int, failed: int):
         """Count a finished task and print the line."""
@@ -408,8 +415,13 @@ class Progress:
         spent = max(time.monotonic() - self.started, 1e-9)
         rate = (self.done - self.start_done) / spent
         eta = (self.total - self.done) / rate if rate > 0 else math.inf
-        print(f'sweep: {self.done}/{self.total} runs, {self.failed} failed, '
-              f'{rate:.1f} runs/s, ETA {eta:.0f} s', file=self.stream, flush=True)
+        line = (f'sweep: {self.done}/{self.total} runs, {self.failed} failed, '
+                f'{rate:.1f} runs/s, ETA {eta:.0f} s')
+        if self.in_place:
+            end = '\n' if self.done >= self.total else ''
+            print(f'\r{line}\x1b[K', end=end, file=self.stream, flush=True)
+        else:
+            print(line, file=self.stream, flush=True)
 
 
 class Sweep:
