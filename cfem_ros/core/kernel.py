@@ -1362,3 +1362,48 @@ def motion_place(y, bodies, offset):
 def motion_set_time(bodies, t):
     """Write the time of the step's start into the kinematic bodies' columns."""
     motion.set_time(bodies, t)
+
+
+# ------------------------------------------------------- run metrics (study.metrics)
+
+@numba.njit(**_NRT)
+def clearance(pos_a, quat_a, points_a, pos_b, quat_b, points_b, out):
+    """
+    Write the least distance between points on two bodies over samples into out.
+
+    pos_* (k, 3), quat_* (k, 4): the bodies' CG positions and attitudes
+    (x y z w, body to world, normalized here) at the same k samples;
+    points_* (p, 3): points in body axes. out[:4]: the distance, m, and the
+    sample, point on a and point on b where it is least (the first in that
+    order if several tie); inf and -1 with no sample or no point.
+    """
+    out[0], out[1], out[2], out[3] = np.inf, -1.0, -1.0, -1.0
+    world_a = np.empty((points_a.shape[0], 3))
+    world_b = np.empty((points_b.shape[0], 3))
+    for k in range(pos_a.shape[0]):
+        _world_points(pos_a[k], quat_a[k], points_a, world_a)
+        _world_points(pos_b[k], quat_b[k], points_b, world_b)
+        for i in range(world_a.shape[0]):
+            for j in range(world_b.shape[0]):
+                dx = world_a[i, 0] - world_b[j, 0]
+                dy = world_a[i, 1] - world_b[j, 1]
+                dz = world_a[i, 2] - world_b[j, 2]
+                distance = np.sqrt(dx * dx + dy * dy + dz * dz)
+                if distance < out[0]:
+                    out[0], out[1], out[2], out[3] = distance, k, i, j
+
+
+@numba.njit(**_JIT)
+def _world_points(position, quat, points, out):
+    """Write body-axis points at a CG position and attitude (normalized here) in world."""
+    norm = np.sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2]
+                   + quat[3] * quat[3])
+    x, y, z, w = quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm
+    r00, r01, r02 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
+    r10, r11, r12 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
+    r20, r21, r22 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+    for i in range(points.shape[0]):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        out[i, 0] = position[0] + (r00 * px + r01 * py + r02 * pz)
+        out[i, 1] = position[1] + (r10 * px + r11 * py + r12 * pz)
+        out[i, 2] = position[2] + (r20 * px + r21 * py + r22 * pz)

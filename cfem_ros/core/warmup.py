@@ -117,6 +117,9 @@ def warm_up() -> float:
                              [0, 0.01, 0])
         carrier.advance_to(0.05)
         carrier.joint_wrenches()
+        points = np.zeros((2, 3))   # study.metrics' clearance
+        attitudes = np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+        kernel.clearance(points, attitudes, points, points, attitudes, points, np.empty(4))
     finally:
         logging.getLogger('cfem_ros').disabled = was
     return time.monotonic() - started

@@ -13,6 +13,7 @@ bit, so ``compute`` gives the same metrics for a run and its recording.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import math
 
 from cfem_ros.core import rotations
 import numpy as np
@@ -138,10 +139,43 @@ class Collector:
         return Samples(bodies=bodies, joints=joints, releases=releases)
 
 
-def _points_world(position, quaternion, points):
-    """World positions of body-axis points, shape (samples, points, 3)."""
-    rot = rotations.matrices(quaternion)
-    return position[:, None, :] + np.einsum('nij,pj->npi', rot, points)
+def _kernel():
+    """Return the compiled kernel (imported on first use: ``summarize`` may not need it)."""
+    from cfem_ros.core import kernel
+    return kernel
+
+
+def _c(array) -> np.ndarray:
+    """Return a float array in C order (what the compiled kernel takes)."""
+    return np.ascontiguousarray(array, dtype=float)
+
+
+def _relative(position, quat, position_r, quat_r):
+    """
+    Return a CG position and attitude in the axes of a reference body (one sample).
+
+    The position in the reference's axes (its attitude normalized) and the
+    attitude conj(quat_r) quat (``to_rpy_deg`` normalizes it), in plain
+    floats: one sample costs less without numpy.
+    """
+    rx, ry, rz, rw = (float(c) for c in quat_r)
+    x, y, z, w = (float(c) for c in quat)
+    norm = math.sqrt(rx * rx + ry * ry + rz * rz + rw * rw)
+    a, b, c, d = rx / norm, ry / norm, rz / norm, rw / norm
+    dx, dy, dz = (float(p) - float(r) for p, r in zip(position, position_r))
+    # R^T (p - p_r), R the reference's body-to-world matrix (rotations.matrices)
+    relative = [(1.0 - 2.0 * (b * b + c * c)) * dx + 2.0 * (a * b + d * c) * dy
+                + 2.0 * (a * c - d * b) * dz,
+                2.0 * (a * b - d * c) * dx + (1.0 - 2.0 * (a * a + c * c)) * dy
+                + 2.0 * (b * c + d * a) * dz,
+                2.0 * (a * c + d * b) * dx + 2.0 * (b * c - d * a) * dy
+                + (1.0 - 2.0 * (a * a + b * b)) * dz]
+    # conj(q_r) q, Hamilton product (rotations.multiply)
+    attitude = [rw * x - rx * w - ry * z + rz * y,
+                rw * y + rx * z - ry * w - rz * x,
+                rw * z - rx * y + ry * x - rz * w,
+                rw * w + rx * x + ry * y + rz * z]
+    return relative, attitude
 
 
 def compute(samples: Samples, metrics) -> dict:
@@ -169,14 +203,13 @@ def compute(samples: Samples, metrics) -> dict:
                 raise KeyError(f'no body {name!r} in the run')
         t, pos_a, quat_a = samples.bodies[c.body_a]
         _, pos_b, quat_b = samples.bodies[c.body_b]
+        values = (NAN, NAN, -1, -1)
         if len(t):
-            wa = _points_world(pos_a, quat_a, c.points_a)
-            wb = _points_world(pos_b, quat_b, c.points_b)
-            dist = np.sqrt(((wa[:, :, None, :] - wb[:, None, :, :]) ** 2).sum(axis=-1))
-            k, ia, ib = np.unravel_index(int(np.argmin(dist)), dist.shape)
-            values = (float(dist[k, ia, ib]), float(t[k]), int(ia), int(ib))
-        else:
-            values = (NAN, NAN, -1, -1)
+            best = np.empty(4)
+            _kernel().clearance(_c(pos_a), _c(quat_a), _c(c.points_a), _c(pos_b),
+                                _c(quat_b), _c(c.points_b), best)
+            if best[1] >= 0:
+                values = (float(best[0]), float(t[int(best[1])]), int(best[2]), int(best[3]))
         for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
             out[f'{c.prefix}_{suffix}'] = value
     released = {}
@@ -209,10 +242,8 @@ def compute(samples: Samples, metrics) -> dict:
             p, q = pos[k], quat[k]
             if entry.relative_to is not None:
                 _, pos_r, quat_r = samples.bodies[entry.relative_to]
-                rot = rotations.matrices(quat_r[k:k + 1])[0]
-                p = rot.T @ (p - pos_r[k])
-                q = rotations.multiply(rotations.conjugate(quat_r[k:k + 1]), q[None])[0]
-            rpy = rotations.to_rpy_deg(q)
+                p, q = _relative(p, q, pos_r[k], quat_r[k])
+            rpy = rotations.to_rpy_deg(np.asarray(q, dtype=float))
             values = [float(p[0]), float(p[1]), float(p[2])] + [float(a) for a in rpy]
         out.update(zip(names, values))
     return out
