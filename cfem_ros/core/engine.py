@@ -55,6 +55,20 @@ _NO_GRID = np.zeros(3)
 _NO_ROWS = np.empty((0, 0))
 
 
+def _locate_error(code: int, s: float) -> Exception:
+    """Return the error ``kernel.locate``'s code stands for (those of the Python search)."""
+    if code == kernel.SINGULAR:
+        return NumericalFailure(sampling.SINGULAR)
+    if code == kernel.LOADS_NOT_FINITE:
+        return NumericalFailure(sampling.LOADS_NOT_FINITE)
+    if code == kernel.NAN_VALUE:   # roots.brentq's errors
+        return ValueError('The function value at x=%f is NaN; solver cannot continue.' % s)
+    if code == kernel.SAME_SIGNS:
+        return ValueError('f(a) and f(b) must have different signs')
+    return RuntimeError('Failed to converge after %d iterations, value is %f'
+                        % (kernel.CROSSING_MAXITER, s))
+
+
 class Simulator(SampledState):
     """
     Step a model's bodies and joints in time with RK4.
@@ -598,37 +612,64 @@ class Simulator(SampledState):
         return self._joint_loads(y)[0]
 
     def _step(self, h, t_end):
-        """Advance one step of length h to t_end, locating condition releases."""
+        """Advance one step of length h to t_end, locating condition releases and stroke ends."""
         self._stage_violation = 0.0
         y0 = self.y
         self._scheduled.set_time(self.t)
         if self.kinematic:
             kernel.motion_set_time(self._bodies, self.t)   # motion.py
-        y1 = self._rk4(y0, h)
-        crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
-        if self._scheduled.count and self._stroke_end(y0, y1, h, t_end, crossing):
-            return
-        if crossing is None:
+        y1, ys, crossing, stroke = self._locate(y0, h)
+        if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
+            # an ejector's stroke ends first (or with a release)
+            s, wrenches = stroke
+            self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
+            self._scheduled.end_strokes(wrenches)
+            if crossing is not None and crossing[0] <= s:
+                for k, cause in zip(crossing[1], crossing[2]):
+                    self._release([k], cause)
+            self._fire_time_triggers()
+        elif crossing is None:
             self._commit(y1, t_end)
         else:
             s, joints, causes = crossing
-            self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
+            self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
 
-    def _stroke_end(self, y0, y1, h, t_end, crossing) -> bool:
-        """Cut the step where an ejector's stroke ends first, if before any release."""
-        stroke = self._scheduled.crossing(y0, y1, h, self._rk4)
-        if stroke is None or (crossing is not None and crossing[0] < stroke[0]):
-            return False
-        s, wrenches = stroke
-        self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
-        self._scheduled.end_strokes(wrenches)
-        if crossing is not None and crossing[0] <= s:
-            for k, cause in zip(crossing[1], crossing[2]):
-                self._release([k], cause)
-        self._fire_time_triggers()
-        return True
+    def _locate(self, y0, h):
+        """
+        Take the step of h from y0 and locate its release conditions and stroke ends.
+
+        One call of ``kernel.locate``, the compiled form of ``Releases.crossing``
+        and ``ScheduledLoads.crossing`` (the same bits). Returns y1 (the step's
+        end), ys (the state at the s the step is cut at, if before h), the
+        release crossing (s, joints, causes) or None and the stroke end
+        (s, wrenches) or None.
+        """
+        rel = self.releases
+        y1, ys = np.empty_like(y0), np.empty_like(y0)
+        info = np.empty(7)
+        info[0] = self._stage_violation
+        joints = np.empty((len(rel.watch), 2), dtype=np.int64)
+        wrenches = np.empty(self._scheduled.count, dtype=np.int64)
+        try:
+            kernel.locate(y0, float(h), y1, ys, *self._topology.kernel_args(self),
+                          self.joints.joints_i, self.joints.joints_f, rel.watch,
+                          rel.watch_triggers, rel.watch_lines, joints, wrenches, info)
+        except np.linalg.LinAlgError:
+            info[1] = kernel.SINGULAR
+        self._stage_violation = float(info[0])
+        code = int(info[1])
+        if code != kernel.REACHED:
+            raise _locate_error(code, float(info[2]))
+        crossing = stroke = None
+        if not math.isnan(info[3]):
+            found = joints[:int(info[4])]
+            crossing = (float(info[3]), found[:, 0].tolist(),
+                        [TRIGGER_CAUSES[1 + col] for col in found[:, 1]])
+        if not math.isnan(info[5]):
+            stroke = (float(info[5]), wrenches[:int(info[6])].tolist())
+        return y1, ys, crossing, stroke
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():

@@ -1327,6 +1327,297 @@ def advance(y, info, t_target, due, limit, dt, bodies, gravity, loads, rows_i, r
                 break   # the samples at t first (loop top), then back for the release
 
 
+# ------------------------------------------------ crossings located in a step
+# engine.Simulator._step: where in a step a release condition or an ejector's stroke
+# end is first reached, on the step's RK4 map s -> rk4(y0, s), found by Brent's method
+# as roots.brentq computes it (scipy's), operation for operation. Compiled without
+# contraction into fused multiply-adds, so that the root finder, the excesses and the
+# force magnitudes round as the Python (releases.py, loads.py) does: the same bits.
+# The RK4, conditions and joint loads it calls are the step's own (contracted) code.
+
+#: ``locate`` codes in ``info[1]`` besides REACHED, SINGULAR and LOADS_NOT_FINITE:
+#: a condition's value is NaN, the step's ends do not bracket it, no convergence
+#: (the errors of ``roots.brentq``).
+NAN_VALUE, SAME_SIGNS, NO_CONVERGENCE = 7, 8, 9
+
+#: Brent's tolerances for a crossing (as releases.py and loads.py use roots.brentq).
+CROSSING_XTOL, CROSSING_RTOL, CROSSING_MAXITER = 1e-15, 4 * np.finfo(np.float64).eps, 200
+
+_EXACT = dict(_JIT, fastmath=False)
+_EXACT_NRT = dict(_NRT, fastmath=False)
+
+
+@numba.njit(**_EXACT)
+def _release_values(y, first, count, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                    dense, v, joints_i, joints_f, watch, triggers, watch_plan, values, rot, pa,
+                    pb, force, moment):
+    """
+    Angle, distance and force of the watched joints first .. first + count at y, into values.
+
+    As ``Releases.values``: the force (its magnitude, summed left to right as numpy's
+    norm does) only if one of them has a force condition, else 0. Returns REACHED,
+    SINGULAR or LOADS_NOT_FINITE (any joint's load not finite).
+    """
+    _conditions(y, joints_i, joints_f, watch[first:first + count],
+                values[first:first + count], rot, pa, pb)
+    need = False
+    for w in range(first, first + count):
+        values[w, 2] = 0.0
+        if np.isfinite(triggers[w, 2]):
+            need = True
+    if not need:
+        return REACHED
+    if not _joint_loads(y, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                        force, moment):
+        return SINGULAR
+    for j in range(plan.shape[0]):
+        for k in range(3):
+            if not (np.isfinite(force[j, k]) and np.isfinite(moment[j, k])):
+                return LOADS_NOT_FINITE
+    for w in range(first, first + count):
+        f = force[watch_plan[w]]
+        values[w, 2] = np.sqrt((f[0] * f[0] + f[1] * f[1]) + f[2] * f[2])
+    return REACHED
+
+
+@numba.njit(**_EXACT)
+def _excess(s, y0, ys, which, col, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+            dense, v, joints_i, joints_f, watch, triggers, watch_plan, values, rot, pa, pb,
+            force, moment, info):
+    """
+    Return (excess, code) of a condition at rk4(y0, s) (y0 at s = 0) over its limit.
+
+    col 0-2: watched joint ``which``'s angle, distance or force; col 3: scheduled
+    row ``which``'s stroke. Each RK4 raises the largest stage violation info[0].
+    """
+    state = y0
+    if s != 0.0:
+        worst = _rk4(y0, s, ys, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                     dense, v, False)
+        if worst < 0.0:
+            return np.nan, SINGULAR
+        if worst > info[0]:
+            info[0] = worst
+        state = ys
+    if col == 3:
+        n = bodies.shape[0]
+        return (applied_loads._point_and_stroke(state, loads, which, n)[3]
+                - loads[which, applied_loads.S_STROKE]), REACHED
+    code = _release_values(state, which, 1, bodies, gravity, loads, rows_i, rows_f, plan, roots,
+                           eta, dense, v, joints_i, joints_f, watch, triggers, watch_plan,
+                           values, rot, pa, pb, force, moment)
+    if code != REACHED:
+        return np.nan, code
+    return values[which, col] - triggers[which, col], REACHED
+
+
+@numba.njit(**_EXACT)
+def _brentq(h, y0, ys, which, col, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+            dense, v, joints_i, joints_f, watch, triggers, watch_plan, values, rot, pa, pb,
+            force, moment, info):
+    """
+    Return (s, code): the root in [0, h] of ``_excess``, as ``roots.brentq`` finds it.
+
+    Its iteration operation for operation (scipy's brentq.c), with the crossing's
+    tolerances; code NAN_VALUE, SAME_SIGNS or NO_CONVERGENCE for its errors (s the
+    abscissa it names), or a failure of the excess.
+    """
+    xtol, rtol = CROSSING_XTOL, CROSSING_RTOL
+    xpre, xcur = 0.0, h
+    xblk = fblk = spre = scur = 0.0
+    fpre, code = _excess(xpre, y0, ys, which, col, bodies, gravity, loads, rows_i, rows_f, plan,
+                         roots, eta, dense, v, joints_i, joints_f, watch, triggers, watch_plan,
+                         values, rot, pa, pb, force, moment, info)
+    if code != REACHED:
+        return xpre, code
+    if np.isnan(fpre):
+        return xpre, NAN_VALUE
+    fcur, code = _excess(xcur, y0, ys, which, col, bodies, gravity, loads, rows_i, rows_f, plan,
+                         roots, eta, dense, v, joints_i, joints_f, watch, triggers, watch_plan,
+                         values, rot, pa, pb, force, moment, info)
+    if code != REACHED:
+        return xcur, code
+    if np.isnan(fcur):
+        return xcur, NAN_VALUE
+    if fpre * fcur > 0:
+        return xcur, SAME_SIGNS
+    if fpre == 0:
+        return xpre, REACHED
+    if fcur == 0:
+        return xcur, REACHED
+    for _ in range(CROSSING_MAXITER):
+        if fpre * fcur < 0:
+            xblk, fblk = xpre, fpre
+            spre = scur = xcur - xpre
+        if abs(fblk) < abs(fcur):
+            xpre, xcur, xblk = xcur, xblk, xcur
+            fpre, fcur, fblk = fcur, fblk, fcur
+        delta = (xtol + rtol * abs(xcur)) / 2
+        sbis = (xblk - xcur) / 2
+        if fcur == 0 or abs(sbis) < delta:
+            return xcur, REACHED
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)          # interpolate
+            else:
+                dpre = (fpre - fcur) / (xpre - xcur)                  # extrapolate
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            bound = abs(spre)   # Python's min(abs(spre), 3 |sbis| - delta)
+            if 3 * abs(sbis) - delta < bound:
+                bound = 3 * abs(sbis) - delta
+            if 2 * abs(stry) < bound:
+                spre, scur = scur, stry                               # good short step
+            else:
+                spre = scur = sbis                                    # bisect
+        else:
+            spre = scur = sbis                                        # bisect
+        xpre, fpre = xcur, fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0 else -delta
+        fcur, code = _excess(xcur, y0, ys, which, col, bodies, gravity, loads, rows_i, rows_f,
+                             plan, roots, eta, dense, v, joints_i, joints_f, watch, triggers,
+                             watch_plan, values, rot, pa, pb, force, moment, info)
+        if code != REACHED:
+            return xcur, code
+        if np.isnan(fcur):
+            return xcur, NAN_VALUE
+    return xcur, NO_CONVERGENCE
+
+
+@numba.njit(**_EXACT_NRT)
+def locate(y0, h, y1, ys, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, work,
+           joints_i, joints_f, watch, triggers, watch_plan, joints_found, wrenches_found, info):
+    """
+    Take an RK4 step of h from y0 into y1 and find where in it a condition is first reached.
+
+    As ``Releases.crossing`` then ``ScheduledLoads.crossing`` (their Python is the
+    reference): the watched joints (``watch``, model indices; ``triggers`` their
+    angle, distance and force limits, NaN for none; ``watch_plan`` their plan
+    lines) and the scheduled wrenches that are on with a stroke, reached at y1,
+    are located on s -> rk4(y0, s): the earliest s in (0, h] (0 if reached at
+    y0), and all reached within 1e-15 s of it. Then ys = rk4(y0, s) at the s the
+    step is cut at (the stroke end's unless a release comes first) if s < h.
+
+    info: [largest stage violation (in and out), code (REACHED or a failure:
+    SINGULAR, LOADS_NOT_FINITE, NAN_VALUE, SAME_SIGNS, NO_CONVERGENCE), the s of
+    a failure, release s (NaN: none), number of joints released, stroke end s
+    (NaN: none), number of wrenches ended]. joints_found (len(watch), 2): joint,
+    cause (0 angle, 1 distance, 2 force); wrenches_found: wrench indices.
+    """
+    n = bodies.shape[0]
+    v = carve(work, n, rows_i.shape[0], plan.shape[0])
+    values = np.zeros((watch.shape[0], 3))
+    rot, pa, pb = np.empty((3, 3)), np.empty(3), np.empty(3)
+    force = np.empty((plan.shape[0], 3))
+    moment = np.empty((plan.shape[0], 3))
+    info[1] = REACHED
+    info[3] = np.nan
+    info[4] = 0.0
+    info[5] = np.nan
+    info[6] = 0.0
+    worst = _rk4(y0, h, y1, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta, dense, v,
+                 False)
+    if worst < 0.0:
+        info[1] = SINGULAR
+        return
+    if worst > info[0]:
+        info[0] = worst
+    # the release conditions (Releases.crossing, Releases._locate)
+    if watch.shape[0] > 0:
+        code = _release_values(y1, 0, watch.shape[0], bodies, gravity, loads, rows_i, rows_f,
+                               plan, roots, eta, dense, v, joints_i, joints_f, watch, triggers,
+                               watch_plan, values, rot, pa, pb, force, moment)
+        if code != REACHED:
+            info[1] = code
+            return
+        reached = np.empty((watch.shape[0], 3), dtype=np.bool_)
+        anything = False
+        for w in range(watch.shape[0]):
+            for col in range(3):
+                reached[w, col] = values[w, col] >= triggers[w, col]
+                anything = anything or reached[w, col]
+        if anything:
+            best, count = h, 0
+            for w in range(watch.shape[0]):
+                for col in range(3):
+                    if not reached[w, col]:
+                        continue
+                    at0, code = _excess(0.0, y0, ys, w, col, bodies, gravity, loads, rows_i,
+                                        rows_f, plan, roots, eta, dense, v, joints_i, joints_f,
+                                        watch, triggers, watch_plan, values, rot, pa, pb, force,
+                                        moment, info)
+                    if code != REACHED:
+                        info[1] = code
+                        info[2] = 0.0
+                        return
+                    s = 0.0
+                    if not at0 >= 0.0:
+                        s, code = _brentq(h, y0, ys, w, col, bodies, gravity, loads, rows_i,
+                                          rows_f, plan, roots, eta, dense, v, joints_i,
+                                          joints_f, watch, triggers, watch_plan, values, rot,
+                                          pa, pb, force, moment, info)
+                        if code != REACHED:
+                            info[1] = code
+                            info[2] = s
+                            return
+                    if s < best - 1e-15:
+                        best, count = s, 1
+                        joints_found[0, 0], joints_found[0, 1] = watch[w], col
+                    elif abs(s - best) <= 1e-15:
+                        known = False
+                        for i in range(count):
+                            known = known or joints_found[i, 0] == watch[w]
+                        if not known:
+                            joints_found[count, 0], joints_found[count, 1] = watch[w], col
+                            count += 1
+            info[3], info[4] = best, count
+    # the ejectors' stroke ends (ScheduledLoads.crossing)
+    best, count = h, -1
+    for row in range(n, loads.shape[0]):
+        if loads[row, applied_loads.S_KIND] != 1.0:
+            break   # the scheduled rows come first
+        limit = loads[row, applied_loads.S_STROKE]
+        if not (loads[row, applied_loads.S_ON] > 0.0 and np.isfinite(limit)
+                and applied_loads._point_and_stroke(y1, loads, row, n)[3] >= limit):
+            continue
+        count = max(count, 0)
+        at0, code = _excess(0.0, y0, ys, row, 3, bodies, gravity, loads, rows_i, rows_f, plan,
+                            roots, eta, dense, v, joints_i, joints_f, watch, triggers,
+                            watch_plan, values, rot, pa, pb, force, moment, info)
+        s = 0.0
+        if not at0 >= 0.0:
+            s, code = _brentq(h, y0, ys, row, 3, bodies, gravity, loads, rows_i, rows_f, plan,
+                              roots, eta, dense, v, joints_i, joints_f, watch, triggers,
+                              watch_plan, values, rot, pa, pb, force, moment, info)
+            if code != REACHED:
+                info[1] = code
+                info[2] = s
+                return
+        if s < best - 1e-15:
+            best, count = s, 1
+            wrenches_found[0] = row - n
+        elif abs(s - best) <= 1e-15:
+            wrenches_found[count] = row - n
+            count += 1
+    if count >= 0:
+        info[5], info[6] = best, count
+    # the state where the step is cut: the stroke end, unless a release comes first
+    release, stroke = info[3], info[5]
+    cut = stroke if not np.isnan(stroke) and not release < stroke else release
+    if cut < h:
+        worst = _rk4(y0, cut, ys, bodies, gravity, loads, rows_i, rows_f, plan, roots, eta,
+                     dense, v, False)
+        if worst < 0.0:
+            info[1] = SINGULAR
+            info[2] = cut
+            return
+        if worst > info[0]:
+            info[0] = worst
+
+
 # ---------------------------------------------- applied loads called from Python
 # loads.ScheduledLoads calls these through the kernel, so that a kernel compiled
 # ahead of time (aot.py) has them compiled too

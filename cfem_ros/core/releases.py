@@ -8,7 +8,9 @@ separation of its two points or its load's magnitude first reaches a limit
 (CFEM.md, "Releases"). Time triggers cut the steps; the other conditions are
 watched at the end of each step, and a crossing is located inside the step
 on the step's own RK4 map, s -> rk4(y0, s), so a run released at a condition
-is the run cut there.
+is the run cut there. The engine locates it in compiled code
+(``kernel.locate``); ``Releases.crossing`` is the same search in Python, the
+reference it is tested against.
 """
 
 from __future__ import annotations
@@ -39,9 +41,10 @@ class Releases:
         Time (s), angle (rad), distance (m), force (N) per joint; NaN: none.
     due : float or None
         Earliest release time of the active joints.
-    watch, watch_limits, watch_lines : ndarray
-        The active joints with a condition, their limits (inf: none) and
-        their lines in the topology's plan, for the kernel.
+    watch, watch_limits, watch_triggers, watch_lines : ndarray
+        The active joints with a condition, their limits (inf: none; NaN:
+        none in ``watch_triggers``) and their lines in the topology's plan,
+        for the kernel.
 
     """
 
@@ -60,6 +63,7 @@ class Releases:
         self.watch = watched.astype(np.int64)
         limits = self.triggers[watched, 1:]
         self.watch_limits = np.ascontiguousarray(np.where(np.isfinite(limits), limits, np.inf))
+        self.watch_triggers = np.ascontiguousarray(limits)
         self.watch_lines = np.ascontiguousarray(line[watched])
         times = self.triggers[active, 0]
         times = times[np.isfinite(times)]

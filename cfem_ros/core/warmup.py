@@ -109,6 +109,10 @@ def warm_up() -> float:
         sim.joint_wrenches()
         sim.constraint_violation()
         sim.advance_to(1.0)
+        # the Python form of the in-step search (releases.py, loads.py) beside kernel.locate
+        sim._rk4(sim.y, sim.dt)
+        sim.releases.values(sim.y, np.arange(len(sim.model.joints)), sim._joint_forces)
+        sim._scheduled.strokes(sim.y)
         carrier = Simulator(parse_scenario(_carrier(), source='<warm-up>'))
         grid = SampleGrid(100.0)
         grid.reset(0, np.zeros((4, carrier.outputs().size)))

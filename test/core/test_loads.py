@@ -12,11 +12,13 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.inputs import wrench_input
 from cfem_ros.core.scenario import isa_density, load_scenario, parse_scenario
 from cfem_ros.core.session import Session
+from crossings import assert_same_location, assert_same_runs, step_with_condition
 import numpy as np
 import pytest
 from reference import quat_matrix, skew
 from scipy.integrate import solve_ivp
 from scipy.interpolate import RegularGridInterpolator
+from scipy.optimize import brentq
 import yaml
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
@@ -207,6 +209,37 @@ def test_stroke_end_is_located_inside_the_step():
     # fraction of a step's worth of load (47 m/s^2 dt, ~1e-2 m/s)
     np.testing.assert_allclose(results[0], results[2], rtol=0, atol=1e-9)
     np.testing.assert_allclose(results[1], results[2], rtol=0, atol=1e-9)
+
+
+def test_stroke_end_is_located_in_compiled_code_as_in_python():
+    spec = {'body': 'store', 'point': [0.3292, 0.02, 0.2], 'force': [0, 0, 42703.0],
+            'frame': 'world', 'stroke': 0.1006}
+    sim = Simulator(model([spec]))
+    h = step_with_condition(sim, 0.5)
+    crossing, (s, wrenches) = assert_same_location(sim, h)
+    assert (crossing, wrenches) == (None, [0])
+    assert 0.0 < s < h
+    # scipy's brentq on the point's travel from where it started (at rest, identity
+    # attitude: the point itself), on the step's RK4 map
+
+    def excess(u):
+        y = sim._rk4(sim.y, u)
+        return np.linalg.norm(y[:3] + quat_matrix(y[6:10]) @ spec['point']
+                              - spec['point']) - spec['stroke']
+    # the travel's rounding, ~1e-17 m, at ~1 m/s, plus the 1e-15 s tolerance
+    assert abs(brentq(excess, 0.0, h, xtol=1e-15) - s) < 1e-13
+    assert_same_runs(sim.model, [0.05, 0.5])
+
+
+def test_two_strokes_ending_at_the_same_time_end_in_one_step():
+    half = dict(EJECTOR, force=[0, 0, 5338.0])
+    sim = Simulator(model([dict(half, name='a'), dict(half, name='b')], dt=0.01))
+    h = step_with_condition(sim, 1.0)
+    crossing, (s, wrenches) = assert_same_location(sim, h)
+    assert (crossing, wrenches) == (None, [0, 1])
+    assert 0.0 < s < h
+    sim = assert_same_runs(sim.model, [0.2, 1.0])
+    assert sim._scheduled.done.all()
 
 
 def test_reaction_on_a_free_parent_conserves_momentum():

@@ -11,10 +11,12 @@ import logging
 import pathlib
 
 from cfem_ros import load_scenario, parse_scenario, Simulator
+from crossings import assert_same_location, assert_same_runs, step_with_condition
 import numpy as np
 import pytest
 from reference import (axis_rotation, normalized_error, parallel_axis, PivotChain,
                        quat_matrix, torque_free)
+from scipy.optimize import brentq as scipy_brentq
 import yaml
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
@@ -258,3 +260,59 @@ def test_force_trigger_releases_the_pendulum_when_the_pin_load_reaches_it():
     (event,) = sim.events
     assert event['cause'] == 'force'
     assert abs(event['time'] - t_release) < 1e-6
+
+
+def hinge(release):
+    """Return the hinge pendulum of config/joints with a release condition on its pin."""
+    doc = yaml.safe_load((CONFIG / 'joints' / 'hinge.yaml').read_text())
+    doc['joints']['pin']['release'] = release
+    return parse_scenario(doc)
+
+
+def test_angle_condition_is_located_in_compiled_code_as_in_python():
+    sim = Simulator(hinge({'angle_deg': 30.0}))
+    h = step_with_condition(sim, 1.0)
+    (s, joints, causes), stroke = assert_same_location(sim, h)
+    assert (joints, causes, stroke) == ([0], ['angle'], None)
+    assert 0.0 < s < h
+    # scipy's brentq on the angle of the step's RK4 map, computed from rotation matrices
+
+    def excess(u):
+        rot = quat_matrix(sim._rk4(sim.y, u)[6 * sim.n + 4:6 * sim.n + 8])
+        return np.arccos((np.trace(rot) - 1.0) / 2.0) - np.radians(30.0)
+    # angle rounding ~1e-16 rad at ~2 rad/s, plus the 1e-15 s tolerance
+    assert abs(scipy_brentq(excess, 0.0, h, xtol=1e-15) - s) < 1e-13
+    assert_same_runs(sim.model, [0.2, 0.5, 1.0])
+
+
+def test_force_condition_is_located_in_compiled_code_as_in_python():
+    sim = Simulator(hinge({'force': 40.0}))
+    h = step_with_condition(sim, 1.0)
+    (s, joints, causes), stroke = assert_same_location(sim, h)
+    assert (joints, causes, stroke) == ([0], ['force'], None)
+    assert 0.0 < s < h
+
+    def excess(u):
+        return np.linalg.norm(sim._joint_forces(sim._rk4(sim.y, u))[0]) - 40.0
+    # the load's rounding, ~1e-14 N, at a rate of ~100 N/s
+    assert abs(scipy_brentq(excess, 0.0, h, xtol=1e-15) - s) < 1e-13
+    assert_same_runs(sim.model, [0.2, 0.5, 1.0])
+
+
+def test_two_conditions_reached_at_the_same_time_release_both_in_one_step():
+    # two identical pendulums, one on a distance, one on an angle: the angle first,
+    # then a tie of two angles whose excesses are the same numbers
+    doc = yaml.safe_load((CONFIG / 'joints' / 'hinge.yaml').read_text())
+    doc['bodies']['twin'] = dict(doc['bodies']['rod'])
+    doc['joints']['pin']['release'] = {'angle_deg': 30.0, 'distance': 1.0}
+    doc['joints']['twin_pin'] = dict(doc['joints']['pin'], child='twin',
+                                     release={'angle_deg': 30.0})
+    sim = Simulator(parse_scenario(doc))
+    h = step_with_condition(sim, 1.0)
+    (s, joints, causes), stroke = assert_same_location(sim, h)
+    assert (joints, causes, stroke) == ([0, 1], ['angle', 'angle'], None)
+    assert 0.0 < s < h
+    sim = assert_same_runs(sim.model, [0.5])
+    assert [(e['joint'], e['cause']) for e in sim.events] == [('pin', 'angle'),
+                                                              ('twin_pin', 'angle')]
+    assert sim.events[0]['time'] == sim.events[1]['time']
