@@ -106,9 +106,10 @@ class Topology:
         self.m = len(self.joint)
         joints = np.flatnonzero(active)
         first = np.searchsorted(self.joint, joints)
-        counts = np.array([[np.count_nonzero(self.translation[self.joint == k]),
-                            np.count_nonzero(~self.translation[self.joint == k])]
-                           for k in joints], dtype=np.int64).reshape(-1, 2)
+        size = len(active)
+        counts = np.column_stack([
+            np.bincount(self.joint[self.translation], minlength=size)[joints],
+            np.bincount(self.joint[~self.translation], minlength=size)[joints]]).astype(np.int64)
         ends = tables['ends'][joints]
         lines = self._forest(joints, ends, free)
         self.dense = 0 if lines is not None else 1
@@ -139,6 +140,8 @@ class Topology:
         first, then from the lowest-numbered body of each floating group.
         """
         ground = -1
+        free = free.tolist()   # Python numbers: this loop reads them one by one
+        ends = ends.tolist()
         node = [i if free[i] else ground for i in range(len(free))]
         edges = {}
         for i, (a, b) in enumerate(ends):
