@@ -659,8 +659,8 @@ def _parse_body(check: _Checker, name, spec) -> Body:
             _shape_dir(check, spec['shape']))
     return Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
-                velocity_given=any(k in spec for k in (
-                    'velocity', 'angular_velocity_deg', 'angular_velocity')))
+                velocity_given=('velocity' in spec or 'angular_velocity_deg' in spec
+                                or 'angular_velocity' in spec))
 
 
 #: Quaternions of the attitudes parsed, by the exact bits of their angles (a
@@ -745,7 +745,7 @@ def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -
         quat = quat / norm
     else:
         quat = _from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
-                                                   f'{key}.orientation_rpy_deg'))
+                                          f'{key}.orientation_rpy_deg'))
     return Body(name=name, fixed=False, mass=0.0, inertia=np.zeros((3, 3)), position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
                 motion=Motion(velocity=velocity, rates=rates))
@@ -845,14 +845,15 @@ def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
     MuJoCo's fullinertia), not the integrals of x y dm.
     """
     v = check.vector(value, key, lengths=(3, 6), limit=INERTIA_RANGE[1])
-    tensor = np.diag(v[:3])
     if len(v) == 3:
         # a diagonal tensor's principal moments are its diagonal (LAPACK's eigvalsh
         # gives it exactly): checked here, with margins, without it
-        low, middle, high = sorted(v.tolist())
+        ixx, iyy, izz = v.tolist()
+        low, middle, high = sorted((ixx, iyy, izz))
         if (low >= INERTIA_RANGE[0] * (1 + 1e-12) and high * (1 + 1e-12) <= INERTIA_RANGE[1]
                 and high * (1 + 1e-12) <= (low + middle) * (1 + TRIANGLE_TOLERANCE)):
-            return tensor
+            return np.array([[ixx, 0.0, 0.0], [0.0, iyy, 0.0], [0.0, 0.0, izz]])
+    tensor = np.diag(v[:3])
     if len(v) == 6:
         ixy, ixz, iyz = v[3:]
         tensor[0, 1] = tensor[1, 0] = ixy
@@ -990,10 +991,9 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
         check.fail(f'{key}.force', 'missing', 'a force or a moment')
     force_doc = spec.get('force', [0, 0, 0])
     table, against = np.zeros((0, 7)), None
-    force = np.zeros(3)
     if isinstance(force_doc, dict):
         against, table = _parse_force_table(check, force_doc, f'{key}.force', moment)
-        moment = np.zeros(3)
+        force, moment = np.zeros(3), np.zeros(3)
     else:
         force = check.vector(force_doc, f'{key}.force')
     start = check.number(spec.get('start', 0.0), f'{key}.start', minimum=0.0)
