@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import math
 from typing import Optional
 
 from cfem_ros.core.shapes import Shape
@@ -356,6 +357,11 @@ def triad_from_axes(axis, axis2=None) -> np.ndarray:
         Rows u1, u2, u3 with u3 = u1 x u2.
 
     """
+    if (axis2 is None and type(axis) is np.ndarray and axis.dtype == np.float64
+            and axis.shape == (3,) and axis.flags.c_contiguous):
+        triad = _triad_of(axis)
+        if triad is not None:
+            return triad
     u1 = np.asarray(axis, dtype=float)
     u1 = u1 / np.linalg.norm(u1)
     if axis2 is None:
@@ -367,6 +373,36 @@ def triad_from_axes(axis, axis2=None) -> np.ndarray:
         u2 = u2 - u1 * (u2 @ u1)
     u2 = u2 / np.linalg.norm(u2)
     return np.array([u1, u2, np.cross(u1, u2)])
+
+
+def _triad_of(axis: np.ndarray) -> Optional[np.ndarray]:
+    """
+    Return ``triad_from_axes(axis)`` of a contiguous float64 3-vector, to the bit.
+
+    The same floating-point operations in the same order, on Python floats
+    where numpy would spend longer dispatching than computing: each norm is
+    the square root of the same ``ndarray.dot`` ``np.linalg.norm`` takes,
+    the helper's dot product is the exact u1[j] (its other terms are zeros),
+    the cross product is ``np.cross``'s a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0.
+    None if the axis's norm is zero or not finite (numpy's path then gives what it gives).
+    """
+    norm = math.sqrt(axis.dot(axis))
+    if not 0.0 < norm < math.inf:
+        return None
+    x, y, z = axis.tolist()
+    u1 = [x / norm, y / norm, z / norm]
+    size = [abs(u1[0]), abs(u1[1]), abs(u1[2])]
+    j = size.index(min(size))   # np.argmin: the first of equal smallest
+    along = u1[j]
+    u2 = [0.0 - u1[0] * along, 0.0 - u1[1] * along, 0.0 - u1[2] * along]
+    u2[j] = 1.0 - u1[j] * along
+    u2 = np.array(u2)
+    norm = math.sqrt(u2.dot(u2))
+    a0, a1, a2 = u1
+    b0, b1, b2 = u2.tolist()
+    b0, b1, b2 = b0 / norm, b1 / norm, b2 / norm
+    return np.array([u1, [b0, b1, b2],
+                     [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]])
 
 
 def default_baumgarte(dt: float) -> float:

@@ -12,7 +12,6 @@ can represent (see the constants below) are refused by ``check`` already.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import os
@@ -432,6 +431,10 @@ class _Checker:
     def vector(self, value, key: str, length: int = 3, lengths=None,
                limit: Optional[float] = MAX_MAGNITUDE) -> np.ndarray:
         lengths = lengths or (length,)
+        if isinstance(value, (list, tuple)) and len(value) in lengths:
+            numbers = _plain_numbers(value, limit)
+            if numbers is not None:     # what the checks below give, without their calls
+                return np.array(numbers)
         if not isinstance(value, (list, tuple)) or len(value) not in lengths:
             want = ' or '.join(str(n) for n in lengths)
             self.fail(key, f'is {_show(value)}', f'a list of {want} numbers')
@@ -441,7 +444,11 @@ class _Checker:
     def direction(self, value, key: str) -> np.ndarray:
         """Return a direction of any finite length, scaled so that norms cannot overflow."""
         vector = self.vector(value, key, limit=None)
-        scale = float(np.max(np.abs(vector)))
+        x, y, z = vector.tolist()
+        scale = max(abs(x), abs(y), abs(z))
+        if 1e-12 <= scale <= _AXIS_RESCALE:
+            # kept as it is; its norm, scale * |vector / scale| >= scale * 1, is not < 1e-12
+            return vector
         if scale > _AXIS_RESCALE:
             vector = vector / scale
             scale = 1.0
@@ -458,6 +465,34 @@ class _Checker:
                       f'a name of at most {MAX_NAME_LENGTH} characters (it becomes part of '
                       'ROS topic names)')
         return value
+
+
+def _plain_numbers(value, limit: Optional[float]) -> Optional[list]:
+    """
+    Return value's items as floats if each is an int or float that ``_Checker.number`` takes.
+
+    Only items of type exactly int or float, finite and of magnitude at most
+    limit (if given); None for anything else, which the checks then name.
+    """
+    numbers = []
+    for item in value:
+        kind = type(item)
+        if kind is float:
+            number = item
+        elif kind is int:
+            try:
+                number = float(item)
+            except OverflowError:
+                return None
+        else:
+            return None
+        if limit is None:
+            if not math.isfinite(number):
+                return None
+        elif not -limit <= number <= limit:    # NaN and infinities fail too
+            return None
+        numbers.append(number)
+    return numbers
 
 
 def parse_scenario(document: Any, *, source: str = '<scenario>',
@@ -607,7 +642,7 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     else:
         rpy = check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
                            f'{key}.orientation_rpy_deg')
-        quat = rotations.from_rpy_deg(rpy)
+        quat = _from_rpy_deg(rpy)
     velocity = check.vector(spec.get('velocity', [0, 0, 0]), f'{key}.velocity')
     if 'angular_velocity_deg' in spec and 'angular_velocity' in spec:
         check.fail(f'{key}.angular_velocity', 'given together with angular_velocity_deg',
@@ -621,11 +656,35 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     if 'shape' in spec:
         shape = shapes.parse_shape(
             spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
-            os.path.dirname(check.source) if os.path.isfile(check.source) else '')
+            _shape_dir(check, spec['shape']))
     return Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
-                velocity_given=any(k in spec for k in (
-                    'velocity', 'angular_velocity_deg', 'angular_velocity')))
+                velocity_given=('velocity' in spec or 'angular_velocity_deg' in spec
+                                or 'angular_velocity' in spec))
+
+
+#: Quaternions of the attitudes parsed, by the exact bits of their angles (a
+#: sweep's runs parse the same few again and again).
+_QUATERNIONS = {}
+
+
+def _from_rpy_deg(rpy: np.ndarray) -> np.ndarray:
+    """Return ``rotations.from_rpy_deg(rpy)`` (a new array), computed once per distinct rpy."""
+    key = rpy.tobytes()
+    quat = _QUATERNIONS.get(key)
+    if quat is None:
+        quat = rotations.from_rpy_deg(rpy)
+        if len(_QUATERNIONS) >= 1024:
+            _QUATERNIONS.clear()
+        _QUATERNIONS[key] = quat
+    return quat.copy()
+
+
+def _shape_dir(check: _Checker, shape) -> str:
+    """Return the folder a shape's mesh file is relative to (only a mesh needs one)."""
+    if isinstance(shape, dict) and 'mesh' in shape and os.path.isfile(check.source):
+        return os.path.dirname(check.source)
+    return ''
 
 
 def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -> Body:
@@ -651,7 +710,7 @@ def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -
     if 'shape' in spec:
         shape = shapes.parse_shape(
             spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
-            os.path.dirname(check.source) if os.path.isfile(check.source) else '')
+            _shape_dir(check, spec['shape']))
     if 'table' in motion:
         for other in ('velocity', 'angular_velocity_deg', 'angular_velocity'):
             if other in motion:
@@ -685,8 +744,8 @@ def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -
                        'a unit quaternion [x, y, z, w]')
         quat = quat / norm
     else:
-        quat = rotations.from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
-                                                   f'{key}.orientation_rpy_deg'))
+        quat = _from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
+                                          f'{key}.orientation_rpy_deg'))
     return Body(name=name, fixed=False, mass=0.0, inertia=np.zeros((3, 3)), position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
                 motion=Motion(velocity=velocity, rates=rates))
@@ -786,6 +845,14 @@ def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
     MuJoCo's fullinertia), not the integrals of x y dm.
     """
     v = check.vector(value, key, lengths=(3, 6), limit=INERTIA_RANGE[1])
+    if len(v) == 3:
+        # a diagonal tensor's principal moments are its diagonal (LAPACK's eigvalsh
+        # gives it exactly): checked here, with margins, without it
+        ixx, iyy, izz = v.tolist()
+        low, middle, high = sorted((ixx, iyy, izz))
+        if (low >= INERTIA_RANGE[0] * (1 + 1e-12) and high * (1 + 1e-12) <= INERTIA_RANGE[1]
+                and high * (1 + 1e-12) <= (low + middle) * (1 + TRIANGLE_TOLERANCE)):
+            return np.array([[ixx, 0.0, 0.0], [0.0, iyy, 0.0], [0.0, 0.0, izz]])
     tensor = np.diag(v[:3])
     if len(v) == 6:
         ixy, ixz, iyz = v[3:]
@@ -924,10 +991,9 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
         check.fail(f'{key}.force', 'missing', 'a force or a moment')
     force_doc = spec.get('force', [0, 0, 0])
     table, against = np.zeros((0, 7)), None
-    force = np.zeros(3)
     if isinstance(force_doc, dict):
         against, table = _parse_force_table(check, force_doc, f'{key}.force', moment)
-        moment = np.zeros(3)
+        force, moment = np.zeros(3), np.zeros(3)
     else:
         force = check.vector(force_doc, f'{key}.force')
     start = check.number(spec.get('start', 0.0), f'{key}.start', minimum=0.0)
@@ -1089,7 +1155,6 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
     if wrenches:
         new_wrenches = _parse_wrenches(check, top.get('wrenches'), index, new_bodies,
                                        model.frame_id)
-    default_name = os.path.splitext(os.path.basename(source))[0]
-    return dataclasses.replace(model, name=top.get('name', default_name),
-                               bodies=tuple(new_bodies), joints=tuple(new_joints),
-                               wrenches=new_wrenches)
+    name = top['name'] if 'name' in top else os.path.splitext(os.path.basename(source))[0]
+    return Model(**{**model.__dict__, 'name': name, 'bodies': tuple(new_bodies),
+                    'joints': tuple(new_joints), 'wrenches': new_wrenches})

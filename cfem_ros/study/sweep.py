@@ -116,6 +116,8 @@ class Models:
                        for s in self.touched}
         self._bases = {}
         self._lock = threading.Lock()
+        self._parts = {kind: [n for k, n in self.touched if k == kind]
+                       for kind in ('bodies', 'joints')}
 
     def full(self, k: int, values: dict):
         """Return run k's model parsed whole from its document."""
@@ -125,7 +127,7 @@ class Models:
         """Return run k's model, the same to the bit as a whole parse gives."""
         if not self.touched:
             return self.full(k, values)
-        key = json.dumps([values[v.path] for v in self.slow], default=repr)
+        key = json.dumps([values[v.path] for v in self.slow], default=repr) if self.slow else ''
         with self._lock:
             base = self._bases.get(key)
         if base is None:
@@ -153,8 +155,7 @@ class Models:
                 for variable in self.inside[kind, name]:
                     _set_copying(part, variable.tokens[2:], values[variable.path])
             return reparse(model, top, source=_source(self.spec, k),
-                           bodies=[n for kind, n in self.touched if kind == 'bodies'],
-                           joints=[n for kind, n in self.touched if kind == 'joints'],
+                           bodies=self._parts['bodies'], joints=self._parts['joints'],
                            wrenches=('wrenches', '') in self.touched)
         except Exception:   # noqa: B902
             return self.full(k, values)

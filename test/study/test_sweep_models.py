@@ -6,6 +6,7 @@ import copy
 import dataclasses
 import os
 
+from cfem_ros.core.rotations import from_rpy_deg
 from cfem_ros.study import Sweep
 from cfem_ros.study.sweep import full_model, Models, run_rows
 import numpy as np
@@ -95,6 +96,48 @@ def test_the_example_sweep_and_the_ejectors_give_the_whole_parse(tmp_path):
     assert models.touched == [('bodies', 'store'), ('wrenches', '')]
     messages = {r['message'] for r in run_rows(spec, range(spec.total)) if r['message']}
     assert any('wrenches[0].force' in m for m in messages), messages
+
+
+def test_random_masses_inertias_anchors_axes_and_forces_give_the_whole_parse(tmp_path):
+    # the quick checks (plain floats, the triad, a diagonal inertia without eigvalsh, the
+    # attitude computed once) on many random draws: field for field, bit for bit
+    scenario = copy.deepcopy(STORE)
+    store = scenario['bodies']['store']
+    store.update(orientation_rpy_deg=[0, 2, 0], angular_velocity_deg=[0, 1, 0],
+                 shape={'cylinder': [0.25, 2.5]})
+    scenario['wrenches'] = [
+        {'name': 'forward', 'body': 'store', 'point': [0.1798, 0, -0.25],
+         'force': [0, 0, 10676], 'frame': 'pylon', 'stroke': 0.1006, 'reacts_on': 'pylon'},
+        {'name': 'aft', 'body': 'store', 'point': [-0.3292, 0, -0.25],
+         'force': [0, 0, 42703], 'moment': [0, 10, 0], 'start': 0.01, 'end': 0.3}]
+    path = write_sweep(tmp_path, runs=300, scenario=scenario, vary={
+        'bodies.store.mass': {'normal': [907.1848, 10.0]},
+        'bodies.store.inertia[0]': {'uniform': [20, 30]},
+        'bodies.store.inertia[2]': {'normal': [488.0944, 5.0]},
+        'bodies.store.orientation_rpy_deg[1]': {'choice': [-2, 0, 2.5]},
+        'joints.pivot.anchor[0]': {'truncnormal': [-0.3292, 0.01, -0.35, -0.31]},
+        'joints.pivot.anchor[2]': {'uniform': [-0.26, -0.24]},
+        'joints.pivot.axis[0]': {'normal': [0.0, 0.5]},
+        'joints.pivot.axis[1]': {'normal': [1.0, 0.5]},
+        'joints.pivot.axis[2]': {'normal': [0.0, 0.5]},
+        'wrenches[0].force[2]': {'normal': [10676, 500]},
+        'wrenches[1].force[0]': {'normal': [0.0, 100.0]},
+        'wrenches[1].force[2]': {'normal': [42703, 2000]}})
+    spec = Sweep.from_file(path).spec
+    models = Models(spec)
+    assert models.touched == [('bodies', 'store'), ('joints', 'pivot'), ('wrenches', '')]
+    assert not models.slow
+    models.full = None   # every run parsed in place: no whole parse to fall back on
+    triads = set()
+    for k in range(spec.total):
+        values = spec.run_values(k)
+        model = models.model(k, values)
+        same(model, full_model(spec, k, values), f'run {k}')
+        rpy = [0, values['bodies.store.orientation_rpy_deg[1]'], 0]   # not the cached one
+        assert model.bodies[1].orientation_xyzw.tobytes() == from_rpy_deg(rpy).tobytes()
+        triads.add(int(np.argmin(np.abs(model.joints[0].triad[0]))))
+    assert triads == {0, 1, 2}   # the helper axis of the triad took every world axis
+    assert len(models._bases) == 1
 
 
 def test_invalid_values_give_the_whole_parse_message(tmp_path):
