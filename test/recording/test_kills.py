@@ -19,7 +19,7 @@ mid-run. Then:
   are contiguous from t = 0, and less than one chunk (with its indexes) of
   the file on disk is lost.
 
-``make test`` makes 12 kills; ``CFEM_LONG_TESTS=1`` makes 300
+``make test`` makes 9 kills; ``CFEM_LONG_TESTS=1`` makes 300
 (``CFEM_KILLS=N`` to choose) and prints the figures.
 """
 
@@ -42,7 +42,8 @@ from rosbags.rosbag2.storage_mcap import McapReader
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 CFEM_SIM = str(pathlib.Path(sys.executable).with_name('cfem-sim'))
 LONG = os.environ.get('CFEM_LONG_TESTS') == '1'
-KILLS = int(os.environ.get('CFEM_KILLS', 300 if LONG else 12))
+# 9: each signal both during start-up and mid-run (k % 3, k % 2)
+KILLS = int(os.environ.get('CFEM_KILLS', 300 if LONG else 9))
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
 
 
@@ -185,7 +186,7 @@ def test_kills_leave_complete_or_recoverable_files(tmp_path):
     assert sum(figures.values()) == KILLS
     # the runs did get stopped mid-run (a signal ignored while recording would not)
     assert figures['SIGINT', 'mid-run'] + figures['SIGTERM', 'mid-run'] >= KILLS // 6
-    if LONG or KILLS > 12:
+    if LONG or KILLS > 9:
         print(f'\n{KILLS} kills (start-up {start_up:.2f} s):')
         for (name, when), count in sorted(figures.items()):
             print(f'  {name:<8} {when:<9} {count}')
