@@ -154,9 +154,13 @@ def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Op
 def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[float] = None,
             dt: Optional[float] = None, inputs: Optional[str] = None,
             overwrite: bool = False, max_samples: float = offline.MAX_SAMPLES,
-            max_gb: float = offline.MAX_GB) -> int:
+            max_gb: float = offline.MAX_GB, odometry: Optional[str] = None) -> int:
     """
     Run a scenario offline and record it; exit status 0, 1, 2, 130 or 143.
+
+    ``odometry`` ('interpolate' or 'extrapolate') says how replayed
+    odometry drives a kinematic body; None: as the node that recorded the
+    inputs did (its ``interpolate_odometry``), else interpolate.
 
     The recording is written to a partial file next to output and moved
     onto it when finished, also after SIGINT (130) or SIGTERM (143), which
@@ -175,9 +179,13 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         if too_large:
             return _error(too_large)
         replay = []
+        interpolate = odometry != 'extrapolate'
         if inputs:
-            from cfem_ros.recording.replay import read_inputs   # mcap's reader only to replay
+            # mcap's reader only to replay
+            from cfem_ros.recording.replay import read_inputs, recorded_interpolation
             replay = read_inputs(inputs)
+            if odometry is None:
+                interpolate = recorded_interpolation(inputs) is not False
             late = [item for item in replay if item.time > model.duration]
             if late:
                 print(f'warning: {len(late)} input(s) of {inputs} come after the run ends at '
@@ -219,7 +227,8 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
                     raise Interrupted(stop[0])
                 state = StateRecorder(recorder, sim)
                 ok = offline.run(sim, state, rate_hz=rate, duration=model.duration,
-                                 inputs=replay, progress=progress, progress_every=0.2)
+                                 inputs=replay, progress=progress, progress_every=0.2,
+                                 interpolate_odometry=interpolate)
             except Interrupted:
                 pass   # the recording is finished (and moved onto output) on the way out
     except CfemError as err:
@@ -547,6 +556,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument('--dt', type=float, metavar='S', help="RK4 step, overriding the scenario's")
     run.add_argument('--inputs', metavar='LOG.mcap',
                      help='replay the wrenches and release commands of a recording')
+    run.add_argument('--odometry', choices=('interpolate', 'extrapolate'),
+                     help='how replayed odometry drives a kinematic body: on the cubic between '
+                     'messages, or extrapolated from the latest (default: as the node that '
+                     'recorded the log did, else interpolate)')
     run.add_argument('--overwrite', action='store_true',
                      help='replace OUT if it exists (once the new recording is complete)')
     run.add_argument('--max-samples', type=float, default=offline.MAX_SAMPLES, metavar='N',
@@ -694,7 +707,8 @@ def main(argv=None) -> int:
                             delay=args.delay)
         return cmd_run(args.scenario, args.output, rate=args.rate, duration=args.duration,
                        dt=args.dt, inputs=args.inputs, overwrite=args.overwrite,
-                       max_samples=args.max_samples, max_gb=args.max_gb)
+                       max_samples=args.max_samples, max_gb=args.max_gb,
+                       odometry=args.odometry)
     except Interrupted as stop:
         print(f'interrupted by {stop}', file=sys.stderr)
         return stop.exit_status

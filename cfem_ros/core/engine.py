@@ -50,6 +50,12 @@ PROJECTION_REPORT = 1e-9
 #: beyond it, a warning and constant velocity and body rates.
 ODOMETRY_HORIZON = 0.1
 
+
+def _within_horizon(t: float, later: float) -> bool:
+    """Tell whether later is at most ``ODOMETRY_HORIZON`` after t (to rounding)."""
+    return later - t <= ODOMETRY_HORIZON * (1.0 + 1e-9)
+
+
 #: What ``kernel.advance`` gets for no sample grid.
 _NO_GRID = np.zeros(3)
 _NO_ROWS = np.empty((0, 0))
@@ -123,8 +129,11 @@ class Simulator(SampledState):
         # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
         trajectories = motion.columns(model)
         self.kinematic = trajectories.shape[1] > 0
-        self._odometry = {}   # body -> (time, body-axis velocity, body rates) of its last message
+        # body -> (time, body-axis velocity, body rates, (position, quaternion, world
+        # velocity, body rates), extrapolation's acceleration and angular one) of its last message
+        self._odometry = {}
         self._odometry_end = {}   # body -> end of its second-order extrapolation, s
+        self._odometry_ahead = {}   # body -> {time: message} known before it takes effect
         if self.kinematic:
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
@@ -322,7 +331,7 @@ class Simulator(SampledState):
         body : str or int
             A body with ``motion``: the message replaces it.
         t : float
-            The message's time, s (at or before now: extrapolated to now).
+            The message's time, s: now (the body is put at the message's pose).
         position, quaternion : array_like
             CG in world, m; attitude x y z w, body to world.
         velocity_body, rates_body : array_like, shape (3,)
@@ -330,15 +339,77 @@ class Simulator(SampledState):
 
         Notes
         -----
-        From t the body moves with this velocity and acceleration for
-        ``ODOMETRY_HORIZON`` s, then at constant velocity and body rates,
-        with a warning. The acceleration is w x v (the velocity turning with
-        the body) plus the change of the body-axis velocity since the
-        previous message, itself turning with the body (w x a); the angular
-        acceleration, the change of the body rates since it (zero for the
-        first message).
+        If the body's next message is known (``expect_odometry``) and comes
+        within ``ODOMETRY_HORIZON`` s, the body moves on the cubic between
+        the two (``motion.hermite``): the caller then makes that message
+        take effect at its time. Otherwise it is extrapolated: from t it
+        moves with this velocity and acceleration for ``ODOMETRY_HORIZON``
+        s, then at constant velocity and body rates, with a warning. The
+        acceleration is w x v (the velocity turning with the body) plus the
+        change of the body-axis velocity since the previous message, itself
+        turning with the body (w x a); the angular acceleration, the change
+        of the body rates since it (zero for the first message).
 
         """
+        i, t, position, quat, velocity, rates = self._odometry_message(
+            body, t, position, quaternion, velocity_body, rates_body)
+        turn = rotations.matrices(quat[None])[0]
+        # the velocity turns with the body (w x v), and changes in body axes as
+        # between the last two messages; the body rates change as between them
+        acc, alpha = np.cross(turn @ rates, turn @ velocity), np.zeros(3)
+        last = self._odometry.get(i)
+        if last is not None and t > last[0]:
+            acc += turn @ (velocity - last[1]) / (t - last[0])
+            alpha = (rates - last[2]) / (t - last[0])
+        ahead = self._odometry_ahead.get(i, {})
+        for passed in [s for s in ahead if s <= t]:
+            del ahead[passed]
+        self._odometry[i] = (t, velocity, rates, (position, quat, turn @ velocity, rates),
+                             acc, alpha)
+        self._odometry_end[i] = t + ODOMETRY_HORIZON
+        self._pack_odometry(i)
+
+    def expect_odometry(self, body, t: float, position, quaternion, velocity_body,
+                        rates_body):
+        """
+        Make known an odometry message that will take effect at t, after now.
+
+        The body's motion up to it is then the cubic between its message
+        before and this one (see ``set_odometry``, which the caller still
+        calls at t), provided the body has not moved on from that message's
+        time yet: a message known too late for that is warned about, and
+        only takes effect at its time. Arguments and errors as ``set_odometry``.
+        """
+        i, t, position, quat, velocity, rates = self._odometry_message(
+            body, t, position, quaternion, velocity_body, rates_body)
+        if t <= self.t:
+            raise ValueError(f'odometry at t = {t:.9g} s is not after now ({self.t:.9g} s); '
+                             'set_odometry applies it now')
+        turn = rotations.matrices(quat[None])[0]
+        ahead = self._odometry_ahead.setdefault(i, {})
+        ahead[t] = (position, quat, turn @ velocity, rates)
+        base = self._odometry.get(i)
+        if base is None or min(ahead) != t or not _within_horizon(base[0], t):
+            return
+        if base[0] == self.t:
+            self._pack_odometry(i)   # the segment from the current message now ends at it
+        else:
+            self.log.warning(
+                'odometry for body %r at t = %.6f s became known after the simulation had '
+                'moved on from the message before it (t = %.6f s, now %.6f s): not '
+                'interpolated; it takes effect at its time', self.model.bodies[i].name, t,
+                base[0], self.t)
+
+    def odometry_known(self) -> dict:
+        """Return, per body that has had odometry, the time of its latest known message, s."""
+        out = {i: base[0] for i, base in self._odometry.items()}
+        for i, ahead in self._odometry_ahead.items():
+            if ahead:
+                out[i] = max(out.get(i, -math.inf), max(ahead))
+        return out
+
+    def _odometry_message(self, body, t, position, quaternion, velocity_body, rates_body):
+        """Check an odometry message; return (body index, t, its arrays, unit quaternion)."""
         i = self._body(body)
         name = self.model.bodies[i].name
         if self.model.bodies[i].motion is None:
@@ -355,23 +426,24 @@ class Simulator(SampledState):
         if abs(norm - 1.0) > 1e-3:
             raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
                              'quaternion (to 1e-3)')
-        quat = quat / norm
-        turn = rotations.matrices(quat[None])[0]
-        # the velocity turns with the body (w x v), and changes in body axes as
-        # between the last two messages; the body rates change as between them
-        acc, alpha = np.cross(turn @ rates, turn @ velocity), np.zeros(3)
-        last = self._odometry.get(i)
-        if last is not None and t > last[0]:
-            acc += turn @ (velocity - last[1]) / (t - last[0])
-            alpha = (rates - last[2]) / (t - last[0])
-        self._odometry[i] = (float(t), velocity, rates)
-        velocity = turn @ velocity
-        # an acceleration fixed in the body turns with it: its rate of change w x a
-        data = motion.odometry(float(t), position, quat, velocity, rates, acc, alpha,
-                               ODOMETRY_HORIZON, jerk=np.cross(turn @ rates, acc))
+        return i, float(t), position, quat / norm, velocity, rates
+
+    def _pack_odometry(self, i: int):
+        """Write body i's trajectory from its current message into its columns."""
+        t, _, _, start, acc, alpha = self._odometry[i]
+        ahead = self._odometry_ahead.get(i)
+        following = min(ahead) if ahead else None
+        if following is not None and _within_horizon(t, following):
+            data = motion.hermite(t, start, following, ahead[following])
+        else:
+            position, quat, velocity, rates = start
+            # an acceleration fixed in the body turns with it: its rate of change w x a
+            turn = rotations.matrices(quat[None])[0]
+            data = motion.odometry(t, position, quat, velocity, rates, acc, alpha,
+                                   ODOMETRY_HORIZON, jerk=np.cross(turn @ rates, acc))
         self._bodies[i, motion.M_KIND] = motion.KIND_TABLE
+        self._bodies[i, motion.M_DATA:] = 0.0
         self._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
-        self._odometry_end[i] = float(t) + ODOMETRY_HORIZON
         self._place(self.t)
 
     def _odometry_check(self):

@@ -32,6 +32,9 @@ columns; the kernel calls it at every RK4 stage and at the step's end.
 
 from __future__ import annotations
 
+import math
+
+from cfem_ros.core import rotations
 import numba
 import numpy as np
 
@@ -362,6 +365,58 @@ def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acc
     _table(probe, 0, t + horizon, y, 1)
     second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))
     return np.concatenate([[2, t, t + horizon, t + horizon + 1.0], first, second])
+
+
+def hermite(t0: float, start, t1: float, end) -> np.ndarray:
+    """
+    Pack the segment between two odometry messages: the data columns (``M_DATA`` on).
+
+    ``start`` and ``end`` are (position, quaternion x y z w, CG velocity
+    (world), body rates). The position is the cubic Hermite polynomial
+    through both positions and velocities, per axis (as scipy's
+    ``CubicHermiteSpline``); the attitude, the key attitude ``start``'s
+    turned by a rotation vector that is the cubic through 0 with rate
+    ``start``'s body rates and the rotation to ``end``'s attitude with the
+    rate that gives ``end``'s body rates (``_rate`` inverted). So pose and
+    twist are those of the messages at both ends, and continuous across
+    them. Beyond t1 the polynomials continue (the caller cuts its steps at
+    t1).
+    """
+    h = t1 - t0
+    p0, q0, v0, w0 = (np.asarray(v, dtype=float) for v in start)
+    p1, q1, v1, w1 = (np.asarray(v, dtype=float) for v in end)
+    rel = rotations.multiply(rotations.conjugate(q0[None]), q1[None])[0]
+    if rel[3] < 0.0:
+        rel = -rel   # the shorter way round
+    sine = np.linalg.norm(rel[:3])
+    angle = 2.0 * math.atan2(sine, rel[3])
+    r1 = rel[:3] * (angle / sine if sine > 0.0 else 2.0)
+    r1_rate = np.linalg.solve(_rate_matrix(r1), w1)
+    out = np.zeros(SEGMENT)
+    for k in range(3):
+        out[4 * k:4 * k + 4] = _hermite_cubic(p0[k], v0[k], p1[k], v1[k], h)
+        out[16 + 4 * k:16 + 4 * k + 4] = _hermite_cubic(0.0, w0[k], r1[k], r1_rate[k], h)
+    out[12:16] = q0
+    return np.concatenate([[1, t0, t1], out])
+
+
+def _hermite_cubic(f0, d0, f1, d1, h):
+    """Return the cubic's coefficients, highest power first, with these ends on [0, h]."""
+    return ((2.0 * (f0 - f1) + h * (d0 + d1)) / h ** 3,
+            (3.0 * (f1 - f0) - h * (2.0 * d0 + d1)) / h ** 2, d0, f0)
+
+
+def _rate_matrix(r) -> np.ndarray:
+    """Return the matrix of ``_rate``: body rates = it @ the rotation vector's rate."""
+    theta = float(np.linalg.norm(r))
+    if theta > 1e-4:
+        k1 = (1.0 - math.cos(theta)) / theta ** 2
+        k2 = (theta - math.sin(theta)) / theta ** 3
+    else:
+        k1 = 0.5 - theta ** 2 / 24.0
+        k2 = 1.0 / 6.0 - theta ** 2 / 120.0
+    skew = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+    return np.eye(3) - k1 * skew + k2 * skew @ skew
 
 
 def state_at(model, t: float):

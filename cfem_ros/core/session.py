@@ -64,11 +64,17 @@ class Session:
     warn : callable, optional
         Takes the message of an input that could not be applied; the
         ``cfem_ros`` logger's warning by default.
+    interpolate_odometry : bool
+        An odometry input submitted ahead of its time is made known to the
+        simulator at once (``Simulator.expect_odometry``), so that the body
+        moves on the cubic from its previous message to it; False: each
+        message is extrapolated from until the next takes effect.
 
     """
 
     def __init__(self, sim, *, rate_hz: float, duration: float = math.inf, outputs=(),
-                 warn: Optional[Callable[[str], None]] = None):
+                 warn: Optional[Callable[[str], None]] = None,
+                 interpolate_odometry: bool = True):
         if not (math.isfinite(rate_hz) and rate_hz > 0):
             raise ValueError(f'rate_hz is {rate_hz!r}; expected a rate > 0')
         self.sim = sim
@@ -78,6 +84,7 @@ class Session:
         self.warn = warn or LOG.warning
         self.samples = 0
         self.started = False
+        self.interpolate_odometry = bool(interpolate_odometry)
         self._queue = []
         self._order = itertools.count()
 
@@ -130,6 +137,7 @@ class Session:
 
         """
         if not self.started:
+            self._expect(item)
             heapq.heappush(self._queue, (item.time or 0.0, next(self._order), item))
             return
         if item.time is not None and item.time > self.sim.t:
@@ -139,9 +147,22 @@ class Session:
                 except ValueError:
                     self._record(item)
                     raise
+            self._expect(item)
             heapq.heappush(self._queue, (item.time, next(self._order), item))
             return
         self._apply(item)
+
+    def _expect(self, item: Input):
+        """Make an odometry input held for later known to the simulator (interpolation)."""
+        if not (self.interpolate_odometry and item.kind == 'odom' and item.time is not None
+                and item.time > self.sim.t):
+            return
+        try:
+            validate_input(self.sim, item)
+        except ValueError:
+            return   # refused, with a warning, when its time comes
+        v = item.values
+        self.sim.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10], v[10:13])
 
     def advance(self, limit: float):
         """

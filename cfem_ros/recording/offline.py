@@ -14,7 +14,7 @@ from cfem_ros.core.session import Session
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
         log: Optional[logging.Logger] = None,
         progress: Optional[Callable[[float], None]] = None,
-        progress_every: float = 1.0) -> bool:
+        progress_every: float = 1.0, interpolate_odometry: bool = True) -> bool:
     """
     Run sim to duration, recording a sample at every multiple of 1/rate_hz.
 
@@ -38,6 +38,9 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
         wall time, between kernel calls (a safe point to stop at by raising).
     progress_every : float
         s of wall time.
+    interpolate_odometry : bool
+        Odometry inputs: the cubic between messages, or extrapolated from
+        the latest (``Session``).
 
     Returns
     -------
@@ -47,7 +50,8 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     """
     log = log or logging.getLogger('cfem_ros')
     session = Session(sim, rate_hz=rate_hz, duration=duration,
-                      outputs=[recorder] if recorder is not None else [], warn=log.warning)
+                      outputs=[recorder] if recorder is not None else [], warn=log.warning,
+                      interpolate_odometry=interpolate_odometry)
     for item in inputs:
         session.submit(item, check=False)
     session.run(progress, progress_every)

@@ -71,8 +71,22 @@ def read_inputs(path: str) -> list:
     if start_ns is None:
         start_ns = min(f[0] for f in found)
     found.sort(key=lambda f: f[0])
-    return [replace(item, time=max(0.0, (stamp_ns - start_ns) * 1e-9))
+    return [replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9))
             for stamp_ns, item in found]
+
+
+def recorded_interpolation(path: str) -> Optional[bool]:
+    """
+    Tell whether the node that recorded path interpolated odometry (None: it does not say).
+
+    From the ``interpolate_odometry`` of its ``cfem_ros`` metadata; the
+    file was read by ``read_inputs`` already, so errors are not expected.
+    """
+    with open(path, 'rb') as stream:
+        for record in make_reader(stream).iter_metadata():
+            if record.name == 'cfem_ros' and 'interpolate_odometry' in record.metadata:
+                return record.metadata['interpolate_odometry'] == 'true'
+    return None
 
 
 def _odometry(body: str, msg):

@@ -30,7 +30,7 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine import ODOMETRY_HORIZON, Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
@@ -119,6 +119,12 @@ PARAMETERS = {
         read_only=True), 'a file path ending in .mcap, or empty'),
     'overwrite': (False, ParameterDescriptor(
         description='replace the record file if it exists', read_only=True),
+        'true or false'),
+    'interpolate_odometry': (True, ParameterDescriptor(
+        description='a kinematic body following bodies/<body>/odom moves on the cubic between '
+        'its messages: the simulation waits for the next message (at most the 0.1 s '
+        'horizon of clock time), so it runs up to one odometry period behind the clock; '
+        'false: extrapolated from the latest message, never behind', read_only=True),
         'true or false'),
 }
 
@@ -471,8 +477,11 @@ class CfemNode(Node):
             self.state_recorder = StateRecorder(self.recorder, self.sim,
                                                 namespace=self.get_namespace())
         outputs = [self._publishers_sink] + ([self.state_recorder] if self.state_recorder else [])
+        self.interpolate_odometry = bool(values['interpolate_odometry'])
         self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
-                               outputs=outputs, warn=self._refusals.warning)
+                               outputs=outputs, warn=self._refusals.warning,
+                               interpolate_odometry=self.interpolate_odometry)
+        self._clock_limit: Optional[float] = None   # simulated time /clock last gave
         self.start_ns: Optional[int] = None
         self._early = []
         self._last_lag_warning = -math.inf
@@ -581,12 +590,15 @@ class CfemNode(Node):
             self._wall_ref = time.monotonic()
             self._sim_ref = 0.0
         self.start_ns = int(start_ns)
+        if self.sim_time:
+            self._clock_limit = 0.0
         self._publishers_sink.start_ns = self.start_ns
         if self.state_recorder is not None:
             self.state_recorder.start_ns = self.start_ns
             self.recorder.add_metadata(run_metadata(
                 self.sim.model, self.scenario_path, self.rate_hz, self.start_ns,
-                node=self.get_fully_qualified_name(), use_sim_time=str(self.sim_time).lower()))
+                node=self.get_fully_qualified_name(), use_sim_time=str(self.sim_time).lower(),
+                interpolate_odometry=str(self.interpolate_odometry).lower()))
         for item in self._early:
             self._submit(*item)
         self._early.clear()
@@ -621,7 +633,7 @@ class CfemNode(Node):
         now = time.monotonic()
         target = self._wall_target(now)
         self._run_to(target, deadline=now + TICK_BUDGET)
-        lag = target - self.sim.t
+        lag = self._held(target) - self.sim.t   # waiting for odometry is not falling behind
         if (math.isfinite(lag) and not self.session.finished
                 and lag > max(2.0 / self.rate_hz, 2 * self.sim.dt)
                 and now - self._last_lag_warning > LAG_WARNING_PERIOD):
@@ -642,11 +654,30 @@ class CfemNode(Node):
             self.get_logger().warning('/clock went back; ignored (restart the node to '
                                       'replay from an earlier time)', throttle_duration_sec=5.0)
             return
-        self._run_to((clock_ns - self.start_ns) / 1e9)
+        self._clock_limit = (clock_ns - self.start_ns) / 1e9
+        self._run_to(self._clock_limit)
+
+    def _held(self, limit: float) -> float:
+        """
+        Return how far the simulation may go toward limit, waiting for odometry.
+
+        With ``interpolate_odometry``, not past a body's latest odometry
+        message (the motion beyond it needs the next one) while limit is
+        within ``ODOMETRY_HORIZON`` of it; beyond that, on (extrapolated,
+        with the engine's warning).
+        """
+        if not self.interpolate_odometry:
+            return limit
+        held = limit
+        for latest in self.sim.odometry_known().values():
+            if limit <= latest + ODOMETRY_HORIZON:
+                held = min(held, latest)
+        return held
 
     def _run_to(self, limit: float, deadline: float = math.inf):
         """Run the session on to simulated time limit, within a wall deadline."""
         session = self.session
+        limit = self._held(limit)
         while (not session.finished and session.next_sample_time <= limit
                and time.monotonic() < deadline):
             session.advance(session.next_sample_time)
@@ -718,7 +749,7 @@ class CfemNode(Node):
         if self.sim_time or self.real_time_factor == 0:
             return None
         target = self._wall_target(time.monotonic())
-        return min(round(target * 1e9) * 1e-9, self.duration)
+        return min(round(target * 1e9) / 1e9, self.duration)
 
     def _submit(self, topic: str, item: Input):
         """
@@ -734,10 +765,15 @@ class CfemNode(Node):
             self._early.append((topic, item))
             return
         if self.sim_time:
+            # at its stamp if that is still ahead; else at the clock's time, which is
+            # ahead of the simulation while it waits for odometry (``_held``)
+            t = self._clock_limit
             if item.kind in ('wrench', 'odom') and item.header_ns:
                 t = (item.header_ns - self.start_ns) / 1e9
-                if t > self.sim.t:
-                    item = replace(item, time=t)
+                if t <= self.sim.t:
+                    t = self._clock_limit
+            if t is not None and t > self.sim.t:
+                item = replace(item, time=t)
         else:
             t = self._arrival_time()
             if t is not None and t > self.sim.t:
@@ -747,6 +783,9 @@ class CfemNode(Node):
         except ValueError as err:
             self._refused[topic] = self._refused.get(topic, 0) + 1
             self._refusals.warning(f'{topic}: message not applied: {err}')
+        if (item.kind == 'odom' and self.interpolate_odometry and self.sim_time
+                and self._clock_limit is not None):
+            self._run_to(self._clock_limit)   # what waited for this message goes on
         if self.session.finished and self.exit_code is None:
             self._end()
 

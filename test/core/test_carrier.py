@@ -314,29 +314,130 @@ def _odometry_inputs(rate, until, step=0.01):
     return out
 
 
-def test_odometry_at_100_hz_drives_the_carrier_through_the_pull_up():
+def _pull_up_error(step, interpolate):
+    """Return the store's largest error in the pull-up driven by odometry every step s."""
     from cfem_ros.core.session import Session
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft)))
-    session = Session(sim, rate_hz=100.0, duration=2.0, outputs=[])
-    for item in _odometry_inputs(rate, 2.0):
+    session = Session(sim, rate_hz=100.0, duration=2.0, outputs=[],
+                      interpolate_odometry=interpolate)
+    for item in _odometry_inputs(rate, 2.0, step):
         session.submit(item)
     rel = []
     for t in TIMES:
         session.advance(t)
         assert sim.status == 'running', sim.message
         rel.append(_relative(sim))
-    position, _ = _pullup(2.0, rate)
-    # extrapolated from the last message (t = 2 s, where the run ends): the circle
-    assert np.allclose(sim.position[0], position, rtol=0, atol=1e-6)
+    # the run ends on the last message (t = 2 s): the carrier is on the circle
+    assert np.allclose(sim.position[0], _pullup(2.0, rate)[0], rtol=0, atol=1e-6)
+    assert max(np.abs(r[0] - STORE).max() for r in rel) > 0.05   # the store does swing
     expected = _pitch_solution(rate, [0.0, 0.0, -rate * SPEED], TIMES)
-    error = max(np.abs(r[0] - e).max() for r, e in zip(rel, expected))
-    swing = max(np.abs(r[0] - STORE).max() for r in rel)
-    assert swing > 0.05
-    # between messages the carrier is extrapolated (a turning with the body): off the
-    # circle by |a| w^3 dt^4 / 24 (3e-14 m) at the next message; 6.6e-10 m measured
-    assert error < 5e-9, error
+    return max(np.abs(r[0] - e).max() for r, e in zip(rel, expected))
+
+
+def test_odometry_at_100_hz_drives_the_carrier_through_the_pull_up():
+    # between messages the carrier is on the cubic through both poses and
+    # velocities: off the circle by at most h^4 V w^3 / 384 (the fourth
+    # derivative's bound; 4e-13 m at 100 Hz); the 7e-11 m measured is RK4's
+    assert _pull_up_error(0.01, interpolate=True) < 1e-9
+    # extrapolated from each message (a turning with the body): off the circle
+    # by |a| w^3 h^4 / 24 (3e-14 m) at the next message; 6.6e-10 m measured
+    assert _pull_up_error(0.01, interpolate=False) < 5e-9
+
+
+def test_odometry_at_20_hz_is_interpolated_not_extrapolated():
+    # at 20 Hz the cubic is still within 3e-10 m of the circle; extrapolated
+    # from each message, the store feels a jump in acceleration at every
+    # message, and is 2.5e-8 m off
+    assert _pull_up_error(0.05, interpolate=True) < 1e-9
+    assert _pull_up_error(0.05, interpolate=False) > 1e-8
+
+
+def _flight(t):
+    """A carrier weaving in three axes: CG, attitude, velocity (world), angle rates."""
+    position = np.array([SPEED * t + 3.0 * math.sin(2.0 * t),
+                         2.0 * (math.cos(1.5 * t) - 1.0), -1.0 * t ** 2])
+    velocity = np.array([SPEED + 6.0 * math.cos(2.0 * t), -3.0 * math.sin(1.5 * t), -2.0 * t])
+    angles = np.array([0.3 * math.sin(1.1 * t), 0.1 * t + 0.05 * t ** 2, -0.2 * math.sin(t)])
+    rates = np.array([0.33 * math.cos(1.1 * t), 0.1 + 0.1 * t, -0.2 * math.cos(t)])
+    return position, Rotation.from_euler('XYZ', angles), velocity, rates, angles
+
+
+def _body_rates(angles, angle_rates):
+    """Return the body rates of intrinsic X-Y-Z angles changing at angle_rates."""
+    e1 = Rotation.from_euler('Z', -angles[2])
+    e2 = Rotation.from_euler('YZ', [-angles[1], -angles[2]])
+    return (e2.apply([angle_rates[0], 0, 0]) + e1.apply([0, angle_rates[1], 0])
+            + np.array([0, 0, angle_rates[2]]))
+
+
+def test_odometry_between_messages_is_the_cubic_hermite_through_them():
+    from cfem_ros.core.inputs import odometry_input
+    from cfem_ros.core.session import Session
+    from scipy.interpolate import CubicHermiteSpline
+    times = np.arange(0.0, 1.0 + 1e-9, 0.05)   # 20 Hz
+    flight = [_flight(t) for t in times]
+    start = {'velocity': flight[0][2].tolist(),
+             'angular_velocity': _body_rates(flight[0][4], flight[0][3]).tolist()}
+    sim = Simulator(parse_scenario(_document({'motion': start})))
+    samples = []
+
+    class Sink:
+        def sample(self):
+            samples.append((sim.t, sim.position[0].copy(), sim.velocity[0].copy(),
+                            sim.orientation[0].copy(), sim.rates[0].copy()))
+
+        def events(self):
+            pass
+
+        def received(self, item, t):
+            pass
+
+    session = Session(sim, rate_hz=200.0, duration=1.0, outputs=[Sink()])
+    for t, (p, attitude, v, rates, angles) in zip(times, flight):
+        session.submit(odometry_input('aircraft', p, attitude.as_quat(),
+                                      attitude.inv().apply(v), _body_rates(angles, rates),
+                                      'world', time=t))
+    session.advance(1.0)
+    assert sim.status == 'running', sim.message
+    assert len(samples) == 201
+    spline = CubicHermiteSpline(times, [f[0] for f in flight], [f[2] for f in flight])
+    for t, p, v, q, w in samples:
+        # position and velocity: scipy's cubic Hermite spline through the messages
+        assert np.abs(p - spline(t)).max() < 1e-9, t
+        assert np.abs(v - spline(t, 1)).max() < 1e-8, t
+        # attitude: near the flight's (a cubic in rotation vector, not in angles)
+        _, attitude, _, rates, angles = _flight(t)
+        assert (Rotation.from_quat(q) * attitude.inv()).magnitude() < 1e-4, t
+        k = int(round(t / 0.05))
+        if k > 0 and abs(t - times[k]) < 1e-12:
+            # on a message, before it takes effect: the segment ends on its
+            # attitude and body rates (the rotation vector's rate mapped back)
+            assert abs(abs(q @ attitude.as_quat()) - 1.0) < 1e-13, t
+            assert np.abs(w - _body_rates(angles, rates)).max() < 1e-12, t
+
+
+def test_odometry_known_too_late_to_interpolate_is_warned(caplog):
+    from cfem_ros.core.inputs import odometry_input
+    from cfem_ros.core.session import Session
+    sim = Simulator(parse_scenario(_document({'motion': {'velocity': [SPEED, 0, 0]}})))
+    session = Session(sim, rate_hz=100.0, duration=1.0, outputs=[])
+    session.submit(odometry_input('aircraft', [0, 0, 0], [0, 0, 0, 1], [SPEED, 0, 0],
+                                  [0, 0, 0], 'world', time=0.0))
+    session.advance(0.02)   # on from the message at 0 without the next one
+    late = odometry_input('aircraft', [SPEED * 0.05, 0, 1e-5], [0, 0, 0, 1], [SPEED, 0, 0],
+                          [0, 0, 0], 'world', time=0.05)
+    with caplog.at_level('WARNING', logger='cfem_ros'):
+        session.submit(late)
+    assert 'became known after the simulation had moved on' in caplog.text
+    session.advance(0.04)
+    # still extrapolated from the first message: straight and level (the cubic
+    # to the late one would have descended 9e-6 m by now)
+    assert np.allclose(sim.position[0], [SPEED * 0.04, 0, 0], rtol=0, atol=1e-12)
+    session.advance(0.06)   # the late message took effect at its time
+    assert sim.status == 'running', sim.message
+    assert np.allclose(sim.position[0], [SPEED * 0.06, 0, 1e-5], rtol=0, atol=1e-12)
 
 
 def test_odometry_stops_beyond_the_horizon_with_a_warning(caplog):

@@ -47,3 +47,47 @@ def test_replay_of_the_pullup_log(tmp_path):
     # the frame turns 3.4 deg in the 1.5 s: the fall tilts back in x by that much
     assert np.abs(store.position[after, 2] - expected).max() < 0.01 * expected.max()
     assert store.position[-1, 0] < -0.5
+
+
+def _log(path, script, metadata=None, rate_hz=20.0):
+    """Write the pull-up's odometry at rate_hz, with a cfem_ros metadata record if given."""
+    from cfem_ros.recording.recorder import ODOMETRY, Recorder
+    with Recorder(str(path), metadata=metadata) as rec:
+        for k in range(int(round(1.0 * rate_hz)) + 1):
+            t_ns = script.START_NS + round(k / rate_hz * 1e9)
+            position, quat, pitch_rate = script.pullup(k / rate_hz)
+            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY, {
+                'header': {'stamp': {'sec': t_ns // 10 ** 9, 'nanosec': t_ns % 10 ** 9},
+                           'frame_id': 'world'},
+                'child_frame_id': 'aircraft',
+                'pose': {'pose': {'position': dict(zip('xyz', position)),
+                                  'orientation': dict(zip('xyzw', quat))}},
+                'twist': {'twist': {'linear': {'x': script.SPEED},
+                                    'angular': {'y': pitch_rate}}}}, t_ns)
+
+
+def test_replay_interpolates_odometry_unless_the_recording_node_did_not(tmp_path):
+    script = _script()
+    scenario = str(ROOT / 'config' / 'store_release_from_pullup.yaml')
+    plain, extrapolated = tmp_path / 'flight.mcap', tmp_path / 'node.mcap'
+    _log(plain, script)
+    _log(extrapolated, script, {'start_stamp_ns': script.START_NS,
+                                'interpolate_odometry': 'false'})
+
+    runs = []
+
+    def hook_force(log, *options):
+        runs.append(log)
+        out = str(tmp_path / f'run{len(runs)}.mcap')
+        assert cli.main(['run', scenario, '-o', out, '--inputs', str(log), '--duration', '1',
+                         *options]) == 0
+        return open_run(out).joints['hook'].force
+
+    interpolated = hook_force(plain)
+    assert np.array_equal(interpolated, hook_force(plain, '--odometry', 'interpolate'))
+    # a node that extrapolated (its metadata says so) is replayed the same way
+    assert np.array_equal(hook_force(extrapolated), hook_force(plain, '--odometry',
+                                                               'extrapolate'))
+    assert np.array_equal(hook_force(extrapolated, '--odometry', 'interpolate'), interpolated)
+    # at 20 Hz the two differ: the extrapolated carrier's acceleration jumps at each message
+    assert np.abs(hook_force(extrapolated) - interpolated).max() > 1e-3

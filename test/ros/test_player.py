@@ -239,7 +239,7 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
     worst = max(np.abs(_numbers(m) - _numbers(theirs[key])).max() for key, m in ours.items())
     bad = sorted((key[1], key[0]) for key, m in ours.items()
                  if np.abs(_numbers(m) - _numbers(theirs[key])).max() > 1e-9)
-    assert worst <= 1e-9, (worst, bad[:5])
+    assert worst <= 1e-9, (worst, bad[:5], node.output)
     assert [e['joint'] for e in our_events] == [e['joint'] for e in their_events] == ['hook']
     assert abs(our_events[0]['time'] - their_events[0]['time']) <= 1e-9
     # the carrier followed the log: at 0.6 s, on the circle
