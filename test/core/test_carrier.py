@@ -355,7 +355,7 @@ def test_odometry_at_20_hz_is_interpolated_not_extrapolated():
 
 
 def _flight(t):
-    """A carrier weaving in three axes: CG, attitude, velocity (world), angle rates."""
+    """Return a carrier weaving in three axes: CG, attitude, velocity (world), angle rates."""
     position = np.array([SPEED * t + 3.0 * math.sin(2.0 * t),
                          2.0 * (math.cos(1.5 * t) - 1.0), -1.0 * t ** 2])
     velocity = np.array([SPEED + 6.0 * math.cos(2.0 * t), -3.0 * math.sin(1.5 * t), -2.0 * t])
