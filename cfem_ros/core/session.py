@@ -16,6 +16,10 @@ node, so that a recording of the node replays offline to the same numbers:
   clock, ``/clock``, nothing) changes when steps are taken, never which;
 - an input is recorded at the simulated time it took effect, so replaying
   the recording applies it at that same time;
+- odometry submitted ahead of its time is also made known to the simulator
+  at once, so that the body moves on the cubic from its previous message to
+  it (``interpolate_odometry``); a replay knows every message from the start,
+  the node waits for the next one, and both step through the same cubics;
 - a numerical failure (in a step, or in a sample's outputs, the first one
   included) sets ``sim.status = 'failed'`` and ends the run: nothing
   non-finite reaches an output, and what was taken before stays.

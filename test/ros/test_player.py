@@ -197,6 +197,10 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
             quat = Rotation.from_rotvec([0, phi, 0]).as_quat()
             rec.write('/cfem/bodies/aircraft/odom', ODOMETRY,
                       _odometry(t_ns, position, quat, [speed, 0, 0], [0, rate, 0]), t_ns)
+            if k in (10, 20):   # a wrench on the store between two odometry messages
+                force = [0, 0, 800.0] if k == 10 else [0, 0, 0]
+                rec.write('/cfem/bodies/store/wrench', WRENCH, _wrench(t_ns + 3 * MS, force),
+                          t_ns + 3 * MS)
             if k == 30:
                 rec.write('/cfem/release', STRING, {'data': 'hook'}, t_ns + 5 * MS)
     recording = tmp_path / 'node.mcap'
@@ -210,7 +214,7 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
         done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait',
                                '60'], capture_output=True, text=True, timeout=120)
         assert done.returncode == 0, done.stderr
-        assert '62 messages played' in done.stdout
+        assert '64 messages played' in done.stdout
         peer.spin_for(1.0)
     finally:
         status = node.stop(signal.SIGINT)
@@ -229,6 +233,9 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
     odometry = [log - start_ns for topic, log, _, _ in messages
                 if topic == '/cfem/bodies/aircraft/odom']
     assert odometry == [10 * k * MS for k in range(61)]   # each at its own time
+    assert [log - start_ns for topic, log, _, _ in messages
+            if topic in ('/cfem/bodies/store/wrench', '/cfem/release')] == [
+                103 * MS, 203 * MS, 305 * MS]
     last = max(t for _, t in ours)
     assert last >= 600 * MS
     out = tmp_path / 'offline.mcap'
