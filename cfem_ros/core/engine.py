@@ -134,6 +134,7 @@ class Simulator(SampledState):
         self._odometry = {}
         self._odometry_end = {}   # body -> end of its second-order extrapolation, s
         self._odometry_ahead = {}   # body -> {time: message} known before it takes effect
+        self._odometry_cubic_end = {}   # body -> where the cubic it is on ends, s
         if self.kinematic:
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
@@ -364,10 +365,16 @@ class Simulator(SampledState):
         ahead = self._odometry_ahead.get(i, {})
         for passed in [s for s in ahead if s <= t]:
             del ahead[passed]
+        # unless the body arrives here on the cubic that ends on this message, it
+        # jumps to the message's pose and twist: what hangs on it jumps with it
+        carried = self._odometry_cubic_end.pop(i, None) != t
+        before = self._pose(i) if carried else None
         self._odometry[i] = (t, velocity, rates, (position, quat, turn @ velocity, rates),
                              acc, alpha)
         self._odometry_end[i] = t + ODOMETRY_HORIZON
         self._pack_odometry(i)
+        if carried:
+            self._carry_jump(i, before)
 
     def expect_odometry(self, body, t: float, position, quaternion, velocity_body,
                         rates_body):
@@ -435,6 +442,7 @@ class Simulator(SampledState):
         following = min(ahead) if ahead else None
         if following is not None and _within_horizon(t, following):
             data = motion.hermite(t, start, following, ahead[following])
+            self._odometry_cubic_end[i] = following
         else:
             position, quat, velocity, rates = start
             # an acceleration fixed in the body turns with it: its rate of change w x a
@@ -445,6 +453,53 @@ class Simulator(SampledState):
         self._bodies[i, motion.M_DATA:] = 0.0
         self._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
         self._place(self.t)
+
+    def _pose(self, i: int):
+        """Return body i's CG and unit quaternion (copies)."""
+        pos, _, quat, _ = self._split(self.y)
+        return pos[i].copy(), quat[i] / np.linalg.norm(quat[i])
+
+    def _carry_jump(self, carrier: int, before):
+        """
+        Move what hangs on a kinematic body with it, rigidly, after it jumped.
+
+        The bodies joined to it by active joints (and through other free
+        bodies) keep their pose relative to it, so their joints hold as they
+        did, and their velocities take the least (mass weighted) change that
+        the joints allow. Not if they are also joined to a fixed or another
+        kinematic body: those stay where they are.
+        """
+        model, free = self.model, self.free
+        hanging, queue, anchored = set(), [carrier], False
+        while queue:
+            i = queue.pop()
+            for k, joint in enumerate(model.joints):
+                if not self.active[k] or i not in (joint.parent, joint.child):
+                    continue
+                other = joint.child if joint.parent == i else joint.parent
+                if not free[other]:
+                    anchored = anchored or other != carrier
+                elif other not in hanging:
+                    hanging.add(other)
+                    queue.append(other)
+        if not hanging or anchored:
+            return
+        p0, q0 = before
+        p1, q1 = self._pose(carrier)
+        jump = rotations.multiply(q1[None], rotations.conjugate(q0[None]))   # world axes
+        turn = rotations.matrices(jump)[0]
+        pos, vel, quat, rates = self._split(self.y)
+        for b in sorted(hanging):
+            spin = rotations.matrices(quat[b:b + 1])[0] @ rates[b]   # world axes
+            pos[b] = p1 + turn @ (pos[b] - p0)
+            quat[b] = rotations.multiply(jump, quat[b:b + 1])[0]
+            rates[b] = rotations.matrices(quat[b:b + 1])[0].T @ spin
+        # velocities: the least (mass weighted) change that makes them those the
+        # joints allow, as an impulse would
+        delta = np.zeros((self.n, 6))
+        kernel.project(self.y, *self._topology.kernel_args(self), delta)
+        vel += delta[:, :3]
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
 
     def _odometry_check(self):
         """Warn once per message when a body's odometry is older than the horizon."""
