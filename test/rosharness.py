@@ -114,6 +114,9 @@ class Peer:
         self.received = {}
         #: relative topic -> ROS time (ns) at which each message of received arrived
         self.arrivals = {}
+        #: relative topic -> the publisher's time (ns) of writing each one (DDS source
+        #: timestamp: the system clock, which is ROS time without /clock)
+        self.published = {}
         for body in scenario_bodies:
             self._collect(PoseStamped, f'bodies/{body}/pose')
             self._collect(TwistStamped, f'bodies/{body}/twist')
@@ -131,10 +134,12 @@ class Peer:
     def _collect(self, kind, relative, qos=RELIABLE):
         topic = f'{self.ns}/{relative}'
         received, arrivals = self.received[relative], self.arrivals[relative] = [], []
+        published = self.published[relative] = []
         clock = self.node.get_clock()
 
-        def take(msg):
+        def take(msg, info):
             arrivals.append(clock.now().nanoseconds)
+            published.append(info['source_timestamp'])
             received.append(msg)
         self.node.create_subscription(kind, topic, take, qos)
 
