@@ -176,7 +176,9 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
         With ``clock``: wall-clock seconds between a /clock message at a
         message's log time and the message, so that a node following the
         clock has reached that time when the message arrives (a command
-        applied on arrival then acts at its recorded time).
+        applied on arrival then acts at its recorded time). Only for
+        messages without a header: a stamped one acts at its stamp, so a
+        100 Hz odometry stream plays at its own pace.
 
     """
     if not rate > 0.0:
@@ -188,7 +190,7 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
         rclpy.init()
         node = rclpy.create_node('cfem_player')
     try:
-        publishers, skipped = {}, set()
+        publishers, skipped, unstamped = {}, set(), set()
         by_topic = {}
         for cid, (topic, type_name, qos) in channels.items():
             if topics and topic not in topics:
@@ -203,6 +205,8 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             if key not in by_topic:
                 by_topic[key] = node.create_publisher(cls, target, parse_qos(qos))
             publishers[cid] = by_topic[key]
+            if 'header' not in cls.get_fields_and_field_types():
+                unstamped.add(cid)
         clock_pub = node.create_publisher(Clock, '/clock', CLOCK_QOS) if clock else None
         messages = [m for m in messages if m[1] in publishers]
         if not messages:
@@ -228,7 +232,7 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             time.sleep(min(0.05, max(0.0, deadline - time.monotonic())))
         time.sleep(settle)
         start = time.monotonic()
-        last_clock = first
+        last_clock, settled = first, True   # the first clock was settled above
         period = int(CLOCK_PERIOD * 1e9)
         for log_time, cid, data in messages:
             if clock_pub is not None:
@@ -239,8 +243,10 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             _sleep_until(start + (log_time - first) * 1e-9 / rate)
             if clock_pub is not None and log_time != last_clock:
                 send_clock(log_time)
-                last_clock = log_time
+                last_clock, settled = log_time, False
+            if clock_pub is not None and cid in unstamped and not settled:
                 time.sleep(settle)
+                settled = True
             publishers[cid].publish(data)
         time.sleep(LINGER)   # reliable messages still in flight reach their readers
         return len(messages)
