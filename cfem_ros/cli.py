@@ -290,7 +290,7 @@ def cmd_info(recording: str) -> int:
     for t, joint, cause in releases:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
-        print('  no release')
+        print('  no release event')
     return EXIT_OK
 
 

@@ -255,6 +255,11 @@ def relative_trajectory_figure(run: Run):
             ax.invert_yaxis()
     axes[0].set_title('relative to the carrier: side view (x-z)')
     axes[1].set_title('relative to the carrier: front view (y-z)')
+    for t, joint, cause in run.releases():
+        axes[0].scatter([], [], color='tab:red', marker='*', s=120,
+                        label=f'{joint} released ({cause}), t = {t:.4f} s')
+    for marker, label in (('o', 'start'), ('s', 'end')):
+        axes[0].scatter([], [], color='gray', marker=marker, label=label)
     axes[0].legend(loc='best', fontsize=8)
     return fig
 
