@@ -254,6 +254,9 @@ def load_yaml(text: str, source: str = '<scenario>', loader=None) -> Any:
     except yaml.YAMLError as err:
         mark = getattr(err, 'problem_mark', None)
         problem = getattr(err, 'problem', None) or getattr(err, 'reason', None) or str(err)
+        if 'maximum nesting depth' in str(problem):   # libyaml's own bound, below ours
+            raise ScenarioError(source, '', f'{_where(mark)}collections nested deeper than '
+                                f'{MAX_DEPTH} levels', f'at most {MAX_DEPTH} levels') from None
         raise ScenarioError(source, '', f'{_where(mark)}not valid YAML: {_clip(problem)}',
                             'a YAML mapping as in SPEC section 1') from None
     except (ValueError, OverflowError) as err:

@@ -521,7 +521,8 @@ def _factor(matrix: np.ndarray) -> np.ndarray:
         return np.linalg.cholesky(matrix)
     except np.linalg.LinAlgError:
         eigenvalues, vectors = np.linalg.eigh(matrix)
-        return vectors * np.sqrt(np.clip(eigenvalues, 0.0, None))
+        eigenvalues[eigenvalues < PSD_TOLERANCE] = 0.0   # rounding of a zero, not a direction
+        return vectors * np.sqrt(eigenvalues)
 
 
 def _marginal(variable, z: np.ndarray) -> list:
