@@ -38,7 +38,7 @@ FORBIDDEN = {
 #: the imports of the modules in ``KERNEL_CIRCLE_CLOSERS``; delete both once
 #: the kernel imports nothing of the package.
 KNOWN_KERNEL_CIRCLE = frozenset(f'cfem_ros.core.{name}' for name in (
-    'aot', 'engine', 'kernel', 'loads', 'motion', 'releases', 'sampling', 'scenario',
+    'aot', 'carrier', 'engine', 'kernel', 'loads', 'motion', 'releases', 'sampling', 'scenario',
     'topology', 'warmup'))
 KERNEL_CIRCLE_CLOSERS = ('cfem_ros.core.kernel', 'cfem_ros.core.aot')
 

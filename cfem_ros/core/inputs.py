@@ -159,7 +159,7 @@ def apply_input(sim, item: Input):
     validate_input(sim, item)
     if item.kind == 'odom':
         v = item.values   # from now: the time it takes effect (a sample's at most)
-        sim.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
+        sim.carriers.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
         return
     if item.kind == 'wrench':
         # the world frame wins: a body named as the world frame is loaded in world axes

@@ -70,7 +70,7 @@ class Session:
         ``cfem_ros`` logger's warning by default.
     interpolate_odometry : bool
         An odometry input submitted ahead of its time is made known to the
-        simulator at once (``Simulator.expect_odometry``), so that the body
+        simulator at once (``Carriers.expect_odometry``), so that the body
         moves on the cubic from its previous message to it; False: each
         message is extrapolated from until the next takes effect.
 
@@ -166,7 +166,7 @@ class Session:
         except ValueError:
             return   # refused, with a warning, when its time comes
         v = item.values
-        self.sim.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10], v[10:13])
+        self.sim.carriers.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10], v[10:13])
 
     def advance(self, limit: float):
         """
