@@ -281,43 +281,6 @@ class Simulator(SampledState):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
         self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
 
-    @property
-    def applied_sources(self) -> list:
-        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
-        return self._scheduled.sources()
-
-    def applied_loads(self) -> np.ndarray:
-        """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
-        first = 13 * self.n + 6 * len(self._outputs_key)
-        return self.outputs()[first:first + self._scheduled.outputs_size].reshape(-1, 6)
-
-    def relative_states(self) -> np.ndarray:
-        """
-        Return each ``model.references`` body's state in its reference's frame, (k, 13).
-
-        Per pair: CG position relative to the reference's CG (3) and attitude
-        (x y z w, body to reference), then the CG velocity seen from the
-        reference and the relative angular velocity (3 + 3); all in the
-        reference's axes (``motion.sample_relative``, computed here in numpy).
-        """
-        pairs = self.model.references
-        out = np.empty((len(pairs), 13))
-        if not pairs:
-            return out
-        body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
-        pos, vel, quat, rates = self._split(self.y)
-        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
-        rot = rotations.matrices(quat)
-        omega = np.einsum('nij,nj->ni', rot, rates)
-        d = pos[body] - pos[ref]
-        v = vel[body] - vel[ref] - np.cross(omega[ref], d)
-        turn = rot[ref].transpose(0, 2, 1)
-        out[:, :3] = np.einsum('nij,nj->ni', turn, d)
-        out[:, 3:7] = rotations.multiply(rotations.conjugate(quat[ref]), quat[body])
-        out[:, 7:10] = np.einsum('nij,nj->ni', turn, v)
-        out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
-        return out
-
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
         k = self._joint(joint)
