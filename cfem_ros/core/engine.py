@@ -135,7 +135,6 @@ class Simulator(SampledState):
         ]).astype(float)
         self.status = 'running'
         self.message = ''
-        self.events = []
         self.steps = 0
         self.max_violation = 0.0
         self._stage_violation = 0.0
@@ -147,8 +146,7 @@ class Simulator(SampledState):
 
         pos0, _, quat0, _ = self._split(self.y)
         self.joints = JointTables(model, pos0, quat0)
-        self.releases = Releases(self.joints)
-        self.active = np.ones(len(model.joints), dtype=bool)
+        self.releases = Releases(self.joints, [joint.name for joint in model.joints])
         self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
@@ -289,15 +287,19 @@ class Simulator(SampledState):
         return self._release([k], cause)[0]
 
     def _release(self, joints, cause):
-        events = []
-        for k in joints:
-            self.active[k] = False
-            event = {'event': 'release', 'joint': self.model.joints[k].name,
-                     'time': self.t, 'cause': cause}
-            events.append(event)
-            self.events.append(event)
+        events = self.releases.release(joints, self.t, cause)
         self._set_topology()
         return events
+
+    @property
+    def active(self) -> np.ndarray:
+        """Return the joints not yet released, bool, (n_joints,) (``Releases.active``)."""
+        return self.releases.active
+
+    @property
+    def events(self) -> list:
+        """Return the releases so far, in order (``Releases.events``)."""
+        return self.releases.events
 
     def _body(self, body) -> int:
         if isinstance(body, str):
