@@ -29,7 +29,8 @@ from typing import Optional
 
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.bodies import mass_table
+from cfem_ros.core.inputs import held_wrench
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
@@ -104,18 +105,11 @@ class Simulator(SampledState):
         bodies = model.bodies
         n = self.n = len(bodies)
         # fixed and kinematic bodies are carried with zero inverse mass and inertia
-        self.free = np.array([b.dynamic for b in bodies])
-        self.mass = np.array([b.mass if b.dynamic else 0.0 for b in bodies])
-        self.inv_mass = np.where(self.free, 1.0 / np.where(self.free, self.mass, 1.0), 0.0)
-        self.inertia_body = np.array([
-            b.inertia if b.dynamic else np.zeros((3, 3)) for b in bodies])
-        self.inv_inertia_body = np.array([
-            np.linalg.inv(b.inertia) if b.dynamic else np.zeros((3, 3)) for b in bodies])
-        self._check_inverses()
+        self.free, self._bodies = mass_table(model)
+        self.mass, self.inv_mass = self._bodies[:, 0].copy(), self._bodies[:, 1].copy()
+        self.inertia_body = self._bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
+        self.inv_inertia_body = self._bodies[:, 11:20].reshape(n, 3, 3).copy()
         self.gravity = np.asarray(model.gravity, dtype=float)
-        self._bodies = np.column_stack([
-            self.mass, self.inv_mass, self.inertia_body.reshape(n, 9),
-            self.inv_inertia_body.reshape(n, 9)])
         # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
         trajectories = motion.columns(model)
         self.kinematic = trajectories.shape[1] > 0
@@ -183,22 +177,6 @@ class Simulator(SampledState):
 
     # ------------------------------------------------------- starting checks
 
-    def _check_inverses(self):
-        """Refuse a body whose inverse mass or inertia is not a finite number."""
-        for i, body in enumerate(self.model.bodies):
-            if not body.dynamic:
-                continue
-            if not math.isfinite(self.inv_mass[i]):
-                raise ScenarioError(
-                    f'model {self.model.name!r}', f'bodies.{body.name}.mass',
-                    f'is {body.mass:g} kg, whose inverse is not a finite number',
-                    'a mass of at least 1e-300 kg')
-            if not np.isfinite(self.inv_inertia_body[i]).all():
-                raise ScenarioError(
-                    f'model {self.model.name!r}', f'bodies.{body.name}.inertia',
-                    'has an inverse that is not a finite number',
-                    'principal moments of at least 1e-300 kg m^2')
-
     def _check_redundancy(self) -> int:
         """Detect redundant rows; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
@@ -261,17 +239,7 @@ class Simulator(SampledState):
 
         """
         i = self._body(body)
-        force = np.asarray(force, dtype=float)
-        torque = np.asarray(torque, dtype=float)
-        point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
-        if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
-            raise ValueError('force, torque and point must have 3 components each')
-        if not (np.isfinite(force).all() and np.isfinite(torque).all()
-                and np.isfinite(point).all()):
-            raise ValueError('force, torque and point must be finite')
-        if not self.free[i]:
-            what = 'fixed' if self.model.bodies[i].fixed else 'kinematic (it follows its motion)'
-            raise ValueError(f'body {self.model.bodies[i].name!r} is {what} and cannot be loaded')
+        force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
 
