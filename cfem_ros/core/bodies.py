@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The bodies' mass properties as the kernel reads them: one row per body.
+The bodies at the start: their state vector, and their mass properties as the kernel reads them.
 
 Fixed and kinematic bodies are carried with zero inverse mass and inertia, so
 every formula of the kernel is the same for all bodies; a kinematic body's
@@ -14,6 +14,23 @@ import math
 
 from cfem_ros.core.errors import ScenarioError
 import numpy as np
+
+
+def initial_state(model) -> np.ndarray:
+    """
+    Return the state vector y at t = 0 (``engine`` module docstring: its layout).
+
+    CG positions (world, m), CG velocities (world, m/s), quaternions (x, y,
+    z, w, body to world), angular velocities (body axes, rad/s), each in one
+    block of all bodies.
+    """
+    bodies = model.bodies
+    return np.concatenate([
+        np.concatenate([b.position for b in bodies]),
+        np.concatenate([b.velocity_world for b in bodies]),
+        np.concatenate([b.orientation_xyzw for b in bodies]),
+        np.concatenate([b.rates_body for b in bodies]),
+    ]).astype(float)
 
 
 def mass_table(model):

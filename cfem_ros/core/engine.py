@@ -29,7 +29,7 @@ from typing import Optional
 
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.bodies import mass_table
+from cfem_ros.core.bodies import initial_state, mass_table
 from cfem_ros.core.inputs import held_wrench
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
@@ -47,23 +47,44 @@ DIVERGENCE_VIOLATION = 1e-3
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
 
+#: Why a run failed when its state is no longer finite.
+NOT_FINITE = 'the state is no longer finite (the system diverged)'
+
 #: What ``kernel.advance`` gets for no sample grid.
 _NO_GRID = np.zeros(3)
 _NO_ROWS = np.empty((0, 0))
 
 
-def _locate_error(code: int, s: float) -> Exception:
-    """Return the error ``kernel.locate``'s code stands for (those of the Python search)."""
+def _diverged(violation: float) -> NumericalFailure:
+    """Return the failure of a constraint violation beyond ``DIVERGENCE_VIOLATION``."""
+    return NumericalFailure(f'constraint violation {violation:.3g} exceeds '
+                            f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)')
+
+
+def _kernel_error(code: int, value: float) -> Optional[Exception]:
+    """
+    Return the error a code of ``kernel.advance`` or ``kernel.locate`` stands for.
+
+    None for a normal end; value is the violation (VIOLATION) or where the
+    in-step search stopped (``kernel.locate``'s codes, those of the Python
+    search: ``roots.brentq``'s errors).
+    """
+    if code == kernel.NOT_FINITE:
+        return NumericalFailure(NOT_FINITE)
+    if code == kernel.VIOLATION:
+        return _diverged(value)
     if code == kernel.SINGULAR:
         return NumericalFailure(sampling.SINGULAR)
     if code == kernel.LOADS_NOT_FINITE:
         return NumericalFailure(sampling.LOADS_NOT_FINITE)
-    if code == kernel.NAN_VALUE:   # roots.brentq's errors
-        return ValueError('The function value at x=%f is NaN; solver cannot continue.' % s)
+    if code == kernel.NAN_VALUE:
+        return ValueError('The function value at x=%f is NaN; solver cannot continue.' % value)
     if code == kernel.SAME_SIGNS:
         return ValueError('f(a) and f(b) must have different signs')
-    return RuntimeError('Failed to converge after %d iterations, value is %f'
-                        % (kernel.CROSSING_MAXITER, s))
+    if code == kernel.NO_CONVERGENCE:
+        return RuntimeError('Failed to converge after %d iterations, value is %f'
+                            % (kernel.CROSSING_MAXITER, value))
+    return None
 
 
 class Simulator(SampledState):
@@ -102,8 +123,7 @@ class Simulator(SampledState):
         self.log = logger or LOG
         self.dt = float(model.dt)
         self.eta = float(model.baumgarte)
-        bodies = model.bodies
-        n = self.n = len(bodies)
+        n = self.n = len(model.bodies)
         # fixed and kinematic bodies are carried with zero inverse mass and inertia
         self.free, self._bodies = mass_table(model)
         self.mass, self.inv_mass = self._bodies[:, 0].copy(), self._bodies[:, 1].copy()
@@ -121,12 +141,7 @@ class Simulator(SampledState):
         self._loads = self._scheduled.array
 
         self.t = 0.0
-        self.y = np.concatenate([
-            np.concatenate([b.position for b in bodies]),
-            np.concatenate([b.velocity_world for b in bodies]),
-            np.concatenate([b.orientation_xyzw for b in bodies]),
-            np.concatenate([b.rates_body for b in bodies]),
-        ]).astype(float)
+        self.y = initial_state(model)
         self.status = 'running'
         self.message = ''
         self.steps = 0
@@ -372,9 +387,7 @@ class Simulator(SampledState):
         """Fail if the joints are violated beyond ``DIVERGENCE_VIOLATION`` now."""
         violation = self.constraint_violation()
         if violation > DIVERGENCE_VIOLATION:
-            raise NumericalFailure(
-                f'constraint violation {violation:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
-                '(the system diverged; try a smaller dt)')
+            raise _diverged(violation)
 
     def fail(self, reason: str):
         """Stop the run as failed now (``status``, ``message`` with the time and reason)."""
@@ -400,16 +413,9 @@ class Simulator(SampledState):
             self.steps += int(info[1])
             self.max_violation = float(info[2])
         result = int(info[3])
-        if result == kernel.NOT_FINITE:
-            raise NumericalFailure('the state is no longer finite (the system diverged)')
-        if result == kernel.VIOLATION:
-            raise NumericalFailure(
-                f'constraint violation {info[5]:.3g} exceeds {DIVERGENCE_VIOLATION:g} '
-                '(the system diverged; try a smaller dt)')
-        if result == kernel.SINGULAR:
-            raise NumericalFailure(sampling.SINGULAR)
-        if result == kernel.LOADS_NOT_FINITE:
-            raise NumericalFailure(sampling.LOADS_NOT_FINITE)
+        error = _kernel_error(result, info[5])
+        if error is not None:
+            raise error
         return result
 
     def release_due(self) -> list:
@@ -489,7 +495,7 @@ class Simulator(SampledState):
         self._stage_violation = float(info[0])
         code = int(info[1])
         if code != kernel.REACHED:
-            raise _locate_error(code, float(info[2]))
+            raise _kernel_error(code, float(info[2]))
         crossing = stroke = None
         if not math.isnan(info[3]):
             found = joints[:int(info[4])]
@@ -501,11 +507,9 @@ class Simulator(SampledState):
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():
-            raise NumericalFailure('the state is no longer finite (the system diverged)')
+            raise NumericalFailure(NOT_FINITE)
         if self._stage_violation > DIVERGENCE_VIOLATION:
-            raise NumericalFailure(
-                f'constraint violation {self._stage_violation:.3g} exceeds '
-                f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)')
+            raise _diverged(self._stage_violation)
         self.max_violation = max(self.max_violation, self._stage_violation)
         self.y = y1
         self.t = t1
