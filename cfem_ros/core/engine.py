@@ -1,24 +1,20 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The CFEM engine: Newton-Euler bodies, joint rows, Baumgarte, RK4, releases.
+The CFEM engine: a run in time, in RK4 steps, with its releases.
 
 The state of n bodies is one flat array ``y`` of 13 n numbers, in blocks:
 CG positions (world, m), CG velocities (world, m/s), quaternions (x, y, z, w,
 body to world) and angular velocities (body axes, rad/s). Ground (fixed)
 bodies are carried with zero inverse mass and inertia, so every formula is the
-same for all bodies.
+same for all bodies; the equations of motion (Newton-Euler bodies, joint rows
+with Baumgarte stabilization) are ``dynamics.Dynamics``, the base of
+``Simulator``.
 
-The loads of the active joints are solved in the Lagrange-multiplier form
-(CFEM.md, "Cheaper forms"): each constrained direction k of a joint carries a
-multiplier lambda_k, the force (or moment) along it, and
-
-    J M^-1 J^T lambda = -gamma - 2 eta J v - eta^2 g - J M^-1 f
-
-where g are the constraint values (paper eqs. 11-12), J their Jacobian with
-respect to the velocities (V, w in world axes), gamma = (dJ/dt) v, and f the
-external, gravity and gyroscopic loads. The joint table is data
-(``model.JOINT_TABLE``); this module never branches on a joint type.
+``Simulator`` owns the run's time, its status and the step loop: it steps in
+the compiled kernel, cuts steps at release times, at release conditions and
+at ejector strokes' ends, and has the joints' ``Releases``, the kinematic
+bodies' ``Carriers`` and the ``ScheduledLoads`` follow.
 """
 
 from __future__ import annotations
@@ -27,25 +23,18 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, motion, rotations, sampling
+from cfem_ros.core import kernel, sampling
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.bodies import initial_state, mass_table
-from cfem_ros.core.inputs import held_wrench
-from cfem_ros.core.loads import H_POINT, ScheduledLoads
+from cfem_ros.core.dynamics import Dynamics
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
-from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
+from cfem_ros.core.sampling import NumericalFailure, SampleGrid  # noqa: F401 - kept for users
 from cfem_ros.core.topology import JointTables, Topology
 import numpy as np
-
-LOG = logging.getLogger('cfem_ros')
 
 #: Constraint violation (m, or rad for rotation rows) beyond which a run is
 #: declared diverged: a million times what the stabilized integration keeps.
 DIVERGENCE_VIOLATION = 1e-3
-
-#: Velocity corrections smaller than this (m/s, rad/s) are not reported.
-PROJECTION_REPORT = 1e-9
 
 #: Why a run failed when its state is no longer finite.
 NOT_FINITE = 'the state is no longer finite (the system diverged)'
@@ -87,16 +76,11 @@ def _kernel_error(code: int, value: float) -> Optional[Exception]:
     return None
 
 
-class Simulator(SampledState):
+class Simulator(Dynamics):
     """
     Step a model's bodies and joints in time with RK4.
 
-    Parameters
-    ----------
-    model : Model
-        Built by ``scenario.parse_scenario``.
-    logger : logging.Logger, optional
-        Where warnings go (velocity projection, redundant joints).
+    Parameters as ``Dynamics`` (the model, and where warnings go).
 
     Attributes
     ----------
@@ -119,34 +103,13 @@ class Simulator(SampledState):
     """
 
     def __init__(self, model: Model, logger: Optional[logging.Logger] = None):
-        self.model = model
-        self.log = logger or LOG
+        super().__init__(model, logger)
         self.dt = float(model.dt)
-        self.eta = float(model.baumgarte)
-        n = self.n = len(model.bodies)
-        # fixed and kinematic bodies are carried with zero inverse mass and inertia
-        self.free, self._bodies = mass_table(model)
-        self.mass, self.inv_mass = self._bodies[:, 0].copy(), self._bodies[:, 1].copy()
-        self.inertia_body = self._bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
-        self.inv_inertia_body = self._bodies[:, 11:20].reshape(n, 3, 3).copy()
-        self.gravity = np.asarray(model.gravity, dtype=float)
-        # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
-        trajectories = motion.columns(model)
-        self.kinematic = trajectories.shape[1] > 0
-        if self.kinematic:
-            self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
-        # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
-        # body axes, point (3); then the scenario's scheduled wrenches
-        self._scheduled = ScheduledLoads(model, n)
-        self._loads = self._scheduled.array
-
         self.t = 0.0
-        self.y = initial_state(model)
         self.status = 'running'
         self.message = ''
         self.steps = 0
         self.max_violation = 0.0
-        self._stage_violation = 0.0
         self._info = np.zeros(6)
         self.carriers = Carriers(self)   # the kinematic bodies and their odometry
         if self.kinematic:
@@ -160,7 +123,11 @@ class Simulator(SampledState):
         self._fire_time_triggers()
         self._project_velocities()
 
-    # ------------------------------------------------------------ hot path
+    def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
+        """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
+        self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
+
+    # -------------------------------------------------------------- releases
 
     def _set_topology(self):
         """Rebuild the rows, the solve plan and the workspace for the active joints."""
@@ -170,97 +137,6 @@ class Simulator(SampledState):
         active = np.flatnonzero(self.active)
         self._outputs_key = tuple(active.tolist())
         self._outputs_order = np.ascontiguousarray(top.line[active], dtype=np.int64)
-
-    def derivative(self, y: np.ndarray) -> np.ndarray:
-        """Return dy/dt at state y (external wrenches held constant)."""
-        out = np.empty_like(y)
-        if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
-            raise NumericalFailure(sampling.SINGULAR)
-        return out
-
-    def _rk4(self, y, h):
-        """One classical RK4 step of length h from y, quaternions normalized."""
-        out = np.empty_like(y)
-        try:
-            worst = kernel.rk4_step(y, h, out, *self._topology.kernel_args(self))
-        except np.linalg.LinAlgError:
-            worst = -1.0
-        if worst < 0.0:
-            raise NumericalFailure(sampling.SINGULAR)
-        self._stage_violation = max(self._stage_violation, worst)
-        return out
-
-    # ------------------------------------------------------- starting checks
-
-    def _check_redundancy(self) -> int:
-        """Detect redundant rows; warn once; return the remaining DOF."""
-        free_dof = 6 * int(self.free.sum())
-        top = self._topology
-        rank = top.rank(self.y, top.kernel_args(self), self.n)
-        if rank < top.m:
-            if not getattr(self, '_warned_redundant', False):
-                names = sorted({self.model.joints[k].name for k in top.joint})
-                self.log.warning(
-                    'the joints %s constrain %d direction(s) more than once (redundant '
-                    'joints or a closed loop): the motion is exact, the loads of the '
-                    'redundant directions are shared in the least-norm sense',
-                    ', '.join(names), top.m - rank)
-                self._warned_redundant = True
-            top.dense = 2
-        return free_dof - rank
-
-    def _project_velocities(self):
-        """Make the initial velocities consistent with the joints (mass weighted)."""
-        if self._topology.m == 0:
-            return
-        delta = self.joint_projection()
-        if not np.abs(delta).max() > PROJECTION_REPORT:
-            return
-        _, vel, quat, rates = self._split(self.y)
-        vel += delta[:, :3]
-        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
-        for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
-            self.log.warning(
-                'initial velocities of body %r are inconsistent with its joints; '
-                'corrected (mass weighted) by %.3g m/s and %.3g deg/s',
-                self.model.bodies[i].name, np.linalg.norm(delta[i, :3]),
-                math.degrees(np.linalg.norm(delta[i, 3:])))
-
-    def joint_projection(self) -> np.ndarray:
-        """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
-        delta = np.zeros((self.n, 6))
-        kernel.project(self.y, *self._topology.kernel_args(self), delta)
-        return delta
-
-    # --------------------------------------------------------------- inputs
-
-    def set_wrench(self, body, force, torque, body_axes: bool = False, point=None):
-        """
-        Hold an external force and moment on a body until replaced.
-
-        Parameters
-        ----------
-        body : str or int
-            Name or index of a body that is not fixed.
-        force : array_like, shape (3,)
-            N, world axes, or body axes if body_axes.
-        torque : array_like, shape (3,)
-            N m, same axes as force.
-        body_axes : bool
-            True: force and torque are in body axes and turn with the body.
-        point : array_like, shape (3,), optional
-            Where the force acts, body axes, from the CG, m (default: the CG);
-            the moment about the CG is torque + r x F, r turning with the body.
-
-        """
-        i = self._body(body)
-        force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
-        self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
-        self._loads[i, H_POINT:H_POINT + 3] = point
-
-    def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
-        """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
-        self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
@@ -283,22 +159,6 @@ class Simulator(SampledState):
     def events(self) -> list:
         """Return the releases so far, in order (``Releases.events``)."""
         return self.releases.events
-
-    def _body(self, body) -> int:
-        if isinstance(body, str):
-            try:
-                return self.model.body_index(body)
-            except ValueError:
-                raise ValueError(f'unknown body {body!r}') from None
-        return int(body)
-
-    def _joint(self, joint) -> int:
-        if isinstance(joint, str):
-            try:
-                return self.model.joint_index(joint)
-            except ValueError:
-                raise ValueError(f'unknown joint {joint!r}') from None
-        return int(joint)
 
     # ------------------------------------------------------------- stepping
 
@@ -441,9 +301,6 @@ class Simulator(SampledState):
         due = self.releases.timed_out(self.active, self.t)
         if due.size:
             self._release(due, 'time')
-
-    def _joint_forces(self, y):
-        return self._joint_loads(y)[0]
 
     def _step(self, h, t_end):
         """Advance one step of length h to t_end, locating condition releases and stroke ends."""
