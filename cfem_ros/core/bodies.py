@@ -33,6 +33,12 @@ def initial_state(model) -> np.ndarray:
     ]).astype(float)
 
 
+def state_views(y: np.ndarray, n: int):
+    """Return views (position, velocity, quaternion, rates) of the state of n bodies."""
+    return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
+            y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
+
+
 def mass_table(model):
     """
     Return which bodies move freely and their mass properties, one row per body.

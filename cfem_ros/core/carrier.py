@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import kernel, motion, rotations
+from cfem_ros.core.bodies import state_views
 import numpy as np
 
 #: How long after its last odometry message a kinematic body is extrapolated to
@@ -39,14 +40,19 @@ class Carriers:
     Parameters
     ----------
     sim : Simulator
-        Whose kinematic bodies these are: its time and state are read, its
-        body table's trajectory columns written, and on a jump the state of
-        what hangs on the carrier moved with it.
+        Whose kinematic bodies these are: its time, state and active joints
+        are read, and on a jump the state of what hangs on the carrier is
+        moved with it (positions rigidly, velocities by
+        ``Simulator.joint_projection``).
+    table : ndarray
+        The simulator's body table (``Dynamics``), whose trajectory columns
+        (``motion.M_KIND`` on) are written here.
 
     """
 
-    def __init__(self, sim):
+    def __init__(self, sim, table: np.ndarray):
         self.sim = sim
+        self.table = table
         # body -> (time, body-axis velocity, body rates, (position, quaternion, world
         # velocity, body rates), extrapolation's acceleration and angular one) of its last message
         self._last = {}
@@ -56,8 +62,8 @@ class Carriers:
 
     def place(self, t: float):
         """Put the kinematic bodies where their trajectories are at time t (motion.py)."""
-        kernel.motion_set_time(self.sim._bodies, float(t))
-        kernel.motion_place(self.sim.y, self.sim._bodies, 0.0)
+        kernel.motion_set_time(self.table, float(t))
+        kernel.motion_place(self.sim.y, self.table, 0.0)
 
     def start(self):
         """
@@ -67,7 +73,7 @@ class Carriers:
         the body's CG and the carrier's angular velocity.
         """
         model, n = self.sim.model, self.sim.n
-        pos, vel, quat, rates = self.sim._split(self.sim.y)
+        pos, vel, quat, rates = state_views(self.sim.y, self.sim.n)
         rot = rotations.matrices(quat)
         carrier = [i if b.motion is not None else -1 for i, b in enumerate(model.bodies)]
         queue = [i for i in range(n) if carrier[i] >= 0]
@@ -183,7 +189,7 @@ class Carriers:
 
     def _message(self, body, t, position, quaternion, velocity_body, rates_body):
         """Check an odometry message; return (body index, t, its arrays, unit quaternion)."""
-        i = self.sim._body(body)
+        i = self.sim.body_index(body)
         name = self.sim.model.bodies[i].name
         if self.sim.model.bodies[i].motion is None:
             raise ValueError(f'body {name!r} is not kinematic (no motion): odometry drives '
@@ -215,14 +221,14 @@ class Carriers:
             turn = rotations.matrices(quat[None])[0]
             data = motion.odometry(t, position, quat, velocity, rates, acc, alpha,
                                    ODOMETRY_HORIZON, jerk=np.cross(turn @ rates, acc))
-        self.sim._bodies[i, motion.M_KIND] = motion.KIND_TABLE
-        self.sim._bodies[i, motion.M_DATA:] = 0.0
-        self.sim._bodies[i, motion.M_DATA:motion.M_DATA + len(data)] = data
+        self.table[i, motion.M_KIND] = motion.KIND_TABLE
+        self.table[i, motion.M_DATA:] = 0.0
+        self.table[i, motion.M_DATA:motion.M_DATA + len(data)] = data
         self.place(self.sim.t)
 
     def _pose(self, i: int):
         """Return body i's CG and unit quaternion (copies)."""
-        pos, _, quat, _ = self.sim._split(self.sim.y)
+        pos, _, quat, _ = state_views(self.sim.y, self.sim.n)
         return pos[i].copy(), quat[i] / np.linalg.norm(quat[i])
 
     def _carry_jump(self, carrier: int, before):
@@ -254,7 +260,7 @@ class Carriers:
         p1, q1 = self._pose(carrier)
         jump = rotations.multiply(q1[None], rotations.conjugate(q0[None]))   # world axes
         turn = rotations.matrices(jump)[0]
-        pos, vel, quat, rates = self.sim._split(self.sim.y)
+        pos, vel, quat, rates = state_views(self.sim.y, self.sim.n)
         for b in sorted(hanging):
             spin = rotations.matrices(quat[b:b + 1])[0] @ rates[b]   # world axes
             pos[b] = p1 + turn @ (pos[b] - p0)

@@ -182,16 +182,16 @@ class Dynamics(SampledState):
             the moment about the CG is torque + r x F, r turning with the body.
 
         """
-        i = self._body(body)
+        i = self.body_index(body)
         force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
         self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
         self._loads[i, H_POINT:H_POINT + 3] = point
 
-    def _body(self, body) -> int:
+    def body_index(self, body) -> int:
         """Return the index of a body given by name or index."""
         return _index(self.model.body_index, body, 'body')
 
-    def _joint(self, joint) -> int:
+    def joint_index(self, joint) -> int:
         """Return the index of a joint given by name or index."""
         return _index(self.model.joint_index, joint, 'joint')
 

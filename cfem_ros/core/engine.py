@@ -111,7 +111,7 @@ class Simulator(Dynamics):
         self.steps = 0
         self.max_violation = 0.0
         self._info = np.zeros(6)
-        self.carriers = Carriers(self)   # the kinematic bodies and their odometry
+        self.carriers = Carriers(self, self._bodies)   # kinematic bodies, their odometry
         if self.kinematic:
             self.carriers.place(0.0)
             self.carriers.start()
@@ -140,7 +140,7 @@ class Simulator(Dynamics):
 
     def release(self, joint, cause: str = 'command') -> dict:
         """Release an active joint now; return the event."""
-        k = self._joint(joint)
+        k = self.joint_index(joint)
         if not self.active[k]:
             raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
         return self._release([k], cause)[0]

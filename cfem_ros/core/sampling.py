@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Optional
 
 from cfem_ros.core import kernel, rotations
+from cfem_ros.core.bodies import state_views
 import numpy as np
 
 
@@ -87,9 +88,7 @@ class SampledState:
 
     def _split(self, y):
         """Return views (position, velocity, quaternion, rates) of a state vector."""
-        n = self.n
-        return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
-                y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
+        return state_views(y, self.n)
 
     @property
     def position(self) -> np.ndarray:
