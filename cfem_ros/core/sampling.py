@@ -4,9 +4,10 @@
 What a sample shows: the sample grid, and a state's outputs and joint loads.
 
 ``SampleGrid`` lets the kernel take samples on k / rate_hz on its way;
-``SampledState``, the base of ``Simulator``, computes the numbers a sample
-publishes at a state: poses and twists, each joint's load on its child, its
-points and its angle, the applied loads and the states relative to a reference.
+``SampledState``, the base of ``Dynamics`` and so of ``Simulator``, computes
+the numbers a sample publishes at a state: poses and twists, each joint's
+load on its child, its points and its angle, the applied loads and the
+states relative to a reference.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ class SampleGrid:
 
 class SampledState:
     """
-    What a sample shows of a simulator's state: the base of ``Simulator``.
+    What a sample shows of a simulator's state: the base of ``Dynamics``.
 
     Subclasses hold ``y`` (the state), ``n`` (bodies), ``model``, ``joints``
     (``JointTables``), ``_topology``, ``_scheduled`` (``loads.ScheduledLoads``)

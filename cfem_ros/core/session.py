@@ -86,8 +86,7 @@ class Session:
         self.warn = warn or LOG.warning
         self.samples = 0
         self.started = False
-        self.interpolate_odometry = bool(interpolate_odometry)
-        self.inputs = InputQueue(sim, interpolate_odometry=self.interpolate_odometry)
+        self.inputs = InputQueue(sim, interpolate_odometry=interpolate_odometry)
 
     @property
     def next_sample_time(self) -> float:
