@@ -13,11 +13,11 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.console import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.core import kernel, rotations
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
+from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 import numpy as np

@@ -1,10 +1,19 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""Inputs (external wrenches, release commands): what they are, and applying them."""
+"""
+Inputs (external wrenches, odometry, release commands): what they are, when they apply.
+
+An ``Input`` is checked (``validate_input``) and applied (``apply_input``)
+through the simulator's own input methods: ``set_wrench``, ``release`` and its
+carriers' ``set_odometry``. ``InputQueue`` holds those whose time is still
+ahead until it comes.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+import heapq
+import itertools
 import re
 from typing import Optional
 
@@ -97,6 +106,28 @@ def parse_frame_id(frame_id: str):
     return frame, values
 
 
+def held_wrench(body, force, torque, point=None):
+    """
+    Check a wrench to hold on a body (``Simulator.set_wrench``); return it as arrays.
+
+    Returns (force, torque, point) as float arrays of 3, point zero (the CG)
+    if None; ValueError if a shape or number is wrong or the body is fixed
+    or kinematic.
+    """
+    force = np.asarray(force, dtype=float)
+    torque = np.asarray(torque, dtype=float)
+    point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
+    if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
+        raise ValueError('force, torque and point must have 3 components each')
+    if not (np.isfinite(force).all() and np.isfinite(torque).all()
+            and np.isfinite(point).all()):
+        raise ValueError('force, torque and point must be finite')
+    if not body.dynamic:
+        what = 'fixed' if body.fixed else 'kinematic (it follows its motion)'
+        raise ValueError(f'body {body.name!r} is {what} and cannot be loaded')
+    return force, torque, point
+
+
 def input_topic(item: Input) -> str:
     """Topic of an input, relative to the namespace."""
     if item.kind == 'odom':
@@ -159,7 +190,7 @@ def apply_input(sim, item: Input):
     validate_input(sim, item)
     if item.kind == 'odom':
         v = item.values   # from now: the time it takes effect (a sample's at most)
-        sim.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
+        sim.carriers.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
         return
     if item.kind == 'wrench':
         # the world frame wins: a body named as the world frame is loaded in world axes
@@ -168,3 +199,53 @@ def apply_input(sim, item: Input):
                        body_axes=(frame != sim.model.frame_id), point=point)
     else:
         sim.release(item.target, cause='command')
+
+
+class InputQueue:
+    """
+    Inputs held until their time: taken in time order, then in the order held.
+
+    Parameters
+    ----------
+    sim : Simulator
+        The simulator they are for.
+    interpolate_odometry : bool
+        An odometry input held for a later time is made known to the
+        simulator's carriers at once (``Carriers.expect_odometry``), so that
+        the body moves on the cubic from its previous message to it.
+
+    """
+
+    def __init__(self, sim, *, interpolate_odometry: bool = True):
+        self.sim = sim
+        self.interpolate_odometry = bool(interpolate_odometry)
+        self._heap = []
+        self._order = itertools.count()
+
+    @property
+    def next_time(self) -> Optional[float]:
+        """Return the time of the earliest input held, s (None: none)."""
+        return self._heap[0][0] if self._heap else None
+
+    def hold(self, item: Input, time: float):
+        """Hold an input until the simulated time ``time``."""
+        self._expect(item)
+        heapq.heappush(self._heap, (time, next(self._order), item))
+
+    def due(self, t: float):
+        """Take out the inputs held for t or before, one by one, in order."""
+        while self._heap and self._heap[0][0] <= t:
+            yield heapq.heappop(self._heap)[2]
+
+    def _expect(self, item: Input):
+        """Make an odometry input held for later known to the simulator (interpolation)."""
+        if not (self.interpolate_odometry and item.kind == 'odom' and item.time is not None
+                and item.time > self.sim.t):
+            return
+        try:
+            validate_input(self.sim, item)
+        except ValueError:
+            return   # refused, with a warning, when its time comes
+        v = item.values
+        self.sim.carriers.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10],
+                                          v[10:13])

@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-Release triggers of a run's joints, and where in a step they are reached.
+Release triggers of a run's joints, where in a step they are reached, and the releases.
 
 A joint is released at a time, or when its rotation from the start, the
 separation of its two points or its load's magnitude first reaches a limit
@@ -28,15 +28,21 @@ TRIGGER_CAUSES = ('time', 'angle', 'distance', 'force')
 
 class Releases:
     """
-    The release triggers of a model's joints.
+    The release triggers of a model's joints, the joints still active, the releases so far.
 
     Parameters
     ----------
     tables : JointTables
         The run's joints; its ``triggers`` are shared, not copied.
+    names : sequence of str
+        The joints' names, for the events.
 
     Attributes
     ----------
+    active : ndarray of bool, shape (n_joints,)
+        Joints not yet released.
+    events : list of dict
+        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``.
     triggers : ndarray, shape (n_joints, 4)
         Time (s), angle (rad), distance (m), force (N) per joint; NaN: none.
     due : float or None
@@ -48,14 +54,27 @@ class Releases:
 
     """
 
-    def __init__(self, tables: JointTables):
+    def __init__(self, tables: JointTables, names=()):
         self.triggers = tables.triggers
+        self.names = tuple(names)
+        self.active = np.ones(len(self.triggers), dtype=bool)
+        self.events = []
         self._joints_i = tables.joints_i
         self._joints_f = tables.joints_f
         self.due: Optional[float] = None
         # the joints with a condition (angle, distance or force), and with a force one
         self._conditional = np.isfinite(self.triggers[:, 1:]).any(axis=1)
         self._by_force = np.isfinite(self.triggers[:, 3])
+
+    def release(self, joints, t: float, cause: str) -> list:
+        """Mark joints released at time t for a cause ('command', 'time', ...); return events."""
+        events = []
+        for k in joints:
+            self.active[k] = False
+            event = {'event': 'release', 'joint': self.names[k], 'time': t, 'cause': cause}
+            events.append(event)
+            self.events.append(event)
+        return events
 
     def update(self, active: np.ndarray, line: np.ndarray):
         """Watch the active joints (``line``: each joint's line in the new plan)."""

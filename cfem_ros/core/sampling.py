@@ -4,9 +4,10 @@
 What a sample shows: the sample grid, and a state's outputs and joint loads.
 
 ``SampleGrid`` lets the kernel take samples on k / rate_hz on its way;
-``SampledState``, the base of ``Simulator``, computes the numbers a sample
-publishes at a state: poses and twists, each joint's load on its child, its
-points and its angle.
+``SampledState``, the base of ``Dynamics`` and so of ``Simulator``, computes
+the numbers a sample publishes at a state: poses and twists, each joint's
+load on its child, its points and its angle, the applied loads and the
+states relative to a reference.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 from typing import Optional
 
 from cfem_ros.core import kernel, rotations
+from cfem_ros.core.bodies import state_views
 import numpy as np
 
 
@@ -76,19 +78,18 @@ class SampleGrid:
 
 class SampledState:
     """
-    What a sample shows of a simulator's state: the base of ``Simulator``.
+    What a sample shows of a simulator's state: the base of ``Dynamics``.
 
     Subclasses hold ``y`` (the state), ``n`` (bodies), ``model``, ``joints``
-    (``JointTables``), ``_topology`` and the active joints' output order.
+    (``JointTables``), ``_topology``, ``_scheduled`` (``loads.ScheduledLoads``)
+    and the active joints' output order.
     """
 
     # ----------------------------------------------------------------- views
 
     def _split(self, y):
         """Return views (position, velocity, quaternion, rates) of a state vector."""
-        n = self.n
-        return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
-                y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
+        return state_views(y, self.n)
 
     @property
     def position(self) -> np.ndarray:
@@ -211,6 +212,43 @@ class SampledState:
             raise NumericalFailure(SINGULAR)
         if code == kernel.LOADS_NOT_FINITE:
             raise NumericalFailure(LOADS_NOT_FINITE)
+        return out
+
+    @property
+    def applied_sources(self) -> list:
+        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
+        return self._scheduled.sources()
+
+    def applied_loads(self) -> np.ndarray:
+        """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
+        first = 13 * self.n + 6 * len(self._outputs_key)
+        return self.outputs()[first:first + self._scheduled.outputs_size].reshape(-1, 6)
+
+    def relative_states(self) -> np.ndarray:
+        """
+        Return each ``model.references`` body's state in its reference's frame, (k, 13).
+
+        Per pair: CG position relative to the reference's CG (3) and attitude
+        (x y z w, body to reference), then the CG velocity seen from the
+        reference and the relative angular velocity (3 + 3); all in the
+        reference's axes (``motion.sample_relative``, computed here in numpy).
+        """
+        pairs = self.model.references
+        out = np.empty((len(pairs), 13))
+        if not pairs:
+            return out
+        body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
+        pos, vel, quat, rates = self._split(self.y)
+        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
+        rot = rotations.matrices(quat)
+        omega = np.einsum('nij,nj->ni', rot, rates)
+        d = pos[body] - pos[ref]
+        v = vel[body] - vel[ref] - np.cross(omega[ref], d)
+        turn = rot[ref].transpose(0, 2, 1)
+        out[:, :3] = np.einsum('nij,nj->ni', turn, d)
+        out[:, 3:7] = rotations.multiply(rotations.conjugate(quat[ref]), quat[body])
+        out[:, 7:10] = np.einsum('nij,nj->ni', turn, v)
+        out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
         return out
 
     def joint_points(self, y: Optional[np.ndarray] = None):

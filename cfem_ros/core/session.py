@@ -31,15 +31,13 @@ publishers are another. This module never imports rclpy.
 
 from __future__ import annotations
 
-import heapq
-import itertools
 import logging
 import math
 import time
 from typing import Callable, Optional
 
 from cfem_ros.core.engine import SampleGrid
-from cfem_ros.core.inputs import apply_input, Input, input_topic, validate_input
+from cfem_ros.core.inputs import apply_input, Input, input_topic, InputQueue, validate_input
 from cfem_ros.core.sampling import NumericalFailure
 import numpy as np
 
@@ -70,7 +68,7 @@ class Session:
         ``cfem_ros`` logger's warning by default.
     interpolate_odometry : bool
         An odometry input submitted ahead of its time is made known to the
-        simulator at once (``Simulator.expect_odometry``), so that the body
+        simulator at once (``InputQueue``), so that the body
         moves on the cubic from its previous message to it; False: each
         message is extrapolated from until the next takes effect.
 
@@ -88,9 +86,7 @@ class Session:
         self.warn = warn or LOG.warning
         self.samples = 0
         self.started = False
-        self.interpolate_odometry = bool(interpolate_odometry)
-        self._queue = []
-        self._order = itertools.count()
+        self.inputs = InputQueue(sim, interpolate_odometry=interpolate_odometry)
 
     @property
     def next_sample_time(self) -> float:
@@ -141,8 +137,7 @@ class Session:
 
         """
         if not self.started:
-            self._expect(item)
-            heapq.heappush(self._queue, (item.time or 0.0, next(self._order), item))
+            self.inputs.hold(item, item.time or 0.0)
             return
         if item.time is not None and item.time > self.sim.t:
             if check:
@@ -151,22 +146,9 @@ class Session:
                 except ValueError:
                     self._record(item)
                     raise
-            self._expect(item)
-            heapq.heappush(self._queue, (item.time, next(self._order), item))
+            self.inputs.hold(item, item.time)
             return
         self._apply(item)
-
-    def _expect(self, item: Input):
-        """Make an odometry input held for later known to the simulator (interpolation)."""
-        if not (self.interpolate_odometry and item.kind == 'odom' and item.time is not None
-                and item.time > self.sim.t):
-            return
-        try:
-            validate_input(self.sim, item)
-        except ValueError:
-            return   # refused, with a warning, when its time comes
-        v = item.values
-        self.sim.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10], v[10:13])
 
     def advance(self, limit: float):
         """
@@ -180,8 +162,8 @@ class Session:
         sim = self.sim
         while not self.finished and sim.t < limit:
             target = min(self.next_sample_time, self.duration)
-            if self._queue:
-                target = min(target, self._queue[0][0])
+            if self.inputs.next_time is not None:
+                target = min(target, self.inputs.next_time)
             ok = sim.advance_to(max(target, sim.t), limit=limit, release_at_end=False)
             if not ok:
                 self._emit_events()
@@ -227,8 +209,8 @@ class Session:
         span = math.inf if progress is None else 100 * sim.dt
         while not self.failed and (sim.t < self.duration or self.next_sample_time <= sim.t):
             target = self.duration
-            if self._queue:
-                target = max(min(target, self._queue[0][0]), sim.t)
+            if self.inputs.next_time is not None:
+                target = max(min(target, self.inputs.next_time), sim.t)
             grid.reset(self.samples, counting if sink is None else sink.sample_rows())
             called, before = time.monotonic(), sim.t
             ok = sim.advance_to(target, limit=before + span, samples=grid,
@@ -267,8 +249,7 @@ class Session:
             self._emit_events()
 
     def _apply_due(self):
-        while self._queue and self._queue[0][0] <= self.sim.t:
-            item = heapq.heappop(self._queue)[2]
+        for item in self.inputs.due(self.sim.t):
             try:
                 self._apply(item)
             except ValueError as err:

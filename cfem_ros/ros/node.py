@@ -30,7 +30,8 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.core.engine import ODOMETRY_HORIZON, Simulator
+from cfem_ros.core.carrier import ODOMETRY_HORIZON
+from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
@@ -669,7 +670,7 @@ class CfemNode(Node):
         if not self.interpolate_odometry:
             return limit
         held = limit
-        for latest in self.sim.odometry_known().values():
+        for latest in self.sim.carriers.known().values():
             if limit <= latest + ODOMETRY_HORIZON:
                 held = min(held, latest)
         return held

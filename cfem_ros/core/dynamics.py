@@ -1,0 +1,199 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The equations of motion of a model's bodies under its active joints.
+
+The loads of the active joints are solved in the Lagrange-multiplier form
+(CFEM.md, "Cheaper forms"): each constrained direction k of a joint carries a
+multiplier lambda_k, the force (or moment) along it, and
+
+    J M^-1 J^T lambda = -gamma - 2 eta J v - eta^2 g - J M^-1 f
+
+where g are the constraint values (paper eqs. 11-12), J their Jacobian with
+respect to the velocities (V, w in world axes), gamma = (dJ/dt) v, and f the
+external, gravity and gyroscopic loads. The joint table is data
+(``model.JOINT_TABLE``); this module never branches on a joint type.
+
+``Dynamics``, the base of ``engine.Simulator``, holds what the compiled
+kernel evaluates them with: the bodies' table (mass properties, kinematic
+trajectories), the applied loads and the rows of the active joints
+(``Topology``, kept by the subclass). It gives the state's derivative, one
+RK4 step and the velocity change the joints allow; ``Simulator`` runs it in
+time.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Optional
+
+from cfem_ros.core import kernel, motion, rotations, sampling
+from cfem_ros.core.bodies import initial_state, mass_table
+from cfem_ros.core.inputs import held_wrench
+from cfem_ros.core.loads import H_POINT, ScheduledLoads
+from cfem_ros.core.model import Model
+from cfem_ros.core.sampling import NumericalFailure, SampledState
+import numpy as np
+
+LOG = logging.getLogger('cfem_ros')
+
+#: Velocity corrections smaller than this (m/s, rad/s) are not reported.
+PROJECTION_REPORT = 1e-9
+
+
+def _index(lookup, item, what: str) -> int:
+    """Return an index as given, or a name's looked up (ValueError 'unknown <what>')."""
+    if isinstance(item, str):
+        try:
+            return lookup(item)
+        except ValueError:
+            raise ValueError(f'unknown {what} {item!r}') from None
+    return int(item)
+
+
+class Dynamics(SampledState):
+    """
+    A model's bodies, loads and joint rows as the kernel evaluates them.
+
+    Parameters
+    ----------
+    model : Model
+        Built by ``scenario.parse_scenario``.
+    logger : logging.Logger, optional
+        Where warnings go (velocity projection, redundant joints).
+
+    Attributes
+    ----------
+    y : ndarray, shape (13 n,)
+        The state (``engine`` module docstring), at t = 0 to begin with.
+    free : ndarray of bool, shape (n,)
+        The bodies that move under loads (neither fixed nor kinematic).
+    kinematic : bool
+        Whether any body follows a trajectory (``carrier.Carriers``).
+
+    Notes
+    -----
+    Subclasses keep ``_topology`` (the active joints' rows) and ``active``.
+
+    """
+
+    def __init__(self, model: Model, logger: Optional[logging.Logger] = None):
+        self.model = model
+        self.log = logger or LOG
+        self.eta = float(model.baumgarte)
+        n = self.n = len(model.bodies)
+        # fixed and kinematic bodies are carried with zero inverse mass and inertia
+        self.free, self._bodies = mass_table(model)
+        self.mass, self.inv_mass = self._bodies[:, 0].copy(), self._bodies[:, 1].copy()
+        self.inertia_body = self._bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
+        self.inv_inertia_body = self._bodies[:, 11:20].reshape(n, 3, 3).copy()
+        self.gravity = np.asarray(model.gravity, dtype=float)
+        # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
+        trajectories = motion.columns(model)
+        self.kinematic = trajectories.shape[1] > 0
+        if self.kinematic:
+            self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
+        # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
+        # body axes, point (3); then the scenario's scheduled wrenches
+        self._scheduled = ScheduledLoads(model, n)
+        self._loads = self._scheduled.array
+
+        self.y = initial_state(model)
+        self._stage_violation = 0.0   # the largest violation within the step being taken
+
+    def derivative(self, y: np.ndarray) -> np.ndarray:
+        """Return dy/dt at state y (external wrenches held constant)."""
+        out = np.empty_like(y)
+        if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
+            raise NumericalFailure(sampling.SINGULAR)
+        return out
+
+    def _rk4(self, y, h):
+        """One classical RK4 step of length h from y, quaternions normalized."""
+        out = np.empty_like(y)
+        try:
+            worst = kernel.rk4_step(y, h, out, *self._topology.kernel_args(self))
+        except np.linalg.LinAlgError:
+            worst = -1.0
+        if worst < 0.0:
+            raise NumericalFailure(sampling.SINGULAR)
+        self._stage_violation = max(self._stage_violation, worst)
+        return out
+
+    def _check_redundancy(self) -> int:
+        """Detect redundant rows; warn once; return the remaining DOF."""
+        free_dof = 6 * int(self.free.sum())
+        top = self._topology
+        rank = top.rank(self.y, top.kernel_args(self), self.n)
+        if rank < top.m:
+            if not getattr(self, '_warned_redundant', False):
+                names = sorted({self.model.joints[k].name for k in top.joint})
+                self.log.warning(
+                    'the joints %s constrain %d direction(s) more than once (redundant '
+                    'joints or a closed loop): the motion is exact, the loads of the '
+                    'redundant directions are shared in the least-norm sense',
+                    ', '.join(names), top.m - rank)
+                self._warned_redundant = True
+            top.dense = 2
+        return free_dof - rank
+
+    def _project_velocities(self):
+        """Make the initial velocities consistent with the joints (mass weighted)."""
+        if self._topology.m == 0:
+            return
+        delta = self.joint_projection()
+        if not np.abs(delta).max() > PROJECTION_REPORT:
+            return
+        _, vel, quat, rates = self._split(self.y)
+        vel += delta[:, :3]
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
+        for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
+            self.log.warning(
+                'initial velocities of body %r are inconsistent with its joints; '
+                'corrected (mass weighted) by %.3g m/s and %.3g deg/s',
+                self.model.bodies[i].name, np.linalg.norm(delta[i, :3]),
+                math.degrees(np.linalg.norm(delta[i, 3:])))
+
+    def joint_projection(self) -> np.ndarray:
+        """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
+        delta = np.zeros((self.n, 6))
+        kernel.project(self.y, *self._topology.kernel_args(self), delta)
+        return delta
+
+    # --------------------------------------------------------------- inputs
+
+    def set_wrench(self, body, force, torque, body_axes: bool = False, point=None):
+        """
+        Hold an external force and moment on a body until replaced.
+
+        Parameters
+        ----------
+        body : str or int
+            Name or index of a body that is not fixed.
+        force : array_like, shape (3,)
+            N, world axes, or body axes if body_axes.
+        torque : array_like, shape (3,)
+            N m, same axes as force.
+        body_axes : bool
+            True: force and torque are in body axes and turn with the body.
+        point : array_like, shape (3,), optional
+            Where the force acts, body axes, from the CG, m (default: the CG);
+            the moment about the CG is torque + r x F, r turning with the body.
+
+        """
+        i = self.body_index(body)
+        force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
+        self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
+        self._loads[i, H_POINT:H_POINT + 3] = point
+
+    def body_index(self, body) -> int:
+        """Return the index of a body given by name or index."""
+        return _index(self.model.body_index, body, 'body')
+
+    def joint_index(self, joint) -> int:
+        """Return the index of a joint given by name or index."""
+        return _index(self.model.joint_index, joint, 'joint')
+
+    def _joint_forces(self, y):
+        return self._joint_loads(y)[0]
