@@ -27,7 +27,7 @@ EXACT = ('events.cpp',)
 #: The instruction set: the build machine's own by default, like any source build;
 #: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
 ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
-FLAGS = ['-O3', '-fno-math-errno', '-Wall'] + ([f'-march={ARCH}'] if ARCH else [])
+FLAGS = ['-O3', '-fno-math-errno', '-Wall', '-fno-tree-vectorize', '-fno-tree-slp-vectorize'] + ([f'-march={ARCH}'] if ARCH else [])
 
 
 class BuildCore(build_ext):
