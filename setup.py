@@ -27,7 +27,10 @@ EXACT = ('events.cpp',)
 #: The instruction set: the build machine's own by default, like any source build;
 #: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
 ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
-FLAGS = ['-O3', '-fno-math-errno', '-Wall', '-fno-tree-vectorize', '-fno-tree-slp-vectorize'] + ([f'-march={ARCH}'] if ARCH else [])
+#: -O3 without GCC's vectorizer: its vector code fuses multiply-adds other than those
+#: of the numba build (LLVM), whose numbers this build keeps (docs/guide/compiled-core.md).
+FLAGS = ['-O3', '-fno-math-errno', '-fno-tree-vectorize', '-fno-tree-slp-vectorize', '-Wall']
+FLAGS += [f'-march={ARCH}'] if ARCH else []
 
 
 class BuildCore(build_ext):
@@ -98,6 +101,7 @@ setup(
         # separation studies (cfem-sim sweep / summarize, cfem_ros.study)
         'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14'],
         'test': [
+            'pybind11>=2.10',   # colcon build runs setup.py without build isolation
             'pytest',
             'hypothesis',
             'rosbags>=0.10',

@@ -113,9 +113,9 @@ def run(python: str, tree: pathlib.Path, duration: float, folder: str, name: str
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
-    parser.add_argument('--dump', help='write this build\'s fingerprints to this JSON file')
-    parser.add_argument('--reference', help='the other build\'s Python interpreter')
-    parser.add_argument('--reference-tree', help='the other build\'s checkout')
+    parser.add_argument('--dump', help="write this build's fingerprints to this JSON file")
+    parser.add_argument('--reference', help="the other build's Python interpreter")
+    parser.add_argument('--reference-tree', help="the other build's checkout")
     parser.add_argument('--duration', type=float, default=math.inf,
                         help='simulate at most this long, s')
     parser.add_argument('--tolerance', type=float, default=1e-12)
