@@ -27,7 +27,7 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 NUMBER = r'[-+]?\d[\d,]*\.?\d*(?:e[-+]?\d+)?'
 #: Units whose figures are rates (higher is better); the others are times or sizes.
-RATES = ('/s', 'speed-up', 'RTF')
+RATES = ('run-steps/s', 'speed-up', 'RTF', 'runs/s')
 
 
 def run(python, tree, script, arguments, env):
@@ -42,18 +42,20 @@ def run(python, tree, script, arguments, env):
 def figures(text):
     """Return {(line label, column or unit): value} of the numbers in a benchmark's output."""
     found = {}
-    header = []
+    header = ''
     for line in text.splitlines():
-        cells = re.split(r'\s{2,}', line.strip())
-        if len(cells) > 2 and not re.fullmatch(NUMBER + r'x?', cells[1]):
-            header = cells   # a table's header: the names of its columns
+        cells = [(m.group(), m.end()) for m in re.finditer(r'\S+(?: \S+)*', line)]
+        numeric = [re.fullmatch(f'({NUMBER})x?', c) for c, _ in cells[1:]]
+        if len(cells) > 2 and not any(numeric):
+            header = line   # a table's header: its columns end where their numbers end
             continue
-        if len(cells) > 2:
-            for k, cell in enumerate(cells[1:], 1):
-                match = re.fullmatch(f'({NUMBER})(x?)', cell)
+        if len(cells) > 2 and all(m or c == '-' for m, (c, _) in zip(numeric, cells[1:])):
+            start = cells[0][1]
+            for match, (_, end) in zip(numeric, cells[1:]):
+                name = header[start:end].strip() or f'column ending at {end}'
+                start = end
                 if match:
-                    name = header[k] if k < len(header) else f'column {k}'
-                    found[(cells[0], name)] = float(match.group(1).replace(',', ''))
+                    found[(cells[0][0], name)] = float(match.group(1).replace(',', ''))
             continue
         for k, match in enumerate(re.finditer(f'({NUMBER}) ?(us/step|run-steps/s|ms|s)\\b',
                                               line)):
