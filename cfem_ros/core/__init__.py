@@ -5,7 +5,7 @@ The numerical core: bodies, joints and their releases, simulated exactly.
 
 Modules: ``model`` (bodies, joints, the joint table), ``scenario`` (scenario
 files to a model), ``rotations``, ``kernel`` (the compiled solve and step
-loop), ``bodies`` (the initial state and the mass table), ``topology`` (the
+loop, C++ in ``cpp/``), ``bodies`` (the initial state and the mass table), ``topology`` (the
 rows of the active joints and their solve plan), ``dynamics`` (the equations
 of motion: derivative, RK4 step, velocity projection), ``releases`` (release
 triggers, the active joints and the release events), ``carrier`` (kinematic
@@ -17,20 +17,3 @@ grid), ``batch`` (many copies at once), ``errors``.
 This layer imports nothing from the recording, study or ros layers, nor the
 faces (``cli``, ``plots``), and never rclpy.
 """
-
-import sys
-
-
-class _KernelFinder:
-    """Import ``cfem_ros.core.kernel`` from its compiled extension when current (``aot``)."""
-
-    def find_spec(self, fullname, path, target=None):
-        """Return the extension-backed kernel's spec, or None to import kernel.py (the JIT)."""
-        if fullname != 'cfem_ros.core.kernel':
-            return None
-        from cfem_ros.core import aot
-        return aot.kernel_spec()
-
-
-if not any(type(finder).__name__ == '_KernelFinder' for finder in sys.meta_path):
-    sys.meta_path.insert(0, _KernelFinder())
