@@ -31,19 +31,6 @@ FORBIDDEN = {
     'faces': set(),   # the command line may start ROS tools (lazily)
 }
 
-#: The circle of the compiled core, whose removal is under way (the kernel in
-#: C++): ``kernel`` imports ``loads``, ``motion`` and ``aot``, which import it
-#: back, and ``aot`` compiles by running ``warmup``, which runs the engine on
-#: the kernel and imports ``aot``; so every module that imports the kernel and
-#: that the engine or ``warmup`` imports is in it too. The only circle
-#: allowed, and closed only by the imports of the modules in
-#: ``KERNEL_CIRCLE_CLOSERS``; delete both once the kernel imports nothing of
-#: the package.
-KNOWN_KERNEL_CIRCLE = frozenset(f'cfem_ros.core.{name}' for name in (
-    'aot', 'carrier', 'dynamics', 'engine', 'kernel', 'loads', 'motion', 'releases',
-    'sampling', 'scenario', 'topology', 'warmup'))
-KERNEL_CIRCLE_CLOSERS = ('cfem_ros.core.kernel', 'cfem_ros.core.aot')
-
 #: Python packages of ROS 2 (rclpy and the message packages).
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'geometry_msgs', 'std_msgs', 'rosgraph_msgs',
                 'visualization_msgs', 'tf2_msgs', 'nav_msgs', 'builtin_interfaces'}
@@ -150,13 +137,8 @@ def test_no_import_circle():
     graph = import_graph()
     assert sum(len(targets) for targets in graph.values()) > 100, 'too few imports found'
     found = circles(graph)
-    unknown = [c for c in found if set(c) != KNOWN_KERNEL_CIRCLE]
-    assert not unknown, 'modules importing each other in a circle:\n' + '\n'.join(
-        ' <-> '.join(c) for c in unknown)
-    # the known one is closed by the compiled core's imports alone: nothing else closes it
-    for closer in KERNEL_CIRCLE_CLOSERS:
-        graph[closer] = set()
-    assert circles(graph) == [], circles(graph)
+    assert not found, 'modules importing each other in a circle:\n' + '\n'.join(
+        ' <-> '.join(c) for c in found)
 
 
 def test_circles_finds_a_long_circle_and_only_it():
