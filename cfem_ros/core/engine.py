@@ -29,10 +29,12 @@ from typing import Optional
 
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.groups import ReleaseGroups, row_weights
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
+from cfem_ros.core.strokes import stroke_end_event
 from cfem_ros.core.topology import JointTables, Topology
 import numpy as np
 
@@ -100,7 +102,9 @@ class Simulator(SampledState):
     message : str
         Why the run failed, with the time ('' while running).
     events : list of dict
-        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``.
+        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``
+        (and ``'group'`` for a joint of a release group), and the ends of
+        ejector strokes (``strokes.stroke_end_event``).
     active : ndarray of bool, shape (n_joints,)
         Joints not yet released.
 
@@ -163,6 +167,7 @@ class Simulator(SampledState):
         pos0, _, quat0, _ = self._split(self.y)
         self.joints = JointTables(model, pos0, quat0)
         self.releases = Releases(self.joints)
+        self.groups = ReleaseGroups(model)
         self.active = np.ones(len(model.joints), dtype=bool)
         self._set_topology()
         self._fire_time_triggers()
@@ -209,6 +214,8 @@ class Simulator(SampledState):
         """Rebuild the rows, the solve plan and the workspace for the active joints."""
         top = self._topology = Topology(self.joints.rows, self.active, self.free)
         self.dof = self._check_redundancy()
+        if top.dense == 2:   # redundant rows: split by the joints' compliance, if given
+            top.weigh(row_weights(self.model, top.joint))
         self.releases.update(self.active, top.line)
         active = np.flatnonzero(self.active)
         self._outputs_key = tuple(active.tolist())
@@ -262,7 +269,8 @@ class Simulator(SampledState):
                 self.log.warning(
                     'the joints %s constrain %d direction(s) more than once (redundant '
                     'joints or a closed loop): the motion is exact, the loads of the '
-                    'redundant directions are shared in the least-norm sense',
+                    'redundant directions are shared in the least-norm sense (weighted '
+                    'by the joints\' compliance where given)',
                     ', '.join(names), top.m - rank)
                 self._warned_redundant = True
             top.dense = 2
@@ -550,21 +558,43 @@ class Simulator(SampledState):
         return out
 
     def release(self, joint, cause: str = 'command') -> dict:
-        """Release an active joint now; return the event."""
-        k = self._joint(joint)
-        if not self.active[k]:
-            raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
-        return self._release([k], cause)[0]
+        """
+        Release now an active joint, or a release group, or several (names apart).
+
+        ``joint``: an index, or a name, or names separated by spaces or
+        commas (``groups.command_names``), all released at this instant with
+        the rest of their groups. Returns the first event (``release_all``
+        returns them all). ValueError if a name is unknown or nothing named
+        is still active.
+        """
+        return self.release_all(joint, cause)[0]
+
+    def release_all(self, names, cause: str = 'command') -> list:
+        """Release as ``release`` does; return every event."""
+        if isinstance(names, str):
+            joints = self.groups.check_command(names, self.active)
+        else:
+            k = self._joint(names)
+            if not self.active[k]:
+                raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
+            joints = [k]
+        return self._release(joints, cause)
 
     def _release(self, joints, cause):
-        events = []
-        for k in joints:
+        events, released = [], []
+        for k, group in self.groups.expand(joints, self.active):
+            released.append(k)
             self.active[k] = False
             event = {'event': 'release', 'joint': self.model.joints[k].name,
                      'time': self.t, 'cause': cause}
+            if group is not None:
+                event['group'] = group
             events.append(event)
             self.events.append(event)
         self._set_topology()
+        # wrenches tied to these releases: on (or off) now, or at a time to cut a step at
+        if self._scheduled.released(released, self.t):
+            self._scheduled.switch(self.t, self.y)
         return events
 
     def _body(self, body) -> int:
@@ -751,6 +781,7 @@ class Simulator(SampledState):
             s, wrenches = stroke
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             self._scheduled.end_strokes(wrenches)
+            self.events.extend(stroke_end_event(self, k) for k in wrenches)
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)

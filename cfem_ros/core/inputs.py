@@ -29,7 +29,8 @@ class Input:
     kind : str
         'wrench', 'release' or 'odom'.
     target : str
-        The body (wrench) or joint (release) it names.
+        The body (wrench), or the joints and release groups (release: one
+        name, or several separated by spaces or commas) it names.
     force, torque : ndarray, shape (3,), or None
         N and N m (wrench only).
     frame_id : str
@@ -117,12 +118,8 @@ def validate_input(sim, item: Input):
     """
     model = sim.model
     if item.kind == 'release':
-        names = [joint.name for joint in model.joints]
-        if item.target not in names:
-            raise ValueError(f'unknown joint {item.target!r} '
-                             f'(joints: {", ".join(names) or "none"})')
-        if not sim.active[names.index(item.target)]:
-            raise ValueError(f'joint {item.target!r} is already released')
+        # joints or release groups, one or several (groups.command_names)
+        sim.groups.check_command(item.target, sim.active)
         return
     names = [body.name for body in model.bodies]
     if item.target not in names:
