@@ -72,3 +72,21 @@ def stroke_end_event(sim, k: int) -> dict:
     if wrench.reacts_on >= 0:
         event['reacts_on'] = model.bodies[wrench.reacts_on].name
     return event
+
+
+def describe_event(event: dict) -> str:
+    """Return one line for a user about a release or stroke-end event (``run``, the node)."""
+    kind = event.get('event')
+    when = f"t = {event['time']:.9f} s"
+    if kind == 'release':
+        group = f"; group {event['group']}" if event.get('group') else ''
+        return f"release {event['joint']} at {when} ({event['cause']}{group})"
+    if kind == 'stroke_end':
+        u, v, w = event['velocity']
+        p, q, r = event['rates']
+        seen = event.get('reacts_on', 'the world')
+        deg = np.degrees([p, q, r])
+        return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
+                f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.4f}, '
+                f'{q:.4f}, {r:.4f} rad/s ({deg[0]:.2f}, {deg[1]:.2f}, {deg[2]:.2f} deg/s)')
+    return f"{kind} at {when}"

@@ -196,7 +196,9 @@ class Run:
         In the order the recording first names them.
     joints : dict of str to JointTrack
     events : list of dict
-        Decoded JSON events (``{'event', 'joint', 'time', 'cause'}``).
+        Decoded JSON events: releases (``{'event', 'joint', 'time', 'cause'}``,
+        ``'group'`` for a release group's joints) and stroke ends
+        (``stroke_ends``).
     topics : dict of str to (str, int)
         Every topic in the file: (message type, message count).
     metadata : dict of str to str
@@ -231,6 +233,27 @@ class Run:
     def moving_bodies(self) -> list:
         """Return the bodies that move, in order."""
         return [track for track in self.bodies.values() if track.moves]
+
+    def stroke_ends(self) -> dict:
+        """
+        Return the end-of-stroke figures by wrench name (SPEC section 7).
+
+        Each is a dict with ``time`` (s), ``velocity`` (u, v, w, m/s) and
+        ``rates`` (p, q, r, rad/s) as arrays: the loaded body's CG velocity
+        and body rates relative to the wrench's ``reacts_on`` body (the
+        world when none), in the loaded body's axes; and ``body`` and
+        ``reacts_on`` (None: the world). Wrenches whose stroke never ended
+        are absent; of two wrenches of one name (on two bodies), the first.
+        """
+        out = {}
+        for e in self.events:
+            if e.get('event') != 'stroke_end' or 'wrench' not in e:
+                continue
+            out.setdefault(e['wrench'], {'time': float(e['time']), 'body': e.get('body'),
+                                'reacts_on': e.get('reacts_on'),
+                                'velocity': np.asarray(e['velocity'], dtype=float),
+                                'rates': np.asarray(e['rates'], dtype=float)})
+        return out
 
 
 def euler_continuous(euler_deg: np.ndarray) -> np.ndarray:
