@@ -108,11 +108,20 @@ class Session:
         return self.failed or self.sim.t >= self.duration
 
     def start(self):
-        """Take the first sample, then apply the inputs due at t = 0."""
+        """
+        Take the first sample, then apply the inputs due at t = 0.
+
+        Odometry due at t = 0 is applied before the first sample: it is the
+        carrier's measured motion at t = 0, which the scenario's ``motion``
+        only stands in for until then, so the first sample shows it (and
+        the loads it causes) as every later one does.
+        """
         if self.started:
             return
         self.started = True
-        self._sample()
+        self._apply_due(odometry_only=True)
+        if not self.failed:
+            self._sample()
         if not self.failed:
             self._apply_due()
 
@@ -266,14 +275,26 @@ class Session:
         if self.sim.release_due():
             self._emit_events()
 
-    def _apply_due(self):
+    def _apply_due(self, odometry_only: bool = False):
+        if odometry_only:
+            due = [entry for entry in self._queue
+                   if entry[0] <= self.sim.t and entry[2].kind == 'odom']
+            if not due:
+                return
+            self._queue = [entry for entry in self._queue if entry not in due]
+            heapq.heapify(self._queue)
+            for entry in sorted(due):
+                self._apply_item(entry[2])
+            return
         while self._queue and self._queue[0][0] <= self.sim.t:
-            item = heapq.heappop(self._queue)[2]
-            try:
-                self._apply(item)
-            except ValueError as err:
-                self.warn(f'{input_topic(item)}: input for t = {item.time:.9g} s '
-                          f'not applied: {err}')
+            self._apply_item(heapq.heappop(self._queue)[2])
+
+    def _apply_item(self, item: Input):
+        try:
+            self._apply(item)
+        except ValueError as err:
+            self.warn(f'{input_topic(item)}: input for t = {item.time:.9g} s '
+                      f'not applied: {err}')
 
     def _record(self, item: Input):
         for sink in self.outputs:
