@@ -302,6 +302,9 @@ def cmd_info(recording: str) -> int:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
         print('  no release event')
+    for event in summary.events:   # end-of-stroke figures (SPEC section 7)
+        if event.get('event') == 'stroke_end' and 'velocity' in event and 'rates' in event:
+            print(f'  {describe_event(event)}')
     return EXIT_OK
 
 
