@@ -270,7 +270,7 @@ class Simulator(SampledState):
                     'the joints %s constrain %d direction(s) more than once (redundant '
                     'joints or a closed loop): the motion is exact, the loads of the '
                     'redundant directions are shared in the least-norm sense (weighted '
-                    'by the joints\' compliance where given)',
+                    "by the joints' compliance where given)",
                     ', '.join(names), top.m - rank)
                 self._warned_redundant = True
             top.dense = 2

@@ -501,7 +501,7 @@ class ScheduledLoads:
         (once: the first release of the joint or group). Returns True if any
         is now due at t (the caller then calls ``switch``).
         """
-        joints = set(int(k) for k in joints)
+        joints = {int(k) for k in joints}
         due = False
         for k, (on, off) in enumerate(self._ties):
             w = self.model.wrenches[k]

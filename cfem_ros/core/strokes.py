@@ -89,4 +89,4 @@ def describe_event(event: dict) -> str:
         return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
                 f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.4f}, '
                 f'{q:.4f}, {r:.4f} rad/s ({deg[0]:.2f}, {deg[1]:.2f}, {deg[2]:.2f} deg/s)')
-    return f"{kind} at {when}"
+    return f'{kind} at {when}'

@@ -249,10 +249,11 @@ class Run:
         for e in self.events:
             if e.get('event') != 'stroke_end' or 'wrench' not in e:
                 continue
-            out.setdefault(e['wrench'], {'time': float(e['time']), 'body': e.get('body'),
-                                'reacts_on': e.get('reacts_on'),
-                                'velocity': np.asarray(e['velocity'], dtype=float),
-                                'rates': np.asarray(e['rates'], dtype=float)})
+            out.setdefault(e['wrench'], {
+                'time': float(e['time']), 'body': e.get('body'),
+                'reacts_on': e.get('reacts_on'),
+                'velocity': np.asarray(e['velocity'], dtype=float),
+                'rates': np.asarray(e['rates'], dtype=float)})
         return out
 
 

@@ -152,7 +152,7 @@ def main(argv=None) -> int:
         if not missing:
             return 0
         print(f'ERROR: no release event for {", ".join(map(repr, missing))} within '
-              f'{RELEASE_CONFIRMATION:g} s; the node\'s log says why (unknown joint or '
+              f"{RELEASE_CONFIRMATION:g} s; the node's log says why (unknown joint or "
               'release group, or already released)', file=sys.stderr)
         return 1
     finally:

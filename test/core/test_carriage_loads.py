@@ -41,7 +41,7 @@ def hook_forces(model):
 
 def penalty_springs(compliance, gravity, t_end=0.04):
     """
-    The same store held at its hooks by stiff springs and dashpots, integrated until static.
+    Hold the same store at its hooks by stiff springs and dashpots; integrate until static.
 
     An independent model: the store is a free rigid body in the x-z plane
     (x, z, pitch), each hook a spring of stiffness 1 / compliance per

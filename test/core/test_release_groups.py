@@ -28,7 +28,7 @@ ROLLING = {'angular_velocity_deg': [30.0, 0, 0], 'velocity': [0, -0.25 * np.radi
 
 
 def document(release=None, *, delay=0.0, extra=(), group=True):
-    """The Eglin store rolling on two ball hooks of a fixed pylon, ejectors tied to station_1."""
+    """Return the Eglin store rolling on two ball hooks of a pylon, ejectors tied to station_1."""
     wrenches = copy.deepcopy(EJECTORS) + [copy.deepcopy(w) for w in extra]
     for w in wrenches[:2]:
         w['start']['delay'] = delay

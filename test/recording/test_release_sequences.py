@@ -1,8 +1,10 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The two-hook example offline: ``--inputs`` releasing the station, the events in
-the recording, ``open_run``'s end-of-stroke figures, ``run``'s printout (SPEC section 7).
+The two-hook example offline (SPEC section 7).
+
+``--inputs`` releasing the station, the events in the recording, ``open_run``'s
+end-of-stroke figures, ``run``'s printout.
 """
 
 import json
