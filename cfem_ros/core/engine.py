@@ -30,11 +30,12 @@ from typing import Optional
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.groups import ReleaseGroups, row_weights
-from cfem_ros.core.loads import H_POINT, ScheduledLoads
+from cfem_ros.core.loads import H_POINT
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampledState, SampleGrid  # noqa: F401
 from cfem_ros.core.strokes import stroke_end_event
+from cfem_ros.core.ties import TiedLoads
 from cfem_ros.core.topology import JointTables, Topology
 import numpy as np
 
@@ -143,7 +144,7 @@ class Simulator(SampledState):
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
-        self._scheduled = ScheduledLoads(model, n)
+        self._scheduled = TiedLoads(model, n)   # starts and ends may wait for releases
         self._loads = self._scheduled.array
 
         self.t = 0.0

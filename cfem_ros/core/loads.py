@@ -369,16 +369,6 @@ def _kernel():
     return kernel
 
 
-def _tied(model, name):
-    """Return the joints of a joint's or a release group's name, as a set (empty: None)."""
-    if not name:
-        return frozenset()
-    for group in getattr(model, 'release_groups', ()):
-        if group.name == name:
-            return frozenset(group.joints)
-    return frozenset([model.joint_index(name)])
-
-
 class ScheduledLoads:
     """
     The scheduled wrenches of a model in a simulator's packed ``loads``.
@@ -396,9 +386,6 @@ class ScheduledLoads:
         The packed loads (the held rows first, zero).
     started, done : ndarray of bool
         Per wrench: switched on once; switched off for good.
-    start, end : ndarray, shape (count,)
-        Per wrench: when it switches on and off, s; inf while it waits for
-        the release it is tied to (``released``), or for no end.
 
     """
 
@@ -447,12 +434,6 @@ class ScheduledLoads:
         self.array = rows
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
-        self.start = np.array([np.inf if w.start_release else w.start for w in wrenches])
-        self.end = np.array([np.inf if w.end_release or w.end is None else w.end
-                             for w in wrenches])
-        # per wrench: the joints whose release starts (ends) it, none if a time
-        self._ties = [(_tied(model, w.start_release), _tied(model, w.end_release))
-                      for w in wrenches]
         #: Numbers a sample's applied loads take (6 a source).
         self.outputs_size = 6 * len(self.sources())
 
@@ -464,54 +445,30 @@ class ScheduledLoads:
     def due(self, t: float):
         """Return the next time after t at which a wrench switches, or None."""
         times = []
-        for k in range(self.count):
+        for k, w in enumerate(self.model.wrenches):
             if self.done[k]:
                 continue
-            if not self.started[k] and t < self.start[k] < np.inf:
-                times.append(self.start[k])
-            elif self.started[k] and t < self.end[k] < np.inf:
-                times.append(self.end[k])
-        return float(min(times)) if times else None
+            if not self.started[k] and w.start > t:
+                times.append(w.start)
+            elif self.started[k] and w.end is not None and w.end > t:
+                times.append(w.end)
+        return min(times) if times else None
 
     def switch(self, t: float, y: np.ndarray) -> bool:
         """Switch the wrenches whose start or end is t or earlier; True if any did."""
         changed = False
-        for k in range(self.count):
+        for k, w in enumerate(self.model.wrenches):
             if self.done[k]:
                 continue
-            if not self.started[k] and self.end[k] <= t:
-                self.done[k] = True   # its end came first (a release): it never starts
-                continue
-            if not self.started[k] and self.start[k] <= t:
+            if not self.started[k] and w.start <= t:
                 self.started[k] = True
                 self._anchor(k, y)
-                self.array[self.n + k, S_START] = self.start[k]
                 self.array[self.n + k, S_ON] = 1.0
                 changed = True
-            if self.started[k] and self.end[k] <= t:
+            if self.started[k] and w.end is not None and w.end <= t:
                 self._off(k)
                 changed = True
         return changed
-
-    def released(self, joints, t: float) -> bool:
-        """
-        Time the wrenches tied to the release of ``joints`` at t (SPEC section 7).
-
-        A start or end tied to a joint or a group is set to t plus its delay
-        (once: the first release of the joint or group). Returns True if any
-        is now due at t (the caller then calls ``switch``).
-        """
-        joints = {int(k) for k in joints}
-        due = False
-        for k, (on, off) in enumerate(self._ties):
-            w = self.model.wrenches[k]
-            if on and self.start[k] == np.inf and joints & on:
-                self.start[k] = t + w.start
-                due = due or self.start[k] <= t
-            if off and self.end[k] == np.inf and joints & off:
-                self.end[k] = t + w.end
-                due = due or self.end[k] <= t
-        return due
 
     def reanchor(self, y: np.ndarray):
         """Measure the strokes of the wrenches already on from state y (a new initial state)."""
