@@ -781,8 +781,7 @@ class Simulator(SampledState):
             # an ejector's stroke ends first (or with a release)
             s, wrenches = stroke
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
-            self._scheduled.end_strokes(wrenches)
-            self.events.extend(stroke_end_event(self, k) for k in wrenches)
+            self._end_strokes(wrenches)
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)
@@ -794,6 +793,11 @@ class Simulator(SampledState):
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
+
+    def _end_strokes(self, wrenches):
+        """Switch off the wrenches whose stroke ended now; an event for each (strokes.py)."""
+        self._scheduled.end_strokes(wrenches)
+        self.events.extend(stroke_end_event(self, k) for k in wrenches)
 
     def _locate(self, y0, h):
         """
