@@ -10,7 +10,8 @@ node, so that a recording of the node replays offline to the same numbers:
   points where integration steps are cut (with the engine's release times);
 - a sample at time t shows the state and loads before any input at t takes
   effect (the node cannot do otherwise: when a message arrives, the sample
-  at the current time has already been published);
+  at the current time has already been published); but odometry known at
+  t = 0 replaces the scenario's stand-in motion before the first sample;
 - ``advance(limit)`` walks that fixed sequence of steps and stops at the
   last step ending at or before ``limit``: whoever paces the run (a wall
   clock, ``/clock``, nothing) changes when steps are taken, never which;
