@@ -113,8 +113,10 @@ def test_several_names_in_one_command_are_released_in_one_instant():
     events = sim.release_all('fwd_hook, aft_hook')
     assert [e['joint'] for e in events] == ['fwd_hook', 'aft_hook']
     assert events[0]['time'] == events[1]['time'] == 0.02 and 'group' not in events[0]
+    refused = simulator(document(group=False))
     with pytest.raises(ValueError, match="unknown joint 'nope'"):
-        simulator(document(group=False)).release('fwd_hook nope')
+        refused.release('fwd_hook nope')
+    assert refused.active.all() and not refused.events   # refused whole
 
 
 def test_a_session_input_releases_the_group_at_its_time():
