@@ -17,6 +17,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.strokes import describe_event
 from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
@@ -86,7 +87,12 @@ def cmd_check(scenario: str) -> int:
         print(f'    {joint.name:<16} {joint.kind:<11} '
               f'{model.bodies[joint.parent].name} -> {model.bodies[joint.child].name}; '
               f'frees {trans} translation(s), {rot} rotation(s); '
-              f'release: {_describe_release(joint)}')
+              f'release: {_describe_release(joint)}'
+              + ('' if joint.compliance is None
+                 else f'; compliance {_vec(joint.compliance, "{:.3g}")}'))
+    for group in model.release_groups:
+        members = ', '.join(model.joints[k].name for k in group.joints)
+        print(f'  release group {group.name}: {members} (one instant)')
     if model.wrenches:
         _print_wrenches(model)
     for aero in model.aero:
@@ -109,11 +115,16 @@ def _print_wrenches(model):
         axes = model.frame_id if w.frame < 0 else names[w.frame]
         force = (f'{w.table_against} table of {len(w.table)} rows' if len(w.table)
                  else f'{_vec(w.force)} N')
-        until = ('' if w.end is None else f' to {w.end:g} s') + (
+        until = ('' if w.end is None else f' to {_when(w.end, w.end_release)}') + (
             '' if w.stroke is None else f' over a stroke of {w.stroke:g} m')
         reacts = '' if w.reacts_on < 0 else f'; reacts on {names[w.reacts_on]}'
         print(f'    {w.name:<16} on {names[w.body]} at {_vec(w.point)} m: force {force} '
-              f'({axes} axes), from {w.start:g} s{until}{reacts}')
+              f'({axes} axes), from {_when(w.start, w.start_release)}{until}{reacts}')
+
+
+def _when(time: float, release) -> str:
+    """Return a wrench's start or end: a time, or a delay after a release."""
+    return f'{time:g} s' if release is None else f'{time:g} s after the release of {release}'
 
 
 def _print_state(sim):
@@ -242,7 +253,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     print(f'{model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
           f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
     for event in sim.events:
-        print(f'release {event["joint"]} at t = {event["time"]:.9f} s ({event["cause"]})')
+        print(describe_event(event))
     if not any(e['event'] == 'release' for e in sim.events):
         print('no joint released')
     _print_state(sim)
@@ -285,6 +296,9 @@ def cmd_info(recording: str) -> int:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
         print('  no release event')
+    for event in summary.events:   # end-of-stroke figures (SPEC section 7)
+        if event.get('event') == 'stroke_end' and 'velocity' in event and 'rates' in event:
+            print(f'  {describe_event(event)}')
     return EXIT_OK
 
 

@@ -74,7 +74,7 @@ class PythonSteps(Simulator):
             if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
                 s, wrenches = stroke
                 self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
-                self._scheduled.end_strokes(wrenches)
+                self._end_strokes(wrenches)
                 if crossing is not None and crossing[0] <= s:
                     for k, cause in zip(crossing[1], crossing[2]):
                         self._release([k], cause)

@@ -31,9 +31,10 @@ from typing import Optional
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.bodies import initial_state, mass_table
 from cfem_ros.core.inputs import held_wrench
-from cfem_ros.core.loads import H_POINT, ScheduledLoads
+from cfem_ros.core.loads import H_POINT
 from cfem_ros.core.model import Model
 from cfem_ros.core.sampling import NumericalFailure, SampledState
+from cfem_ros.core.ties import TiedLoads
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -96,7 +97,7 @@ class Dynamics(SampledState):
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
-        self._scheduled = ScheduledLoads(model, n)
+        self._scheduled = TiedLoads(model, n)   # starts and ends may wait for releases
         self._loads = self._scheduled.array
 
         self.y = initial_state(model)
@@ -132,7 +133,8 @@ class Dynamics(SampledState):
                 self.log.warning(
                     'the joints %s constrain %d direction(s) more than once (redundant '
                     'joints or a closed loop): the motion is exact, the loads of the '
-                    'redundant directions are shared in the least-norm sense',
+                    'redundant directions are shared in the least-norm sense (weighted '
+                    "by the joints' compliance where given)",
                     ', '.join(names), top.m - rank)
                 self._warned_redundant = True
             top.dense = 2

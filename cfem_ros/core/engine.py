@@ -26,9 +26,11 @@ from typing import Optional
 from cfem_ros.core import kernel, sampling
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
 from cfem_ros.core.dynamics import Dynamics
+from cfem_ros.core.groups import ReleaseGroups, row_weights
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampleGrid  # noqa: F401 - kept for users
+from cfem_ros.core.strokes import stroke_end_event
 from cfem_ros.core.topology import JointTables, Topology
 import numpy as np
 
@@ -96,7 +98,9 @@ class Simulator(Dynamics):
     message : str
         Why the run failed, with the time ('' while running).
     events : list of dict
-        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``.
+        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``
+        (and ``'group'`` for a joint of a release group), and the ends of
+        ejector strokes (``strokes.stroke_end_event``).
     active : ndarray of bool, shape (n_joints,)
         Joints not yet released.
 
@@ -118,7 +122,9 @@ class Simulator(Dynamics):
 
         pos0, _, quat0, _ = self._split(self.y)
         self.joints = JointTables(model, pos0, quat0)
-        self.releases = Releases(self.joints, [joint.name for joint in model.joints])
+        self.groups = ReleaseGroups(model)
+        self.releases = Releases(self.joints, [joint.name for joint in model.joints],
+                                 self.groups.group_of)
         self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
@@ -133,21 +139,43 @@ class Simulator(Dynamics):
         """Rebuild the rows, the solve plan and the workspace for the active joints."""
         top = self._topology = Topology(self.joints.rows, self.active, self.free)
         self.dof = self._check_redundancy()
+        if top.dense == 2:   # redundant rows: split by the joints' compliance, if given
+            top.weigh(row_weights(self.model, top.joint))
         self.releases.update(self.active, top.line)
         active = np.flatnonzero(self.active)
         self._outputs_key = tuple(active.tolist())
         self._outputs_order = np.ascontiguousarray(top.line[active], dtype=np.int64)
 
     def release(self, joint, cause: str = 'command') -> dict:
-        """Release an active joint now; return the event."""
-        k = self.joint_index(joint)
-        if not self.active[k]:
-            raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
-        return self._release([k], cause)[0]
+        """
+        Release now an active joint, or a release group, or several (names apart).
+
+        ``joint``: an index, or a name, or names separated by spaces or
+        commas (``groups.command_names``), all released at this instant with
+        the rest of their groups. Returns the first event (``release_all``
+        returns them all). ValueError if a name is unknown or nothing named
+        is still active.
+        """
+        return self.release_all(joint, cause)[0]
+
+    def release_all(self, names, cause: str = 'command') -> list:
+        """Release as ``release`` does; return every event."""
+        if isinstance(names, str):
+            joints = self.groups.check_command(names, self.active)
+        else:
+            k = self.joint_index(names)
+            if not self.active[k]:
+                raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
+            joints = [k]
+        return self._release(joints, cause)
 
     def _release(self, joints, cause):
-        events = self.releases.release(joints, self.t, cause)
+        released = [k for k, _ in self.groups.expand(joints, self.active)]
+        events = self.releases.release(released, self.t, cause)
         self._set_topology()
+        # wrenches tied to these releases: on (or off) now, or at a time to cut a step at
+        if self._scheduled.released(released, self.t):
+            self._scheduled.switch(self.t, self.y)
         return events
 
     @property
@@ -157,7 +185,7 @@ class Simulator(Dynamics):
 
     @property
     def events(self) -> list:
-        """Return the releases so far, in order (``Releases.events``)."""
+        """Return the releases and stroke ends so far, in order (``Releases.events``)."""
         return self.releases.events
 
     # ------------------------------------------------------------- stepping
@@ -314,7 +342,7 @@ class Simulator(Dynamics):
             # an ejector's stroke ends first (or with a release)
             s, wrenches = stroke
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
-            self._scheduled.end_strokes(wrenches)
+            self._end_strokes(wrenches)
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)
@@ -326,6 +354,11 @@ class Simulator(Dynamics):
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
+
+    def _end_strokes(self, wrenches):
+        """Switch off the wrenches whose stroke ended now; an event for each (strokes.py)."""
+        self._scheduled.end_strokes(wrenches)
+        self.events.extend(stroke_end_event(self, k) for k in wrenches)
 
     def _locate(self, y0, h):
         """

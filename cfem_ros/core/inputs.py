@@ -38,7 +38,8 @@ class Input:
     kind : str
         'wrench', 'release' or 'odom'.
     target : str
-        The body (wrench) or joint (release) it names.
+        The body (wrench), or the joints and release groups (release: one
+        name, or several separated by spaces or commas) it names.
     force, torque : ndarray, shape (3,), or None
         N and N m (wrench only).
     frame_id : str
@@ -148,12 +149,8 @@ def validate_input(sim, item: Input):
     """
     model = sim.model
     if item.kind == 'release':
-        names = [joint.name for joint in model.joints]
-        if item.target not in names:
-            raise ValueError(f'unknown joint {item.target!r} '
-                             f'(joints: {", ".join(names) or "none"})')
-        if not sim.active[names.index(item.target)]:
-            raise ValueError(f'joint {item.target!r} is already released')
+        # joints or release groups, one or several (groups.command_names)
+        sim.groups.check_command(item.target, sim.active)
         return
     names = [body.name for body in model.bodies]
     if item.target not in names:
@@ -232,8 +229,16 @@ class InputQueue:
         self._expect(item)
         heapq.heappush(self._heap, (time, next(self._order), item))
 
-    def due(self, t: float):
-        """Take out the inputs held for t or before, one by one, in order."""
+    def due(self, t: float, kind: Optional[str] = None):
+        """Take out the inputs held for t or before, one by one, in order (only ``kind``'s if given)."""
+        if kind is not None:
+            taken = sorted(entry for entry in self._heap if entry[0] <= t and entry[2].kind == kind)
+            if taken:
+                self._heap = [entry for entry in self._heap if entry not in taken]
+                heapq.heapify(self._heap)
+            for entry in taken:
+                yield entry[2]
+            return
         while self._heap and self._heap[0][0] <= t:
             yield heapq.heappop(self._heap)[2]
 

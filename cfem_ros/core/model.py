@@ -176,6 +176,11 @@ class Joint:
         Rows u1, u2, u3: orthonormal, right-handed, world axes at t = 0;
         u1 is the joint axis; for a universal joint u2 is the child's axis.
     release : Release
+        Its own triggers, or those of its release group.
+    compliance : ndarray or None
+        Per constrained row, in the order of the rows (translations, m/N,
+        then rotations, rad/(N m)): weights the split of loads on redundant
+        rows (``groups.row_weights``); None: least norm.
 
     """
 
@@ -186,6 +191,7 @@ class Joint:
     anchor: np.ndarray
     triad: np.ndarray
     release: Release = field(default_factory=Release)
+    compliance: Optional[np.ndarray] = None
 
     @property
     def rows(self) -> JointRows:
@@ -211,9 +217,9 @@ class Wrench:
     frame : int
         Axes of force and moment: -1 the world, else a body.
     start : float
-        s.
+        s; with ``start_release``, s after that release.
     end : float or None
-        s; None: never.
+        s; None: never; with ``end_release``, s after that release.
     stroke : float or None
         m: the load acts while the point has moved less than this.
     reacts_on : int
@@ -222,6 +228,9 @@ class Wrench:
         Rows of abscissa, force (3) and moment (3); empty for a constant load.
     table_against : str or None
         'time' (s from start) or 'stroke' (m), None without a table.
+    start_release, end_release : str or None
+        A joint's or a release group's name: ``start`` (``end``) is then a
+        delay after its release (SPEC section 7); None: a time.
 
     """
 
@@ -237,6 +246,28 @@ class Wrench:
     reacts_on: int = -1
     table: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
     table_against: Optional[str] = None
+    start_release: Optional[str] = None
+    end_release: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class ReleaseGroup:
+    """
+    Joints that let go in one instant (scenario ``release_groups``, SPEC section 7).
+
+    Attributes
+    ----------
+    name : str
+    joints : tuple of int
+        Its joints; each one's ``release`` is the group's.
+    release : Release
+        The group's triggers; a condition is met when any joint meets it.
+
+    """
+
+    name: str
+    joints: tuple
+    release: Release = field(default_factory=Release)
 
 
 @dataclass(frozen=True)
@@ -300,6 +331,8 @@ class Model:
     references : tuple of (int, int)
         (body, reference body) pairs whose relative pose and twist are
         sampled: bodies joined to a kinematic one, or given ``reference``.
+    release_groups : tuple of ReleaseGroup
+        Joints released together, none by default.
 
     """
 
@@ -314,6 +347,7 @@ class Model:
     wrenches: tuple = ()
     aero: tuple = ()
     references: tuple = ()
+    release_groups: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

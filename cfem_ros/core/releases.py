@@ -54,9 +54,10 @@ class Releases:
 
     """
 
-    def __init__(self, tables: JointTables, names=()):
+    def __init__(self, tables: JointTables, names=(), group_of=()):
         self.triggers = tables.triggers
         self.names = tuple(names)
+        self.group_of = tuple(group_of) or (None,) * len(self.names)
         self.active = np.ones(len(self.triggers), dtype=bool)
         self.events = []
         self._joints_i = tables.joints_i
@@ -72,6 +73,8 @@ class Releases:
         for k in joints:
             self.active[k] = False
             event = {'event': 'release', 'joint': self.names[k], 'time': t, 'cause': cause}
+            if self.group_of[k] is not None:
+                event['group'] = self.group_of[k]
             events.append(event)
             self.events.append(event)
         return events

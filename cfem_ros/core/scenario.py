@@ -24,7 +24,7 @@ from cfem_ros.core import rotations, shapes
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
     Aero, AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
-    Model, Motion, Release, STANDARD_GRAVITY, triad_from_axes, Wrench)
+    Model, Motion, Release, ReleaseGroup, STANDARD_GRAVITY, triad_from_axes, Wrench)
 import numpy as np
 import yaml
 from yaml.composer import Composer
@@ -39,7 +39,7 @@ except ImportError:  # PyYAML built without libyaml: the pure Python parser only
 LOG = logging.getLogger('cfem_ros')
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches', 'aero')
+            'wrenches', 'aero', 'release_groups')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape',
              'motion', 'reference')
@@ -48,7 +48,10 @@ MOTION_KEYS = ('velocity', 'angular_velocity_deg', 'angular_velocity', 'table')
 MOTION_COLUMNS = ('t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
 #: How far a motion table's quaternion may be from unit length (it is normalized).
 MOTION_QUATERNION_TOLERANCE = 1e-3
-JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release')
+JOINT_KEYS = ('type', 'parent', 'child', 'anchor', 'axis', 'axis2', 'release', 'compliance')
+GROUP_KEYS = ('joints', 'release')
+#: A wrench's start or end tied to a release (SPEC section 7).
+TIED_KEYS = ('release', 'delay')
 RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'end', 'stroke',
                'reacts_on')
@@ -575,10 +578,14 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
         check.fail('joints', f'is {_show(joints_doc)}', 'a mapping of joint names')
     joints = [_parse_joint(check, joint_name, spec, index, bodies)
               for joint_name, spec in joints_doc.items()]
-    wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id)
+    groups = _parse_release_groups(check, top.get('release_groups'), joints, joints_doc)
+    joints = _with_group_releases(joints, groups)
+    wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id,
+                               releases=_release_names(joints, groups))
     model = Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
                   dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
-                  wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies))
+                  wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies),
+                  release_groups=groups)
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
         return model
@@ -920,8 +927,81 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
     elif 'axis2' in spec:
         check.fail(f'{key}.axis2', f'given for a {kind} joint', 'axis2 only on universal joints')
     release = _parse_release(check, spec.get('release'), f'{key}.release')
+    compliance = None
+    if spec.get('compliance') is not None:
+        rows = JOINT_TABLE[kind]
+        count = len(rows.translation) + len(rows.rotation)
+        compliance = check.vector(spec['compliance'], f'{key}.compliance', length=count,
+                                  limit=None)
+        if not (compliance > 0.0).all():
+            check.fail(f'{key}.compliance', f'is {_show(spec["compliance"])}',
+                       f'{count} numbers > 0 (m/N per constrained translation, rad/(N m) '
+                       'per rotation)')
     return Joint(name=name, kind=kind, parent=parent, child=child, anchor=anchor,
-                 triad=triad_from_axes(axis, axis2), release=release)
+                 triad=triad_from_axes(axis, axis2), release=release, compliance=compliance)
+
+
+def _parse_release_groups(check: _Checker, doc, joints, joints_doc) -> tuple:
+    """Parse ``release_groups`` (SPEC section 7): name -> joints and triggers."""
+    if doc is None:
+        return ()
+    if not isinstance(doc, dict):
+        check.fail('release_groups', f'is {_show(doc)}', 'a mapping of group names')
+    names = {joint.name: k for k, joint in enumerate(joints)}
+    owner, groups = {}, []
+    for name, spec in doc.items():
+        key = _key('release_groups', name)
+        check.name(name, key)
+        if name in names:
+            check.fail(key, f'{name!r} is also a joint, so a release command would be '
+                       'ambiguous', 'a name no joint has')
+        spec = check.mapping(spec, key, GROUP_KEYS, required=('joints',))
+        members = spec['joints']
+        if not isinstance(members, list) or not members:
+            check.fail(f'{key}.joints', f'is {_show(members)}', 'a non-empty list of joints')
+        indices = []
+        for i, joint in enumerate(members):
+            where = f'{key}.joints[{i}]'
+            if not isinstance(joint, str) or joint not in names:
+                check.fail(where, f'{_show(joint)} is not a joint', _one_of(names))
+            if joint in owner:
+                check.fail(where, f'{joint!r} is already in group {owner[joint]!r}',
+                           'a joint in one group at most')
+            if isinstance(joints_doc[joint], dict) and 'release' in joints_doc[joint]:
+                check.fail(_key('joints', joint) + '.release', 'given for a joint of '
+                           f'release group {name!r}', f'the triggers under {key}.release')
+            owner[joint] = name
+            indices.append(names[joint])
+        release = _parse_release(check, spec.get('release'), f'{key}.release')
+        groups.append(ReleaseGroup(name=name, joints=tuple(indices), release=release))
+    return tuple(groups)
+
+
+def _with_group_releases(joints, groups) -> list:
+    """Give each joint of a group the group's triggers."""
+    joints = list(joints)
+    for group in groups:
+        for k in group.joints:
+            joints[k] = Joint(**{**joints[k].__dict__, 'release': group.release})
+    return joints
+
+
+def _release_names(joints, groups) -> tuple:
+    """Return the names a wrench's start or end may be tied to: joints and groups."""
+    return tuple(joint.name for joint in joints) + tuple(group.name for group in groups)
+
+
+def _parse_time_or_release(check: _Checker, value, key: str, releases):
+    """Return (s, None) for a time, (delay, name) for ``{release: name, delay: s}``."""
+    if not isinstance(value, dict):
+        return check.number(value, key, minimum=0.0), None
+    value = check.mapping(value, key, TIED_KEYS, required=('release',))
+    name = value['release']
+    if not isinstance(name, str) or name not in releases:
+        check.fail(f'{key}.release', f'{_show(name)} is not a joint or a release group',
+                   _one_of(releases) if releases else 'a joint or a release group (there '
+                   'are none)')
+    return check.number(value.get('delay', 0.0), f'{key}.delay', minimum=0.0), name
 
 
 def _parse_release(check: _Checker, spec, key: str) -> Release:
@@ -943,13 +1023,14 @@ def _parse_release(check: _Checker, spec, key: str) -> Release:
     )
 
 
-def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str) -> tuple:
-    """Parse the scheduled loads (SPEC section 5): a list of wrench mappings."""
+def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str, *,
+                    releases=()) -> tuple:
+    """Parse the scheduled loads (SPEC sections 5, 7); ``releases``: joints and groups."""
     if doc is None:
         return ()
     if not isinstance(doc, list):
         check.fail('wrenches', f'is {_show(doc)}', 'a list of wrench mappings')
-    wrenches = [_parse_wrench(check, k, spec, index, bodies, frame_id)
+    wrenches = [_parse_wrench(check, k, spec, index, bodies, frame_id, releases)
                 for k, spec in enumerate(doc)]
     seen = {}
     for k, wrench in enumerate(wrenches):
@@ -967,7 +1048,8 @@ def _body_of(check: _Checker, value, key: str, index: dict) -> int:
     return index[value]
 
 
-def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: str) -> Wrench:
+def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: str,
+                  releases=()) -> Wrench:
     key = f'wrenches[{k}]'
     spec = check.mapping(spec, key, WRENCH_KEYS, required=('body',))
     body = _body_of(check, spec['body'], f'{key}.body', index)
@@ -999,11 +1081,17 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
         force, moment = np.zeros(3), np.zeros(3)
     else:
         force = check.vector(force_doc, f'{key}.force')
-    start = check.number(spec.get('start', 0.0), f'{key}.start', minimum=0.0)
-    end = None
-    if spec.get('end') is not None:
+    start, start_release = _parse_time_or_release(check, spec.get('start', 0.0),
+                                                  f'{key}.start', releases)
+    end = end_release = None
+    if isinstance(spec.get('end'), dict):
+        end, end_release = _parse_time_or_release(check, spec['end'], f'{key}.end', releases)
+        if end_release == start_release and end <= start:
+            check.fail(f'{key}.end.delay', f'is {end:g}, not after the start delay {start:g}',
+                       'a delay after the start, s')
+    elif spec.get('end') is not None:
         end = check.number(spec['end'], f'{key}.end')
-        if end <= start:
+        if start_release is None and end <= start:
             check.fail(f'{key}.end', f'is {end:g}, not after start {start:g}',
                        'a time after start, s')
     stroke = None
@@ -1017,7 +1105,8 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
                        'another body (a load on itself cancels)')
     return Wrench(name=name, body=body, point=point, force=force, moment=moment,
                   frame=frame_index, start=start, end=end, stroke=stroke, reacts_on=reacts_on,
-                  table=table, table_against=against)
+                  table=table, table_against=against, start_release=start_release,
+                  end_release=end_release)
 
 
 def _parse_force_table(check: _Checker, doc, key: str, moment: np.ndarray):
@@ -1154,10 +1243,13 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
     for name in joints:
         new_joints[model.joint_index(name)] = _parse_joint(
             check, name, top['joints'][name], index, new_bodies)
+    new_joints = _with_group_releases(new_joints, model.release_groups)
     new_wrenches = model.wrenches
     if wrenches:
         new_wrenches = _parse_wrenches(check, top.get('wrenches'), index, new_bodies,
-                                       model.frame_id)
+                                       model.frame_id,
+                                       releases=_release_names(model.joints,
+                                                               model.release_groups))
     name = top['name'] if 'name' in top else os.path.splitext(os.path.basename(source))[0]
     return Model(**{**model.__dict__, 'name': name, 'bodies': tuple(new_bodies),
                     'joints': tuple(new_joints), 'wrenches': new_wrenches})

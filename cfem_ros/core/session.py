@@ -10,7 +10,8 @@ node, so that a recording of the node replays offline to the same numbers:
   points where integration steps are cut (with the engine's release times);
 - a sample at time t shows the state and loads before any input at t takes
   effect (the node cannot do otherwise: when a message arrives, the sample
-  at the current time has already been published);
+  at the current time has already been published); but odometry known at
+  t = 0 replaces the scenario's stand-in motion before the first sample;
 - ``advance(limit)`` walks that fixed sequence of steps and stops at the
   last step ending at or before ``limit``: whoever paces the run (a wall
   clock, ``/clock``, nothing) changes when steps are taken, never which;
@@ -104,11 +105,20 @@ class Session:
         return self.failed or self.sim.t >= self.duration
 
     def start(self):
-        """Take the first sample, then apply the inputs due at t = 0."""
+        """
+        Take the first sample, then apply the inputs due at t = 0.
+
+        Odometry due at t = 0 is applied before the first sample: it is the
+        carrier's measured motion at t = 0, which the scenario's ``motion``
+        only stands in for until then, so the first sample shows it (and
+        the loads it causes) as every later one does.
+        """
         if self.started:
             return
         self.started = True
-        self._sample()
+        self._apply_due('odom')
+        if not self.failed:
+            self._sample()
         if not self.failed:
             self._apply_due()
 
@@ -248,8 +258,8 @@ class Session:
         if self.sim.release_due():
             self._emit_events()
 
-    def _apply_due(self):
-        for item in self.inputs.due(self.sim.t):
+    def _apply_due(self, kind: Optional[str] = None):
+        for item in self.inputs.due(self.sim.t, kind):
             try:
                 self._apply(item)
             except ValueError as err:

@@ -172,6 +172,17 @@ class Topology:
                     lines.append((i, child, parent, 1 if child == b else -1))
         return lines[::-1]
 
+    def weigh(self, scale):
+        """
+        Scale each row's parent vector (``groups.row_weights``; None: leave them).
+
+        The rows' values, Jacobians and multipliers scale with it, the
+        joints' wrenches and the motion do not: only the least-norm split
+        of redundant rows changes, to the compliance-weighted one.
+        """
+        if scale is not None:
+            self.rows_f[:, 0:3] *= np.asarray(scale, dtype=float)[:, None]
+
     def kernel_args(self, sim):
         """Arguments of the kernel's solve functions after y."""
         return (sim._bodies, sim.gravity, sim._loads, self.rows_i, self.rows_f, self.plan,

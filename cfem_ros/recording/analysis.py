@@ -196,7 +196,9 @@ class Run:
         In the order the recording first names them.
     joints : dict of str to JointTrack
     events : list of dict
-        Decoded JSON events (``{'event', 'joint', 'time', 'cause'}``).
+        Decoded JSON events: releases (``{'event', 'joint', 'time', 'cause'}``,
+        ``'group'`` for a release group's joints) and stroke ends
+        (``stroke_ends``).
     topics : dict of str to (str, int)
         Every topic in the file: (message type, message count).
     metadata : dict of str to str
@@ -231,6 +233,28 @@ class Run:
     def moving_bodies(self) -> list:
         """Return the bodies that move, in order."""
         return [track for track in self.bodies.values() if track.moves]
+
+    def stroke_ends(self) -> dict:
+        """
+        Return the end-of-stroke figures by wrench name (SPEC section 7).
+
+        Each is a dict with ``time`` (s), ``velocity`` (u, v, w, m/s) and
+        ``rates`` (p, q, r, rad/s) as arrays: the loaded body's CG velocity
+        and body rates relative to the wrench's ``reacts_on`` body (the
+        world when none), in the loaded body's axes; and ``body`` and
+        ``reacts_on`` (None: the world). Wrenches whose stroke never ended
+        are absent; of two wrenches of one name (on two bodies), the first.
+        """
+        out = {}
+        for e in self.events:
+            if e.get('event') != 'stroke_end' or 'wrench' not in e:
+                continue
+            out.setdefault(e['wrench'], {
+                'time': float(e['time']), 'body': e.get('body'),
+                'reacts_on': e.get('reacts_on'),
+                'velocity': np.asarray(e['velocity'], dtype=float),
+                'rates': np.asarray(e['rates'], dtype=float)})
+        return out
 
 
 def euler_continuous(euler_deg: np.ndarray) -> np.ndarray:
@@ -556,9 +580,10 @@ def compare_runs(a: Run, b: Run) -> tuple:
     ``release`` (time, s); with a carrier in A (``Run.relative``),
     ``<body> position in <carrier> axes`` (m: B's relative track, or B's
     body and carrier poses). Returns (differences, only_in_a, only_in_b), where
-    the last two list body and joint names present in one run only.
+    the last two list body and joint names present in one run only, and a
+    body's rates and velocity when only one run has its twists.
     """
-    rows = []
+    rows, missing_a, missing_b = [], [], []
 
     def add(quantity, unit, t_a, v_a, t_b, v_b):
         t, diff, ours = _resampled_difference(t_a, v_a, t_b, v_b)
@@ -585,9 +610,16 @@ def compare_runs(a: Run, b: Run) -> tuple:
                                    float(np.degrees(turned.max())), len(t)))
         else:
             rows.append(Difference(f'{name} attitude', 'deg', NAN, NAN, NAN, 0))
-        add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
-            np.degrees(tb.rates))
-        add(f'{name} velocity', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)
+        # rates and velocity come from the twists, which a log may not have
+        has_a, has_b = not np.isnan(ta.rates).all(), not np.isnan(tb.rates).all()
+        if has_a and has_b:
+            add(f'{name} rates', 'deg/s', ta.time, np.degrees(ta.rates), tb.time,
+                np.degrees(tb.rates))
+            add(f'{name} velocity', 'm/s', ta.time, ta.velocity, tb.time, tb.velocity)
+        elif has_a != has_b:
+            missing = missing_b if has_a else missing_a
+            missing += [f'{name} rates (no twist in {"B" if has_a else "A"})',
+                        f'{name} velocity (no twist in {"B" if has_a else "A"})']
     for name, ja in a.joints.items():
         jb = b.joints.get(name)
         if jb is None:
@@ -613,4 +645,5 @@ def compare_runs(a: Run, b: Run) -> tuple:
                                releases_a[joint], 1))
     names_a = set(a.bodies) | set(a.joints) | {f'{j} release' for j in releases_a}
     names_b = set(b.bodies) | set(b.joints) | {f'{j} release' for j in releases_b}
-    return rows, sorted(names_a - names_b), sorted(names_b - names_a)
+    return (rows, sorted(names_a - names_b) + missing_b,
+            sorted(names_b - names_a) + missing_a)

@@ -36,6 +36,7 @@ from cfem_ros.core.errors import CfemError
 from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
+from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
@@ -387,9 +388,13 @@ class _Publishers:
     def events(self):
         for event in self.sim.events[self._events_sent:]:
             self.event_publisher.publish(String(data=json.dumps(event)))
+            if event.get('event') != 'release':
+                self.node.get_logger().info(describe_event(event))
+                continue
+            group = f" in group {event['group']!r}" if event.get('group') else ''
             self.node.get_logger().info(
                 f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
-                f"(cause: {event['cause']})")
+                f"(cause: {event['cause']}){group}")
             k = self.sim.model.joint_index(event['joint'])
             publisher = self.wrenches.pop(k, None)
             if publisher is not None:

@@ -7,11 +7,16 @@ The pip-installed ROS 2 wheels have no ``ros2`` command; this is the one-line
 equivalent of ``ros2 topic pub --once`` for the node's two input topics::
 
     cfem_pub release pivot
+    cfem_pub release fwd_hook aft_hook          # one message: one instant
+    cfem_pub release station_1                  # a release group
     cfem_pub wrench store --force 0 0 -5000 --frame world
+    cfem_pub wrench store --force 0 0 -5000 --frame store@0.18,0,-0.25
 
 It waits (``--wait`` seconds) for the node's subscription to match and
-publishes once with the node's QoS. A release waits for the node's event on
-``events`` and prints it (exit status 1 if none comes: the node refused it).
+publishes once with the node's QoS. Several names go in one message (names
+apart), which the node releases at one step boundary. A release waits for
+the node's events on ``events`` and prints them (exit status 1 if a name
+gets none: the node refused it).
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ import math
 import sys
 import time
 
+from cfem_ros.core.inputs import parse_frame_id
 from cfem_ros.ros.node import TOPIC_QOS
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 import rclpy
@@ -43,8 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--wait', type=float, default=10.0, metavar='S',
                         help='seconds to wait for the node to subscribe (default 10)')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
-    release = sub.add_parser('release', help='release a joint now')
-    release.add_argument('joint', help='the joint to release')
+    release = sub.add_parser('release', help='release joints or release groups now, '
+                             'in one instant')
+    release.add_argument('joint', nargs='+', metavar='NAME',
+                         help='a joint or a release group (several: released together)')
     wrench = sub.add_parser('wrench', help='hold an external force and moment on a body')
     wrench.add_argument('body', help='the body to load')
     wrench.add_argument('--force', type=float, nargs=3, default=[0.0] * 3,
@@ -53,7 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar=('MX', 'MY', 'MZ'), help='N m, about the CG (default 0 0 0)')
     wrench.add_argument('--frame', default='world',
                         help='the world frame (world axes, default "world") or the body '
-                        '(body axes)')
+                        '(body axes); either followed by @x,y,z applies the force at that '
+                        'point (body axes, from the CG, m), e.g. store@0.18,0,-0.25')
     wrench.add_argument('--stamp', type=float, default=0.0, metavar='SEC',
                         help='header stamp, s; with use_sim_time the node applies the wrench '
                         'at that time (default 0: on receipt)')
@@ -62,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _message(args):
     if args.command == 'release':
-        return String, 'release', String(data=args.joint)
+        return String, 'release', String(data=' '.join(args.joint))
     msg = WrenchStamped()
     sec, nanosec = divmod(int(round(args.stamp * 1e9)), 1_000_000_000)
     msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
@@ -80,6 +89,14 @@ def main(argv=None) -> int:
         print(f'ERROR: wrench: force {args.force} and torque {args.torque} must be finite; '
               'the node would refuse it; nothing published', file=sys.stderr)
         return 2
+    frame = None
+    if args.command == 'wrench':
+        try:
+            frame, _ = parse_frame_id(args.frame)
+        except ValueError as err:
+            print(f'ERROR: wrench: --frame: {err}; the node would refuse it; nothing '
+                  'published', file=sys.stderr)
+            return 2
     kind, relative, msg = _message(args)
     namespace = args.ns.rstrip('/')
     topic = f'{namespace}/{relative}'
@@ -95,17 +112,18 @@ def main(argv=None) -> int:
             print(f'ERROR: nothing subscribes to {topic} after {args.wait:g} s; is cfem_node '
                   'running, with the same ROS_DOMAIN_ID and namespace?', file=sys.stderr)
             return 1
-        if args.command == 'wrench' and args.frame != args.body:
+        if args.command == 'wrench' and frame != args.body:
             # the world frame is that of the body's poses
             poses = []
             node.create_subscription(PoseStamped, f'{namespace}/bodies/{args.body}/pose',
                                      poses.append, TOPIC_QOS)
             if _spin_until(node, lambda: poses, min(args.wait, POSE_WAIT)):
                 world = poses[0].header.frame_id
-                if args.frame != world:
+                if frame != world:
                     print(f'ERROR: wrench: --frame {args.frame!r} is neither the world frame '
-                          f'{world!r} nor the body {args.body!r}; the node would refuse it; '
-                          'nothing published', file=sys.stderr)
+                          f'{world!r} nor the body {args.body!r} (optionally followed by '
+                          '@x,y,z); the node would refuse it; nothing published',
+                          file=sys.stderr)
                     return 2
             else:
                 print(f'warning: no pose of {args.body!r} within {POSE_WAIT:g} s; frame '
@@ -116,12 +134,26 @@ def main(argv=None) -> int:
             # like ros2 topic pub --once: stay a moment so that the message leaves
             _spin_until(node, lambda: False, KEEP_ALIVE)
             return 0
-        if _spin_until(node, lambda: any(e.get('joint') == args.joint for e in events),
-                       RELEASE_CONFIRMATION):
-            print(f'{namespace}/events: {json.dumps(events[-1])}')
+        names = list(dict.fromkeys(args.joint))
+
+        def confirmed():
+            return [e for e in events if e.get('event') == 'release'
+                    and (e.get('joint') in names or e.get('group') in names)]
+
+        def answered(name):
+            return any(name in (e.get('joint'), e.get('group')) for e in confirmed())
+
+        _spin_until(node, lambda: all(map(answered, names)), RELEASE_CONFIRMATION)
+        # the rest of a group's joints come in the same instant
+        _spin_until(node, lambda: False, KEEP_ALIVE)
+        for event in confirmed():
+            print(f'{namespace}/events: {json.dumps(event)}')
+        missing = [name for name in names if not answered(name)]
+        if not missing:
             return 0
-        print(f'ERROR: no release event for {args.joint!r} within {RELEASE_CONFIRMATION:g} s; '
-              "the node's log says why (unknown joint, or already released)", file=sys.stderr)
+        print(f'ERROR: no release event for {", ".join(map(repr, missing))} within '
+              f"{RELEASE_CONFIRMATION:g} s; the node's log says why (unknown joint or "
+              'release group, or already released)', file=sys.stderr)
         return 1
     finally:
         rclpy.try_shutdown()

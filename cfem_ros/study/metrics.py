@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.study.spec import STROKE_COLUMNS
 import numpy as np
 
 NAN = float('nan')
@@ -34,12 +35,15 @@ class Samples:
     joints : dict of str to (time (m,), force (m, 3), moment (m, 3))
         Only the samples where the joint was active.
     releases : list of (time, joint, cause)
+    strokes : dict of str to (time, velocity (3,), rates (3,))
+        End-of-stroke figures by wrench (SPEC section 7), the first of a name.
 
     """
 
     bodies: dict = field(default_factory=dict)
     joints: dict = field(default_factory=dict)
     releases: list = field(default_factory=list)
+    strokes: dict = field(default_factory=dict)
 
 
 def from_run(run) -> Samples:
@@ -47,7 +51,9 @@ def from_run(run) -> Samples:
     return Samples(
         bodies={name: (b.time, b.position, b.quaternion) for name, b in run.bodies.items()},
         joints={name: (j.time, j.force, j.moment) for name, j in run.joints.items()},
-        releases=list(run.releases()))
+        releases=list(run.releases()),
+        strokes={name: (e['time'], e['velocity'], e['rates'])
+                 for name, e in run.stroke_ends().items()})
 
 
 def sample_times(times) -> np.ndarray:
@@ -136,7 +142,11 @@ class Collector:
                                       loads[:, :3], loads[:, 3:])
         releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
                           for e in self.sim.events if e.get('event') == 'release')
-        return Samples(bodies=bodies, joints=joints, releases=releases)
+        strokes = {}
+        for e in self.sim.events:
+            if e.get('event') == 'stroke_end':
+                strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
+        return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes)
 
 
 def _kernel():
@@ -246,6 +256,10 @@ def compute(samples: Samples, metrics) -> dict:
             rpy = rotations.to_rpy_deg(np.asarray(q, dtype=float))
             values = [float(p[0]), float(p[1]), float(p[2])] + [float(a) for a in rpy]
         out.update(zip(names, values))
+    for wrench in getattr(metrics, 'strokes', ()):
+        t, velocity, rates = samples.strokes.get(wrench, (NAN, [NAN] * 3, [NAN] * 3))
+        values = [float(t)] + [float(v) for v in velocity] + [float(v) for v in rates]
+        out.update(zip((f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS), values))
     return out
 
 

@@ -188,13 +188,18 @@ class At:
         return f'{self.body}_at_{self.time:g}_'
 
 
+#: Sweep columns of a stroke end, after ``stroke_<wrench>_`` (SPEC section 7).
+STROKE_COLUMNS = ('time', 'u', 'v', 'w', 'p', 'q', 'r')
+
+
 @dataclass
 class Metrics:
-    """What is measured on every run: clearances, states at times, joints' loads."""
+    """What is measured on every run: clearances, states at times, joints' loads, strokes."""
 
     clearance: list = field(default_factory=list)
     at: list = field(default_factory=list)
     joints: list = field(default_factory=list)
+    strokes: list = field(default_factory=list)
 
     def columns(self) -> list:
         """Return the metric column names, in table order."""
@@ -209,6 +214,8 @@ class Metrics:
         for entry in self.at:
             names += [entry.prefix + s for s in ('x', 'y', 'z', 'roll_deg', 'pitch_deg',
                                                  'yaw_deg')]
+        for wrench in self.strokes:
+            names += [f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS]
         return names
 
 
@@ -567,7 +574,10 @@ def _parse_metrics(fail, metrics, base, rate) -> Metrics:
                  ', '.join(bodies))
         return name
 
-    out = Metrics(joints=joints)
+    wrenches = base.get('wrenches') if isinstance(base.get('wrenches'), list) else []
+    strokes = [w.get('name', f'wrench{k}') for k, w in enumerate(wrenches)
+               if isinstance(w, dict) and w.get('stroke') is not None]
+    out = Metrics(joints=joints, strokes=list(dict.fromkeys(strokes)))
     clearance = metrics.get('clearance') or []
     if not isinstance(clearance, list):
         fail('metrics.clearance', f'is {_show(clearance)}', 'a list of body pairs')

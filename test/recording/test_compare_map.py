@@ -77,3 +77,17 @@ def test_cli_compare_with_maps(tmp_path, capsys):
     assert cli.main(['compare', simulated, flight, '--map', 'store=/flight/store/pose']) == 2
     err = capsys.readouterr().err
     assert '--map' in err and 'A_TOPIC=B_TOPIC' in err and err.count('\n') == 1
+
+
+def test_quantities_missing_from_b_are_named_not_printed_as_nan(tmp_path, capsys):
+    # regression: a log with poses and no twists gave rows of nan for rates and velocity
+    simulated, flight = _recordings(tmp_path)
+    assert cli.main(['compare', simulated, flight,
+                     '--map', '/cfem/bodies/store/pose=/flight/store/pose',
+                     '--map', '/cfem/bodies/aircraft/pose=/flight/aircraft/pose']) == 0
+    out = capsys.readouterr().out
+    assert 'nan' not in out.lower()
+    for body in ('store', 'aircraft'):
+        for quantity in ('rates', 'velocity'):
+            assert f'only in A: {body} {quantity} (no twist in B)' in out
+    assert 'store position' in out and 'store attitude' in out

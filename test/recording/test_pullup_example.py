@@ -91,3 +91,21 @@ def test_replay_interpolates_odometry_unless_the_recording_node_did_not(tmp_path
     assert np.array_equal(hook_force(extrapolated, '--odometry', 'interpolate'), interpolated)
     # at 20 Hz the two differ: the extrapolated carrier's acceleration jumps at each message
     assert np.abs(hook_force(extrapolated) - interpolated).max() > 1e-3
+
+
+def test_the_first_hook_load_sample_is_the_odometrys(tmp_path):
+    # regression: the t = 0 sample showed the scenario's stand-in motion (1 g on the
+    # hook) before the log's odometry took over (2 g); a table of the pull-up gives
+    # 2 g at t = 0 too
+    script = _script()
+    log = str(tmp_path / 'flight.mcap')
+    assert script.main(['-o', log]) == 0
+    out = str(tmp_path / 'sim.mcap')
+    assert cli.main(['run', str(ROOT / 'config' / 'store_release_from_pullup.yaml'), '-o', out,
+                     '--inputs', log, '--duration', '0.3']) == 0
+    hook = open_run(out).joints['hook']
+    load = np.linalg.norm(hook.force, axis=1)
+    two_g = 907.1848 * 2 * G
+    assert hook.time[0] == 0.0
+    assert abs(load[0] - two_g) < 1e-3 * two_g
+    assert np.abs(load - two_g).max() < 1e-3 * two_g

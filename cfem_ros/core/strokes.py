@@ -1,0 +1,92 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+End-of-stroke figures: the store's motion relative to the rack when an ejector stops.
+
+MIL-STD-2088 asks for the store's CG velocity and angular rates relative to
+the aircraft at the end of each ejector's stroke. A scheduled wrench with a
+``stroke`` ends where its point has moved that far (located inside the
+step, ``loads.py``); the event written there (SPEC section 7) gives the
+loaded body's motion relative to the wrench's ``reacts_on`` body (the world
+when none), in the loaded body's axes.
+"""
+
+from __future__ import annotations
+
+from cfem_ros.core import rotations
+import numpy as np
+
+
+def relative_motion(y: np.ndarray, n: int, body: int, reference: int):
+    """
+    Return a body's CG velocity and angular velocity relative to another, in its own axes.
+
+    Parameters
+    ----------
+    y : ndarray, shape (13 n,)
+        The state (``engine`` module docstring).
+    n : int
+        Number of bodies.
+    body : int
+        The moving body.
+    reference : int
+        The body it is seen from (-1: the world).
+
+    Returns
+    -------
+    velocity, rates : ndarray, shape (3,)
+        The CG velocity seen by an observer fixed in ``reference``
+        (v - v_ref - w_ref x (p - p_ref)), m/s, and w - w_ref, rad/s; both
+        in ``body``'s axes.
+
+    """
+    pos = y[:3 * n].reshape(n, 3)
+    vel = y[3 * n:6 * n].reshape(n, 3)
+    quat = y[6 * n:10 * n].reshape(n, 4)
+    rates = y[10 * n:].reshape(n, 3)
+    turn = rotations.matrices(quat / np.linalg.norm(quat, axis=1)[:, None])
+    velocity = vel[body].copy()
+    omega = turn[body] @ rates[body]
+    if reference >= 0:
+        omega_ref = turn[reference] @ rates[reference]
+        velocity -= vel[reference] + np.cross(omega_ref, pos[body] - pos[reference])
+        omega = omega - omega_ref
+    return turn[body].T @ velocity, turn[body].T @ omega
+
+
+def stroke_end_event(sim, k: int) -> dict:
+    """
+    Return the event of scheduled wrench k's stroke ending now (SPEC section 7).
+
+    ``{"event": "stroke_end", "wrench", "body", "time", "velocity": [u, v, w],
+    "rates": [p, q, r]}`` plus ``"reacts_on"`` when it has one; velocity
+    (m/s) and rates (rad/s) relative to ``reacts_on`` (the world when none),
+    in the loaded body's axes.
+    """
+    model = sim.model
+    wrench = model.wrenches[k]
+    velocity, rates = relative_motion(sim.y, sim.n, wrench.body, wrench.reacts_on)
+    event = {'event': 'stroke_end', 'wrench': wrench.name,
+             'body': model.bodies[wrench.body].name, 'time': sim.t,
+             'velocity': [float(v) for v in velocity], 'rates': [float(v) for v in rates]}
+    if wrench.reacts_on >= 0:
+        event['reacts_on'] = model.bodies[wrench.reacts_on].name
+    return event
+
+
+def describe_event(event: dict) -> str:
+    """Return one line for a user about a release or stroke-end event (``run``, the node)."""
+    kind = event.get('event')
+    when = f"t = {event['time']:.9f} s"
+    if kind == 'release':
+        group = f"; group {event['group']}" if event.get('group') else ''
+        return f"release {event['joint']} at {when} ({event['cause']}{group})"
+    if kind == 'stroke_end':
+        u, v, w = event['velocity']
+        p, q, r = event['rates']
+        seen = event.get('reacts_on', 'the world')
+        deg = np.degrees([p, q, r])
+        return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
+                f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.4f}, '
+                f'{q:.4f}, {r:.4f} rad/s ({deg[0]:.2f}, {deg[1]:.2f}, {deg[2]:.2f} deg/s)')
+    return f'{kind} at {when}'
