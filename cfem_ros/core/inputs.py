@@ -230,9 +230,9 @@ class InputQueue:
         heapq.heappush(self._heap, (time, next(self._order), item))
 
     def due(self, t: float, kind: Optional[str] = None):
-        """Take out the inputs held for t or before, one by one, in order (only ``kind``'s if given)."""
+        """Take out the inputs held for t or before, in order (only those of ``kind`` if given)."""
         if kind is not None:
-            taken = sorted(entry for entry in self._heap if entry[0] <= t and entry[2].kind == kind)
+            taken = sorted(e for e in self._heap if e[0] <= t and e[2].kind == kind)
             if taken:
                 self._heap = [entry for entry in self._heap if entry not in taken]
                 heapq.heapify(self._heap)
