@@ -26,8 +26,10 @@ $(STAMP): setup.py setup.cfg package.xml
 # loads; again whenever the compiled sources change. Then the package's bytecode, as pip
 # does for a regular install (an editable one has none until Python writes it, which it
 # never does under PYTHONDONTWRITEBYTECODE: every start would compile the sources again)
-$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py cfem_ros/core/motion.py
+$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py cfem_ros/core/motion.py \
+	  $(wildcard cfem_ros/core/cpp/*.hpp cfem_ros/core/cpp/*.cpp)
 	$(BIN)/python -m cfem_ros.core.warmup
+	$(BIN)/python -m cfem_ros.core.native
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(CORE)
 

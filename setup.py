@@ -38,6 +38,8 @@ setup(
         'mcap-ros2-support>=0.5',
         'numba>=0.59',
         'matplotlib>=3.6',
+        # builds cfem_ros.core._aeroshapes (aerodynamic tables, shape distances; cpp/)
+        'pybind11>=2.10',
     ],
     extras_require={
         'ros': [
@@ -58,6 +60,8 @@ setup(
             'pytest',
             'hypothesis',
             'rosbags>=0.10',
+            # the reference for the shape distances (test/core/test_shape_distance.py)
+            'coal>=3.0',
             'ros-kilted-ament-flake8',
             'ros-kilted-ament-pep257',
             'pydocstyle',

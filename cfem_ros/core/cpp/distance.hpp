@@ -1,0 +1,423 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// Minimum distance between two convex collision shapes (SPEC section 8):
+// sphere, capsule, box, cylinder, and a mesh's convex hull. Each shape is a
+// core (a point, a segment, a box, a cylinder, a polytope) swept by a radius
+// (the sphere's and capsule's); the cores' distance comes from closed forms
+// where they are exact (point-point, point-segment, segment-segment,
+// point-box) and from GJK otherwise (Gilbert, Johnson and Keerthi 1988, with
+// the closest points of the simplex by Voronoi regions, Ericson 2005, ch. 5,
+// and the duality-gap stop of van den Bergen 2003: it stops when the distance
+// is known to kTolerance m). Pure functions over flat arrays; no allocation.
+//
+// A packed shape (cfem_ros.core.contacts builds it) is kShapeHeader doubles:
+// kind, size (3), the shape's axes in the body's (row-major 3x3) and its
+// centre from the CG (3, body axes, m), the hull's vertex count; then the
+// hull's vertices (3 each, shape axes, m). Cylinders and capsules lie along
+// the shape's x axis; size: box edges (x, y, z); cylinder radius, length;
+// sphere radius; capsule radius, overall length.
+#pragma once
+
+#include <cmath>
+
+namespace cfem {
+namespace shapes {
+
+constexpr int kSphere = 0, kCapsule = 1, kBox = 2, kCylinder = 3, kHull = 4;
+constexpr int kKind = 0, kSize = 1, kAxes = 4, kCentre = 13, kVertices = 16;
+constexpr int kShapeHeader = 17;
+//: The distance is known to this much, m (GJK's stop).
+constexpr double kTolerance = 1e-12;
+constexpr int kMaxIterations = 256;
+
+struct Vec { double x, y, z; };
+inline Vec operator+(Vec a, Vec b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec operator-(Vec a, Vec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec operator*(double s, Vec a) { return {s * a.x, s * a.y, s * a.z}; }
+inline double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec cross(Vec a, Vec b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+
+// A shape placed in the world: its packed data, axes (row-major, shape to world), centre.
+struct Placed {
+  const double* data;
+  double rot[9];
+  Vec centre;
+  int kind;
+  double radius;     // swept radius (sphere, capsule), else 0
+  double half;       // capsule: half the segment; cylinder: half its length
+};
+
+inline Vec turn(const double* r, Vec v) {
+  return {r[0] * v.x + r[1] * v.y + r[2] * v.z, r[3] * v.x + r[4] * v.y + r[5] * v.z,
+          r[6] * v.x + r[7] * v.y + r[8] * v.z};
+}
+inline Vec turn_back(const double* r, Vec v) {
+  return {r[0] * v.x + r[3] * v.y + r[6] * v.z, r[1] * v.x + r[4] * v.y + r[7] * v.z,
+          r[2] * v.x + r[5] * v.y + r[8] * v.z};
+}
+
+// Place a packed shape on a body at (body_rot row-major body to world, body_position world).
+inline Placed place(const double* data, const double* body_rot, const double* body_position) {
+  Placed s;
+  s.data = data;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      s.rot[3 * i + j] = body_rot[3 * i] * data[kAxes + j] +
+                         body_rot[3 * i + 1] * data[kAxes + 3 + j] +
+                         body_rot[3 * i + 2] * data[kAxes + 6 + j];
+    }
+  }
+  Vec c = turn(body_rot, {data[kCentre], data[kCentre + 1], data[kCentre + 2]});
+  s.centre = {body_position[0] + c.x, body_position[1] + c.y, body_position[2] + c.z};
+  s.kind = static_cast<int>(data[kKind]);
+  s.radius = 0.0;
+  s.half = 0.0;
+  if (s.kind == kSphere) {
+    s.radius = data[kSize];
+  } else if (s.kind == kCapsule) {
+    s.radius = data[kSize];
+    s.half = 0.5 * data[kSize + 1] - data[kSize];
+  } else if (s.kind == kCylinder) {
+    s.half = 0.5 * data[kSize + 1];
+  }
+  return s;
+}
+
+// The core's farthest point along d (world), world coordinates.
+inline Vec support(const Placed& s, Vec d) {
+  Vec l = turn_back(s.rot, d), p = {0.0, 0.0, 0.0};
+  const double* size = s.data + kSize;
+  switch (s.kind) {
+    case kCapsule:
+      p.x = l.x >= 0.0 ? s.half : -s.half;
+      break;
+    case kBox:
+      p = {l.x >= 0.0 ? 0.5 * size[0] : -0.5 * size[0], l.y >= 0.0 ? 0.5 * size[1] : -0.5 * size[1],
+           l.z >= 0.0 ? 0.5 * size[2] : -0.5 * size[2]};
+      break;
+    case kCylinder: {
+      p.x = l.x >= 0.0 ? s.half : -s.half;
+      double radial = std::sqrt(l.y * l.y + l.z * l.z);
+      if (radial > 0.0) {
+        p.y = size[0] * l.y / radial;
+        p.z = size[0] * l.z / radial;
+      }
+      break;
+    }
+    case kHull: {
+      int count = static_cast<int>(s.data[kVertices]);
+      const double* v = s.data + kShapeHeader;
+      double best = -INFINITY;
+      for (int k = 0; k < count; ++k, v += 3) {
+        double along = v[0] * l.x + v[1] * l.y + v[2] * l.z;
+        if (along > best) {
+          best = along;
+          p = {v[0], v[1], v[2]};
+        }
+      }
+      break;
+    }
+    default:
+      break;
+  }
+  return s.centre + turn(s.rot, p);
+}
+
+// ------------------------------------------------------------------ closed forms
+
+// Closest points of segments p1 + s (q1 - p1) and p2 + t (q2 - p2) (Ericson 5.1.9).
+inline void segments(Vec p1, Vec q1, Vec p2, Vec q2, Vec& c1, Vec& c2) {
+  Vec d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  double a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r);
+  double s, t;
+  if (a <= 0.0 && e <= 0.0) {
+    c1 = p1;
+    c2 = p2;
+    return;
+  }
+  if (a <= 0.0) {
+    s = 0.0;
+    t = f / e;
+    t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+  } else {
+    double c = dot(d1, r);
+    if (e <= 0.0) {
+      t = 0.0;
+      s = -c / a;
+      s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+    } else {
+      double b = dot(d1, d2), denom = a * e - b * b;
+      s = denom > 0.0 ? (b * f - c * e) / denom : 0.0;
+      s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = -c / a;
+        s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = (b - c) / a;
+        s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+      }
+    }
+  }
+  c1 = p1 + s * d1;
+  c2 = p2 + t * d2;
+}
+
+// The segment of a capsule (its end points; a sphere's is its centre twice).
+inline void segment_of(const Placed& s, Vec& p, Vec& q) {
+  Vec axis = {s.rot[0] * s.half, s.rot[3] * s.half, s.rot[6] * s.half};
+  p = s.centre - axis;
+  q = s.centre + axis;
+}
+
+// Closest point of a box to a point (both world).
+inline Vec box_point(const Placed& s, Vec point) {
+  Vec l = turn_back(s.rot, point - s.centre);
+  const double* size = s.data + kSize;
+  double h[3] = {0.5 * size[0], 0.5 * size[1], 0.5 * size[2]};
+  double c[3] = {l.x, l.y, l.z};
+  for (int k = 0; k < 3; ++k) c[k] = c[k] < -h[k] ? -h[k] : (c[k] > h[k] ? h[k] : c[k]);
+  return s.centre + turn(s.rot, {c[0], c[1], c[2]});
+}
+
+// ------------------------------------------------------------------ GJK
+
+struct Vertex { Vec w, a, b; };
+
+// Reduce simplex y (count points) to the sub-simplex nearest the origin; its
+// barycentric weights into lambda. Returns the new count (4: the origin is inside).
+inline int nearest(Vertex* y, int count, double* lambda);
+
+inline int nearest_segment(Vertex* y, double* lambda) {
+  Vec ab = y[1].w - y[0].w;
+  double t = -dot(y[0].w, ab), len2 = dot(ab, ab);
+  if (t <= 0.0 || len2 <= 0.0) {
+    lambda[0] = 1.0;
+    return 1;
+  }
+  if (t >= len2) {
+    y[0] = y[1];
+    lambda[0] = 1.0;
+    return 1;
+  }
+  lambda[1] = t / len2;
+  lambda[0] = 1.0 - lambda[1];
+  return 2;
+}
+
+// Ericson's ClosestPtPointTriangle with the point at the origin.
+inline int nearest_triangle(Vertex* y, double* lambda) {
+  Vec a = y[0].w, b = y[1].w, c = y[2].w;
+  Vec ab = b - a, ac = c - a, ap = -1.0 * a;
+  double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    lambda[0] = 1.0;
+    return 1;
+  }
+  Vec bp = -1.0 * b;
+  double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) {
+    y[0] = y[1];
+    lambda[0] = 1.0;
+    return 1;
+  }
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    double v = d1 / (d1 - d3);
+    lambda[0] = 1.0 - v;
+    lambda[1] = v;
+    return 2;
+  }
+  Vec cp = -1.0 * c;
+  double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) {
+    y[0] = y[2];
+    lambda[0] = 1.0;
+    return 1;
+  }
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    double w = d2 / (d2 - d6);
+    y[1] = y[2];
+    lambda[0] = 1.0 - w;
+    lambda[1] = w;
+    return 2;
+  }
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    y[0] = y[1];
+    y[1] = y[2];
+    lambda[0] = 1.0 - w;
+    lambda[1] = w;
+    return 2;
+  }
+  double denom = 1.0 / (va + vb + vc);
+  lambda[1] = vb * denom;
+  lambda[2] = vc * denom;
+  lambda[0] = 1.0 - lambda[1] - lambda[2];
+  return 3;
+}
+
+inline int nearest_tetrahedron(Vertex* y, double* lambda) {
+  // faces opposite each vertex; the origin is outside a face when it lies on
+  // the other side of the face's plane from the fourth vertex
+  static const int faces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+  Vertex best[3];
+  double best_lambda[3] = {0, 0, 0}, best_d2 = INFINITY;
+  int best_count = 0;
+  bool outside_any = false;
+  for (const auto& f : faces) {
+    Vec a = y[f[0]].w, b = y[f[1]].w, c = y[f[2]].w, d = y[f[3]].w;
+    Vec n = cross(b - a, c - a);
+    double side_origin = -dot(a, n), side_d = dot(d - a, n);
+    if (side_origin * side_d >= 0.0 && side_d != 0.0) continue;   // origin on d's side
+    outside_any = true;
+    Vertex t[3] = {y[f[0]], y[f[1]], y[f[2]]};
+    double l[3];
+    int count = nearest_triangle(t, l);
+    Vec p = {0, 0, 0};
+    for (int k = 0; k < count; ++k) p = p + l[k] * t[k].w;
+    double d2 = dot(p, p);
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      best_count = count;
+      for (int k = 0; k < count; ++k) {
+        best[k] = t[k];
+        best_lambda[k] = l[k];
+      }
+    }
+  }
+  if (!outside_any) return 4;
+  for (int k = 0; k < best_count; ++k) {
+    y[k] = best[k];
+    lambda[k] = best_lambda[k];
+  }
+  return best_count;
+}
+
+inline int nearest(Vertex* y, int count, double* lambda) {
+  switch (count) {
+    case 1: lambda[0] = 1.0; return 1;
+    case 2: return nearest_segment(y, lambda);
+    case 3: return nearest_triangle(y, lambda);
+    default: return nearest_tetrahedron(y, lambda);
+  }
+}
+
+// GJK between the cores of a and b: their distance, and their closest points
+// into ca, cb (world). 0 when the cores overlap (ca, cb then a common point, approximately).
+inline double gjk(const Placed& a, const Placed& b, Vec& ca, Vec& cb) {
+  Vertex y[4];
+  double lambda[4] = {1.0, 0, 0, 0};
+  Vec d = a.centre - b.centre;
+  if (dot(d, d) == 0.0) d = {1.0, 0.0, 0.0};
+  y[0].a = support(a, -1.0 * d);
+  y[0].b = support(b, d);
+  y[0].w = y[0].a - y[0].b;
+  int count = 1;
+  Vec v = y[0].w;
+  double vv = dot(v, v);
+  for (int iteration = 0; iteration < kMaxIterations && vv > 0.0; ++iteration) {
+    Vertex w;
+    w.a = support(a, -1.0 * v);
+    w.b = support(b, v);
+    w.w = w.a - w.b;
+    // the distance lies in [v.w / |v|, |v|]: stop once that is narrower than the tolerance
+    double gap = vv - dot(v, w.w);
+    if (gap <= kTolerance * std::sqrt(vv)) break;
+    bool repeated = false;
+    for (int k = 0; k < count; ++k) {
+      Vec e = y[k].w - w.w;
+      if (dot(e, e) == 0.0) repeated = true;
+    }
+    if (repeated) break;
+    Vertex saved[4];
+    double saved_lambda[4];
+    int saved_count = count;
+    for (int k = 0; k < count; ++k) {
+      saved[k] = y[k];
+      saved_lambda[k] = lambda[k];
+    }
+    y[count++] = w;
+    count = nearest(y, count, lambda);
+    if (count == 4) {
+      vv = 0.0;
+      break;
+    }
+    Vec nv = {0, 0, 0};
+    for (int k = 0; k < count; ++k) nv = nv + lambda[k] * y[k].w;
+    double nvv = dot(nv, nv);
+    if (nvv >= vv) {   // no progress in floating point: the previous simplex is the answer
+      count = saved_count;
+      for (int k = 0; k < count; ++k) {
+        y[k] = saved[k];
+        lambda[k] = saved_lambda[k];
+      }
+      break;
+    }
+    v = nv;
+    vv = nvv;
+  }
+  ca = {0, 0, 0};
+  cb = {0, 0, 0};
+  if (count == 4) {   // the origin is inside: the cores overlap (no closest points)
+    ca = y[0].a;
+    cb = y[0].a;
+    return 0.0;
+  }
+  for (int k = 0; k < count; ++k) {
+    ca = ca + lambda[k] * y[k].a;
+    cb = cb + lambda[k] * y[k].b;
+  }
+  return std::sqrt(vv);
+}
+
+// ------------------------------------------------------------------ the distance
+
+// Distance between two placed shapes (m; negative: the depth by which the radii
+// overlap while the cores are apart; 0 when the cores themselves overlap), and
+// the closest points on each into pa, pb (world).
+inline double distance(const Placed& a, const Placed& b, double* pa, double* pb) {
+  Vec ca, cb;
+  bool overlap = false;
+  bool a_segment = a.kind == kSphere || a.kind == kCapsule;
+  bool b_segment = b.kind == kSphere || b.kind == kCapsule;
+  if (a_segment && b_segment) {
+    Vec p1, q1, p2, q2;
+    segment_of(a, p1, q1);
+    segment_of(b, p2, q2);
+    segments(p1, q1, p2, q2, ca, cb);
+  } else if (a.kind == kSphere && b.kind == kBox) {
+    ca = a.centre;
+    cb = box_point(b, ca);
+  } else if (b.kind == kSphere && a.kind == kBox) {
+    cb = b.centre;
+    ca = box_point(a, cb);
+  } else {
+    overlap = gjk(a, b, ca, cb) == 0.0;
+  }
+  Vec gap = ca - cb;
+  double core = overlap ? 0.0 : std::sqrt(dot(gap, gap));
+  Vec n = core > 0.0 ? (1.0 / core) * gap : Vec{0.0, 0.0, 0.0};
+  Vec qa = ca - a.radius * n, qb = cb + b.radius * n;
+  pa[0] = qa.x; pa[1] = qa.y; pa[2] = qa.z;
+  pb[0] = qb.x; pb[1] = qb.y; pb[2] = qb.z;
+  return core > 0.0 ? core - a.radius - b.radius : 0.0;
+}
+
+// Distance between packed shapes on bodies at the given poses (rot row-major
+// body to world, position the CG, world); closest points into pa, pb (world).
+inline double distance(const double* shape_a, const double* rot_a, const double* position_a,
+                       const double* shape_b, const double* rot_b, const double* position_b,
+                       double* pa, double* pb) {
+  return distance(place(shape_a, rot_a, position_a), place(shape_b, rot_b, position_b), pa, pb);
+}
+
+}  // namespace shapes
+}  // namespace cfem

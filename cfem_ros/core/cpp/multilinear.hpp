@@ -1,0 +1,99 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// Multilinear interpolation on a regular (rectilinear) grid, held at its ends,
+// and the fade of a table outside its grid (SPEC section 8). Pure functions
+// over flat arrays: no allocation, no checks (the Python side checks once).
+#pragma once
+
+#include <cmath>
+
+namespace cfem {
+
+//: Most axes of an interpolated grid (alpha, beta, Mach; or dx .. dpsi, Mach).
+constexpr int kMaxAxes = 8;
+
+// x between grid[i] and grid[i + 1] at fraction u in [0, 1]; held at the ends
+// (u = 0 at the first node or below, u = 1 at the last or above). One node: i = 0, u = 0.
+inline void bracket(const double* grid, int count, double x, int& i, double& u) {
+  if (count < 2 || !(x > grid[0])) {  // NaN goes to the first node
+    i = 0;
+    u = 0.0;
+    return;
+  }
+  if (x >= grid[count - 1]) {
+    i = count - 2;
+    u = 1.0;
+    return;
+  }
+  int lo = 0, hi = count - 1;  // grid[lo] < x < grid[hi]
+  while (hi - lo > 1) {
+    int mid = (lo + hi) / 2;
+    if (grid[mid] <= x) lo = mid; else hi = mid;
+  }
+  i = lo;
+  u = (x - grid[lo]) / (grid[lo + 1] - grid[lo]);
+}
+
+// Interpolate `width` numbers per node at x (one number per axis) into out.
+// axes: number of axes (<= kMaxAxes); sizes[d]: nodes along axis d; grids: the
+// axes' values one after the other (sizes[0] numbers, then sizes[1], ...);
+// values: width numbers per node, the first axis slowest (C order).
+inline void multilinear(int axes, const int* sizes, const double* grids, const double* values,
+                        int width, const double* x, double* out) {
+  int base[kMaxAxes];
+  double frac[kMaxAxes];
+  long stride[kMaxAxes];
+  const double* grid = grids;
+  for (int d = 0; d < axes; ++d) {
+    bracket(grid, sizes[d], x[d], base[d], frac[d]);
+    grid += sizes[d];
+  }
+  long s = 1;
+  for (int d = axes - 1; d >= 0; --d) {
+    stride[d] = s;
+    s *= sizes[d];
+  }
+  long origin = 0;
+  for (int d = 0; d < axes; ++d) origin += base[d] * stride[d];
+  for (int k = 0; k < width; ++k) out[k] = 0.0;
+  // the 2^axes corners; an axis with one node or u = 0 adds nothing from its upper side
+  for (int corner = 0; corner < (1 << axes); ++corner) {
+    double weight = 1.0;
+    long at = origin;
+    for (int d = 0; d < axes; ++d) {
+      if (corner & (1 << d)) {
+        if (sizes[d] < 2) { weight = 0.0; break; }
+        weight *= frac[d];
+        at += stride[d];
+      } else {
+        weight *= 1.0 - frac[d];
+      }
+    }
+    if (weight == 0.0) continue;
+    const double* node = values + at * width;
+    for (int k = 0; k < width; ++k) out[k] += weight * node[k];
+  }
+}
+
+// Weight of a table at x outside its grid: 1 inside, falling linearly to 0 at
+// `fade` (same unit as the axes, m) from the grid's box, the distance measured
+// over the axes with position[d] != 0 only. fade <= 0: held (always 1).
+inline double fade_weight(int axes, const int* sizes, const double* grids, const int* position,
+                          const double* x, double fade) {
+  if (!(fade > 0.0)) return 1.0;
+  double gap2 = 0.0;
+  const double* grid = grids;
+  for (int d = 0; d < axes; ++d) {
+    if (position[d]) {
+      double lo = grid[0], hi = grid[sizes[d] - 1];
+      double gap = x[d] < lo ? lo - x[d] : (x[d] > hi ? x[d] - hi : 0.0);
+      gap2 += gap * gap;
+    }
+    grid += sizes[d];
+  }
+  double w = 1.0 - std::sqrt(gap2) / fade;
+  return w > 0.0 ? w : 0.0;
+}
+
+}  // namespace cfem
