@@ -19,9 +19,8 @@ import math
 import os
 from typing import Optional
 
-import numpy as np
-
 from cfem_ros.core.model import Aero, Proximity
+import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'wind', 'alpha_deg',
              'beta_deg', 'mach', 'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr',
@@ -158,6 +157,9 @@ def _parse_body(context: _Context, name, spec) -> Aero:
     for c, coefficient in enumerate(AERO_COEFFICIENTS):
         table[..., c] *= factors.get(coefficient, 1.0)
     damping *= [factors.get(d, 1.0) for d in DAMPING_DERIVATIVES]
+    if proximity is not None and 'mach' in proximity.axes and altitude is None:
+        check.fail(f'{key}.density', 'is given with a proximity table over Mach',
+                   'altitude (m): the ISA speed of sound there gives the Mach number')
     if proximity is not None:
         increments = proximity.increments * [factors.get(d, 1.0) for d in INCREMENTS]
         proximity = Proximity(**{**proximity.__dict__, 'increments': increments})

@@ -13,13 +13,14 @@ the first axis slowest).
 
 from __future__ import annotations
 
+from cfem_ros.core import rotations
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.model import Aero, Model
 import numpy as np
 
-from cfem_ros.core import rotations
-from cfem_ros.core.model import Aero, Model
-
 AREA, LENGTH, DENSITY, ALTITUDE, WIND, DAMPING, UP = 0, 1, 2, 3, 4, 7, 10
-NA, NB, NM, PROX_AXES, FADE, START, PROX_CODE, PROX_SIZE, TOTAL = 13, 14, 15, 16, 17, 18, 21, 28, 35
+NA, NB, NM, PROX_AXES, FADE, START = 13, 14, 15, 16, 17, 18
+PROX_CODE, PROX_SIZE, TOTAL = 21, 28, 35
 BODY, CARRIER = 36, 37
 HEADER = 48
 #: Proximity axis codes (``cfem::aero::kDx`` ..), by the table's column names.
@@ -67,3 +68,26 @@ def start_in_carrier(model: Model, body: int, carrier: int) -> np.ndarray:
     b, c = model.bodies[body], model.bodies[carrier]
     rot = rotations.matrices(np.asarray(c.orientation_xyzw, dtype=float)[None])[0]
     return rot.T @ (np.asarray(b.position, dtype=float) - np.asarray(c.position, dtype=float))
+
+
+def refuse_unwired(model: Model):
+    """
+    Raise ScenarioError for what the step does not compute yet: Mach, proximity, contacts.
+
+    The loads over Mach and proximity and the contact events are written
+    (``cpp/aero.hpp``, ``cpp/distance.hpp``) and tested, and wait for the
+    compiled C++ step to call them; until then a run refuses a scenario that
+    needs them rather than ignore them.
+    """
+    names = [b.name for b in model.bodies]
+    for a in model.aero:
+        key = f'aero.{names[a.body]}'
+        if len(a.mach) > 1:
+            raise ScenarioError(model.name, f'{key}.mach', 'tables over Mach are not computed '
+                                'in the step of this build', 'a table without mach')
+        if a.proximity is not None:
+            raise ScenarioError(model.name, f'{key}.proximity', 'proximity increments are not '
+                                'computed in the step of this build', 'no proximity')
+    if model.contacts:
+        raise ScenarioError(model.name, 'contacts', 'contacts are not located in the step of '
+                            'this build', 'no contacts (the sweep metric distance: works)')

@@ -10,10 +10,9 @@ the hull's vertex count) and then the hull's vertices (shape axes, m).
 
 from __future__ import annotations
 
-import numpy as np
-
 from cfem_ros.core import rotations
 from cfem_ros.core.shapes import Shape
+import numpy as np
 
 #: Kind codes (``cfem::shapes::kSphere`` ..).
 KIND_CODES = {'sphere': 0, 'capsule': 1, 'box': 2, 'cylinder': 3, 'mesh': 4}
@@ -29,7 +28,8 @@ def pack_shape(shape: Shape) -> np.ndarray:
     out[0] = KIND_CODES[shape.kind]
     size = shape.size if shape.kind != 'mesh' else ()
     out[1:1 + len(size)] = size
-    out[4:13] = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0].ravel()
+    axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
+    out[4:13] = axes.ravel()
     out[13:16] = shape.offset
     out[16] = len(hull)
     out[SHAPE_HEADER:] = np.ravel(hull)

@@ -27,7 +27,7 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, motion, rotations, sampling
+from cfem_ros.core import aeropack, kernel, motion, rotations, sampling
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.loads import H_POINT, ScheduledLoads
 from cfem_ros.core.model import Model
@@ -139,6 +139,7 @@ class Simulator(SampledState):
             self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
+        aeropack.refuse_unwired(model)
         self._scheduled = ScheduledLoads(model, n)
         self._loads = self._scheduled.array
 

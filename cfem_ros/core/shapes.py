@@ -1,14 +1,15 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-What a body looks like (SPEC sections 5, 8): a box, a cylinder, a sphere, a capsule or a mesh.
+What a body looks like (SPEC sections 5, 8): box, cylinder, sphere, capsule or mesh.
 
 Shapes are drawn (markers in RViz and Foxglove) and, for the pairs a
 scenario's ``contacts`` watch, are the collision shapes: a mesh then by its
-convex hull, computed here when the scenario is read. A body without a ``shape`` is drawn as the box
-with its mass and inertia (a uniform solid box with the same principal
-moments, turned to the principal axes), so that a long, slender store looks
-long and slender; a fixed body without one is a small cube.
+convex hull, computed here when the scenario is read. A body without a
+``shape`` is drawn as the box with its mass and inertia (a uniform solid
+box with the same principal moments, turned to the principal axes), so
+that a long, slender store looks long and slender; a fixed body without
+one is a small cube.
 """
 
 from __future__ import annotations

@@ -4,14 +4,13 @@
 
 import math
 
+from cfem_ros.core import aero, aeropack, native
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.scenario import parse_scenario
 import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator
 from scipy.spatial.transform import Rotation
-
-from cfem_ros.core import aero, aeropack, native
-from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
 
 ext = native.load()
 rng = np.random.default_rng(8)
@@ -38,7 +37,7 @@ def write_grid(path, axes, values, increments):
     rows = np.column_stack([m.ravel() for m in mesh]
                            + [increments[..., k].ravel() for k in range(increments.shape[-1])])
     rows = rows[rng.permutation(len(rows))]
-    names = list(axes) + [d for d in aero.INCREMENTS][:increments.shape[-1]]
+    names = list(axes) + list(aero.INCREMENTS)[:increments.shape[-1]]
     with open(path, 'w') as handle:
         handle.write('# synthetic test field\n' + ','.join(names) + '\n')
         for row in rows:
@@ -148,8 +147,8 @@ def test_a_missing_grid_point_is_named(tmp_path):
     values = [np.array([0.0, 1.0, 2.0]), np.array([-5.0, 5.0])]
     increments = np.zeros((3, 2, 1))
     rows = write_grid(tmp_path / 'field.csv', ('dz', 'dtheta_deg'), values, increments)
-    keep = ~((rows[:, 0] == 1.0) & (rows[:, 1] == 5.0)) & ~((rows[:, 0] == 2.0)
-                                                           & (rows[:, 1] == -5.0))
+    keep = (~((rows[:, 0] == 1.0) & (rows[:, 1] == 5.0))
+            & ~((rows[:, 0] == 2.0) & (rows[:, 1] == -5.0)))
     with open(tmp_path / 'holes.csv', 'w') as handle:
         handle.write('dz,dtheta_deg,dCX\n')
         for row in rows[keep]:
@@ -195,7 +194,8 @@ def reference_wrench(a, model, position, velocity, quat, rates, carrier_position
     dx, dy, dz = carrier.as_matrix().T @ (position - carrier_position) - start
     # scipy's intrinsic 'ZYX' Euler angles are yaw, pitch, roll
     dpsi, dtheta, dphi = (carrier.inv() * Rotation.from_quat(quat)).as_euler('ZYX', degrees=True)
-    at = dict(dx=dx, dy=dy, dz=dz, dphi_deg=dphi, dtheta_deg=dtheta, dpsi_deg=dpsi, mach=mach)
+    at = {'dx': dx, 'dy': dy, 'dz': dz, 'dphi_deg': dphi, 'dtheta_deg': dtheta,
+          'dpsi_deg': dpsi, 'mach': mach}
     x = [at[name] for name in p.axes]
     d = RegularGridInterpolator(p.grids, p.increments)([held(p.grids, x)])[0]
     gap = math.sqrt(sum(max(g[0] - xi, 0.0, xi - g[-1]) ** 2 for name, g, xi in

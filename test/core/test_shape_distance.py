@@ -4,11 +4,10 @@
 
 import math
 
-import numpy as np
-import pytest
-
 from cfem_ros.core import contacts, rotations
 from cfem_ros.core.shapes import Shape
+import numpy as np
+import pytest
 
 coal = pytest.importorskip('coal')
 
