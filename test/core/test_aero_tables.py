@@ -174,7 +174,7 @@ def test_a_missing_grid_point_is_named(tmp_path):
 # ------------------------------------------------------------------ the load
 
 def reference_wrench(a, model, position, velocity, quat, rates, carrier_position, carrier_quat):
-    """The aerodynamic load as the user guide writes it, with scipy (world force, moment)."""
+    """Return the aerodynamic load as the user guide writes it, with scipy (world axes)."""
     rot = Rotation.from_quat(quat).as_matrix()
     up = -np.asarray(model.gravity) / np.linalg.norm(model.gravity)
     altitude = a.altitude + position @ up
