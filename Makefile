@@ -5,13 +5,16 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.cfem-installed
-CORE := $(VENV)/.cfem-core-compiled
+TOOLS := $(VENV)/.cfem-test-tools
+CORE := cfem_ros/core/cpp
 
 .PHONY: demo test venv bench figures clean
 
-venv: $(CORE)
+venv: $(STAMP)
 
-$(STAMP): setup.py setup.cfg package.xml
+# what a user needs (the ROS extra), the compiled core built by pip (C++, seconds);
+# again when the C++ sources change
+$(STAMP): setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp $(CORE)/*.hpp)
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "cfem_ros needs Python 3.10 or newer; set PYTHON=python3.x")'
 	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
 	  echo "python3 -m venv failed: installing the venv module (python3-venv) with apt-get"; \
@@ -19,30 +22,25 @@ $(STAMP): setup.py setup.cfg package.xml
 	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
+	$(BIN)/python -m pip install -q -e '.[ros]'
+	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP)
 
-# compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run
-# loads; again whenever the compiled sources change. Then the package's bytecode, as pip
-# does for a regular install (an editable one has none until Python writes it, which it
-# never does under PYTHONDONTWRITEBYTECODE: every start would compile the sources again)
-$(CORE): $(STAMP) cfem_ros/core/kernel.py cfem_ros/core/loads.py cfem_ros/core/motion.py \
-	  $(wildcard cfem_ros/core/cpp/*.hpp cfem_ros/core/cpp/*.cpp)
-	$(BIN)/python -m cfem_ros.core.warmup
-	$(BIN)/python -m cfem_ros.core.native
-	$(BIN)/python -m compileall -q cfem_ros
-	@touch $(CORE)
+# the test and study tools, for make test only
+$(TOOLS): $(STAMP)
+	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
+	@touch $(TOOLS)
 
-demo: $(CORE)
+demo: $(STAMP)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
-test: $(CORE)
+test: $(TOOLS)
 	$(BIN)/python -m pytest -q test
 
 # MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
 # changes
-bench: $(CORE)
+bench: $(TOOLS)
 	@$(BIN)/python -c 'import mujoco' 2>/dev/null || $(BIN)/pip install -q -e '.[bench]'
 	$(BIN)/python benchmarks/suite.py
 	$(BIN)/python benchmarks/bench_engine.py
@@ -50,7 +48,7 @@ bench: $(CORE)
 	$(BIN)/python benchmarks/bench_startup.py
 
 # The paper's figures in docs/verification.md, regenerated.
-figures: $(CORE)
+figures: $(STAMP)
 	@mkdir -p runs
 	for s in fixed_joint_spin double_pendulum store_separation; do \
 	  $(BIN)/cfem-sim run config/$$s.yaml -o runs/$$s.mcap --overwrite && \

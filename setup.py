@@ -1,13 +1,52 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""Install cfem_ros as an ament_python package (pip or colcon)."""
+"""
+Install cfem_ros as an ament_python package (pip or colcon).
+
+Both build the compiled core, the extension module ``cfem_ros.core._kernel``
+(C++17, pybind11), from ``cfem_ros/core/cpp`` with the system compiler.
+"""
 
 from glob import glob
 import os
+import sys
 
 from setuptools import find_packages, setup
 
+try:
+    from pybind11.setup_helpers import build_ext, ParallelCompile, Pybind11Extension
+except ImportError:   # colcon runs setup.py without build isolation
+    sys.exit('ERROR: building cfem_ros needs pybind11 (pip install pybind11, or apt install '
+             'python3-pybind11; rosdep installs it from package.xml)')
+
 package_name = 'cfem_ros'
+CPP = os.path.join('cfem_ros', 'core', 'cpp')
+#: The crossing search (kernel.locate) rounds as the Python search does: no
+#: contraction of a * b + c into fused multiply-adds in its file.
+EXACT = ('events.cpp',)
+#: The instruction set: the build machine's own by default, like any source build;
+#: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
+ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
+FLAGS = ['-O3', '-fno-math-errno', '-Wall'] + ([f'-march={ARCH}'] if ARCH else [])
+
+
+class BuildCore(build_ext):
+    """pybind11's build_ext, compiling the EXACT sources with -ffp-contract=off."""
+
+    def build_extension(self, ext):
+        """Compile the exact sources with their flag, then the rest and the link."""
+        exact = [s for s in ext.sources if os.path.basename(s) in EXACT]
+        if exact:
+            objects = self.compiler.compile(
+                exact, output_dir=self.build_temp, include_dirs=ext.include_dirs,
+                extra_postargs=ext.extra_compile_args + ['-ffp-contract=off'],
+                depends=ext.depends)
+            ext.sources = [s for s in ext.sources if s not in exact]
+            ext.extra_objects = list(ext.extra_objects or []) + objects
+        super().build_extension(ext)
+
+
+ParallelCompile('CFEM_ROS_BUILD_JOBS', default=0).install()   # one job per core
 
 
 def tree(folder):
@@ -22,6 +61,11 @@ def tree(folder):
 
 setup(
     name=package_name,
+    ext_modules=[Pybind11Extension(
+        'cfem_ros.core._kernel', sorted(glob(os.path.join(CPP, '*.cpp'))), cxx_std=17,
+        extra_compile_args=FLAGS + ['-ffp-contract=fast'],
+        depends=sorted(glob(os.path.join(CPP, '*.hpp'))))],
+    cmdclass={'build_ext': BuildCore},
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'benchmarks']),
     data_files=[
@@ -36,7 +80,6 @@ setup(
         'PyYAML>=6.0',
         'mcap>=1.1',
         'mcap-ros2-support>=0.5',
-        'numba>=0.59',
         'matplotlib>=3.6',
         # builds cfem_ros.core._aeroshapes (aerodynamic tables, shape distances; cpp/)
         'pybind11>=2.10',
@@ -73,7 +116,7 @@ setup(
             'colcon-common-extensions',
         ],
     },
-    zip_safe=True,
+    zip_safe=False,
     maintainer='cfem_ros maintainers',
     maintainer_email='cfem-ros@example.org',
     description='CFEM multibody simulation with releasable joints, for ROS 2',

@@ -198,12 +198,6 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     except CfemError as err:
         return _error(str(err))
     interactive = sys.stderr.isatty()
-    if not getattr(kernel, 'COMPILED_AHEAD', False):
-        from cfem_ros.core import warmup   # only without the extension: the JIT's cache
-        if not warmup.compiled_code_ready():
-            print('compiling the numerical core (once per install, a few minutes); '
-                  '`make` does this at install time', file=sys.stderr, flush=True)
-            print(f'compiled in {warmup.warm_up():.0f} s', file=sys.stderr)
     stop = []
 
     def hold(signum, frame):   # while recording: stop at the next safe point

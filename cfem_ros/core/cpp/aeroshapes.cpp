@@ -1,9 +1,10 @@
 // Copyright 2026 the cfem_ros authors
 // SPDX-License-Identifier: Apache-2.0
 //
-// Python bindings of the aerodynamic-table and shape-distance headers
-// (cfem_ros.core._aeroshapes): shapes and dtypes checked once per call, the
-// arrays taken without copies, the GIL released around the loops.
+// Python bindings of the aerodynamic-table and shape-distance headers, added to
+// cfem_ros.core._kernel by bind_aeroshapes (bindings.cpp calls it): vectorised over
+// many states for tests, metrics and recordings; shapes and dtypes checked once per
+// call, the GIL released around the loops.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -12,6 +13,7 @@
 #include <string>
 
 #include "aero.hpp"
+#include "aeroshapes.hpp"
 #include "distance.hpp"
 #include "isa.hpp"
 #include "multilinear.hpp"
@@ -32,7 +34,7 @@ void need_rows(const Array& a, const char* name, py::ssize_t width, py::ssize_t 
 }
 
 // values at points: grids (list of 1-D), values (sizes..., width), points (n, axes)
-Array multilinear(py::list grids, Array values, Array points) {
+Array py_multilinear(py::list grids, Array values, Array points) {
   int axes = static_cast<int>(grids.size());
   need(axes >= 1 && axes <= cfem::kMaxAxes, "grids: 1 to 8 axes expected");
   need(values.ndim() == axes + 1, "values: one dimension per axis plus the outputs expected");
@@ -60,7 +62,7 @@ Array multilinear(py::list grids, Array values, Array points) {
   return out;
 }
 
-py::tuple isa(double altitude) {
+py::tuple py_isa(double altitude) {
   double density, sound;
   cfem::isa(altitude, density, sound);
   return py::make_tuple(density, sound);
@@ -68,7 +70,7 @@ py::tuple isa(double altitude) {
 
 // the aerodynamic wrench at n states: (n, 6) world force and moment about the CG, and
 // (n, 18) alpha, beta, Mach, speed, density, altitude, coefficients (6), increments (6)
-py::tuple aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
+py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
                       Array carrier_position, Array carrier_rot) {
   need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
            packed.data()[cfem::aero::kTotal] == packed.shape(0),
@@ -111,7 +113,7 @@ void need_shape(const Array& s, const char* name) {
 }
 
 // distances at n pose pairs: (n,) m, and (n, 6) the closest points on a and b (world)
-py::tuple distance(Array shape_a, Array rot_a, Array position_a, Array shape_b, Array rot_b,
+py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_b, Array rot_b,
                    Array position_b) {
   need_shape(shape_a, "shape_a");
   need_shape(shape_b, "shape_b");
@@ -137,13 +139,16 @@ py::tuple distance(Array shape_a, Array rot_a, Array position_a, Array shape_b, 
 
 }  // namespace
 
-PYBIND11_MODULE(_aeroshapes, m) {
-  m.doc() = "Aerodynamic tables and shape distances of cfem_ros (cpp/*.hpp), vectorised";
-  m.def("multilinear", &multilinear, py::arg("grids"), py::arg("values"), py::arg("points"));
-  m.def("isa", &isa, py::arg("altitude"));
-  m.def("aero_wrench", &aero_wrench, py::arg("packed"), py::arg("position"),
+namespace cfem {
+
+void bind_aeroshapes(py::module_& m) {
+  m.def("multilinear", &py_multilinear, py::arg("grids"), py::arg("values"), py::arg("points"));
+  m.def("isa", &py_isa, py::arg("altitude"));
+  m.def("aero_wrench", &py_aero_wrench, py::arg("packed"), py::arg("position"),
         py::arg("velocity"), py::arg("rot"), py::arg("rates"), py::arg("carrier_position"),
         py::arg("carrier_rot"));
-  m.def("distance", &distance, py::arg("shape_a"), py::arg("rot_a"), py::arg("position_a"),
+  m.def("distance", &py_distance, py::arg("shape_a"), py::arg("rot_a"), py::arg("position_a"),
         py::arg("shape_b"), py::arg("rot_b"), py::arg("position_b"));
 }
+
+}  // namespace cfem

@@ -1,0 +1,278 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+#include "loads.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "algebra.hpp"
+
+namespace cfem {
+namespace loads {
+
+namespace {
+
+void turn(const double* rot, const double* v, double* out) {
+  for (int k = 0; k < 3; ++k) out[k] = rot[3 * k] * v[0] + rot[3 * k + 1] * v[1] + rot[3 * k + 2] * v[2];
+}
+
+// Body i's CG plus its rotation (from its quaternion in y) applied to p.
+V3 carried(const double* y, idx n, idx i, double px, double py, double pz) {
+  idx o = 6 * n + 4 * i;
+  double x = y[o], yy = y[o + 1], z = y[o + 2], w = y[o + 3];
+  double s = 2.0 / (x * x + yy * yy + z * z + w * w);
+  return {y[3 * i] + (1 - s * (yy * yy + z * z)) * px + s * (x * yy - w * z) * py
+              + s * (x * z + w * yy) * pz,
+          y[3 * i + 1] + s * (x * yy + w * z) * px + (1 - s * (x * x + z * z)) * py
+              + s * (yy * z - w * x) * pz,
+          y[3 * i + 2] + s * (x * z - w * yy) * px + s * (yy * z + w * x) * py
+              + (1 - s * (x * x + yy * yy)) * pz};
+}
+
+// Force and moment of the row's table at x into out (6), linear, held beyond its ends.
+void table_value(const Mat& loads, idx row, double x, double* out) {
+  idx first = static_cast<idx>(loads(row, S_FIRST)), count = static_cast<idx>(loads(row, S_COUNT));
+  idx last = first + count - 1;
+  if (x <= loads(first, 0)) {
+    for (int k = 0; k < 6; ++k) out[k] = loads(first, 1 + k);
+    return;
+  }
+  if (x >= loads(last, 0)) {
+    for (int k = 0; k < 6; ++k) out[k] = loads(last, 1 + k);
+    return;
+  }
+  idx lo = first;
+  while (loads(lo + 1, 0) < x) ++lo;
+  double x0 = loads(lo, 0), x1 = loads(lo + 1, 0);
+  double u = (x - x0) / (x1 - x0);
+  for (int k = 0; k < 6; ++k) out[k] = loads(lo, 1 + k) + u * (loads(lo + 1, 1 + k) - loads(lo, 1 + k));
+}
+
+// The scheduled row's wrench on its body at y into out (18), world axes; false if off.
+// out: force (3), moment about the body's CG (3), world point (3), moment given (3), scratch.
+bool scheduled_wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+                      double* out) {
+  if (loads(row, S_ON) <= 0.0) return false;
+  double* point = out + 6;
+  double stroke = point_and_stroke(y, loads, row, n, point);
+  double* local = out + 12;
+  int kind = static_cast<int>(loads(row, S_TABLE));
+  if (kind == TABLE_NONE) {
+    for (int k = 0; k < 6; ++k) local[k] = loads(row, S_FORCE + k);
+  } else {
+    double x = kind == TABLE_TIME ? loads(row, S_T) - loads(row, S_START) : stroke;
+    table_value(loads, row, x, local);
+  }
+  idx f = static_cast<idx>(loads(row, S_FRAME));
+  if (f >= 0) {
+    turn(rot + 9 * f, local, out);
+    turn(rot + 9 * f, local + 3, out + 9);
+  } else {
+    for (int k = 0; k < 3; ++k) {
+      out[k] = local[k];
+      out[9 + k] = local[3 + k];
+    }
+  }
+  idx b = static_cast<idx>(loads(row, S_BODY));
+  double r0 = point[0] - y[3 * b], r1 = point[1] - y[3 * b + 1], r2 = point[2] - y[3 * b + 2];
+  out[3] = out[9] + r1 * out[2] - r2 * out[1];
+  out[4] = out[10] + r2 * out[0] - r0 * out[2];
+  out[5] = out[11] + r0 * out[1] - r1 * out[0];
+  return true;
+}
+
+// (i, u): x between grid values i and i + 1 at fraction u, held at the ends.
+void bracket(const Mat& loads, idx first, idx count, double x, idx* i_out, double* u_out) {
+  if (count == 1 || x <= loads(first, 0)) {
+    *i_out = 0;
+    *u_out = 0.0;
+    return;
+  }
+  if (x >= loads(first + count - 1, 0)) {
+    *i_out = count - 2;
+    *u_out = 1.0;
+    return;
+  }
+  idx i = 0;
+  while (loads(first + i + 1, 0) < x) ++i;
+  *i_out = i;
+  *u_out = (x - loads(first + i, 0)) / (loads(first + i + 1, 0) - loads(first + i, 0));
+}
+
+// The aerodynamic force and moment about the CG of the row's body at y into out[0:6]
+// (world axes; out[6:12] scratch); zero at zero airspeed.
+void aero_wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+                 double* out) {
+  idx b = static_cast<idx>(loads(row, A_BODY));
+  const double* rb = rot + 9 * b;
+  double rel0 = y[3 * n + 3 * b] - loads(row, A_WIND);
+  double rel1 = y[3 * n + 3 * b + 1] - loads(row, A_WIND + 1);
+  double rel2 = y[3 * n + 3 * b + 2] - loads(row, A_WIND + 2);
+  double u = rb[0] * rel0 + rb[3] * rel1 + rb[6] * rel2;
+  double v = rb[1] * rel0 + rb[4] * rel1 + rb[7] * rel2;
+  double w = rb[2] * rel0 + rb[5] * rel1 + rb[8] * rel2;
+  double speed = std::sqrt(u * u + v * v + w * w);
+  for (int k = 0; k < 6; ++k) out[k] = 0.0;
+  if (speed == 0.0) return;
+  double alpha = std::atan2(w, u);
+  double beta = std::asin(std::min(1.0, std::max(-1.0, v / speed)));
+  idx na = static_cast<idx>(loads(row, A_NA)), nb = static_cast<idx>(loads(row, A_NB));
+  idx first = static_cast<idx>(loads(row, A_FIRST));
+  idx i, j;
+  double fa, fb;
+  bracket(loads, first, na, alpha, &i, &fa);
+  bracket(loads, first + na, nb, beta, &j, &fb);
+  idx nodes = first + na + nb;
+  idx i1 = std::min(i + 1, na - 1);
+  idx j1 = std::min(j + 1, nb - 1);
+  double* c = out + 6;
+  for (int k = 0; k < 6; ++k) {
+    double c00 = loads(nodes + i * nb + j, 1 + k);
+    double c01 = loads(nodes + i * nb + j1, 1 + k);
+    double c10 = loads(nodes + i1 * nb + j, 1 + k);
+    double c11 = loads(nodes + i1 * nb + j1, 1 + k);
+    double low = c00 + fb * (c01 - c00);
+    double high = c10 + fb * (c11 - c10);
+    c[k] = low + fa * (high - low);
+  }
+  double qs = 0.5 * loads(row, A_DENSITY) * speed * speed * loads(row, A_AREA);
+  double length = loads(row, A_LENGTH);
+  double scale = length / (2.0 * speed);
+  idx o = 10 * n + 3 * b;
+  double f[3] = {qs * c[0], qs * c[1], qs * c[2]};
+  double m[3] = {qs * length * (c[3] + loads(row, A_DAMPING) * y[o] * scale),
+                 qs * length * (c[4] + loads(row, A_DAMPING + 1) * y[o + 1] * scale),
+                 qs * length * (c[5] + loads(row, A_DAMPING + 2) * y[o + 2] * scale)};
+  turn(rb, f, out);
+  turn(rb, m, out + 3);
+}
+
+}  // namespace
+
+double point_and_stroke(const double* y, const Mat& loads, idx row, idx n, double* point) {
+  idx b = static_cast<idx>(loads(row, S_BODY));
+  V3 p = carried(y, n, b, loads(row, S_POINT), loads(row, S_POINT + 1), loads(row, S_POINT + 2));
+  idx j = static_cast<idx>(loads(row, S_REACT));
+  V3 ref = {loads(row, S_ANCHOR), loads(row, S_ANCHOR + 1), loads(row, S_ANCHOR + 2)};
+  if (j >= 0) ref = carried(y, n, j, ref.x, ref.y, ref.z);
+  double g0 = p.x - ref.x, g1 = p.y - ref.y, g2 = p.z - ref.z;
+  if (point) {
+    point[0] = p.x;
+    point[1] = p.y;
+    point[2] = p.z;
+  }
+  return std::sqrt(g0 * g0 + g1 * g1 + g2 * g2);
+}
+
+void add_scheduled(const double* y, const double* rot, const Mat& bodies, const Mat& loads,
+                   double* fhat) {
+  idx n = bodies.rows;
+  double* w = loads.row(loads.rows - 1);  // the scratch row
+  for (idx row = n; row < loads.rows; ++row) {
+    double kind = loads(row, S_KIND);
+    if (kind == KIND_TABLE || kind == KIND_SCRATCH) break;  // the tables: no more loads
+    if (kind == KIND_AERO) {
+      aero_wrench(y, rot, loads, row, n, w);
+      idx b = static_cast<idx>(loads(row, A_BODY));
+      for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
+      continue;
+    }
+    if (kind != KIND_SCHEDULED || !scheduled_wrench(y, rot, loads, row, n, w)) continue;
+    idx b = static_cast<idx>(loads(row, S_BODY));
+    for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
+    idx j = static_cast<idx>(loads(row, S_REACT));
+    if (j >= 0 && bodies(j, 1) > 0.0) {
+      double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
+      double* fj = fhat + 6 * j;
+      fj[0] -= w[0];
+      fj[1] -= w[1];
+      fj[2] -= w[2];
+      fj[3] -= w[9] + r1 * w[2] - r2 * w[1];
+      fj[4] -= w[10] + r2 * w[0] - r0 * w[2];
+      fj[5] -= w[11] + r0 * w[1] - r1 * w[0];
+    }
+  }
+}
+
+void set_time(const Mat& loads, idx n, double t) {
+  for (idx row = n; row < loads.rows; ++row) {
+    if (loads(row, S_KIND) != KIND_SCHEDULED) break;
+    loads(row, S_T0) = t;
+    loads(row, S_T) = t;
+  }
+}
+
+void stage_time(const Mat& loads, idx n, double offset) {
+  for (idx row = n; row < loads.rows; ++row) {
+    if (loads(row, S_KIND) != KIND_SCHEDULED) break;
+    loads(row, S_T) = loads(row, S_T0) + offset;
+  }
+}
+
+void rotations(const double* y, idx n, double* rot) {
+  for (idx i = 0; i < n; ++i) {
+    idx o = 6 * n + 4 * i;
+    double x = y[o], yy = y[o + 1], z = y[o + 2], w = y[o + 3];
+    double s = 2.0 / (x * x + yy * yy + z * z + w * w);
+    double* r = rot + 9 * i;
+    r[0] = 1 - s * (yy * yy + z * z);
+    r[1] = s * (x * yy - w * z);
+    r[2] = s * (x * z + w * yy);
+    r[3] = s * (x * yy + w * z);
+    r[4] = 1 - s * (x * x + z * z);
+    r[5] = s * (yy * z - w * x);
+    r[6] = s * (x * z - w * yy);
+    r[7] = s * (yy * z + w * x);
+    r[8] = 1 - s * (x * x + yy * yy);
+  }
+}
+
+void strokes(const double* y, const Mat& loads, idx n, double* out) {
+  for (idx row = n; row < loads.rows; ++row) {
+    out[row - n] = -1.0;
+    if (loads(row, S_KIND) == KIND_SCHEDULED) out[row - n] = point_and_stroke(y, loads, row, n, nullptr);
+  }
+}
+
+bool stroke_reached(const double* y, const Mat& loads, idx n) {
+  for (idx row = n; row < loads.rows; ++row) {
+    double kind = loads(row, S_KIND);
+    if (kind != KIND_SCHEDULED && kind != KIND_AERO) break;  // the tables
+    if (kind == KIND_SCHEDULED && loads(row, S_ON) > 0.0 && loads(row, S_STROKE) < INFINITY) {
+      if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
+    }
+  }
+  return false;
+}
+
+void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
+                    double* rot, double* w) {
+  idx n = bodies.rows;
+  rotations(y, n, rot);
+  idx o = 0;
+  for (idx row = n; row < loads.rows; ++row) {
+    double kind = loads(row, S_KIND);
+    if (kind == KIND_TABLE || kind == KIND_SCRATCH) break;  // the tables
+    if (kind == KIND_AERO) {
+      aero_wrench(y, rot, loads, row, n, w);
+      for (int k = 0; k < 6; ++k) out[o + k] = w[k];
+      o += 6;
+      continue;
+    }
+    if (kind != KIND_SCHEDULED) continue;
+    bool on = scheduled_wrench(y, rot, loads, row, n, w);
+    for (int k = 0; k < 6; ++k) out[o + k] = on ? w[k] : 0.0;
+    o += 6;
+    idx j = static_cast<idx>(loads(row, S_REACT));
+    if (j >= 0 && bodies(j, 1) > 0.0) {
+      double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
+      double reaction[6] = {-w[0], -w[1], -w[2], -(w[9] + r1 * w[2] - r2 * w[1]),
+                            -(w[10] + r2 * w[0] - r0 * w[2]), -(w[11] + r0 * w[1] - r1 * w[0])};
+      for (int k = 0; k < 6; ++k) out[o + k] = on ? reaction[k] : 0.0;
+      o += 6;
+    }
+  }
+}
+
+}  // namespace loads
+}  // namespace cfem

@@ -1,0 +1,73 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// Applied loads from the packed ``loads`` array (loads.py lays it out): held
+// wrenches at points, scheduled wrenches and their tables, aerodynamic tables.
+// A new load kind: a new S_KIND value, a branch in add_scheduled and in
+// sample_applied (and its outputs in ScheduledLoads.sources).
+#pragma once
+
+#include "common.hpp"
+
+namespace cfem {
+namespace loads {
+
+// Columns of a packed row (loads.py).
+constexpr int WIDTH = 24;
+constexpr int H_POINT = 7;
+constexpr int S_BODY = 0, S_REACT = 1, S_FRAME = 2, S_ON = 3;
+constexpr int S_POINT = 4, S_FORCE = 7, S_MOMENT = 10, S_STROKE = 13, S_ANCHOR = 14;
+constexpr int S_TABLE = 17, S_FIRST = 18, S_COUNT = 19;
+constexpr int S_T0 = 20, S_T = 21, S_START = 22;
+constexpr int S_KIND = 23;
+constexpr int TABLE_NONE = 0, TABLE_TIME = 1, TABLE_STROKE = 2;
+constexpr int A_BODY = 0, A_AREA = 1, A_LENGTH = 2, A_DENSITY = 3, A_WIND = 4, A_DAMPING = 7;
+constexpr int A_NA = 10, A_NB = 11, A_FIRST = 12;
+constexpr double KIND_SCHEDULED = 1.0, KIND_TABLE = 2.0, KIND_AERO = 3.0, KIND_SCRATCH = 4.0;
+
+// The held torque of body i plus r x F (world axes), r its point turned by rot (3x3).
+inline void held_moment(const double* rot, const Mat& loads, idx i, const double* force,
+                        double* torque) {
+  const double* row = loads.row(i);
+  double px = row[H_POINT], py = row[H_POINT + 1], pz = row[H_POINT + 2];
+  if (px == 0.0 && py == 0.0 && pz == 0.0) return;
+  double r0 = rot[0] * px + rot[1] * py + rot[2] * pz;
+  double r1 = rot[3] * px + rot[4] * py + rot[5] * pz;
+  double r2 = rot[6] * px + rot[7] * py + rot[8] * pz;
+  double t0 = torque[0] + r1 * force[2] - r2 * force[1];
+  double t1 = torque[1] + r2 * force[0] - r0 * force[2];
+  double t2 = torque[2] + r0 * force[1] - r1 * force[0];
+  torque[0] = t0;
+  torque[1] = t1;
+  torque[2] = t2;
+}
+
+// The scheduled row's point (world, out[0:3]) and its stroke so far, m (returned).
+double point_and_stroke(const double* y, const Mat& loads, idx row, idx n, double* point);
+
+// Add the scheduled wrenches that are on, their reactions and aero loads to fhat (world).
+void add_scheduled(const double* y, const double* rot, const Mat& bodies, const Mat& loads,
+                   double* fhat);
+
+// Write the time of the step's start (and of its evaluation) into the scheduled rows.
+void set_time(const Mat& loads, idx n, double t);
+
+// Write the RK4 stage's time, the step's start plus offset, into the scheduled rows.
+void stage_time(const Mat& loads, idx n, double offset);
+
+// Rotation matrices of the n bodies at y into rot (n, 3, 3).
+void rotations(const double* y, idx n, double* rot);
+
+// Each scheduled row's stroke so far at y into out (rows n.., -1 for the others).
+void strokes(const double* y, const Mat& loads, idx n, double* out);
+
+// True if a scheduled wrench that is on has reached its stroke at y.
+bool stroke_reached(const double* y, const Mat& loads, idx n);
+
+// Each scheduled wrench's (and aero table's) load at y into out, 6 a source; rot (n, 3, 3)
+// and w (18) scratch.
+void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
+                    double* rot, double* w);
+
+}  // namespace loads
+}  // namespace cfem

@@ -1,0 +1,199 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+#include "motion.hpp"
+
+#include <cmath>
+
+#include "algebra.hpp"
+
+namespace cfem {
+namespace motion {
+
+namespace {
+
+// The unit quaternion of the rotation vector (rx, ry, rz), x y z w.
+Q4 exp_map(double rx, double ry, double rz) {
+  double angle = std::sqrt(rx * rx + ry * ry + rz * rz);
+  double s;
+  if (angle < 1e-4) {
+    s = 0.5 - angle * angle / 48.0;
+  } else {
+    s = std::sin(0.5 * angle) / angle;
+  }
+  return {rx * s, ry * s, rz * s, std::cos(0.5 * angle)};
+}
+
+void constant(const Mat& bodies, idx i, double t, double* y, idx n) {
+  const int c = M_DATA;
+  for (int k = 0; k < 3; ++k) {
+    y[3 * i + k] = bodies(i, c + k) + bodies(i, c + 3 + k) * t;
+    y[3 * n + 3 * i + k] = bodies(i, c + 3 + k);
+    y[10 * n + 3 * i + k] = bodies(i, c + 10 + k);
+    bodies(i, M_ACC + k) = 0.0;
+    bodies(i, M_ACC + 3 + k) = 0.0;  // constant body rates: d(R w)/dt = R (w x w) = 0
+  }
+  Q4 e = exp_map(bodies(i, c + 10) * t, bodies(i, c + 11) * t, bodies(i, c + 12) * t);
+  Q4 q = qmul(bodies(i, c + 6), bodies(i, c + 7), bodies(i, c + 8), bodies(i, c + 9), e.x, e.y,
+              e.z, e.w);
+  y[6 * n + 4 * i] = q.x;
+  y[6 * n + 4 * i + 1] = q.y;
+  y[6 * n + 4 * i + 2] = q.z;
+  y[6 * n + 4 * i + 3] = q.w;
+}
+
+double poly(const Mat& bodies, idx i, idx o, double s, int order) {
+  double c0 = bodies(i, o), c1 = bodies(i, o + 1), c2 = bodies(i, o + 2), c3 = bodies(i, o + 3);
+  if (order == 0) return ((c0 * s + c1) * s + c2) * s + c3;
+  if (order == 1) return (3.0 * c0 * s + 2.0 * c1) * s + c2;
+  return 6.0 * c0 * s + 2.0 * c1;
+}
+
+V3 cubic(const Mat& bodies, idx i, idx o, double s, int order) {
+  return {poly(bodies, i, o, s, order), poly(bodies, i, o + 4, s, order),
+          poly(bodies, i, o + 8, s, order)};
+}
+
+// (I - k1 [r]x + k2 [r]x^2) rd: scipy's rotation-vector rate to angular rate.
+V3 rate(const V3& r, const V3& rd, double k1, double k2) {
+  V3 c = cross(r, rd);
+  V3 cc = cross(r, c);
+  return {rd.x - k1 * c.x + k2 * cc.x, rd.y - k1 * c.y + k2 * cc.y, rd.z - k1 * c.z + k2 * cc.z};
+}
+
+void table(const Mat& bodies, idx i, double t, double* y, idx n) {
+  idx count = static_cast<idx>(bodies(i, M_DATA));
+  const idx first = M_DATA + 1;
+  idx seg = 0;
+  while (seg < count - 1 && bodies(i, first + seg + 1) <= t) ++seg;
+  double s = t - bodies(i, first + seg);
+  idx o = first + count + 1 + SEGMENT * seg;
+  for (int k = 0; k < 3; ++k) {
+    double c0 = bodies(i, o + 4 * k), c1 = bodies(i, o + 4 * k + 1);
+    double c2 = bodies(i, o + 4 * k + 2), c3 = bodies(i, o + 4 * k + 3);
+    y[3 * i + k] = ((c0 * s + c1) * s + c2) * s + c3;
+    y[3 * n + 3 * i + k] = (3.0 * c0 * s + 2.0 * c1) * s + c2;
+    bodies(i, M_ACC + k) = 6.0 * c0 * s + 2.0 * c1;
+  }
+  idx key = o + 12;
+  V3 r = cubic(bodies, i, o + 16, s, 0);
+  V3 rd = cubic(bodies, i, o + 16, s, 1);
+  V3 rdd = cubic(bodies, i, o + 16, s, 2);
+  Q4 e = exp_map(r.x, r.y, r.z);
+  Q4 q = qmul(bodies(i, key), bodies(i, key + 1), bodies(i, key + 2), bodies(i, key + 3), e.x,
+              e.y, e.z, e.w);
+  double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  y[6 * n + 4 * i] = q.x / norm;
+  y[6 * n + 4 * i + 1] = q.y / norm;
+  y[6 * n + 4 * i + 2] = q.z / norm;
+  y[6 * n + 4 * i + 3] = q.w / norm;
+  // body rates and their derivative from the rotation vector's (scipy RotationSpline)
+  double theta = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
+  double k1, k2, n1, n2;
+  if (theta > 1e-4) {
+    k1 = (1.0 - std::cos(theta)) / ipow(theta, 2);
+    k2 = (theta - std::sin(theta)) / ipow(theta, 3);
+    n1 = (-theta * std::sin(theta) - 2.0 * (std::cos(theta) - 1.0)) / ipow(theta, 4);
+    n2 = (-2.0 * theta + 3.0 * std::sin(theta) - theta * std::cos(theta)) / ipow(theta, 5);
+  } else {
+    k1 = 0.5 - ipow(theta, 2) / 24.0;
+    k2 = 1.0 / 6.0 - ipow(theta, 2) / 120.0;
+    n1 = 1.0 / 12.0 - ipow(theta, 2) / 180.0;
+    n2 = -1.0 / 60.0 + ipow(theta, 2) / 12604.0;
+  }
+  V3 w = rate(r, rd, k1, k2);
+  V3 linear = rate(r, rdd, k1, k2);
+  double dp = r.x * rd.x + r.y * rd.y + r.z * rd.z;
+  V3 cp = cross(r, rd);
+  V3 ccp = cross(r, cp);
+  V3 dccp = cross(rd, cp);
+  y[10 * n + 3 * i] = w.x;
+  y[10 * n + 3 * i + 1] = w.y;
+  y[10 * n + 3 * i + 2] = w.z;
+  double a0 = linear.x + dp * (n1 * cp.x + n2 * ccp.x) + k2 * dccp.x;
+  double a1 = linear.y + dp * (n1 * cp.y + n2 * ccp.y) + k2 * dccp.y;
+  double a2 = linear.z + dp * (n1 * cp.z + n2 * ccp.z) + k2 * dccp.z;
+  // world angular acceleration: R alpha_body (the w x w term is zero)
+  double x = y[6 * n + 4 * i], yy = y[6 * n + 4 * i + 1], z = y[6 * n + 4 * i + 2],
+         ww = y[6 * n + 4 * i + 3];
+  bodies(i, M_ACC + 3) = (1 - 2 * (yy * yy + z * z)) * a0 + 2 * (x * yy - ww * z) * a1
+                         + 2 * (x * z + ww * yy) * a2;
+  bodies(i, M_ACC + 4) = 2 * (x * yy + ww * z) * a0 + (1 - 2 * (x * x + z * z)) * a1
+                         + 2 * (yy * z - ww * x) * a2;
+  bodies(i, M_ACC + 5) = 2 * (x * z - ww * yy) * a0 + 2 * (yy * z + ww * x) * a1
+                         + (1 - 2 * (x * x + yy * yy)) * a2;
+}
+
+// R a (R^T a if inverse), R the matrix of the unit quaternion (x, y, z, w).
+V3 turn(double x, double y, double z, double w, double a0, double a1, double a2, bool inverse) {
+  double r00 = 1 - 2 * (y * y + z * z), r01 = 2 * (x * y - w * z), r02 = 2 * (x * z + w * y);
+  double r10 = 2 * (x * y + w * z), r11 = 1 - 2 * (x * x + z * z), r12 = 2 * (y * z - w * x);
+  double r20 = 2 * (x * z - w * y), r21 = 2 * (y * z + w * x), r22 = 1 - 2 * (x * x + y * y);
+  if (inverse)
+    return {r00 * a0 + r10 * a1 + r20 * a2, r01 * a0 + r11 * a1 + r21 * a2,
+            r02 * a0 + r12 * a1 + r22 * a2};
+  return {r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
+          r20 * a0 + r21 * a1 + r22 * a2};
+}
+
+}  // namespace
+
+void place(double* y, const Mat& bodies, double offset) {
+  idx n = bodies.rows;
+  for (idx i = 0; i < n; ++i) {
+    double kind = bodies(i, M_KIND);
+    if (kind == KIND_CONSTANT) {
+      constant(bodies, i, bodies(i, M_T0) + offset, y, n);
+    } else if (kind == KIND_TABLE) {
+      table(bodies, i, bodies(i, M_T0) + offset, y, n);
+    }
+  }
+}
+
+void set_time(const Mat& bodies, double t) {
+  for (idx i = 0; i < bodies.rows; ++i) bodies(i, M_T0) = t;
+}
+
+void sample_relative(const double* y, const Mat& bodies, double* out, idx size) {
+  idx n = bodies.rows;
+  idx count = 0;
+  for (idx i = 0; i < n; ++i)
+    if (bodies(i, M_REF) > 0.0) ++count;
+  idx o = size - 13 * count;
+  for (idx i = 0; i < n; ++i) {
+    idx c = static_cast<idx>(bodies(i, M_REF)) - 1;
+    if (c < 0) continue;
+    idx qc = 6 * n + 4 * c, qi = 6 * n + 4 * i;
+    double nc = std::sqrt(y[qc] * y[qc] + y[qc + 1] * y[qc + 1] + y[qc + 2] * y[qc + 2]
+                          + y[qc + 3] * y[qc + 3]);
+    double ni = std::sqrt(y[qi] * y[qi] + y[qi + 1] * y[qi + 1] + y[qi + 2] * y[qi + 2]
+                          + y[qi + 3] * y[qi + 3]);
+    double x = y[qc] / nc, yy = y[qc + 1] / nc, z = y[qc + 2] / nc, w = y[qc + 3] / nc;
+    Q4 rel = qmul(-x, -yy, -z, w, y[qi] / ni, y[qi + 1] / ni, y[qi + 2] / ni, y[qi + 3] / ni);
+    V3 d = {y[3 * i] - y[3 * c], y[3 * i + 1] - y[3 * c + 1], y[3 * i + 2] - y[3 * c + 2]};
+    V3 wc = turn(x, yy, z, w, y[10 * n + 3 * c], y[10 * n + 3 * c + 1], y[10 * n + 3 * c + 2],
+                 false);
+    double xi = y[qi] / ni, yi = y[qi + 1] / ni, zi = y[qi + 2] / ni, wi = y[qi + 3] / ni;
+    V3 wi_world = turn(xi, yi, zi, wi, y[10 * n + 3 * i], y[10 * n + 3 * i + 1],
+                       y[10 * n + 3 * i + 2], false);
+    V3 carried = cross(wc, d);
+    V3 v = {y[3 * n + 3 * i] - y[3 * n + 3 * c] - carried.x,
+            y[3 * n + 3 * i + 1] - y[3 * n + 3 * c + 1] - carried.y,
+            y[3 * n + 3 * i + 2] - y[3 * n + 3 * c + 2] - carried.z};
+    V3 p = turn(x, yy, z, w, d.x, d.y, d.z, true);
+    v = turn(x, yy, z, w, v.x, v.y, v.z, true);
+    V3 wr = turn(x, yy, z, w, wi_world.x - wc.x, wi_world.y - wc.y, wi_world.z - wc.z, true);
+    for (int k = 0; k < 3; ++k) {
+      out[o + k] = p[k];
+      out[o + 7 + k] = v[k];
+      out[o + 10 + k] = wr[k];
+    }
+    out[o + 3] = rel.x;
+    out[o + 4] = rel.y;
+    out[o + 5] = rel.z;
+    out[o + 6] = rel.w;
+    o += 13;
+  }
+}
+
+}  // namespace motion
+}  // namespace cfem

@@ -1,0 +1,48 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// Kinematic bodies: prescribed trajectories in the extra columns of ``bodies``
+// (motion.py lays them out).
+#pragma once
+
+#include "common.hpp"
+
+namespace cfem {
+namespace motion {
+
+constexpr int BODY_COLUMNS = 20;
+constexpr int M_KIND = 20, M_T0 = 21, M_ACC = 22, M_REF = 28, M_DATA = 29;
+constexpr double KIND_NONE = 0.0, KIND_CONSTANT = 1.0, KIND_TABLE = 2.0;
+constexpr int SEGMENT = 28;
+
+inline bool any(const Mat& bodies) { return bodies.cols > BODY_COLUMNS; }
+
+// Row r's J (jac row, 12) times the known accelerations of its ends.
+inline double known(const double* jac_row, const Mat& bodies, idx a, idx b) {
+  double total = 0.0;
+  for (int k = 0; k < 6; ++k)
+    total += jac_row[k] * bodies(a, M_ACC + k) + jac_row[6 + k] * bodies(b, M_ACC + k);
+  return total;
+}
+
+// Put kinematic body i's acceleration (world) and body-axis angular one into dy.
+inline void derivative(const Mat& bodies, idx i, const double* rot, double* dy, idx n) {
+  const double* r = rot + 9 * i;
+  for (int k = 0; k < 3; ++k) {
+    dy[3 * n + 3 * i + k] = bodies(i, M_ACC + k);
+    dy[10 * n + 3 * i + k] = r[k] * bodies(i, M_ACC + 3) + r[3 + k] * bodies(i, M_ACC + 4)
+                             + r[6 + k] * bodies(i, M_ACC + 5);
+  }
+}
+
+// Write each kinematic body's state and accelerations at its step start + offset.
+void place(double* y, const Mat& bodies, double offset);
+
+// Write the time of the step's start into the kinematic bodies' columns.
+void set_time(const Mat& bodies, double t);
+
+// Each body's pose and twist relative to its reference, at the end of out (size).
+void sample_relative(const double* y, const Mat& bodies, double* out, idx size);
+
+}  // namespace motion
+}  // namespace cfem

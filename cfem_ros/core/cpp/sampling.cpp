@@ -1,0 +1,117 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+#include "sampling.hpp"
+
+#include <cmath>
+
+#include "algebra.hpp"
+#include "dynamics.hpp"
+#include "loads.hpp"
+#include "motion.hpp"
+#include "solve.hpp"
+
+namespace cfem {
+
+bool joint_loads(const double* y, const System& s, const Work& v, double* force,
+                 double* moment) {
+  if (!solve(y, s, v)) return false;
+  for (idx j = 0; j < s.joints(); ++j) {
+    idx c = s.plan(j, P_CHILD);
+    double sign = static_cast<double>(s.plan(j, P_SIGN));
+    idx b = sign > 0 ? c : s.plan(j, P_PARENT);
+    double* wrench = v.wrench + 6 * j;
+    if (s.dense == 0) {
+      // the tree child's balance: load = M^ a - f^ (articulated)
+      const double* mh = v.mhat + 36 * c;
+      const double* acc = v.acc + 6 * c;
+      for (int k = 0; k < 6; ++k) {
+        double total = -v.fhat[6 * c + k];
+        for (int i = 0; i < 6; ++i) total += mh[6 * k + i] * acc[i];
+        wrench[k] = total;
+      }
+    }
+    const double* rf = s.rows_f.row(s.plan(j, P_ROW));
+    V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
+    V3 rho = {rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
+              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
+    V3 f = {sign * wrench[0], sign * wrench[1], sign * wrench[2]};
+    V3 arm = cross(rho, f);
+    for (int k = 0; k < 3; ++k) {
+      force[3 * j + k] = f[k];
+      moment[3 * j + k] = sign * wrench[3 + k] - arm[k];
+    }
+  }
+  return true;
+}
+
+int sample_outputs(const double* y, const System& s, const Work& v, const idx* order, idx k,
+                   double* out, idx size) {
+  const idx n = s.n();
+  for (idx i = 0; i < n; ++i) {
+    idx o = 13 * i, q = 6 * n + 4 * i;
+    double norm = std::sqrt(y[q] * y[q] + y[q + 1] * y[q + 1] + y[q + 2] * y[q + 2]
+                            + y[q + 3] * y[q + 3]);
+    double x = y[q] / norm, yy = y[q + 1] / norm, z = y[q + 2] / norm, w = y[q + 3] / norm;
+    // R^T v with R the body-to-world matrix of the unit quaternion
+    double v0 = y[3 * n + 3 * i], v1 = y[3 * n + 3 * i + 1], v2 = y[3 * n + 3 * i + 2];
+    for (int c = 0; c < 3; ++c) {
+      out[o + c] = y[3 * i + c];
+      out[o + 10 + c] = y[10 * n + 3 * i + c];
+    }
+    for (int c = 0; c < 4; ++c) out[o + 3 + c] = y[q + c];
+    out[o + 7] = (1 - 2 * (yy * yy + z * z)) * v0 + 2 * (x * yy + w * z) * v1
+                 + 2 * (x * z - w * yy) * v2;
+    out[o + 8] = 2 * (x * yy - w * z) * v0 + (1 - 2 * (x * x + z * z)) * v1
+                 + 2 * (yy * z + w * x) * v2;
+    out[o + 9] = 2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
+                 + (1 - 2 * (x * x + yy * yy)) * v2;
+  }
+  if (s.loads.rows > n)  // the scheduled wrenches' applied loads, after the joints'
+    loads::sample_applied(y, s.bodies, s.loads, out + 13 * n + 6 * k, v.sample_rot,
+                          v.sample_wrench);
+  if (motion::any(s.bodies)) motion::sample_relative(y, s.bodies, out, size);  // last
+  if (k == 0) return REACHED;
+  if (!joint_loads(y, s, v, v.force, v.moment)) return SINGULAR;
+  for (idx j = 0; j < k; ++j) {
+    idx o = 13 * n + 6 * j;
+    for (int c = 0; c < 3; ++c) {
+      out[o + c] = v.force[3 * order[j] + c];
+      out[o + 3 + c] = v.moment[3 * order[j] + c];
+    }
+  }
+  // the state is finite (every step checks it); its loads may still not be
+  for (idx j = 13 * n; j < 13 * n + 6 * k; ++j)
+    if (!std::isfinite(out[j])) return LOADS_NOT_FINITE;
+  return REACHED;
+}
+
+bool project(const double* y, const System& s, const Work& v, double* delta) {
+  const idx n = s.n(), m = s.m();
+  body_terms(y, s, v, true);
+  row_terms(y, s, v, s.dense > 0);
+  for (idx k = 0; k < 6 * n; ++k) v.fhat[k] = 0.0;
+  for (idx r = 0; r < m; ++r) {
+    idx a = s.rows_i(r, 0), b = s.rows_i(r, 1);
+    const double* jac = v.jac + 12 * r;
+    double total = 0.0;
+    for (int k = 0; k < 3; ++k)
+      total += jac[k] * y[3 * n + 3 * a + k] + jac[3 + k] * v.omega[3 * a + k]
+               + jac[6 + k] * y[3 * n + 3 * b + k] + jac[9 + k] * v.omega[3 * b + k];
+    v.rhs[r] = -total;
+  }
+  if (s.dense > 0) {
+    if (!dense_solve(s, v, true)) return false;
+  } else {
+    for (idx k = 0; k < 6 * n; ++k) v.acc[k] = 0.0;
+    if (!tree_solve(y, s, v)) return false;
+  }
+  for (idx k = 0; k < 6 * n; ++k) delta[k] = v.acc[k];
+  return true;
+}
+
+void row_jacobian(const double* y, const System& s, const Work& v) {
+  body_terms(y, s, v, true);
+  row_terms(y, s, v, true);
+}
+
+}  // namespace cfem
