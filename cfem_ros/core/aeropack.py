@@ -72,22 +72,12 @@ def start_in_carrier(model: Model, body: int, carrier: int) -> np.ndarray:
 
 def refuse_unwired(model: Model):
     """
-    Raise ScenarioError for what the step does not compute yet: Mach, proximity, contacts.
+    Raise ScenarioError for what the step does not compute yet: contacts.
 
-    The loads over Mach and proximity and the contact events are written
-    (``cpp/aero.hpp``, ``cpp/distance.hpp``) and tested, and wait for the
-    compiled C++ step to call them; until then a run refuses a scenario that
-    needs them rather than ignore them.
+    The shape distances are written (``cpp/distance.hpp``) and tested, and
+    wait for the step to locate contacts; until then a run refuses a
+    scenario that watches contacts rather than ignore them.
     """
-    names = [b.name for b in model.bodies]
-    for a in model.aero:
-        key = f'aero.{names[a.body]}'
-        if len(a.mach) > 1:
-            raise ScenarioError(model.name, f'{key}.mach', 'tables over Mach are not computed '
-                                'in the step of this build', 'a table without mach')
-        if a.proximity is not None:
-            raise ScenarioError(model.name, f'{key}.proximity', 'proximity increments are not '
-                                'computed in the step of this build', 'no proximity')
     if model.contacts:
         raise ScenarioError(model.name, 'contacts', 'contacts are not located in the step of '
                             'this build', 'no contacts (the sweep metric distance: works)')

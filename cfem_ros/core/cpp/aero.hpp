@@ -48,11 +48,12 @@ inline void zyx_angles(const double* r, double* rpy) {
 }
 
 // The aerodynamic wrench of the body into out (force (3), moment about the CG (3),
-// world axes). p: the packed table. position, velocity: CG, world (m, m/s);
+// world axes). p: the packed table (Flat or Rows). position, velocity: CG, world (m, m/s);
 // rot: body to world, row-major (3x3); rates: body axes (rad/s); carrier_position,
 // carrier_rot: the carrier's CG and axes (only read with a proximity table).
 // air (optional): what it was computed from. Zero at zero airspeed.
-inline void wrench(const double* p, const double* position, const double* velocity,
+template <class P>
+inline void wrench(const P& p, const double* position, const double* velocity,
                    const double* rot, const double* rates, const double* carrier_position,
                    const double* carrier_rot, double* out, Air* air = nullptr) {
   for (int k = 0; k < 6; ++k) out[k] = 0.0;
@@ -80,11 +81,11 @@ inline void wrench(const double* p, const double* position, const double* veloci
   double mach = sound > 0.0 ? speed / sound : 0.0;
   int sizes[kMaxAxes] = {static_cast<int>(p[kNa]), static_cast<int>(p[kNb]),
                          static_cast<int>(p[kNm])};
-  const double* grids = p + kHeader;
-  const double* table = grids + sizes[0] + sizes[1] + sizes[2];
+  const long grids = kHeader;
+  const long table = grids + sizes[0] + sizes[1] + sizes[2];
   double x[kMaxAxes] = {alpha, beta, mach};
   double c[6], d[6] = {0, 0, 0, 0, 0, 0};
-  multilinear(3, sizes, grids, table, 6, x, c);
+  multilinear(3, sizes, p, grids, table, 6, x, c);
   int axes = static_cast<int>(p[kProxAxes]);
   if (axes > 0) {
     // the CG in the carrier's axes, from where it was at t = 0; the attitude relative to it
@@ -114,9 +115,9 @@ inline void wrench(const double* p, const double* position, const double* veloci
       px[a] = q[code];
       count += prox_sizes[a];
     }
-    const double* prox_grids = table + 6 * sizes[0] * sizes[1] * sizes[2];
-    multilinear(axes, prox_sizes, prox_grids, prox_grids + count, 6, px, d);
-    double weight = fade_weight(axes, prox_sizes, prox_grids, position_axis, px, p[kFade]);
+    const long prox_grids = table + 6L * sizes[0] * sizes[1] * sizes[2];
+    multilinear(axes, prox_sizes, p, prox_grids, prox_grids + count, 6, px, d);
+    double weight = fade_weight(axes, prox_sizes, p, prox_grids, position_axis, px, p[kFade]);
     for (int k = 0; k < 6; ++k) {
       d[k] *= weight;
       c[k] += d[k];

@@ -50,13 +50,17 @@ Array py_multilinear(py::list grids, Array values, Array points) {
   need(points.ndim() == 2 && points.shape(1) == axes, "points: shape (n, axes) expected");
   py::ssize_t n = points.shape(0);
   Array out({n, static_cast<py::ssize_t>(width)});
-  const double* v = values.data();
+  // one flat array: the grids, then the values
+  long values_at = static_cast<long>(flat.size());
+  flat.insert(flat.end(), values.data(), values.data() + values.size());
+  cfem::Flat grid_data{flat.data()};
   const double* p = points.data();
   double* o = out.mutable_data();
   {
     py::gil_scoped_release release;
     for (py::ssize_t k = 0; k < n; ++k) {
-      cfem::multilinear(axes, sizes, flat.data(), v, width, p + k * axes, o + k * width);
+      cfem::multilinear(axes, sizes, grid_data, 0, values_at, width, p + k * axes,
+                        o + k * width);
     }
   }
   return out;
@@ -89,7 +93,7 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
     py::gil_scoped_release release;
     for (py::ssize_t k = 0; k < n; ++k) {
       cfem::aero::Air info;
-      cfem::aero::wrench(packed.data(), position.data() + 3 * k, velocity.data() + 3 * k,
+      cfem::aero::wrench(cfem::Flat{packed.data()}, position.data() + 3 * k, velocity.data() + 3 * k,
                          rot.data() + 9 * k, rates.data() + 3 * k,
                          carrier_position.data() + 3 * k, carrier_rot.data() + 9 * k,
                          o + 6 * k, &info);
@@ -128,8 +132,8 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
   {
     py::gil_scoped_release release;
     for (py::ssize_t k = 0; k < n; ++k) {
-      o[k] = cfem::shapes::distance(shape_a.data(), rot_a.data() + 9 * k,
-                                    position_a.data() + 3 * k, shape_b.data(),
+      o[k] = cfem::shapes::distance(cfem::Flat{shape_a.data()}, rot_a.data() + 9 * k,
+                                    position_a.data() + 3 * k, cfem::Flat{shape_b.data()},
                                     rot_b.data() + 9 * k, position_b.data() + 3 * k,
                                     p + 6 * k, p + 6 * k + 3);
     }

@@ -273,9 +273,11 @@ PYBIND11_MODULE(_kernel, m) {
     py::array wf = checked<idx>(wrenches_found, "wrenches_found", 1, true);
     idx scheduled = 0;
     for (idx row = n; row < b.s.loads.rows; ++row)
-      if (b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_SCHEDULED) ++scheduled;
+      if (b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_SCHEDULED
+          || b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_CONTACT) ++scheduled;
     if (wf.shape(0) < scheduled)
-      throw py::value_error("wrenches_found: expected one entry per scheduled wrench");
+      throw py::value_error("wrenches_found: expected one entry per scheduled wrench and "
+                            "contact pair");
     double* ip = vec(info, "info", true, 7);
     py::gil_scoped_release free;
     cfem::locate(y0p, 13 * n, h, y1p, ysp, b.s, b.v, t, ptr<idx>(jf), ptr<idx>(wf), ip);

@@ -21,6 +21,8 @@
 
 #include <cmath>
 
+#include "multilinear.hpp"   // Flat, Rows: how a packed table is read
+
 namespace cfem {
 namespace shapes {
 
@@ -40,9 +42,11 @@ inline Vec cross(Vec a, Vec b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 
-// A shape placed in the world: its packed data, axes (row-major, shape to world), centre.
+// A shape placed in the world: its packed data (Flat or Rows), axes (row-major, shape
+// to world), centre.
+template <class P>
 struct Placed {
-  const double* data;
+  P data;
   double rot[9];
   Vec centre;
   int kind;
@@ -60,8 +64,9 @@ inline Vec turn_back(const double* r, Vec v) {
 }
 
 // Place a packed shape on a body at (body_rot row-major body to world, body_position world).
-inline Placed place(const double* data, const double* body_rot, const double* body_position) {
-  Placed s;
+template <class P>
+inline Placed<P> place(const P& data, const double* body_rot, const double* body_position) {
+  Placed<P> s;
   s.data = data;
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) {
@@ -87,9 +92,10 @@ inline Placed place(const double* data, const double* body_rot, const double* bo
 }
 
 // The core's farthest point along d (world), world coordinates.
-inline Vec support(const Placed& s, Vec d) {
+template <class P>
+inline Vec support(const Placed<P>& s, Vec d) {
   Vec l = turn_back(s.rot, d), p = {0.0, 0.0, 0.0};
-  const double* size = s.data + kSize;
+  const double size[3] = {s.data[kSize], s.data[kSize + 1], s.data[kSize + 2]};
   switch (s.kind) {
     case kCapsule:
       p.x = l.x >= 0.0 ? s.half : -s.half;
@@ -108,14 +114,14 @@ inline Vec support(const Placed& s, Vec d) {
       break;
     }
     case kHull: {
-      int count = static_cast<int>(s.data[kVertices]);
-      const double* v = s.data + kShapeHeader;
+      long count = static_cast<long>(s.data[kVertices]);
       double best = -INFINITY;
-      for (int k = 0; k < count; ++k, v += 3) {
-        double along = v[0] * l.x + v[1] * l.y + v[2] * l.z;
+      for (long k = 0, v = kShapeHeader; k < count; ++k, v += 3) {
+        double x = s.data[v], y = s.data[v + 1], z = s.data[v + 2];
+        double along = x * l.x + y * l.y + z * l.z;
         if (along > best) {
           best = along;
-          p = {v[0], v[1], v[2]};
+          p = {x, y, z};
         }
       }
       break;
@@ -169,16 +175,18 @@ inline void segments(Vec p1, Vec q1, Vec p2, Vec q2, Vec& c1, Vec& c2) {
 }
 
 // The segment of a capsule (its end points; a sphere's is its centre twice).
-inline void segment_of(const Placed& s, Vec& p, Vec& q) {
+template <class P>
+inline void segment_of(const Placed<P>& s, Vec& p, Vec& q) {
   Vec axis = {s.rot[0] * s.half, s.rot[3] * s.half, s.rot[6] * s.half};
   p = s.centre - axis;
   q = s.centre + axis;
 }
 
 // Closest point of a box to a point (both world).
-inline Vec box_point(const Placed& s, Vec point) {
+template <class P>
+inline Vec box_point(const Placed<P>& s, Vec point) {
   Vec l = turn_back(s.rot, point - s.centre);
-  const double* size = s.data + kSize;
+  const double size[3] = {s.data[kSize], s.data[kSize + 1], s.data[kSize + 2]};
   double h[3] = {0.5 * size[0], 0.5 * size[1], 0.5 * size[2]};
   double c[3] = {l.x, l.y, l.z};
   for (int k = 0; k < 3; ++k) c[k] = c[k] < -h[k] ? -h[k] : (c[k] > h[k] ? h[k] : c[k]);
@@ -312,7 +320,8 @@ inline int nearest(Vertex* y, int count, double* lambda) {
 
 // GJK between the cores of a and b: their distance, and their closest points
 // into ca, cb (world). 0 when the cores overlap (ca, cb then a common point, approximately).
-inline double gjk(const Placed& a, const Placed& b, Vec& ca, Vec& cb) {
+template <class P>
+inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb) {
   Vertex y[4];
   double lambda[4] = {1.0, 0, 0, 0};
   Vec d = a.centre - b.centre;
@@ -383,7 +392,8 @@ inline double gjk(const Placed& a, const Placed& b, Vec& ca, Vec& cb) {
 // Distance between two placed shapes (m; negative: the depth by which the radii
 // overlap while the cores are apart; 0 when the cores themselves overlap), and
 // the closest points on each into pa, pb (world).
-inline double distance(const Placed& a, const Placed& b, double* pa, double* pb) {
+template <class P>
+inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, double* pb) {
   Vec ca, cb;
   bool overlap = false;
   bool a_segment = a.kind == kSphere || a.kind == kCapsule;
@@ -413,8 +423,9 @@ inline double distance(const Placed& a, const Placed& b, double* pa, double* pb)
 
 // Distance between packed shapes on bodies at the given poses (rot row-major
 // body to world, position the CG, world); closest points into pa, pb (world).
-inline double distance(const double* shape_a, const double* rot_a, const double* position_a,
-                       const double* shape_b, const double* rot_b, const double* position_b,
+template <class P>
+inline double distance(const P& shape_a, const double* rot_a, const double* position_a,
+                       const P& shape_b, const double* rot_b, const double* position_b,
                        double* pa, double* pb) {
   return distance(place(shape_a, rot_a, position_a), place(shape_b, rot_b, position_b), pa, pb);
 }

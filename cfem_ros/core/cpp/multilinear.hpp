@@ -13,15 +13,29 @@ namespace cfem {
 //: Most axes of an interpolated grid (alpha, beta, Mach; or dx .. dpsi, Mach).
 constexpr int kMaxAxes = 8;
 
-// x between grid[i] and grid[i + 1] at fraction u in [0, 1]; held at the ends
+// Reads a packed table: p[k] its k-th number. Flat: a plain array; Rows: the table
+// kept in the first kRowData columns of rows of kRowWidth (loads.py's packed loads, whose
+// last column says what a row is).
+struct Flat {
+  const double* data;
+  double operator[](long k) const { return data[k]; }
+};
+constexpr long kRowWidth = 24, kRowData = 23;
+struct Rows {
+  const double* data;
+  double operator[](long k) const { return data[(k / kRowData) * kRowWidth + k % kRowData]; }
+};
+
+// x between grid[at + i] and grid[at + i + 1] at fraction u in [0, 1]; held at the ends
 // (u = 0 at the first node or below, u = 1 at the last or above). One node: i = 0, u = 0.
-inline void bracket(const double* grid, int count, double x, int& i, double& u) {
-  if (count < 2 || !(x > grid[0])) {  // NaN goes to the first node
+template <class P>
+inline void bracket(const P& grid, long at, int count, double x, int& i, double& u) {
+  if (count < 2 || !(x > grid[at])) {  // NaN goes to the first node
     i = 0;
     u = 0.0;
     return;
   }
-  if (x >= grid[count - 1]) {
+  if (x >= grid[at + count - 1]) {
     i = count - 2;
     u = 1.0;
     return;
@@ -29,24 +43,25 @@ inline void bracket(const double* grid, int count, double x, int& i, double& u) 
   int lo = 0, hi = count - 1;  // grid[lo] < x < grid[hi]
   while (hi - lo > 1) {
     int mid = (lo + hi) / 2;
-    if (grid[mid] <= x) lo = mid; else hi = mid;
+    if (grid[at + mid] <= x) lo = mid; else hi = mid;
   }
   i = lo;
-  u = (x - grid[lo]) / (grid[lo + 1] - grid[lo]);
+  u = (x - grid[at + lo]) / (grid[at + lo + 1] - grid[at + lo]);
 }
 
 // Interpolate `width` numbers per node at x (one number per axis) into out.
-// axes: number of axes (<= kMaxAxes); sizes[d]: nodes along axis d; grids: the
+// axes: number of axes (<= kMaxAxes); sizes[d]: nodes along axis d; p[grids ..]: the
 // axes' values one after the other (sizes[0] numbers, then sizes[1], ...);
-// values: width numbers per node, the first axis slowest (C order).
-inline void multilinear(int axes, const int* sizes, const double* grids, const double* values,
+// p[values ..]: width numbers per node, the first axis slowest (C order).
+template <class P>
+inline void multilinear(int axes, const int* sizes, const P& p, long grids, long values,
                         int width, const double* x, double* out) {
   int base[kMaxAxes];
   double frac[kMaxAxes];
   long stride[kMaxAxes];
-  const double* grid = grids;
+  long grid = grids;
   for (int d = 0; d < axes; ++d) {
-    bracket(grid, sizes[d], x[d], base[d], frac[d]);
+    bracket(p, grid, sizes[d], x[d], base[d], frac[d]);
     grid += sizes[d];
   }
   long s = 1;
@@ -71,22 +86,23 @@ inline void multilinear(int axes, const int* sizes, const double* grids, const d
       }
     }
     if (weight == 0.0) continue;
-    const double* node = values + at * width;
-    for (int k = 0; k < width; ++k) out[k] += weight * node[k];
+    long node = values + at * width;
+    for (int k = 0; k < width; ++k) out[k] += weight * p[node + k];
   }
 }
 
 // Weight of a table at x outside its grid: 1 inside, falling linearly to 0 at
 // `fade` (same unit as the axes, m) from the grid's box, the distance measured
 // over the axes with position[d] != 0 only. fade <= 0: held (always 1).
-inline double fade_weight(int axes, const int* sizes, const double* grids, const int* position,
-                          const double* x, double fade) {
+template <class P>
+inline double fade_weight(int axes, const int* sizes, const P& p, long grids,
+                          const int* position, const double* x, double fade) {
   if (!(fade > 0.0)) return 1.0;
   double gap2 = 0.0;
-  const double* grid = grids;
+  long grid = grids;
   for (int d = 0; d < axes; ++d) {
     if (position[d]) {
-      double lo = grid[0], hi = grid[sizes[d] - 1];
+      double lo = p[grid], hi = p[grid + sizes[d] - 1];
       double gap = x[d] < lo ? lo - x[d] : (x[d] > hi ? x[d] - hi : 0.0);
       gap2 += gap * gap;
     }
