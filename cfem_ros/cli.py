@@ -25,6 +25,8 @@ import numpy as np
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_BAD_INPUT = 2
+#: ``cfem-sim run``: the run stopped at a contact (``contacts: on_contact: stop``).
+EXIT_CONTACT = 3
 
 LOG = logging.getLogger('cfem_ros')
 
@@ -156,7 +158,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
             overwrite: bool = False, max_samples: float = offline.MAX_SAMPLES,
             max_gb: float = offline.MAX_GB, odometry: Optional[str] = None) -> int:
     """
-    Run a scenario offline and record it; exit status 0, 1, 2, 130 or 143.
+    Run a scenario offline and record it; exit status 0, 1, 2, 3 (contact), 130 or 143.
 
     ``odometry`` ('interpolate' or 'extrapolate') says how replayed
     odometry drives a kinematic body; None: as the node that recorded the
@@ -242,11 +244,21 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     print(f'{model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
           f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
     for event in sim.events:
-        print(f'release {event["joint"]} at t = {event["time"]:.9f} s ({event["cause"]})')
+        if event['event'] == 'release':
+            print(f'release {event["joint"]} at t = {event["time"]:.9f} s ({event["cause"]})')
+        elif event['event'] == 'contact':
+            a, b = event['bodies']
+            x, y, z = event['point']
+            print(f'contact {a} {b} at t = {event["time"]:.9f} s, point '
+                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world)')
     if not any(e['event'] == 'release' for e in sim.events):
         print('no joint released')
     _print_state(sim)
     print(f'recording: {output} ({recorder.message_count} messages)')
+    if sim.status == 'contact':
+        print(f'stopped: {sim.message}; the recording holds everything up to then',
+              file=sys.stderr)
+        return EXIT_CONTACT
     if not ok:
         print(f'ERROR: the run failed {sim.message}; the recording holds everything '
               f'up to t = {sim.t:.9g} s', file=sys.stderr)

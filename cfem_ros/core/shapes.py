@@ -184,6 +184,32 @@ def _mesh_url(spec: str, base_dir: str) -> str:
     return 'file://' + os.path.abspath(path)
 
 
+def triangles(shape: Shape) -> np.ndarray:
+    """
+    Return the triangles that draw a capsule or a mesh's hull, shape axes, m, shape (k, 3, 3).
+
+    A capsule in 24 facets around and 6 rings per end cap; a hull by its
+    facets (Qhull's). Empty for the other shapes (viewers draw those).
+    """
+    if shape.kind == 'capsule':
+        radius, length = shape.size
+        half = 0.5 * length - radius
+        caps = np.linspace(0.0, 0.5 * np.pi, 7)
+        rings = [(-half - radius * math.cos(a), radius * math.sin(a)) for a in caps]
+        rings += [(half + radius * math.cos(a), radius * math.sin(a)) for a in caps[::-1]]
+        around = np.linspace(0.0, 2 * np.pi, 25)
+        points = np.array([[[x, r * math.cos(b), r * math.sin(b)] for b in around]
+                           for x, r in rings])
+        quads = [(points[i, j], points[i + 1, j], points[i + 1, j + 1], points[i, j + 1])
+                 for i in range(len(rings) - 1) for j in range(len(around) - 1)]
+        return np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    if shape.kind == 'mesh' and shape.hull:
+        from scipy.spatial import ConvexHull
+        points = np.array(shape.hull)
+        return points[ConvexHull(points).simplices]
+    return np.zeros((0, 3, 3))
+
+
 def mesh_hull(path: str, scale, key: str, fail: Callable) -> tuple:
     """
     Return the vertices of a mesh file's convex hull, scaled, m (scipy's Qhull).
