@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.study.shape_metrics import compute_distance
 import numpy as np
 
 NAN = float('nan')
@@ -34,12 +35,15 @@ class Samples:
     joints : dict of str to (time (m,), force (m, 3), moment (m, 3))
         Only the samples where the joint was active.
     releases : list of (time, joint, cause)
+    contacts : list of (time, (body a, body b))
+        The run's contact events.
 
     """
 
     bodies: dict = field(default_factory=dict)
     joints: dict = field(default_factory=dict)
     releases: list = field(default_factory=list)
+    contacts: list = field(default_factory=list)
 
 
 def from_run(run) -> Samples:
@@ -47,7 +51,13 @@ def from_run(run) -> Samples:
     return Samples(
         bodies={name: (b.time, b.position, b.quaternion) for name, b in run.bodies.items()},
         joints={name: (j.time, j.force, j.moment) for name, j in run.joints.items()},
-        releases=list(run.releases()))
+        releases=list(run.releases()), contacts=_contacts(run.events))
+
+
+def _contacts(events) -> list:
+    """Return the contact events as (time, (body a, body b))."""
+    return [(float(e['time']), tuple(e['bodies'])) for e in events
+            if e.get('event') == 'contact' and 'time' in e and len(e.get('bodies', ())) == 2]
 
 
 def sample_times(times) -> np.ndarray:
@@ -136,7 +146,8 @@ class Collector:
                                       loads[:, :3], loads[:, 3:])
         releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
                           for e in self.sim.events if e.get('event') == 'release')
-        return Samples(bodies=bodies, joints=joints, releases=releases)
+        return Samples(bodies=bodies, joints=joints, releases=releases,
+                       contacts=_contacts(self.sim.events))
 
 
 def _kernel():
@@ -203,6 +214,11 @@ def compute(samples: Samples, metrics) -> dict:
                 raise KeyError(f'no body {name!r} in the run')
         t, pos_a, quat_a = samples.bodies[c.body_a]
         _, pos_b, quat_b = samples.bodies[c.body_b]
+        inside = c.window.mask(np.asarray(t), samples.releases)
+        if not inside.all():   # a window (from/to): only its samples
+            t, pos_a, quat_a = np.asarray(t)[inside], np.asarray(pos_a)[inside], \
+                np.asarray(quat_a)[inside]
+            pos_b, quat_b = np.asarray(pos_b)[inside], np.asarray(quat_b)[inside]
         values = (NAN, NAN, -1, -1)
         if len(t):
             best = np.empty(4)
@@ -212,6 +228,8 @@ def compute(samples: Samples, metrics) -> dict:
                 values = (float(best[0]), float(t[int(best[1])]), int(best[2]), int(best[3]))
         for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
             out[f'{c.prefix}_{suffix}'] = value
+    for entry in metrics.distance:
+        out.update(compute_distance(entry, samples))
     released = {}
     for t, joint, cause in samples.releases:
         released.setdefault(joint, (float(t), str(cause)))
