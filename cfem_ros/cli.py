@@ -15,6 +15,7 @@ from typing import Optional
 
 from cfem_ros.console import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.core import kernel, rotations
+from cfem_ros.core.aero import describe as describe_aero
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
@@ -91,11 +92,20 @@ def cmd_check(scenario: str) -> int:
               f'release: {_describe_release(joint)}')
     if model.wrenches:
         _print_wrenches(model)
+    names = [b.name for b in model.bodies]
     for aero in model.aero:
-        print(f'  aero on {model.bodies[aero.body].name}: S {aero.area:g} m^2, '
-              f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
+        density = (f'density {aero.density:.6g} kg/m^3' if aero.altitude is None else
+                   f'ISA from {aero.altitude:g} m (density {aero.density:.6g} kg/m^3 there)')
+        print(f'  aero on {names[aero.body]}: S {aero.area:g} m^2, '
+              f'L {aero.length:g} m, {density}, '
               f'air {_vec(aero.freestream)} m/s, '
-              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
+              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta x {len(aero.mach)} Mach')
+        more = describe_aero(aero, names)
+        if more:
+            print(f'    {more}')
+    for pair in model.contacts:
+        a, b = (names[i] for i in pair.bodies)
+        print(f'  contact watched: {a} - {b} ({"stop" if pair.stop else "continue"} at contact)')
     free = sum(b.dynamic for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
@@ -505,8 +515,10 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
         signal.signal(signal.SIGTERM, previous[1])
     failed = int((table['status'] == 'failed').sum())
     wall = time.monotonic() - started
+    touched = int((table['status'] == 'contact').sum())
+    contact = f'{touched} stopped at a contact, ' if touched else ''
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
-          f'{wall:.3g} s')
+          f'{contact}{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
     return EXIT_FAILED if failed else EXIT_OK

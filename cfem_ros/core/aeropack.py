@@ -14,7 +14,6 @@ the first axis slowest).
 from __future__ import annotations
 
 from cfem_ros.core import rotations
-from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import Aero, Model
 import numpy as np
 
@@ -69,15 +68,3 @@ def start_in_carrier(model: Model, body: int, carrier: int) -> np.ndarray:
     rot = rotations.matrices(np.asarray(c.orientation_xyzw, dtype=float)[None])[0]
     return rot.T @ (np.asarray(b.position, dtype=float) - np.asarray(c.position, dtype=float))
 
-
-def refuse_unwired(model: Model):
-    """
-    Raise ScenarioError for what the step does not compute yet: contacts.
-
-    The shape distances are written (``cpp/distance.hpp``) and tested, and
-    wait for the step to locate contacts; until then a run refuses a
-    scenario that watches contacts rather than ignore them.
-    """
-    if model.contacts:
-        raise ScenarioError(model.name, 'contacts', 'contacts are not located in the step of '
-                            'this build', 'no contacts (the sweep metric distance: works)')

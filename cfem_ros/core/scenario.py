@@ -682,14 +682,21 @@ def _from_rpy_deg(rpy: np.ndarray) -> np.ndarray:
 
 
 def _source_dir(check: _Checker) -> str:
-    """Return the folder of the scenario file, which files it names are relative to."""
-    return os.path.dirname(os.path.abspath(check.source)) if os.path.isfile(check.source) else ''
+    """
+    Return the folder of the scenario file, which files it names are relative to.
+
+    A sweep names its runs' sources ``<file> (run k)``: the file is what counts.
+    """
+    source = check.source
+    if not os.path.isfile(source):
+        source = re.sub(r' \(run \d+\)$', '', source)
+    return os.path.dirname(os.path.abspath(source)) if os.path.isfile(source) else ''
 
 
 def _shape_dir(check: _Checker, shape) -> str:
     """Return the folder a shape's mesh file is relative to (only a mesh needs one)."""
-    if isinstance(shape, dict) and 'mesh' in shape and os.path.isfile(check.source):
-        return os.path.dirname(check.source)
+    if isinstance(shape, dict) and 'mesh' in shape:
+        return _source_dir(check)
     return ''
 
 
