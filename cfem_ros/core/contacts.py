@@ -36,6 +36,16 @@ def pack_shape(shape: Shape) -> np.ndarray:
     return out
 
 
+def bounding_radius(packed: np.ndarray) -> float:
+    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
+    kind, size = int(packed[0]), packed[1:4]
+    reach = {0: size[0], 1: 0.5 * size[1], 2: 0.5 * float(np.linalg.norm(size)),
+             3: float(np.hypot(size[0], 0.5 * size[1]))}.get(kind)
+    if reach is None:   # a hull: its farthest vertex
+        reach = float(np.max(np.linalg.norm(packed[SHAPE_HEADER:].reshape(-1, 3), axis=1)))
+    return float(np.linalg.norm(packed[13:16])) + reach
+
+
 def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
               shape_b: np.ndarray, quat_b: np.ndarray, position_b: np.ndarray):
     """

@@ -57,8 +57,9 @@ TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
 A_BODY, A_CARRIER, A_FIRST = 0, 1, 12
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
 AERO_ROW = WIDTH - 1
-#: Contact rows: the bodies, the first rows of their packed shapes.
-C_A, C_B, C_SHAPE_A, C_SHAPE_B = 0, 1, 4, 5
+#: Contact rows: the bodies, the first rows of their packed shapes, GJK's warm start (3),
+#: the shapes' bounding radii about their CGs (m).
+C_A, C_B, C_SHAPE_A, C_SHAPE_B, C_GUESS, C_RADIUS_A, C_RADIUS_B = 0, 1, 4, 5, 6, 9, 10
 #: Shapes this close touch, m (``CONTACT_GAP`` of cpp/loads.hpp).
 CONTACT_GAP = 1e-10
 
@@ -151,6 +152,8 @@ class ScheduledLoads:
             r[S_KIND] = 5.0
             r[C_A], r[C_B] = pair.bodies
             r[C_SHAPE_A], r[C_SHAPE_B] = first_row[pair.bodies[0]], first_row[pair.bodies[1]]
+            r[C_RADIUS_A], r[C_RADIUS_B] = (contacts.bounding_radius(shapes[b])
+                                            for b in pair.bodies)
         self.array = rows
         self.pairs = pairs
         self.started = np.zeros(self.count, dtype=bool)

@@ -131,3 +131,22 @@ def test_touching_spheres_closed_form():
     np.testing.assert_allclose(d, [0.5, 0.0, -0.4], rtol=0, atol=1e-15)
     np.testing.assert_allclose(points[0], [0.5, 0, 0, 1.0, 0, 0], rtol=0, atol=1e-15)
     assert math.isclose(d[1], 0.0, abs_tol=1e-15)
+
+
+@pytest.mark.parametrize('name', list(SHAPES))
+def test_the_bounding_radius_holds_the_shape_and_is_tight(name):
+    # the step skips GJK while the bounding spheres are apart: a radius too small would
+    # miss a contact, one too large only costs time
+    shape = contacts.pack_shape(SHAPES[name])
+    radius = contacts.bounding_radius(shape)
+    directions = rng.standard_normal((2000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    dot = contacts.pack_shape(Shape('sphere', (1e-12,)))
+    identity = np.tile([0.0, 0.0, 0.0, 1.0], (len(directions), 1))
+    outside, _ = contacts.distances(shape, identity, np.zeros_like(directions), dot, identity,
+                                    directions * (radius + 1e-9))
+    assert outside.min() > 0.0
+    inside, _ = contacts.distances(shape, identity, np.zeros_like(directions), dot, identity,
+                                   directions * 0.7 * radius)
+    assert inside.min() <= 1e-9   # some direction reaches 70 % of the radius (an offset
+    # shape reaches less than its radius in most directions)

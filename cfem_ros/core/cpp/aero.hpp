@@ -38,13 +38,12 @@ struct Air {
   double increments[6];
 };
 
-// ZYX angles (roll, pitch, yaw; rad) of a rotation matrix (row-major).
-inline void zyx_angles(const double* r, double* rpy) {
+// One ZYX angle (0 roll, 1 pitch, 2 yaw; rad) of a rotation matrix (row-major).
+inline double zyx_angle(const double* r, int which) {
+  if (which == 0) return std::atan2(r[7], r[8]);
+  if (which == 2) return std::atan2(r[3], r[0]);
   double s = -r[6];
-  s = s > 1.0 ? 1.0 : (s < -1.0 ? -1.0 : s);
-  rpy[0] = std::atan2(r[7], r[8]);
-  rpy[1] = std::asin(s);
-  rpy[2] = std::atan2(r[3], r[0]);
+  return std::asin(s > 1.0 ? 1.0 : (s < -1.0 ? -1.0 : s));
 }
 
 // The aerodynamic wrench of the body into out (force (3), moment about the CG (3),
@@ -103,7 +102,6 @@ inline void wrench(const P& p, const double* position, const double* velocity,
                               carrier_rot[6 + i] * rot[6 + j];
       }
     }
-    zyx_angles(relative, q + 3);
     q[6] = mach;
     int prox_sizes[kMaxAxes], position_axis[kMaxAxes];
     double px[kMaxAxes];
@@ -112,7 +110,7 @@ inline void wrench(const P& p, const double* position, const double* velocity,
       int code = static_cast<int>(p[kProxCode + a]);
       prox_sizes[a] = static_cast<int>(p[kProxSize + a]);
       position_axis[a] = code <= kDz;
-      px[a] = q[code];
+      px[a] = code >= kDphi && code <= kDpsi ? zyx_angle(relative, code - kDphi) : q[code];
       count += prox_sizes[a];
     }
     const long prox_grids = table + 6L * sizes[0] * sizes[1] * sizes[2];

@@ -47,6 +47,7 @@ Array py_multilinear(py::list grids, Array values, Array points) {
     flat.insert(flat.end(), g.data(), g.data() + g.shape(0));
   }
   int width = static_cast<int>(values.shape(axes));
+  need(width >= 1 && width <= cfem::kMaxWidth, "values: 1 to 8 numbers per node expected");
   need(points.ndim() == 2 && points.shape(1) == axes, "points: shape (n, axes) expected");
   py::ssize_t n = points.shape(0);
   Array out({n, static_cast<py::ssize_t>(width)});

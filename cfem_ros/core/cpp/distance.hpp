@@ -320,11 +320,16 @@ inline int nearest(Vertex* y, int count, double* lambda) {
 
 // GJK between the cores of a and b: their distance, and their closest points
 // into ca, cb (world). 0 when the cores overlap (ca, cb then a common point, approximately).
+// guess (3, optional): a direction from b toward a to start from (the last call's, which
+// it is set to on return), so that a pair watched step after step starts near its answer.
 template <class P>
-inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb) {
+inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb,
+                  double* guess = nullptr) {
   Vertex y[4];
   double lambda[4] = {1.0, 0, 0, 0};
   Vec d = a.centre - b.centre;
+  if (guess && (guess[0] != 0.0 || guess[1] != 0.0 || guess[2] != 0.0))
+    d = {guess[0], guess[1], guess[2]};
   if (dot(d, d) == 0.0) d = {1.0, 0.0, 0.0};
   y[0].a = support(a, -1.0 * d);
   y[0].b = support(b, d);
@@ -375,6 +380,11 @@ inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb) {
   }
   ca = {0, 0, 0};
   cb = {0, 0, 0};
+  if (guess && vv > 0.0) {
+    guess[0] = v.x;
+    guess[1] = v.y;
+    guess[2] = v.z;
+  }
   if (count == 4) {   // the origin is inside: the cores overlap (no closest points)
     ca = y[0].a;
     cb = y[0].a;
@@ -393,7 +403,8 @@ inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb) {
 // overlap while the cores are apart; 0 when the cores themselves overlap), and
 // the closest points on each into pa, pb (world).
 template <class P>
-inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, double* pb) {
+inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, double* pb,
+                       double* guess = nullptr) {
   Vec ca, cb;
   bool overlap = false;
   bool a_segment = a.kind == kSphere || a.kind == kCapsule;
@@ -410,7 +421,7 @@ inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, doubl
     cb = b.centre;
     ca = box_point(a, cb);
   } else {
-    overlap = gjk(a, b, ca, cb) == 0.0;
+    overlap = gjk(a, b, ca, cb, guess) == 0.0;
   }
   Vec gap = ca - cb;
   double core = overlap ? 0.0 : std::sqrt(dot(gap, gap));
@@ -422,12 +433,13 @@ inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, doubl
 }
 
 // Distance between packed shapes on bodies at the given poses (rot row-major
-// body to world, position the CG, world); closest points into pa, pb (world).
+// body to world, position the CG, world); closest points into pa, pb (world); guess as gjk's.
 template <class P>
 inline double distance(const P& shape_a, const double* rot_a, const double* position_a,
                        const P& shape_b, const double* rot_b, const double* position_b,
-                       double* pa, double* pb) {
-  return distance(place(shape_a, rot_a, position_a), place(shape_b, rot_b, position_b), pa, pb);
+                       double* pa, double* pb, double* guess = nullptr) {
+  return distance(place(shape_a, rot_a, position_a), place(shape_b, rot_b, position_b), pa, pb,
+                  guess);
 }
 
 }  // namespace shapes

@@ -191,7 +191,13 @@ bool stroke_reached(const double* y, const Mat& loads, idx n) {
       if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
     }
     if (kind == KIND_CONTACT) {
-      bool apart = contact_gap(y, loads, row, n, nullptr) > CONTACT_GAP;
+      // the bounding spheres first: shapes far apart need no GJK
+      idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
+      double d0 = y[3 * a] - y[3 * b], d1 = y[3 * a + 1] - y[3 * b + 1];
+      double d2 = y[3 * a + 2] - y[3 * b + 2];
+      bool apart = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - loads(row, C_RADIUS_A)
+                       - loads(row, C_RADIUS_B) > CONTACT_GAP
+                   || contact_gap(y, loads, row, n, nullptr) > CONTACT_GAP;
       if (loads(row, S_ON) > 0.0 && !apart) return true;
       if (apart) loads(row, S_ON) = 1.0;   // apart again: watched again
     }
@@ -209,7 +215,7 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
   double* p = points ? points : scratch;
   return shapes::distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
                           y + 3 * a, Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))},
-                          rot_b, y + 3 * b, p, p + 3);
+                          rot_b, y + 3 * b, p, p + 3, loads.row(row) + C_GUESS);
 }
 
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,

@@ -26,9 +26,11 @@ constexpr int TABLE_NONE = 0, TABLE_TIME = 1, TABLE_STROKE = 2;
 constexpr int A_BODY = 0, A_CARRIER = 1, A_FIRST = 12;
 constexpr double KIND_SCHEDULED = 1.0, KIND_TABLE = 2.0, KIND_AERO = 3.0, KIND_SCRATCH = 4.0;
 // Contact rows (KIND_CONTACT): the two bodies, armed (S_ON: 1.0 while the shapes are apart),
-// the first rows of their packed shapes (distance.hpp, 23 numbers a row).
+// the first rows of their packed shapes (distance.hpp, 23 numbers a row), GJK's last
+// direction (3, its warm start), each shape's bounding radius about its body's CG (m).
 constexpr double KIND_CONTACT = 5.0;
-constexpr int C_A = 0, C_B = 1, C_SHAPE_A = 4, C_SHAPE_B = 5;
+constexpr int C_A = 0, C_B = 1, C_SHAPE_A = 4, C_SHAPE_B = 5, C_GUESS = 6, C_RADIUS_A = 9,
+              C_RADIUS_B = 10;
 // A contact is reached when the shapes are this close, m (GJK's own tolerance, 1e-12 m, is
 // below it: the time it costs is this over the approach speed).
 constexpr double CONTACT_GAP = 1e-10;

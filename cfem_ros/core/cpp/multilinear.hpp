@@ -12,18 +12,36 @@ namespace cfem {
 
 //: Most axes of an interpolated grid (alpha, beta, Mach; or dx .. dpsi, Mach).
 constexpr int kMaxAxes = 8;
+//: Most numbers per node of an interpolated table (six coefficients).
+constexpr int kMaxWidth = 8;
 
 // Reads a packed table: p[k] its k-th number. Flat: a plain array; Rows: the table
 // kept in the first kRowData columns of rows of kRowWidth (loads.py's packed loads, whose
 // last column says what a row is).
+// read(k, count, out): numbers k .. k + count - 1 into out, one index computation.
 struct Flat {
   const double* data;
   double operator[](long k) const { return data[k]; }
+  void read(long k, int count, double* out) const {
+    for (int i = 0; i < count; ++i) out[i] = data[k + i];
+  }
 };
 constexpr long kRowWidth = 24, kRowData = 23;
 struct Rows {
   const double* data;
   double operator[](long k) const { return data[(k / kRowData) * kRowWidth + k % kRowData]; }
+  void read(long k, int count, double* out) const {
+    long row = k / kRowData, column = k % kRowData;
+    const double* at = data + row * kRowWidth + column;
+    for (int i = 0; i < count; ++i) {
+      if (column == kRowData) {   // on to the next row, past its kind column
+        column = 0;
+        ++at;
+      }
+      out[i] = *at++;
+      ++column;
+    }
+  }
 };
 
 // x between grid[at + i] and grid[at + i + 1] at fraction u in [0, 1]; held at the ends
@@ -86,8 +104,9 @@ inline void multilinear(int axes, const int* sizes, const P& p, long grids, long
       }
     }
     if (weight == 0.0) continue;
-    long node = values + at * width;
-    for (int k = 0; k < width; ++k) out[k] += weight * p[node + k];
+    double node[kMaxWidth];
+    p.read(values + at * width, width, node);
+    for (int k = 0; k < width; ++k) out[k] += weight * node[k];
   }
 }
 
