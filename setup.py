@@ -21,27 +21,31 @@ except ImportError:   # colcon runs setup.py without build isolation
 
 package_name = 'cfem_ros'
 CPP = os.path.join('cfem_ros', 'core', 'cpp')
-#: The crossing search (kernel.locate) rounds as the Python search does: no
-#: contraction of a * b + c into fused multiply-adds in its file.
-EXACT = ('events.cpp',)
+#: Flags of some sources beyond the others': the crossing search (kernel.locate) rounds
+#: as the Python search does, with no contraction of a * b + c into fused multiply-adds.
+SOURCE_FLAGS = {'events.cpp': ['-ffp-contract=off']}
 #: The instruction set: the build machine's own by default, like any source build;
 #: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
 ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
-FLAGS = ['-O3', '-fno-math-errno', '-Wall'] + ([f'-march={ARCH}'] if ARCH else [])
+#: -O3 without GCC's vectorizer: its vector code fuses multiply-adds other than those
+#: of the numba build (LLVM), whose numbers this build keeps (docs/guide/compiled-core.md).
+FLAGS = ['-O3', '-fno-math-errno', '-fno-tree-vectorize', '-fno-tree-slp-vectorize', '-Wall']
+FLAGS += [f'-march={ARCH}'] if ARCH else []
 
 
 class BuildCore(build_ext):
-    """pybind11's build_ext, compiling the EXACT sources with -ffp-contract=off."""
+    """pybind11's build_ext, compiling the sources of SOURCE_FLAGS with their flags."""
 
     def build_extension(self, ext):
-        """Compile the exact sources with their flag, then the rest and the link."""
-        exact = [s for s in ext.sources if os.path.basename(s) in EXACT]
-        if exact:
+        """Compile the sources with flags of their own, then the rest and the link."""
+        for name, flags in SOURCE_FLAGS.items():
+            sources = [s for s in ext.sources if os.path.basename(s) == name]
+            if not sources:
+                continue
             objects = self.compiler.compile(
-                exact, output_dir=self.build_temp, include_dirs=ext.include_dirs,
-                extra_postargs=ext.extra_compile_args + ['-ffp-contract=off'],
-                depends=ext.depends)
-            ext.sources = [s for s in ext.sources if s not in exact]
+                sources, output_dir=self.build_temp, include_dirs=ext.include_dirs,
+                extra_postargs=ext.extra_compile_args + flags, depends=ext.depends)
+            ext.sources = [s for s in ext.sources if s not in sources]
             ext.extra_objects = list(ext.extra_objects or []) + objects
         super().build_extension(ext)
 
@@ -100,6 +104,7 @@ setup(
         # separation studies (cfem-sim sweep / summarize, cfem_ros.study)
         'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14'],
         'test': [
+            'pybind11>=2.10',   # colcon build runs setup.py without build isolation
             'pytest',
             'hypothesis',
             'rosbags>=0.10',

@@ -14,7 +14,7 @@ import time
 from typing import Optional
 
 from cfem_ros.console import exit_now, Interrupted, quiet_broken_pipe
-from cfem_ros.core import kernel, rotations
+from cfem_ros.core import rotations
 from cfem_ros.core.aero import describe as describe_aero
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError

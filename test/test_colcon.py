@@ -1,6 +1,11 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""The package builds with colcon in a workspace, and what it installs runs."""
+"""
+The package builds with colcon in a workspace and with pip in a clean venv; both run.
+
+Both compile the C++ core (``cfem_ros.core._kernel``) with the system
+compiler: a scenario runs right after, with nothing compiled at run time.
+"""
 
 import os
 import pathlib
@@ -11,14 +16,28 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'runs', '__pycache__',
+                                '*.egg-info', '.pytest_cache', '*.so')
+
+
+def _run_a_scenario(python, env, folder, name):
+    """Run and record a shipped scenario with python (a fresh process), and check it ran."""
+    out = folder / f'{name}.mcap'
+    code = ('import sys; from cfem_ros import cli; '
+            'status = cli.main(sys.argv[1:]); '
+            "assert 'numba' not in sys.modules; sys.exit(status)")
+    done = subprocess.run([python, '-c', code, 'run', str(ROOT / 'config' / f'{name}.yaml'),
+                           '-o', str(out)], capture_output=True, text=True, env=env,
+                          cwd=folder, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert 'release pivot at t = 0.280158914 s' in done.stdout, done.stdout
+    assert out.stat().st_size > 10_000
 
 
 @pytest.mark.slow
 def test_colcon_build_installs_a_working_package(tmp_path):
     source = tmp_path / 'src' / 'cfem_ros'
-    ignore = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'runs',
-                                    '__pycache__', '*.egg-info', '.pytest_cache')
-    shutil.copytree(ROOT, source, ignore=ignore)
+    shutil.copytree(ROOT, source, ignore=IGNORE)
     colcon = pathlib.Path(sys.executable).parent / 'colcon'
     build = subprocess.run([str(colcon), 'build'], cwd=tmp_path, capture_output=True,
                            text=True, timeout=600)
@@ -32,25 +51,10 @@ def test_colcon_build_installs_a_working_package(tmp_path):
     script = prefix / 'lib' / 'cfem_ros' / 'cfem-sim'
     assert script.is_file()
     site = next(prefix.glob('lib/python3*/site-packages'))
+    # the build compiled the core: the install holds the extension, ready at once
+    assert list((site / 'cfem_ros' / 'core').glob('_kernel*.so'))
     env = dict(os.environ, PYTHONPATH=str(site))
-    # what the README asks of a colcon install: compile the numerical core once. Its
-    # result, the kernel compiled ahead of time for these sources on this machine, is
-    # what make built in the source tree: put in the install, it must be taken (the
-    # installed sources hash to it). Compiling takes minutes and is tested on its own
-    # (test/core/test_warmup.py, test_aot.py); without a build, the JIT compiles here
-    core = ROOT / 'cfem_ros' / 'core'
-    built = sorted(core.glob('_kernel_aot*.so'))
-    if built and (core / '_kernel_aot.json').is_file():
-        for path in (built[0], core / '_kernel_aot.json'):
-            shutil.copy2(path, site / 'cfem_ros' / 'core')
-        expected = 'numerical core compiled ahead of time'
-    else:
-        env['CFEM_ROS_JIT'] = '1'
-        expected = 'numerical core compiled'
-    warm = subprocess.run([sys.executable, '-m', 'cfem_ros.core.warmup'], capture_output=True,
-                          text=True, env=env, cwd=tmp_path, timeout=900)
-    assert warm.returncode == 0, warm.stderr
-    assert expected in warm.stderr, warm.stderr
+    _run_a_scenario(sys.executable, env, tmp_path, 'store_separation')
     check = subprocess.run([sys.executable, str(script), 'check',
                             str(share / 'config' / 'store_separation.yaml')],
                            capture_output=True, text=True, env=env, timeout=120)
@@ -67,3 +71,23 @@ def test_colcon_build_installs_a_working_package(tmp_path):
                          capture_output=True, text=True, env=env, timeout=120)
     assert run.returncode == 0, run.stdout + run.stderr
     assert 'run complete at t = 0.2 s' in run.stdout + run.stderr
+
+
+@pytest.mark.slow
+def test_pip_install_in_a_clean_venv_builds_the_core(tmp_path):
+    source = tmp_path / 'cfem_ros'
+    shutil.copytree(ROOT, source, ignore=IGNORE)
+    venv = tmp_path / 'venv'
+    subprocess.run([sys.executable, '-m', 'venv', str(venv)], check=True, timeout=120)
+    python = venv / 'bin' / 'python'
+    # the package alone (its build requirements, setuptools and pybind11, come from the
+    # index into pip's isolated build environment); the run's dependencies (numpy,
+    # mcap ...) are this environment's, found after the new venv's own packages
+    build = subprocess.run([str(python), '-m', 'pip', 'install', '-q', '--no-deps', str(source)],
+                           capture_output=True, text=True, timeout=600)
+    assert build.returncode == 0, build.stdout + build.stderr
+    site = next(venv.glob('lib/python3*/site-packages'))
+    assert list((site / 'cfem_ros' / 'core').glob('_kernel*.so'))
+    here = next(pathlib.Path(sys.prefix).glob('lib/python3*/site-packages'))
+    (site / 'dependencies.pth').write_text(f'{here}\n')
+    _run_a_scenario(str(python), dict(os.environ, PYTHONPATH=''), tmp_path, 'store_separation')

@@ -5,9 +5,9 @@ What ``cfem-sim run`` imports: only what a run uses, since its start-up is its i
 
 A run of a shipped scenario takes milliseconds; the process around it is
 mostly imports. These tests run the command in a fresh process and list
-the modules it loaded: the compiler (numba), scipy, the MCAP reader, the
-figures, the study tools, ROS and the compiler's warm-up must not be among
-them, while the run still records.
+the modules it loaded: a JIT compiler (numba, llvmlite: the core is a C++
+extension), scipy, the MCAP reader, the figures, the study tools and ROS
+must not be among them, while the run still records.
 """
 
 import pathlib
@@ -28,13 +28,13 @@ sys.exit(status)
 
 #: Modules a run does not use, by what they are for.
 UNUSED = {
-    'numba': 'the JIT (the kernel is an extension module)',
+    'numba': 'a JIT (the kernel is a C++ extension module)',
+    'llvmlite': "numba's compiler",
     'scipy': 'only for reading and analysing recordings',
     'matplotlib': 'figures (cfem-sim plot)',
     'mcap.reader': 'reading recordings (cfem-sim info, compare, --inputs)',
     'cfem_ros.recording.analysis': 'reading recordings',
-    'cfem_ros.core.warmup': "the JIT's warm-up (only without the extension)",
-    'subprocess': "the warm-up's build of the extension",
+    'subprocess': 'building anything',
     'dask': 'separation studies',
     'pandas': 'separation studies',
     'rclpy': 'the ROS 2 node',
@@ -53,17 +53,10 @@ def run_modules(tmp_path, scenario='store_separation.yaml'):
 
 def test_a_run_imports_only_what_it_uses(tmp_path):
     modules = run_modules(tmp_path)
-    assert {'cfem_ros.core.kernel', 'cfem_ros.recording.recorder', 'numpy', 'yaml'} <= modules
-    # without the extension (not built), the JIT and its warm-up are what a run uses
-    allowed = {'numba', 'cfem_ros.core.warmup'} - _ahead()
-    unused = {name: why for name, why in UNUSED.items() if name in modules - allowed}
+    assert {'cfem_ros.core.kernel', 'cfem_ros.core._kernel', 'cfem_ros.recording.recorder',
+            'numpy', 'yaml'} <= modules
+    unused = {name: why for name, why in UNUSED.items() if name in modules}
     assert not unused, f'a run imported modules it does not use: {unused}'
-
-
-def _ahead():
-    """Return the modules a run must not import because the kernel is compiled ahead."""
-    from cfem_ros.core import aot
-    return {'numba', 'cfem_ros.core.warmup'} if aot.load_extension() is not None else set()
 
 
 def test_runs_of_every_paper_scenario_import_no_more(tmp_path):
@@ -73,4 +66,4 @@ def test_runs_of_every_paper_scenario_import_no_more(tmp_path):
                      'store_separation_ejectors.yaml', 'store_separation_aero.yaml',
                      'store_release_from_pullup.yaml'):
         used = run_modules(tmp_path, scenario) & set(UNUSED)
-        assert used <= {'numba', 'cfem_ros.core.warmup'} - _ahead(), (scenario, used)
+        assert not used, (scenario, used)

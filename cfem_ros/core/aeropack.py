@@ -67,4 +67,3 @@ def start_in_carrier(model: Model, body: int, carrier: int) -> np.ndarray:
     b, c = model.bodies[body], model.bodies[carrier]
     rot = rotations.matrices(np.asarray(c.orientation_xyzw, dtype=float)[None])[0]
     return rot.T @ (np.asarray(b.position, dtype=float) - np.asarray(c.position, dtype=float))
-

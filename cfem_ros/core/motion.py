@@ -177,7 +177,7 @@ def _hermite_cubic(f0, d0, f1, d1, h):
 
 
 def _rate_matrix(r) -> np.ndarray:
-    """Return the matrix of ``cpp/motion.cpp``'s rate: body rates = it @ the rotation vector's rate."""
+    """Return body rates over the rotation vector's rate (``cpp/motion.cpp``'s ``rate``)."""
     theta = float(np.linalg.norm(r))
     if theta > 1e-4:
         k1 = (1.0 - math.cos(theta)) / theta ** 2

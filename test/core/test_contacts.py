@@ -89,8 +89,9 @@ def tumbling_reference(position, velocity, rpy_deg, rates, inertia, half, floor)
 
 def test_a_tumbling_box_hits_the_plate_when_dop853_says():
     half = np.array([0.5, 0.2, 0.1])
-    args = dict(position=[0.2, -0.1, 1.5], velocity=[0.4, 0.0, 0.5], rpy=[10.0, -25.0, 40.0],
-                rates=[3.0, -5.0, 2.0], inertia=(0.0333, 0.1733, 0.1933))
+    args = {'position': [0.2, -0.1, 1.5], 'velocity': [0.4, 0.0, 0.5],
+            'rpy': [10.0, -25.0, 40.0], 'rates': [3.0, -5.0, 2.0],
+            'inertia': (0.0333, 0.1733, 0.1933)}
     t_ref, corner = tumbling_reference(np.array(args['position']), np.array(args['velocity']),
                                        np.array(args['rpy']), np.array(args['rates']),
                                        args['inertia'], half, 0.1)

@@ -5,44 +5,32 @@ Real time: a sample's stamp is the ROS time at which it is published.
 
 The node runs in its own process; the test process notes the ROS time at
 which each pose arrives. The start stamp must be taken after all set-up, so
-set-up is made slow (a sleep hook, or in the long version an empty numba
-cache, which makes the first start compile for about a minute) and the
-stamps must still be on ROS time. An input takes effect at the simulated
+set-up is made slow (a sleep hook) and the stamps must still be on ROS
+time. An input takes effect at the simulated
 time of its arrival.
 """
 
 import os
 import signal
 import statistics
-import tempfile
 
-import pytest
 from recordings import read_checked
 from rosharness import NodeProcess, stamp_ns
 from test_node import FREE_BODIES, MS, peer_factory, write_scenario  # noqa: F401
 
-LONG = os.environ.get('CFEM_LONG_TESTS') == '1'
 RATE_HZ = 100.0
 PERIOD_NS = int(1e9 / RATE_HZ)
 
 
-def _slow_set_up(kind):
-    env = dict(os.environ)
-    if kind == 'sleep':
-        env['CFEM_NODE_SETUP_DELAY'] = '2.0'
-    else:
-        env['NUMBA_CACHE_DIR'] = tempfile.mkdtemp(prefix='cfem-numba-')
-    return env
+def _slow_set_up():
+    return dict(os.environ, CFEM_NODE_SETUP_DELAY='2.0')
 
 
-@pytest.mark.parametrize('set_up', [
-    'sleep', pytest.param('cold_numba_cache', marks=pytest.mark.skipif(
-        not LONG, reason='compiles for about a minute; run with CFEM_LONG_TESTS=1'))])
 def test_stamps_are_ros_time_at_publication_and_inputs_act_on_arrival(
-        tmp_path, peer_factory, set_up):  # noqa: F811
+        tmp_path, peer_factory):  # noqa: F811
     scenario = write_scenario(tmp_path, FREE_BODIES)
     recording = tmp_path / 'rt.mcap'
-    node = NodeProcess(tmp_path, scenario, env=_slow_set_up(set_up), record=recording,
+    node = NodeProcess(tmp_path, scenario, env=_slow_set_up(), record=recording,
                        rate_hz=RATE_HZ, duration=0.0)
     try:
         peer = peer_factory(['ball', 'spinner'], [])
@@ -64,7 +52,7 @@ def test_stamps_are_ros_time_at_publication_and_inputs_act_on_arrival(
     # receipt minus stamp adds the transport and this process's own scheduling
     received_ms = statistics.median([(arrived - stamp_ns(m.header)) / 1e6 for arrived, m in zip(
         peer.arrivals['bodies/ball/pose'], poses)][20:])
-    print(f'{set_up}: publication - stamp over {len(delays_ms)} poses: median {median:.3f} ms, '
+    print(f'slow set-up: publication - stamp over {len(delays_ms)} poses: median {median:.3f} ms, '
           f'min {min(delays_ms):.3f} ms, max {max(delays_ms):.3f} ms; receipt - stamp: median '
           f'{received_ms:.3f} ms')
     assert len(delays_ms) >= 200

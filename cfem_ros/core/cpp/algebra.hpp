@@ -10,6 +10,20 @@
 
 namespace cfem {
 
+// x as it is, hidden from the compiler's contraction of a * b + c into a fused
+// multiply-add. LLVM (numba's compiler, whose numbers this build keeps) fuses a product
+// only into its single use; GCC also fuses a product that has several uses, in each of
+// them. A product with several uses (written twice, or kept in a variable) is passed
+// through kept() so that it is rounded once, as LLVM does. No instruction is emitted.
+inline double kept(double x) {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  __asm__("" : "+x"(x));
+#elif defined(__GNUC__) && defined(__aarch64__)
+  __asm__("" : "+w"(x));
+#endif
+  return x;
+}
+
 struct V3 {
   double x, y, z;
   double operator[](int k) const { return k == 0 ? x : (k == 1 ? y : z); }
@@ -27,11 +41,36 @@ inline V3 rotate(const double* m, double x, double y, double z) {
           m[6] * x + m[7] * y + m[8] * z};
 }
 
+// The products of a quaternion's components that its rotation matrix uses, each used
+// twice or more (kept: see kept()).
+struct Products {
+  double x, y, z, w;
+  double xx, yy, zz, xy, xz, yz, wx, wy, wz;
+};
+
+inline Products products(double x, double y, double z, double w) {
+  return {x, y, z, w, kept(x * x), kept(y * y), kept(z * z), kept(x * y), kept(x * z),
+          kept(y * z), kept(w * x), kept(w * y), kept(w * z)};
+}
+
+// R a (R^T a if inverse), R = [[1 - 2 (yy + zz), 2 (xy - wz), 2 (xz + wy)], ...] the matrix
+// of a unit quaternion, written out as numba's kernel writes it.
+inline V3 unit_turn(const Products& p, double a0, double a1, double a2, bool inverse) {
+  double r00 = 1 - 2 * (p.yy + p.zz), r01 = 2 * (p.xy - p.wz), r02 = 2 * (p.xz + p.wy);
+  double r10 = 2 * (p.xy + p.wz), r11 = 1 - 2 * (p.xx + p.zz), r12 = 2 * (p.yz - p.wx);
+  double r20 = 2 * (p.xz - p.wy), r21 = 2 * (p.yz + p.wx), r22 = 1 - 2 * (p.xx + p.yy);
+  if (inverse)
+    return {r00 * a0 + r10 * a1 + r20 * a2, r01 * a0 + r11 * a1 + r21 * a2,
+            r02 * a0 + r12 * a1 + r22 * a2};
+  return {r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
+          r20 * a0 + r21 * a1 + r22 * a2};
+}
+
 // Rotation matrix of the quaternion (x, y, z, w) of any non-zero norm.
 inline void quat_matrix(double x, double y, double z, double w, double* out) {
-  double xx = x * x, yy = y * y, zz = z * z;
-  double xy = x * y, xz = x * z, yz = y * z;
-  double wx = w * x, wy = w * y, wz = w * z;
+  double xx = kept(x * x), yy = kept(y * y), zz = kept(z * z);
+  double xy = kept(x * y), xz = kept(x * z), yz = kept(y * z);
+  double wx = kept(w * x), wy = kept(w * y), wz = kept(w * z);
   double s = 2.0 / (xx + yy + zz + w * w);
   out[0] = 1 - s * (yy + zz);
   out[1] = s * (xy - wz);

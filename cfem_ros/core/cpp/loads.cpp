@@ -21,14 +21,14 @@ void turn(const double* rot, const double* v, double* out) {
 // Body i's CG plus its rotation (from its quaternion in y) applied to p.
 V3 carried(const double* y, idx n, idx i, double px, double py, double pz) {
   idx o = 6 * n + 4 * i;
-  double x = y[o], yy = y[o + 1], z = y[o + 2], w = y[o + 3];
-  double s = 2.0 / (x * x + yy * yy + z * z + w * w);
-  return {y[3 * i] + (1 - s * (yy * yy + z * z)) * px + s * (x * yy - w * z) * py
-              + s * (x * z + w * yy) * pz,
-          y[3 * i + 1] + s * (x * yy + w * z) * px + (1 - s * (x * x + z * z)) * py
-              + s * (yy * z - w * x) * pz,
-          y[3 * i + 2] + s * (x * z - w * yy) * px + s * (yy * z + w * x) * py
-              + (1 - s * (x * x + yy * yy)) * pz};
+  Products p = products(y[o], y[o + 1], y[o + 2], y[o + 3]);
+  double s = 2.0 / (p.xx + p.yy + p.zz + p.w * p.w);
+  return {y[3 * i] + (1 - s * (p.yy + p.zz)) * px + s * (p.xy - p.wz) * py
+              + s * (p.xz + p.wy) * pz,
+          y[3 * i + 1] + s * (p.xy + p.wz) * px + (1 - s * (p.xx + p.zz)) * py
+              + s * (p.yz - p.wx) * pz,
+          y[3 * i + 2] + s * (p.xz - p.wy) * px + s * (p.yz + p.wx) * py
+              + (1 - s * (p.xx + p.yy)) * pz};
 }
 
 // Force and moment of the row's table at x into out (6), linear, held beyond its ends.
@@ -161,18 +161,18 @@ void stage_time(const Mat& loads, idx n, double offset) {
 void rotations(const double* y, idx n, double* rot) {
   for (idx i = 0; i < n; ++i) {
     idx o = 6 * n + 4 * i;
-    double x = y[o], yy = y[o + 1], z = y[o + 2], w = y[o + 3];
-    double s = 2.0 / (x * x + yy * yy + z * z + w * w);
+    Products p = products(y[o], y[o + 1], y[o + 2], y[o + 3]);
+    double s = 2.0 / (p.xx + p.yy + p.zz + p.w * p.w);
     double* r = rot + 9 * i;
-    r[0] = 1 - s * (yy * yy + z * z);
-    r[1] = s * (x * yy - w * z);
-    r[2] = s * (x * z + w * yy);
-    r[3] = s * (x * yy + w * z);
-    r[4] = 1 - s * (x * x + z * z);
-    r[5] = s * (yy * z - w * x);
-    r[6] = s * (x * z - w * yy);
-    r[7] = s * (yy * z + w * x);
-    r[8] = 1 - s * (x * x + yy * yy);
+    r[0] = 1 - s * (p.yy + p.zz);
+    r[1] = s * (p.xy - p.wz);
+    r[2] = s * (p.xz + p.wy);
+    r[3] = s * (p.xy + p.wz);
+    r[4] = 1 - s * (p.xx + p.zz);
+    r[5] = s * (p.yz - p.wx);
+    r[6] = s * (p.xz - p.wy);
+    r[7] = s * (p.yz + p.wx);
+    r[8] = 1 - s * (p.xx + p.yy);
   }
 }
 

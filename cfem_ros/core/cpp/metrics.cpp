@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "algebra.hpp"
+
 namespace cfem {
 
 namespace {
@@ -12,15 +14,12 @@ namespace {
 void world_points(const double* position, const double* quat, const Mat& points, double* out) {
   double norm = std::sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2]
                           + quat[3] * quat[3]);
-  double x = quat[0] / norm, y = quat[1] / norm, z = quat[2] / norm, w = quat[3] / norm;
-  double r00 = 1.0 - 2.0 * (y * y + z * z), r01 = 2.0 * (x * y - w * z), r02 = 2.0 * (x * z + w * y);
-  double r10 = 2.0 * (x * y + w * z), r11 = 1.0 - 2.0 * (x * x + z * z), r12 = 2.0 * (y * z - w * x);
-  double r20 = 2.0 * (x * z - w * y), r21 = 2.0 * (y * z + w * x), r22 = 1.0 - 2.0 * (x * x + y * y);
+  Products p = products(quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm);
   for (idx i = 0; i < points.rows; ++i) {
-    double px = points(i, 0), py = points(i, 1), pz = points(i, 2);
-    out[3 * i] = position[0] + (r00 * px + r01 * py + r02 * pz);
-    out[3 * i + 1] = position[1] + (r10 * px + r11 * py + r12 * pz);
-    out[3 * i + 2] = position[2] + (r20 * px + r21 * py + r22 * pz);
+    V3 r = unit_turn(p, points(i, 0), points(i, 1), points(i, 2), false);
+    out[3 * i] = position[0] + r.x;
+    out[3 * i + 1] = position[1] + r.y;
+    out[3 * i + 2] = position[2] + r.z;
   }
 }
 

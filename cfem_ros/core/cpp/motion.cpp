@@ -113,26 +113,16 @@ void table(const Mat& bodies, idx i, double t, double* y, idx n) {
   double a1 = linear.y + dp * (n1 * cp.y + n2 * ccp.y) + k2 * dccp.y;
   double a2 = linear.z + dp * (n1 * cp.z + n2 * ccp.z) + k2 * dccp.z;
   // world angular acceleration: R alpha_body (the w x w term is zero)
-  double x = y[6 * n + 4 * i], yy = y[6 * n + 4 * i + 1], z = y[6 * n + 4 * i + 2],
-         ww = y[6 * n + 4 * i + 3];
-  bodies(i, M_ACC + 3) = (1 - 2 * (yy * yy + z * z)) * a0 + 2 * (x * yy - ww * z) * a1
-                         + 2 * (x * z + ww * yy) * a2;
-  bodies(i, M_ACC + 4) = 2 * (x * yy + ww * z) * a0 + (1 - 2 * (x * x + z * z)) * a1
-                         + 2 * (yy * z - ww * x) * a2;
-  bodies(i, M_ACC + 5) = 2 * (x * z - ww * yy) * a0 + 2 * (yy * z + ww * x) * a1
-                         + (1 - 2 * (x * x + yy * yy)) * a2;
+  const double* unit = y + 6 * n + 4 * i;
+  V3 world = unit_turn(products(unit[0], unit[1], unit[2], unit[3]), a0, a1, a2, false);
+  bodies(i, M_ACC + 3) = world.x;
+  bodies(i, M_ACC + 4) = world.y;
+  bodies(i, M_ACC + 5) = world.z;
 }
 
 // R a (R^T a if inverse), R the matrix of the unit quaternion (x, y, z, w).
 V3 turn(double x, double y, double z, double w, double a0, double a1, double a2, bool inverse) {
-  double r00 = 1 - 2 * (y * y + z * z), r01 = 2 * (x * y - w * z), r02 = 2 * (x * z + w * y);
-  double r10 = 2 * (x * y + w * z), r11 = 1 - 2 * (x * x + z * z), r12 = 2 * (y * z - w * x);
-  double r20 = 2 * (x * z - w * y), r21 = 2 * (y * z + w * x), r22 = 1 - 2 * (x * x + y * y);
-  if (inverse)
-    return {r00 * a0 + r10 * a1 + r20 * a2, r01 * a0 + r11 * a1 + r21 * a2,
-            r02 * a0 + r12 * a1 + r22 * a2};
-  return {r00 * a0 + r01 * a1 + r02 * a2, r10 * a0 + r11 * a1 + r12 * a2,
-          r20 * a0 + r21 * a1 + r22 * a2};
+  return unit_turn(products(x, y, z, w), a0, a1, a2, inverse);
 }
 
 }  // namespace

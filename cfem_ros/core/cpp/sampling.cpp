@@ -51,20 +51,17 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
     idx o = 13 * i, q = 6 * n + 4 * i;
     double norm = std::sqrt(y[q] * y[q] + y[q + 1] * y[q + 1] + y[q + 2] * y[q + 2]
                             + y[q + 3] * y[q + 3]);
-    double x = y[q] / norm, yy = y[q + 1] / norm, z = y[q + 2] / norm, w = y[q + 3] / norm;
+    Products p = products(y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm);
     // R^T v with R the body-to-world matrix of the unit quaternion
-    double v0 = y[3 * n + 3 * i], v1 = y[3 * n + 3 * i + 1], v2 = y[3 * n + 3 * i + 2];
+    V3 body = unit_turn(p, y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2], true);
     for (int c = 0; c < 3; ++c) {
       out[o + c] = y[3 * i + c];
       out[o + 10 + c] = y[10 * n + 3 * i + c];
     }
     for (int c = 0; c < 4; ++c) out[o + 3 + c] = y[q + c];
-    out[o + 7] = (1 - 2 * (yy * yy + z * z)) * v0 + 2 * (x * yy + w * z) * v1
-                 + 2 * (x * z - w * yy) * v2;
-    out[o + 8] = 2 * (x * yy - w * z) * v0 + (1 - 2 * (x * x + z * z)) * v1
-                 + 2 * (yy * z + w * x) * v2;
-    out[o + 9] = 2 * (x * z + w * yy) * v0 + 2 * (yy * z - w * x) * v1
-                 + (1 - 2 * (x * x + yy * yy)) * v2;
+    out[o + 7] = body.x;
+    out[o + 8] = body.y;
+    out[o + 9] = body.z;
   }
   if (s.loads.rows > n)  // the scheduled wrenches' applied loads, after the joints'
     loads::sample_applied(y, s.bodies, s.loads, out + 13 * n + 6 * k, v.sample_rot,

@@ -185,15 +185,17 @@ inline void shift_add(const double* x, const double* z, const double* y, idx c, 
   double c00 = X(3, 3), c01 = X(3, 4), c02 = X(3, 5), c11 = X(4, 4), c12 = X(4, 5),
          c22 = X(5, 5);
   // B' = B - A S with S = [[0, -r2, r1], [r2, 0, -r0], [-r1, r0, 0]]
-  double p00 = b00 - (a01 * r2 - a02 * r1);
+  // the products used twice, rounded once (kept(): as numba's compiler fuses them)
+  double a01r2 = kept(a01 * r2), a02r1 = kept(a02 * r1), a12r0 = kept(a12 * r0);
+  double p00 = b00 - (a01r2 - a02r1);
   double p01 = b01 - (a02 * r0 - a00 * r2);
   double p02 = b02 - (a00 * r1 - a01 * r0);
   double p10 = b10 - (a11 * r2 - a12 * r1);
-  double p11 = b11 - (a12 * r0 - a01 * r2);
+  double p11 = b11 - (a12r0 - a01r2);
   double p12 = b12 - (a01 * r1 - a11 * r0);
   double p20 = b20 - (a12 * r2 - a22 * r1);
   double p21 = b21 - (a22 * r0 - a02 * r2);
-  double p22 = b22 - (a02 * r1 - a12 * r0);
+  double p22 = b22 - (a02r1 - a12r0);
   double q00 = r1 * p20 - r2 * p10, q10 = r2 * p00 - r0 * p20, q20 = r0 * p10 - r1 * p00;
   double q01 = r1 * p21 - r2 * p11, q11 = r2 * p01 - r0 * p21, q21 = r0 * p11 - r1 * p01;
   double q02 = r1 * p22 - r2 * p12, q12 = r2 * p02 - r0 * p22, q22 = r0 * p12 - r1 * p02;

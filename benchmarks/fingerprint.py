@@ -1,0 +1,157 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Fingerprints of every shipped scenario, compared between two builds of the core.
+
+A fingerprint is, at 8 times evenly spread over a scenario's run (its own
+duration, or --duration if shorter), the state y, every joint's load (force and
+moment) and the outputs a sample publishes. ``--dump FILE`` writes this
+interpreter's fingerprints as JSON (floats written exactly); ``--reference
+PYTHON --reference-tree DIR`` dumps them with this build and with another
+(e.g. the numba build's venv and its checkout) and prints, per scenario, the
+largest difference relative to the size of the quantity (the largest
+magnitude of that state, load or output vector at that time), the place where
+it occurs, and whether it is within --tolerance.
+
+Usage:
+  .venv/bin/python benchmarks/fingerprint.py --reference ../numba-ref/.venv/bin/python \
+      --reference-tree ../numba-ref
+"""
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TIMES = 8
+
+
+def scenarios(root: pathlib.Path) -> list:
+    """Return the shipped scenario files (config/*.yaml and config/joints/*.yaml)."""
+    found = sorted((root / 'config').glob('*.yaml')) + sorted(
+        (root / 'config' / 'joints').glob('*.yaml'))
+    return [p for p in found if not p.name.endswith('.params.yaml')]
+
+
+def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
+    """
+    Return {'times', 'state', 'loads', 'outputs'}: lists of 8 vectors each.
+
+    With ulp, the largest CG coordinate of a free body in the initial state is moved
+    by one unit in the last place: how far one rounding carries in this scenario.
+    """
+    import numpy as np
+
+    from cfem_ros import load_scenario, Simulator
+
+    model = load_scenario(str(path))
+    end = min(model.duration, duration)
+    sim = Simulator(model)
+    if ulp:
+        coordinates = np.flatnonzero(np.repeat(sim.free, 3))
+        if coordinates.size:
+            k = coordinates[np.argmax(np.abs(sim.y[coordinates]))]
+            sim.y[k] = np.nextafter(sim.y[k], np.inf)
+    out = {'times': [], 'state': [], 'loads': [], 'outputs': []}
+    for k in range(1, TIMES + 1):
+        t = end * k / TIMES
+        sim.advance_to(t)
+        sim.release_due()
+        force, moment = sim.joint_wrenches()
+        out['times'].append(sim.t)
+        out['state'].append(sim.y.tolist())
+        out['loads'].append(np.concatenate([force.ravel(), moment.ravel()]).tolist())
+        out['outputs'].append(sim.outputs().tolist())
+    return out
+
+
+def dump(target: str, duration: float, ulp: bool = False):
+    """Write this build's fingerprints of the shipped scenarios to target (JSON)."""
+    result = {}
+    for path in scenarios(ROOT):
+        try:
+            result[path.stem] = fingerprint(path, duration, ulp)
+        except Exception as err:   # a scenario this build cannot run: reported, not fatal
+            result[path.stem] = {'error': f'{type(err).__name__}: {err}'}
+    with open(target, 'w', encoding='utf-8') as handle:
+        json.dump(result, handle)
+
+
+def largest_difference(a: dict, b: dict):
+    """Return (relative difference, where) over the quantities of two fingerprints."""
+    worst, where = 0.0, ''
+    for key in ('state', 'loads', 'outputs'):
+        for k, (va, vb) in enumerate(zip(a[key], b[key])):
+            if len(va) != len(vb):
+                return math.inf, f'{key} at sample {k}: lengths {len(va)} and {len(vb)}'
+            scale = max([abs(x) for x in va + vb] + [1e-300])
+            for i, (x, y) in enumerate(zip(va, vb)):
+                if math.isnan(x) and math.isnan(y):
+                    continue
+                diff = abs(x - y) / scale
+                if not diff <= worst:
+                    worst, where = diff, f'{key}[{i}] at t = {a["times"][k]:.6g} s'
+    return worst, where
+
+
+def run(python: str, tree: pathlib.Path, duration: float, folder: str, name: str,
+        ulp: bool = False) -> dict:
+    """Dump the fingerprints with python in tree (its own checkout); return them."""
+    target = os.path.join(folder, f'{name}.json')
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    subprocess.run([python, str(pathlib.Path(__file__).resolve()), '--dump', target,
+                    '--duration', str(duration)] + (['--ulp'] if ulp else []), cwd=tree,
+                   env=env, check=True)
+    with open(target, encoding='utf-8') as handle:
+        return json.load(handle)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
+    parser.add_argument('--dump', help="write this build's fingerprints to this JSON file")
+    parser.add_argument('--reference', help="the other build's Python interpreter")
+    parser.add_argument('--reference-tree', help="the other build's checkout")
+    parser.add_argument('--duration', type=float, default=math.inf,
+                        help='simulate at most this long, s')
+    parser.add_argument('--tolerance', type=float, default=1e-12)
+    parser.add_argument('--ulp', action='store_true',
+                        help='move one initial CG coordinate by one unit in the last place')
+    args = parser.parse_args()
+    if args.dump:
+        dump(args.dump, args.duration, args.ulp)
+        return 0
+    if not (args.reference and args.reference_tree):
+        parser.error('give --dump, or --reference and --reference-tree')
+    with tempfile.TemporaryDirectory() as folder:
+        mine = run(sys.executable, ROOT, args.duration, folder, 'this')
+        theirs = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
+                     args.duration, folder, 'reference')
+        # the reference against itself with one initial coordinate moved by one ulp: how
+        # far a single rounding difference carries in each scenario
+        nudged = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
+                     args.duration, folder, 'nudged', ulp=True)
+    failed = 0
+    print(f'{"scenario":<28} {"this vs reference":>18} {"reference, 1 ulp":>17}  where')
+    for name in sorted(set(mine) | set(theirs)):
+        a, b = mine.get(name), theirs.get(name)
+        if a is None or b is None or 'error' in a or 'error' in b:
+            print(f'{name:<28} {"(not in both)":>18}  {a and a.get("error")} / '
+                  f'{b and b.get("error")}')
+            continue
+        worst, where = largest_difference(a, b)
+        own = largest_difference(b, nudged[name])[0] if 'error' not in nudged[name] else math.nan
+        ok = worst <= args.tolerance
+        failed += not ok
+        print(f'{name:<28} {worst:18.3g} {own:17.3g}  {where}'
+              f'{"" if ok else "  ABOVE TOLERANCE"}')
+    print(f'tolerance {args.tolerance:g}: {"all within" if not failed else f"{failed} above"}')
+    return 1 if failed else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
