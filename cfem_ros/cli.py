@@ -307,6 +307,10 @@ def cmd_info(recording: str) -> int:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
         print('  no release event')
+    for e in summary.events:
+        if e.get('event') == 'contact' and 'time' in e:
+            print(f'  contact {" ".join(e.get("bodies", ()))} at t = {e["time"]:.9f} s, '
+                  f'point {e.get("point")} m (world)')
     return EXIT_OK
 
 

@@ -391,6 +391,13 @@ class _Publishers:
     def events(self):
         for event in self.sim.events[self._events_sent:]:
             self.event_publisher.publish(String(data=json.dumps(event)))
+            if event['event'] == 'contact':
+                self.node.get_logger().warning(
+                    f"contact between {' and '.join(event['bodies'])} at t = "
+                    f"{event['time']:.9g} s, point {event['point']} (world, m)")
+                continue
+            if event['event'] != 'release':
+                continue
             self.node.get_logger().info(
                 f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
                 f"(cause: {event['cause']})")

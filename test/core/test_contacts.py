@@ -129,6 +129,8 @@ def test_run_exits_3_at_a_contact_with_a_complete_recording(tmp_path, capsys):
     lowest = 1.0 - 0.3 * math.sin(math.radians(30)) - 0.2
     assert abs(contact['time'] - fall_time(lowest - 0.1)) < TIME_TOLERANCE
     assert not any(e['event'] == 'error' for e in events)
+    assert cli.main(['info', str(out)]) == 0
+    assert f'contact body floor at t = {contact["time"]:.9f} s' in capsys.readouterr().out
 
 
 @pytest.mark.parametrize('change, key', [
