@@ -43,9 +43,10 @@ class Result:
     y : ndarray, shape (13 n,)
         Its final state (``Simulator.y``).
     events : list of dict
-        Its releases.
+        Its releases (and contacts).
     status : str
-        'ok' if the copy ran to its duration, 'failed' if it did not.
+        'ok' if the copy ran to its duration, 'contact' if it stopped at a
+        watched contact, 'failed' if it failed.
     message : str
         Why it failed, with the time ('' if ok).
     steps : int

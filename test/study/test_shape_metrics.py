@@ -84,3 +84,18 @@ def test_bad_distance_entries_are_refused_with_the_key_path(tmp_path, entry, key
     with pytest.raises(SweepError) as err:
         sweep(tmp_path, {'distance': [entry]})
     assert key in str(err.value)
+
+
+def test_summarize_gives_the_sweeps_numbers_from_a_recording(tmp_path):
+    from cfem_ros import cli
+    from cfem_ros.study.summarize import summarize_file
+    metrics = {'distance': [{'bodies': ['store', 'pylon'], 'from': {'release': 'hook'}},
+                            {'bodies': ['store', 'floor']}]}
+    spec, row = sweep(tmp_path, metrics)
+    out = tmp_path / 'run.mcap'
+    assert cli.main(['run', str(tmp_path / 'scenario.yaml'), '-o', str(out)]) == 0
+    summary = summarize_file(str(out), spec.metrics)
+    assert summary['status'] == 'ok'
+    for column in spec.metrics.columns():
+        assert summary[column] == pytest.approx(row[column], abs=1e-12, nan_ok=True), column
+    assert summary['contact_store_floor_time'] > 0.1   # from the recorded contact event
