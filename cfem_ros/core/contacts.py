@@ -63,10 +63,10 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
     Returns
     -------
     distance : ndarray, shape (n,)
-        m; negative by the depth the radii of spheres and capsules overlap
-        while their cores are apart; 0 when the shapes overlap otherwise.
+        Signed, m: negative by the penetration depth when the shapes overlap
+        (the shortest translation that parts them; EPA's, ``cpp/distance.hpp``).
     points : ndarray, shape (n, 6)
-        The closest point on a, then on b, world, m.
+        The closest (or, overlapping, deepest) point on a, then on b, world, m.
 
     """
     from cfem_ros.core import native

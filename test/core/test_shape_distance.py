@@ -150,3 +150,32 @@ def test_the_bounding_radius_holds_the_shape_and_is_tight(name):
                                    directions * 0.7 * radius)
     assert inside.min() <= 1e-9   # some direction reaches 70 % of the radius (an offset
     # shape reaches less than its radius in most directions)
+
+
+#: Penetration depth (EPA) tolerances, m: exact up to GJK's for flat faces; a curved
+#: cylinder's surface is approached by EPA's facets (coal's own EPA too).
+DEPTH_TOLERANCE = {'cylinder': 1e-5}
+
+
+@pytest.mark.parametrize('a, b', [('box', 'box'), ('box', 'mesh'), ('mesh', 'mesh'),
+                                  ('capsule', 'box'), ('sphere', 'mesh'),
+                                  ('box', 'cylinder'), ('cylinder', 'mesh')])
+def test_penetration_depth_matches_coals_signed_distance(a, b):
+    count = 200
+    qa, qb = random_quaternions(count), random_quaternions(count)
+    direction = rng.standard_normal((count, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    pa = rng.uniform(-5, 5, (count, 3))
+    pb = pa + direction * rng.uniform(0.0, 0.6, (count, 1))   # mostly overlapping
+    ours, _ = contacts.distances(contacts.pack_shape(SHAPES[a]), qa, pa,
+                                 contacts.pack_shape(SHAPES[b]), qb, pb)
+    rot_a, rot_b = rotations.matrices(qa), rotations.matrices(qb)
+    tolerance = max(DEPTH_TOLERANCE.get(a, TOLERANCE), DEPTH_TOLERANCE.get(b, TOLERANCE))
+    deep = 0
+    for k in range(count):
+        theirs, _ = coal_distance(SHAPES[a], SHAPES[b], (rot_a[k], pa[k]), (rot_b[k], pb[k]))
+        if theirs is None or theirs > 0:
+            continue
+        deep += 1
+        assert abs(ours[k] - theirs) <= tolerance, (k, ours[k], theirs)
+    assert deep > count // 2

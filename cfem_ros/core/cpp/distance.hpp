@@ -9,7 +9,8 @@
 // point-box) and from GJK otherwise (Gilbert, Johnson and Keerthi 1988, with
 // the closest points of the simplex by Voronoi regions, Ericson 2005, ch. 5,
 // and the duality-gap stop of van den Bergen 2003: it stops when the distance
-// is known to kTolerance m). Pure functions over flat arrays; no allocation.
+// is known to kTolerance m); overlapping cores, by EPA's penetration depth.
+// Pure functions over flat arrays; no allocation.
 //
 // A packed shape (cfem_ros.core.contacts builds it) is kShapeHeader doubles:
 // kind, size (3), the shape's axes in the body's (row-major 3x3) and its
@@ -197,6 +198,10 @@ inline Vec box_point(const Placed<P>& s, Vec point) {
 
 struct Vertex { Vec w, a, b; };
 
+template <class P>
+inline double epa(const Placed<P>& a, const Placed<P>& b, const Vertex* simplex, Vec& ca,
+                  Vec& cb);
+
 // Reduce simplex y (count points) to the sub-simplex nearest the origin; its
 // barycentric weights into lambda. Returns the new count (4: the origin is inside).
 inline int nearest(Vertex* y, int count, double* lambda);
@@ -324,7 +329,7 @@ inline int nearest(Vertex* y, int count, double* lambda) {
 // it is set to on return), so that a pair watched step after step starts near its answer.
 template <class P>
 inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb,
-                  double* guess = nullptr) {
+                  double* guess = nullptr, double* depth = nullptr) {
   Vertex y[4];
   double lambda[4] = {1.0, 0, 0, 0};
   Vec d = a.centre - b.centre;
@@ -385,9 +390,18 @@ inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb,
     guess[1] = v.y;
     guess[2] = v.z;
   }
-  if (count == 4) {   // the origin is inside: the cores overlap (no closest points)
+  if (count == 4) {   // the origin is inside: the cores overlap
     ca = y[0].a;
     cb = y[0].a;
+    if (depth) {
+      Vec pa, pb;
+      double found = epa(a, b, y, pa, pb);
+      if (found >= 0.0) {
+        *depth = found;
+        ca = pa;
+        cb = pb;
+      }
+    }
     return 0.0;
   }
   for (int k = 0; k < count; ++k) {
@@ -397,16 +411,128 @@ inline double gjk(const Placed<P>& a, const Placed<P>& b, Vec& ca, Vec& cb,
   return std::sqrt(vv);
 }
 
+// ------------------------------------------------------------------ EPA
+
+constexpr int kEpaVertices = 96, kEpaFaces = 192, kEpaIterations = 80;
+
+struct Face { int v[3]; Vec n; double d; bool alive; };
+
+// Set a face's outward unit normal and its distance from the origin; false if degenerate.
+inline bool face_of(const Vertex* w, Face& f) {
+  Vec n = cross(w[f.v[1]].w - w[f.v[0]].w, w[f.v[2]].w - w[f.v[0]].w);
+  double len = std::sqrt(dot(n, n));
+  if (!(len > 0.0)) return false;
+  f.n = (1.0 / len) * n;
+  f.d = dot(f.n, w[f.v[0]].w);
+  if (f.d < 0.0) {   // wound inward: turn it
+    int t = f.v[1];
+    f.v[1] = f.v[2];
+    f.v[2] = t;
+    f.n = -1.0 * f.n;
+    f.d = -f.d;
+  }
+  f.alive = true;
+  return true;
+}
+
+// The expanding polytope algorithm (van den Bergen 2001) from GJK's tetrahedron around
+// the origin: the depth of the cores' overlap (the shortest translation that parts them,
+// m) and a witness point on each into ca, cb. -1 if the polytope degenerates (then the
+// caller keeps 0).
+template <class P>
+inline double epa(const Placed<P>& a, const Placed<P>& b, const Vertex* simplex, Vec& ca,
+                  Vec& cb) {
+  Vertex w[kEpaVertices];
+  Face f[kEpaFaces];
+  for (int k = 0; k < 4; ++k) w[k] = simplex[k];
+  int nv = 4, nf = 0;
+  static const int start[4][3] = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+  for (const auto& t : start) {
+    f[nf].v[0] = t[0];
+    f[nf].v[1] = t[1];
+    f[nf].v[2] = t[2];
+    if (!face_of(w, f[nf])) return -1.0;
+    ++nf;
+  }
+  for (int iteration = 0; iteration < kEpaIterations; ++iteration) {
+    int best = -1;
+    for (int k = 0; k < nf; ++k)
+      if (f[k].alive && (best < 0 || f[k].d < f[best].d)) best = k;
+    if (best < 0) return -1.0;
+    Face& near = f[best];
+    Vertex s;
+    s.a = support(a, near.n);
+    s.b = support(b, -1.0 * near.n);
+    s.w = s.a - s.b;
+    double reach = dot(s.w, near.n);
+    if (reach - near.d <= kTolerance || nv == kEpaVertices) {
+      // the origin's projection on the nearest face, in barycentric coordinates
+      Vec p = near.d * near.n;
+      Vec e0 = w[near.v[1]].w - w[near.v[0]].w, e1 = w[near.v[2]].w - w[near.v[0]].w;
+      Vec r = p - w[near.v[0]].w;
+      double d00 = dot(e0, e0), d01 = dot(e0, e1), d11 = dot(e1, e1);
+      double d20 = dot(r, e0), d21 = dot(r, e1), den = d00 * d11 - d01 * d01;
+      double l1 = den > 0.0 ? (d11 * d20 - d01 * d21) / den : 0.0;
+      double l2 = den > 0.0 ? (d00 * d21 - d01 * d20) / den : 0.0;
+      double l0 = 1.0 - l1 - l2;
+      ca = l0 * w[near.v[0]].a + l1 * w[near.v[1]].a + l2 * w[near.v[2]].a;
+      cb = l0 * w[near.v[0]].b + l1 * w[near.v[1]].b + l2 * w[near.v[2]].b;
+      return near.d;
+    }
+    // remove the faces the new point sees; their horizon's edges make the new faces
+    int edges[kEpaFaces][2], ne = 0;
+    for (int k = 0; k < nf; ++k) {
+      if (!f[k].alive || dot(f[k].n, s.w) - f[k].d <= 0.0) continue;
+      f[k].alive = false;
+      for (int e = 0; e < 3; ++e) {
+        int i = f[k].v[e], j = f[k].v[(e + 1) % 3];
+        bool shared = false;
+        for (int m = 0; m < ne; ++m) {
+          if (edges[m][0] == j && edges[m][1] == i) {   // seen from the other side: inside
+            edges[m][0] = edges[ne - 1][0];
+            edges[m][1] = edges[ne - 1][1];
+            --ne;
+            shared = true;
+            break;
+          }
+        }
+        if (!shared) {
+          if (ne == kEpaFaces) return -1.0;
+          edges[ne][0] = i;
+          edges[ne][1] = j;
+          ++ne;
+        }
+      }
+    }
+    w[nv] = s;
+    int live = 0;   // compact the faces still standing
+    for (int k = 0; k < nf; ++k)
+      if (f[k].alive) f[live++] = f[k];
+    nf = live;
+    if (nf + ne > kEpaFaces) return -1.0;
+    for (int m = 0; m < ne; ++m) {
+      f[nf].v[0] = edges[m][0];
+      f[nf].v[1] = edges[m][1];
+      f[nf].v[2] = nv;
+      if (face_of(w, f[nf])) ++nf;
+    }
+    ++nv;
+  }
+  return -1.0;
+}
+
 // ------------------------------------------------------------------ the distance
 
-// Distance between two placed shapes (m; negative: the depth by which the radii
-// overlap while the cores are apart; 0 when the cores themselves overlap), and
-// the closest points on each into pa, pb (world).
+// Signed distance between two placed shapes, m: negative by the penetration depth
+// (the shortest translation that parts them: the radii's overlap while the cores are
+// apart, EPA's depth plus the radii when the cores overlap; 0 if EPA degenerates), and
+// the closest points (or, overlapping, the deepest ones) on each into pa, pb (world).
 template <class P>
 inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, double* pb,
                        double* guess = nullptr) {
   Vec ca, cb;
   bool overlap = false;
+  double depth = 0.0;
   bool a_segment = a.kind == kSphere || a.kind == kCapsule;
   bool b_segment = b.kind == kSphere || b.kind == kCapsule;
   if (a_segment && b_segment) {
@@ -421,14 +547,18 @@ inline double distance(const Placed<P>& a, const Placed<P>& b, double* pa, doubl
     cb = b.centre;
     ca = box_point(a, cb);
   } else {
-    overlap = gjk(a, b, ca, cb, guess) == 0.0;
+    overlap = gjk(a, b, ca, cb, guess, &depth) == 0.0;
   }
   Vec gap = ca - cb;
   double core = overlap ? 0.0 : std::sqrt(dot(gap, gap));
   Vec n = core > 0.0 ? (1.0 / core) * gap : Vec{0.0, 0.0, 0.0};
+  if (overlap && depth > 0.0 && dot(gap, gap) > 0.0) {   // the witnesses' gap: a into b
+    n = (-1.0 / std::sqrt(dot(gap, gap))) * gap;
+  }
   Vec qa = ca - a.radius * n, qb = cb + b.radius * n;
   pa[0] = qa.x; pa[1] = qa.y; pa[2] = qa.z;
   pb[0] = qb.x; pb[1] = qb.y; pb[2] = qb.z;
+  if (overlap) return depth > 0.0 ? -depth - a.radius - b.radius : 0.0;
   return core > 0.0 ? core - a.radius - b.radius : 0.0;
 }
 
