@@ -85,8 +85,6 @@ setup(
         'mcap>=1.1',
         'mcap-ros2-support>=0.5',
         'matplotlib>=3.6',
-        # builds cfem_ros.core._aeroshapes (aerodynamic tables, shape distances; cpp/)
-        'pybind11>=2.10',
     ],
     extras_require={
         'ros': [

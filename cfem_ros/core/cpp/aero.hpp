@@ -114,11 +114,13 @@ inline void wrench(const P& p, const double* position, const double* velocity,
       count += prox_sizes[a];
     }
     const long prox_grids = table + 6L * sizes[0] * sizes[1] * sizes[2];
-    multilinear(axes, prox_sizes, p, prox_grids, prox_grids + count, 6, px, d);
     double weight = fade_weight(axes, prox_sizes, p, prox_grids, position_axis, px, p[kFade]);
-    for (int k = 0; k < 6; ++k) {
-      d[k] *= weight;
-      c[k] += d[k];
+    if (weight > 0.0) {   // faded out far from the carrier: nothing to interpolate
+      multilinear(axes, prox_sizes, p, prox_grids, prox_grids + count, 6, px, d);
+      for (int k = 0; k < 6; ++k) {
+        d[k] *= weight;
+        c[k] += d[k];
+      }
     }
   }
   double qs = 0.5 * density * speed * speed * p[kArea];
