@@ -14,7 +14,7 @@ import sys
 from setuptools import find_packages, setup
 
 try:
-    from pybind11.setup_helpers import build_ext, ParallelCompile, Pybind11Extension
+    from pybind11.setup_helpers import build_ext, has_flag, ParallelCompile, Pybind11Extension
 except ImportError:   # colcon runs setup.py without build isolation
     sys.exit('ERROR: building cfem_ros needs pybind11 (pip install pybind11, or apt install '
              'python3-pybind11; rosdep installs it from package.xml)')
@@ -27,10 +27,12 @@ SOURCE_FLAGS = {'events.cpp': ['-ffp-contract=off']}
 #: The instruction set: the build machine's own by default, like any source build;
 #: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
 ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
-#: -O3 without GCC's vectorizer: its vector code fuses multiply-adds other than those
-#: of the numba build (LLVM), whose numbers this build keeps (docs/guide/compiled-core.md).
-FLAGS = ['-O3', '-fno-math-errno', '-fno-tree-vectorize', '-fno-tree-slp-vectorize', '-Wall']
-FLAGS += [f'-march={ARCH}'] if ARCH else []
+#: -O3 without GCC's vectorizer, and without its tuning that splits chains of fused
+#: multiply-adds on some CPUs (AMD Zen): both fuse other multiply-adds than the numba
+#: build (LLVM) did, whose numbers this build keeps (docs/guide/compiled-core.md).
+#: A flag the compiler does not know is left out.
+FLAGS = ['-O3', '-fno-math-errno', '-fno-tree-vectorize', '-fno-tree-slp-vectorize',
+         '--param=avoid-fma-max-bits=0', '-Wall'] + ([f'-march={ARCH}'] if ARCH else [])
 
 
 class BuildCore(build_ext):
@@ -38,6 +40,8 @@ class BuildCore(build_ext):
 
     def build_extension(self, ext):
         """Compile the sources with flags of their own, then the rest and the link."""
+        ext.extra_compile_args = [f for f in ext.extra_compile_args
+                                  if f in ('-O3', '-Wall') or has_flag(self.compiler, f)]
         for name, flags in SOURCE_FLAGS.items():
             sources = [s for s in ext.sources if os.path.basename(s) == name]
             if not sources:
@@ -106,6 +110,8 @@ setup(
             'pytest',
             'hypothesis',
             'rosbags>=0.10',
+            # the reference for the shape distances (test/core/test_shape_distance.py)
+            'coal>=3.0',
             'ros-kilted-ament-flake8',
             'ros-kilted-ament-pep257',
             'pydocstyle',

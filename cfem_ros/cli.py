@@ -14,6 +14,7 @@ import time
 from typing import Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.core.aero import describe as describe_aero
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
@@ -26,6 +27,8 @@ import numpy as np
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_BAD_INPUT = 2
+#: ``cfem-sim run``: the run stopped at a contact (``contacts: on_contact: stop``).
+EXIT_CONTACT = 3
 
 LOG = logging.getLogger('cfem_ros')
 
@@ -95,11 +98,20 @@ def cmd_check(scenario: str) -> int:
         print(f'  release group {group.name}: {members} (one instant)')
     if model.wrenches:
         _print_wrenches(model)
+    names = [b.name for b in model.bodies]
     for aero in model.aero:
-        print(f'  aero on {model.bodies[aero.body].name}: S {aero.area:g} m^2, '
-              f'L {aero.length:g} m, density {aero.density:.6g} kg/m^3, '
+        density = (f'density {aero.density:.6g} kg/m^3' if aero.altitude is None else
+                   f'ISA from {aero.altitude:g} m (density {aero.density:.6g} kg/m^3 there)')
+        print(f'  aero on {names[aero.body]}: S {aero.area:g} m^2, '
+              f'L {aero.length:g} m, {density}, '
               f'air {_vec(aero.freestream)} m/s, '
-              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta')
+              f'table {len(aero.alpha)} alpha x {len(aero.beta)} beta x {len(aero.mach)} Mach')
+        more = describe_aero(aero, names)
+        if more:
+            print(f'    {more}')
+    for pair in model.contacts:
+        a, b = (names[i] for i in pair.bodies)
+        print(f'  contact watched: {a} - {b} ({"stop" if pair.stop else "continue"} at contact)')
     free = sum(b.dynamic for b in model.bodies)
     print(f'  degrees of freedom: {sim.dof} '
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
@@ -167,7 +179,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
             overwrite: bool = False, max_samples: float = offline.MAX_SAMPLES,
             max_gb: float = offline.MAX_GB, odometry: Optional[str] = None) -> int:
     """
-    Run a scenario offline and record it; exit status 0, 1, 2, 130 or 143.
+    Run a scenario offline and record it; exit status 0, 1, 2, 3 (contact), 130 or 143.
 
     ``odometry`` ('interpolate' or 'extrapolate') says how replayed
     odometry drives a kinematic body; None: as the node that recorded the
@@ -253,11 +265,21 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     print(f'{model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
           f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
     for event in sim.events:
-        print(describe_event(event))
+        if event['event'] == 'contact':
+            a, b = event['bodies']
+            x, y, z = event['point']
+            print(f'contact {a} {b} at t = {event["time"]:.9f} s, point '
+                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world)')
+        else:
+            print(describe_event(event))
     if not any(e['event'] == 'release' for e in sim.events):
         print('no joint released')
     _print_state(sim)
     print(f'recording: {output} ({recorder.message_count} messages)')
+    if sim.status == 'contact':
+        print(f'stopped: {sim.message}; the recording holds everything up to then',
+              file=sys.stderr)
+        return EXIT_CONTACT
     if not ok:
         print(f'ERROR: the run failed {sim.message}; the recording holds everything '
               f'up to t = {sim.t:.9g} s', file=sys.stderr)
@@ -299,6 +321,10 @@ def cmd_info(recording: str) -> int:
     for event in summary.events:   # end-of-stroke figures (SPEC section 7)
         if event.get('event') == 'stroke_end' and 'velocity' in event and 'rates' in event:
             print(f'  {describe_event(event)}')
+    for e in summary.events:
+        if e.get('event') == 'contact' and 'time' in e:
+            print(f'  contact {" ".join(e.get("bodies", ()))} at t = {e["time"]:.9f} s, '
+                  f'point {e.get("point")} m (world)')
     return EXIT_OK
 
 
@@ -507,8 +533,10 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
         signal.signal(signal.SIGTERM, previous[1])
     failed = int((table['status'] == 'failed').sum())
     wall = time.monotonic() - started
+    touched = int((table['status'] == 'contact').sum())
+    contact = f'{touched} stopped at a contact, ' if touched else ''
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
-          f'{wall:.3g} s')
+          f'{contact}{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
     return EXIT_FAILED if failed else EXIT_OK

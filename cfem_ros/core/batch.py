@@ -43,9 +43,10 @@ class Result:
     y : ndarray, shape (13 n,)
         Its final state (``Simulator.y``).
     events : list of dict
-        Its releases.
+        Its releases (and contacts).
     status : str
-        'ok' if the copy ran to its duration, 'failed' if it did not.
+        'ok' if the copy ran to its duration, 'contact' if it stopped at a
+        watched contact, 'failed' if it failed.
     message : str
         Why it failed, with the time ('' if ok).
     steps : int
@@ -69,10 +70,12 @@ def _copy(model, spec: dict, duration: float) -> Result:
             raise ValueError(f'y0 has shape {y0.shape}; expected {sim.y.shape}')
         sim.y = y0.copy()
         sim._scheduled.reanchor(sim.y)   # strokes measured from the copy's own start
+        sim._scheduled.arm(sim.y)        # contact pairs apart there are watched
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
     ok = sim.advance_to(duration)
-    return Result(sim.t, sim.y, sim.events, 'ok' if ok else 'failed', sim.message, sim.steps)
+    status = 'ok' if ok else ('contact' if sim.status == 'contact' else 'failed')
+    return Result(sim.t, sim.y, sim.events, status, sim.message, sim.steps)
 
 
 def run(model, copies: Sequence[dict], *, duration: Optional[float] = None,

@@ -94,7 +94,8 @@ class Simulator(Dynamics):
         'running' or 'failed': a non-finite state or joint load, a constraint
         violation beyond ``DIVERGENCE_VIOLATION``, or a singular or
         ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at the
-        last good state.
+        last good state; or 'contact': a watched pair with ``on_contact:
+        stop`` touched, and the run stopped there (``events`` says where).
     message : str
         Why the run failed, with the time ('' while running).
     events : list of dict
@@ -128,6 +129,7 @@ class Simulator(Dynamics):
         self._set_topology()
         self._fire_time_triggers()
         self._project_velocities()
+        self._scheduled.arm(self.y)   # contact pairs apart at t = 0 are watched from now
 
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
@@ -209,8 +211,9 @@ class Simulator(Dynamics):
         ``release_at_end`` is False: then it stays for the caller to sample
         (a release at t acts after the samples at t) and is released by
         ``release_due()`` or the next call.
-        Returns False (and sets ``status`` and ``message``) if the run failed;
-        the state is then the last good one.
+        Returns False (and sets ``status`` and ``message``) if the run failed
+        (the state is then the last good one) or stopped at a contact (status
+        'contact', the state the one at the contact).
 
         Raises
         ------
@@ -257,6 +260,8 @@ class Simulator(Dynamics):
                     if due < t_end:
                         h, t_end = due - self.t, due
                     self._step(h, t_end)
+                    if self.status != 'running':
+                        return False   # shapes touched: the run stops here (status 'contact')
                 if (self.t < t_target or release_at_end) and release_now():
                     self._fire_time_triggers()
                 if samples is not None:
@@ -339,10 +344,15 @@ class Simulator(Dynamics):
             kernel.motion_set_time(self._bodies, self.t)   # motion.py
         y1, ys, crossing, stroke = self._locate(y0, h)
         if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
-            # an ejector's stroke ends first (or with a release)
-            s, wrenches = stroke
+            # an ejector's stroke ends first (or with a release), or shapes touch
+            s, rows = stroke
+            first = self._scheduled.contact_first
+            wrenches = [k for k in rows if k < self._scheduled.count]
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             self._end_strokes(wrenches)
+            for k in rows:
+                if k >= first:
+                    self._contact(k - first)
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)
@@ -360,6 +370,20 @@ class Simulator(Dynamics):
         self._scheduled.end_strokes(wrenches)
         self.events.extend(stroke_end_event(self, k) for k in wrenches)
 
+    def _contact(self, k: int):
+        """Record contact pair k's first touch now; stop the run if the pair says so."""
+        pair = self.model.contacts[k]
+        names = [self.model.bodies[b].name for b in pair.bodies]
+        _, points = self._scheduled.gap(k, self.y)
+        point = [float(v) for v in 0.5 * (points[:3] + points[3:])]
+        self.events.append({'event': 'contact', 'bodies': names, 'time': self.t,
+                            'point': point})
+        self._scheduled.touched(k)   # watched again once the shapes part
+        if pair.stop and self.status == 'running':
+            self.status = 'contact'
+            self.message = (f'at t = {self.t:.9g} s: {names[0]} touches {names[1]} at '
+                            f'[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}] (world, m)')
+
     def _locate(self, y0, h):
         """
         Take the step of h from y0 and locate its release conditions and stroke ends.
@@ -375,7 +399,7 @@ class Simulator(Dynamics):
         info = np.empty(7)
         info[0] = self._stage_violation
         joints = np.empty((len(rel.watch), 2), dtype=np.int64)
-        wrenches = np.empty(self._scheduled.count, dtype=np.int64)
+        wrenches = np.empty(self._scheduled.count + len(self._scheduled.pairs), dtype=np.int64)
         try:
             kernel.locate(y0, float(h), y1, ys, *self._topology.kernel_args(self),
                           self.joints.joints_i, self.joints.joints_f, rel.watch,

@@ -12,8 +12,12 @@ Python call and no new argument:
   axes, from the CG; the moment about the CG gains r x F);
 - then one row per scheduled wrench (``S_*`` columns; ``S_KIND`` = 1);
 - then one row per body with aerodynamic tables (``A_*`` columns, ``S_KIND`` = 3);
+- then one row per watched contact pair (``C_*`` columns, ``S_KIND`` = 5;
+  ``S_ON`` = 1.0 while armed: its shapes apart);
 - then the rows of their tables (``S_KIND`` = 2): abscissa (time, s, or
-  stroke, m) then force (3) and moment (3), or the aerodynamic grids;
+  stroke, m) then force (3) and moment (3); or an aerodynamic table packed
+  by ``aeropack.pack`` or a shape by ``contacts.pack_shape``, 23 numbers a
+  row (``AERO_ROW``);
 - then, if there is any row after the bodies', one scratch row (``S_KIND`` = 4).
 
 A scheduled wrench acts on its body at its point while it is on: its time
@@ -29,6 +33,7 @@ constants in ``cpp/loads.hpp``); a new load kind goes there too.
 
 from __future__ import annotations
 
+from cfem_ros.core import aeropack, contacts
 from cfem_ros.core.roots import brentq   # scipy's brentq, without importing scipy
 import numpy as np
 
@@ -47,15 +52,29 @@ S_T0, S_T, S_START = 20, 21, 22
 #: row kind: 0 held, 1 scheduled, 2 table, 3 aerodynamic, 4 scratch (the last row).
 S_KIND = 23
 TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
-#: Aerodynamic rows: body, area, length, density, air velocity (3, world),
-#: Clp, Cmq, Cnr, grid sizes (alpha, beta), first table row: the alpha
-#: values (rad, column 0), then the beta values, then per grid node
-#: (alpha-major) CX, CY, CZ, Cl, Cm, Cn in columns 1-6.
-A_BODY, A_AREA, A_LENGTH, A_DENSITY, A_WIND, A_DAMPING = 0, 1, 2, 3, 4, 7
-A_NA, A_NB, A_FIRST = 10, 11, 12
+#: Aerodynamic rows: body, carrier of its proximity table (-1 none), first row
+#: of its packed table (``aeropack.pack``; ``cpp/aero.hpp`` reads it).
+A_BODY, A_CARRIER, A_FIRST = 0, 1, 12
+#: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
+AERO_ROW = WIDTH - 1
+#: Contact rows: the bodies, the first rows of their packed shapes, GJK's warm start (3),
+#: the shapes' bounding radii about their CGs (m).
+C_A, C_B, C_SHAPE_A, C_SHAPE_B, C_GUESS, C_RADIUS_A, C_RADIUS_B = 0, 1, 4, 5, 6, 9, 10
+#: Shapes this close touch, m (``CONTACT_GAP`` of cpp/loads.hpp).
+CONTACT_GAP = 1e-10
 
 
 # ------------------------------------------------------------- Python part
+
+def _put_packed(rows: np.ndarray, first: int, table: np.ndarray) -> int:
+    """Write a packed table into rows from first on, AERO_ROW numbers a row; return the next."""
+    count = -(-len(table) // AERO_ROW)
+    block = np.zeros(count * AERO_ROW)
+    block[:len(table)] = table
+    rows[first:first + count, :AERO_ROW] = block.reshape(count, AERO_ROW)
+    rows[first:first + count, S_KIND] = 2.0
+    return first + count
+
 
 def _kernel():
     """Return the compiled kernel (imported on first use)."""
@@ -89,13 +108,19 @@ class ScheduledLoads:
         wrenches = getattr(model, 'wrenches', ())
         aero = getattr(model, 'aero', ())
         self.count = len(wrenches)
-        tables = sum(len(w.table) for w in wrenches) + sum(
-            len(a.alpha) + len(a.beta) + len(a.alpha) * len(a.beta) for a in aero)
-        scratch = 1 if self.count or aero else 0
-        rows = np.zeros((n + self.count + len(aero) + tables + scratch, WIDTH))
+        pairs = getattr(model, 'contacts', ())
+        packed = [aeropack.pack(a, model) for a in aero]
+        shapes = {b: contacts.pack_shape(model.bodies[b].shape)
+                  for pair in pairs for b in pair.bodies}
+        packed_rows = [-(-len(p) // AERO_ROW) for p in packed + list(shapes.values())]
+        tables = sum(len(w.table) for w in wrenches) + sum(packed_rows)
+        scratch = 1 if self.count or aero or pairs else 0
+        #: Where the contact rows start, counted from row n.
+        self.contact_first = self.count + len(aero)
+        rows = np.zeros((n + self.contact_first + len(pairs) + tables + scratch, WIDTH))
         if scratch:
             rows[-1, S_KIND] = 4.0
-        nxt = n + self.count + len(aero)
+        nxt = n + self.contact_first + len(pairs)
         for k, w in enumerate(wrenches):
             r = rows[n + k]
             r[S_KIND] = 1.0
@@ -112,20 +137,25 @@ class ScheduledLoads:
                 rows[nxt:nxt + len(w.table), :7] = w.table
                 rows[nxt:nxt + len(w.table), S_KIND] = 2.0
                 nxt += len(w.table)
-        for k, a in enumerate(aero):
+        for k, (a, table) in enumerate(zip(aero, packed)):
             r = rows[n + self.count + k]
             r[S_KIND] = 3.0
-            r[A_BODY], r[A_AREA], r[A_LENGTH], r[A_DENSITY] = a.body, a.area, a.length, a.density
-            r[A_WIND:A_WIND + 3] = a.freestream
-            r[A_DAMPING:A_DAMPING + 3] = a.damping
-            r[A_NA], r[A_NB], r[A_FIRST] = len(a.alpha), len(a.beta), nxt
-            na, nb = len(a.alpha), len(a.beta)
-            rows[nxt:nxt + na, 0] = a.alpha
-            rows[nxt + na:nxt + na + nb, 0] = a.beta
-            rows[nxt + na + nb:nxt + na + nb + na * nb, 1:7] = a.coefficients.reshape(-1, 6)
-            rows[nxt:nxt + na + nb + na * nb, S_KIND] = 2.0
-            nxt += na + nb + na * nb
+            r[A_BODY], r[A_FIRST] = a.body, nxt
+            r[A_CARRIER] = -1 if a.proximity is None else a.proximity.carrier
+            nxt = _put_packed(rows, nxt, table)
+        first_row = {}
+        for b, shape in shapes.items():
+            first_row[b] = nxt
+            nxt = _put_packed(rows, nxt, shape)
+        for k, pair in enumerate(pairs):
+            r = rows[n + self.contact_first + k]
+            r[S_KIND] = 5.0
+            r[C_A], r[C_B] = pair.bodies
+            r[C_SHAPE_A], r[C_SHAPE_B] = first_row[pair.bodies[0]], first_row[pair.bodies[1]]
+            r[C_RADIUS_A], r[C_RADIUS_B] = (contacts.bounding_radius(shapes[b])
+                                            for b in pair.bodies)
         self.array = rows
+        self.pairs = pairs
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
         #: Numbers a sample's applied loads take (6 a source).
@@ -226,6 +256,29 @@ class ScheduledLoads:
                 which.append(int(k))
         return best, which
 
+    def arm(self, y: np.ndarray):
+        """Watch the contact pairs whose shapes are apart at y (the others once they part)."""
+        for k in range(len(self.pairs)):
+            row = self.n + self.contact_first + k
+            self.array[row, S_ON] = 1.0 if self.gap(k, y)[0] > CONTACT_GAP else 0.0
+
+    def gap(self, k: int, y: np.ndarray):
+        """Return contact pair k's shape distance at y (m) and closest points (world, 6)."""
+        n = self.n
+        a, b = self.pairs[k].bodies
+        quat = y[6 * n:10 * n].reshape(n, 4)
+        pos = y[:3 * n].reshape(n, 3)
+        row = self.array[n + self.contact_first + k]
+        shape_a = _unpack(self.array, int(row[C_SHAPE_A]))
+        shape_b = _unpack(self.array, int(row[C_SHAPE_B]))
+        d, points = contacts.distances(shape_a, quat[a:a + 1], pos[a:a + 1], shape_b,
+                                       quat[b:b + 1], pos[b:b + 1])
+        return float(d[0]), points[0]
+
+    def touched(self, k: int):
+        """Stop watching contact pair k until its shapes part again."""
+        self.array[self.n + self.contact_first + k, S_ON] = 0.0
+
     def end_strokes(self, wrenches):
         """Switch off the wrenches whose stroke has ended."""
         for k in wrenches:
@@ -241,3 +294,9 @@ class ScheduledLoads:
                 out.append((bodies[w.reacts_on].name, w.name))
         out.extend((bodies[a.body].name, 'aero') for a in getattr(self.model, 'aero', ()))
         return out
+
+
+def _unpack(rows: np.ndarray, first: int) -> np.ndarray:
+    """Return the packed shape kept from row first on (its length is in its header)."""
+    flat = rows[first:, :AERO_ROW].reshape(-1)
+    return flat[:contacts.SHAPE_HEADER + 3 * int(flat[contacts.SHAPE_HEADER - 1])].copy()

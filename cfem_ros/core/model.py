@@ -271,6 +271,40 @@ class ReleaseGroup:
 
 
 @dataclass(frozen=True)
+class Proximity:
+    """
+    Interference increments near a carrier (scenario ``aero.<body>.proximity``).
+
+    Attributes
+    ----------
+    carrier : int
+        The body whose axes the grid is in.
+    axes : tuple of str
+        The grid's axes, a subset of ``dx, dy, dz`` (m, the CG in the
+        carrier's axes relative to where it was at t = 0), ``dphi_deg,
+        dtheta_deg, dpsi_deg`` (Z-Y-X attitude relative to the carrier's, deg)
+        and ``mach``, in that order.
+    grids : tuple of ndarray
+        Each axis's values, increasing, in the axis's unit.
+    increments : ndarray, shape (len(grid) per axis ..., 6)
+        dCX, dCY, dCZ, dCl, dCm, dCn at each grid point (scale applied).
+    fade : float or None
+        m: beyond the grid (along the position axes) the increments fade
+        linearly to zero over this distance; None: held at the grid's edge.
+    source : str
+        The table's file.
+
+    """
+
+    carrier: int
+    axes: tuple
+    grids: tuple
+    increments: np.ndarray
+    fade: Optional[float]
+    source: str = ''
+
+
+@dataclass(frozen=True)
 class Aero:
     """
     Aerodynamic loads on a body from coefficient tables (scenario ``aero``).
@@ -281,15 +315,22 @@ class Aero:
     area, length : float
         Reference area (m^2) and length (m).
     density : float
-        Air density, kg/m^3.
+        Air density, kg/m^3: given, or ISA at ``altitude``.
     freestream : ndarray, shape (3,)
-        Velocity of the air, world axes, m/s.
+        Velocity of the air (``wind`` or ``freestream``), world axes, m/s.
     alpha, beta : ndarray
         Grid of angles of attack and sideslip, rad, increasing.
-    coefficients : ndarray, shape (len(alpha), len(beta), 6)
+    coefficients : ndarray, shape (len(alpha), len(beta), len(mach), 6)
         CX, CY, CZ (body axes forces) and Cl, Cm, Cn (moments about the CG).
     damping : ndarray, shape (3,)
         Clp, Cmq, Cnr, per unit of p L / (2 V), q L / (2 V), r L / (2 V).
+    mach : ndarray
+        Grid of Mach numbers, increasing (one node: no Mach dependence).
+    altitude : float or None
+        ISA altitude of the world origin, m; a body's altitude adds its
+        height above the origin along -gravity. None: ``density`` is fixed.
+    proximity : Proximity or None
+        Interference increments near a carrier.
 
     """
 
@@ -302,6 +343,28 @@ class Aero:
     beta: np.ndarray
     coefficients: np.ndarray
     damping: np.ndarray
+    mach: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    altitude: Optional[float] = None
+    proximity: Optional[Proximity] = None
+
+
+@dataclass(frozen=True)
+class Contact:
+    """
+    A pair of bodies whose shapes are watched for contact (scenario ``contacts``).
+
+    Attributes
+    ----------
+    bodies : tuple of int
+        The two bodies (a, b), as the scenario lists them.
+    stop : bool
+        True: a run ends at the first contact (status ``contact``); False:
+        it goes on and the event and the penetration are recorded.
+
+    """
+
+    bodies: tuple
+    stop: bool = True
 
 
 @dataclass(frozen=True)
@@ -328,6 +391,8 @@ class Model:
         Scheduled loads (SPEC section 5), none by default.
     aero : tuple of Aero
         Aerodynamic loads from coefficient tables, none by default.
+    contacts : tuple of Contact
+        Pairs of bodies whose shapes are watched, none by default.
     references : tuple of (int, int)
         (body, reference body) pairs whose relative pose and twist are
         sampled: bodies joined to a kinematic one, or given ``reference``.
@@ -348,6 +413,7 @@ class Model:
     aero: tuple = ()
     references: tuple = ()
     release_groups: tuple = ()
+    contacts: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

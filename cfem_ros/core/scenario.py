@@ -20,11 +20,12 @@ import reprlib
 import stat
 from typing import Any, Optional
 
-from cfem_ros.core import rotations, shapes
+from cfem_ros.core import aero, rotations, shapes
+from cfem_ros.core.aero import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
-    Aero, AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, default_baumgarte, Joint, JOINT_TABLE,
-    Model, Motion, Release, ReleaseGroup, STANDARD_GRAVITY, triad_from_axes, Wrench)
+    AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, Contact, default_baumgarte, Joint,
+    JOINT_TABLE, Model, Motion, Release, ReleaseGroup, STANDARD_GRAVITY, triad_from_axes, Wrench)
 import numpy as np
 import yaml
 from yaml.composer import Composer
@@ -39,7 +40,7 @@ except ImportError:  # PyYAML built without libyaml: the pure Python parser only
 LOG = logging.getLogger('cfem_ros')
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches', 'aero', 'release_groups')
+            'wrenches', 'aero', 'release_groups', 'contacts')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape',
              'motion', 'reference')
@@ -56,9 +57,6 @@ RELEASE_KEYS = ('time', 'angle_deg', 'distance', 'force')
 WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'end', 'stroke',
                'reacts_on')
 TABLE_KEYS = ('against', 'table')
-AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'alpha_deg', 'beta_deg',
-             'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr', 'scale')
-AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
 
 #: Largest scenario file, bytes.
 MAX_FILE_BYTES = 16 * 1024 * 1024
@@ -584,7 +582,10 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                                releases=_release_names(joints, groups))
     model = Model(name=name, frame_id=frame_id, gravity=gravity, duration=run_duration,
                   dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
-                  wrenches=wrenches, aero=_parse_aero(check, top.get('aero'), index, bodies),
+                  wrenches=wrenches, contacts=_parse_contacts(check, top.get('contacts'),
+                                                              index, bodies),
+                  aero=aero.parse_aero(check, top.get('aero'), index, bodies,
+                                       _source_dir(check)),
                   release_groups=groups)
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
@@ -690,10 +691,22 @@ def _from_rpy_deg(rpy: np.ndarray) -> np.ndarray:
     return quat.copy()
 
 
+def _source_dir(check: _Checker) -> str:
+    """
+    Return the folder of the scenario file, which files it names are relative to.
+
+    A sweep names its runs' sources ``<file> (run k)``: the file is what counts.
+    """
+    source = check.source
+    if not os.path.isfile(source):
+        source = re.sub(r' \(run \d+\)$', '', source)
+    return os.path.dirname(os.path.abspath(source)) if os.path.isfile(source) else ''
+
+
 def _shape_dir(check: _Checker, shape) -> str:
     """Return the folder a shape's mesh file is relative to (only a mesh needs one)."""
-    if isinstance(shape, dict) and 'mesh' in shape and os.path.isfile(check.source):
-        return os.path.dirname(check.source)
+    if isinstance(shape, dict) and 'mesh' in shape:
+        return _source_dir(check)
     return ''
 
 
@@ -1132,87 +1145,46 @@ def _parse_force_table(check: _Checker, doc, key: str, moment: np.ndarray):
     return against, table
 
 
-def isa_density(altitude: float) -> float:
-    """Return the ISA air density at a geopotential altitude (m, up to 20 km), kg/m^3."""
-    gas, g0 = 287.05287, 9.80665
-    if altitude <= 11000.0:
-        temperature = 288.15 - 0.0065 * altitude
-        pressure = 101325.0 * (temperature / 288.15) ** (g0 / (gas * 0.0065))
-    else:
-        temperature = 216.65
-        pressure = 22632.06 * math.exp(-g0 * (altitude - 11000.0) / (gas * temperature))
-    return pressure / (gas * temperature)
+CONTACT_KEYS = ('bodies', 'on_contact')
 
 
-def _parse_aero(check: _Checker, doc, index: dict, bodies) -> tuple:
-    """Parse ``aero``: body name -> reference values and coefficient tables."""
+def _parse_contacts(check: _Checker, doc, index: dict, bodies) -> tuple:
+    """Parse ``contacts``: the pairs of bodies whose shapes are watched (SPEC section 8)."""
     if doc is None:
         return ()
-    if not isinstance(doc, dict):
-        check.fail('aero', f'is {_show(doc)}', 'a mapping of body names')
-    return tuple(_parse_aero_body(check, name, spec, index, bodies)
-                 for name, spec in doc.items())
-
-
-def _parse_aero_body(check: _Checker, name, spec, index: dict, bodies) -> Aero:
-    key = f'aero.{name}'
-    body = _body_of(check, name, key, index)
-    if bodies[body].fixed:
-        check.fail(key, f'{_show(name)} is fixed', 'a body that can move')
-    if not bodies[body].dynamic:
-        check.fail(key, f'{_show(name)} is kinematic', 'a body moved by forces')
-    spec = check.mapping(spec, key, AERO_KEYS,
-                         required=('area', 'length', 'freestream', 'alpha_deg'))
-    if ('density' in spec) == ('altitude' in spec):
-        check.fail(f'{key}.density', 'density and altitude are both given or both missing',
-                   'one of density (kg/m^3) or altitude (m, ISA)')
-    if 'density' in spec:
-        density = check.number(spec['density'], f'{key}.density', positive=True)
-    else:
-        altitude = check.number(spec['altitude'], f'{key}.altitude', minimum=-500.0)
-        if altitude > 20000.0:
-            check.fail(f'{key}.altitude', f'is {altitude:g}', 'an altitude up to 20000 m (ISA)')
-        density = isa_density(altitude)
-    grids = []
-    for axis in ('alpha_deg', 'beta_deg'):
-        values = spec.get(axis, [0.0])
-        if not isinstance(values, list) or not values:
-            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'a list of angles, deg')
-        grid = np.array([check.number(v, f'{key}.{axis}[{i}]') for i, v in enumerate(values)])
-        if np.any(np.diff(grid) <= 0):
-            check.fail(f'{key}.{axis}', f'is {_show(values)}', 'strictly increasing angles')
-        grids.append(np.radians(grid))
-    alpha, beta = grids
-    table = np.zeros((len(alpha), len(beta), 6))
-    for c, coefficient in enumerate(AERO_COEFFICIENTS):
-        value = spec.get(coefficient, 0.0)
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            table[:, :, c] = check.number(value, f'{key}.{coefficient}')
-            continue
-        rows = np.array(value, dtype=object)
-        if rows.shape not in ((len(alpha),), (len(alpha), len(beta))):
-            check.fail(f'{key}.{coefficient}', f'has shape {rows.shape}',
-                       f'a number, {len(alpha)} values (one per alpha), or {len(alpha)} '
-                       f'lists of {len(beta)} (per alpha, then per beta)')
-        for at, v in np.ndenumerate(rows):
-            number = check.number(v, f'{key}.{coefficient}' + ''.join(f'[{i}]' for i in at))
-            table[at[0], at[1] if len(at) > 1 else slice(None), c] = number
-    damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
-                        for d in ('Clp', 'Cmq', 'Cnr')])
-    # multipliers of the coefficients and damping derivatives (what a study varies)
-    scales = check.mapping(spec.get('scale', {}), f'{key}.scale',
-                           AERO_COEFFICIENTS + ('Clp', 'Cmq', 'Cnr'))
-    for c, coefficient in enumerate(AERO_COEFFICIENTS):
-        if coefficient in scales:
-            table[:, :, c] *= check.number(scales[coefficient], f'{key}.scale.{coefficient}')
-    for d, derivative in enumerate(('Clp', 'Cmq', 'Cnr')):
-        if derivative in scales:
-            damping[d] *= check.number(scales[derivative], f'{key}.scale.{derivative}')
-    return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
-                length=check.number(spec['length'], f'{key}.length', positive=True),
-                density=density, freestream=check.vector(spec['freestream'],
-                                                         f'{key}.freestream'),
-                alpha=alpha, beta=beta, coefficients=table, damping=damping)
+    if not isinstance(doc, list):
+        check.fail('contacts', f'is {_show(doc)}', 'a list of {bodies: [a, b]} entries')
+    out, seen = [], set()
+    for k, spec in enumerate(doc):
+        key = f'contacts[{k}]'
+        spec = check.mapping(spec, key, CONTACT_KEYS, required=('bodies',))
+        pair = spec['bodies']
+        if not isinstance(pair, list) or len(pair) != 2:
+            check.fail(f'{key}.bodies', f'is {_show(pair)}', 'two body names [a, b]')
+        a, b = (_body_of(check, name, f'{key}.bodies[{i}]', index) for i, name in enumerate(pair))
+        if a == b:
+            check.fail(f'{key}.bodies', f'names {_show(pair[0])} twice', 'two different bodies')
+        if frozenset((a, b)) in seen:
+            check.fail(f'{key}.bodies', f'repeats the pair {_show(pair)}', 'each pair once')
+        seen.add(frozenset((a, b)))
+        if bodies[a].fixed and bodies[b].fixed:
+            check.fail(f'{key}.bodies', 'are both fixed, so they never move',
+                       'a pair with a body that moves')
+        for i, name in zip((a, b), pair):
+            shape = bodies[i].shape
+            if shape is None:
+                check.fail(_key('bodies', name) + '.shape', 'missing, and the body is watched '
+                           f'for contact ({key})', 'a shape: box, cylinder, sphere, capsule '
+                           'or mesh')
+            if shape.kind == 'mesh' and not shape.hull:
+                check.fail(_key('bodies', name) + '.shape.mesh', f'is {_show(shape.mesh)}, '
+                           'not a local file, so it has no hull to watch', 'a local STL or '
+                           'OBJ file (its convex hull is the collision shape)')
+        stop = spec.get('on_contact', 'stop')
+        if stop not in ('stop', 'continue'):
+            check.fail(f'{key}.on_contact', f'is {_show(stop)}', 'stop or continue')
+        out.append(Contact(bodies=(a, b), stop=stop == 'stop'))
+    return tuple(out)
 
 
 def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool = False,

@@ -1,13 +1,15 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-What a body looks like (SPEC section 5): a box, a cylinder, a sphere or a mesh.
+What a body looks like (SPEC sections 5, 8): box, cylinder, sphere, capsule or mesh.
 
-Shapes are for viewers only (markers in RViz and Foxglove); they change no
-number of the simulation. A body without a ``shape`` is drawn as the box
-with its mass and inertia (a uniform solid box with the same principal
-moments, turned to the principal axes), so that a long, slender store looks
-long and slender; a fixed body without one is a small cube.
+Shapes are drawn (markers in RViz and Foxglove) and, for the pairs a
+scenario's ``contacts`` watch, are the collision shapes: a mesh then by its
+convex hull, computed here when the scenario is read. A body without a
+``shape`` is drawn as the box with its mass and inertia (a uniform solid
+box with the same principal moments, turned to the principal axes), so
+that a long, slender store looks long and slender; a fixed body without
+one is a small cube.
 """
 
 from __future__ import annotations
@@ -24,7 +26,9 @@ FIXED_BODY_CUBE = 0.1
 #: Smallest edge of an inertia-equivalent box, m (a flat plate keeps some thickness).
 THINNEST = 0.01
 
-KINDS = ('box', 'cylinder', 'sphere', 'mesh')
+KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'mesh')
+#: Most vertices of a mesh file read for its hull.
+MAX_MESH_VERTICES = 5_000_000
 
 
 @dataclass(frozen=True)
@@ -35,9 +39,11 @@ class Shape:
     Attributes
     ----------
     kind : str
-        'box', 'cylinder' (along the body's x axis), 'sphere' or 'mesh'.
+        'box', 'cylinder' (along the body's x axis), 'sphere', 'capsule'
+        (along x) or 'mesh'.
     size : tuple of float
         box: edges along x, y, z; cylinder: radius, length; sphere: radius;
+        capsule: radius, overall length (tip to tip, >= 2 radius);
         mesh: scale factors along x, y, z. m.
     offset : tuple of float
         The shape's centre from the CG, body axes, m.
@@ -49,6 +55,9 @@ class Shape:
         ``http(s)://``, or a path (made absolute, as a ``file://`` URL).
     given : bool
         False for a shape made up from the body's mass and inertia.
+    hull : tuple of tuple
+        mesh only: the vertices of its convex hull, shape axes, scaled, m
+        (empty when the mesh is not a local file).
 
     """
 
@@ -58,6 +67,7 @@ class Shape:
     orientation_xyzw: tuple = (0.0, 0.0, 0.0, 1.0)
     mesh: str = ''
     given: bool = True
+    hull: tuple = ()
 
 
 def equivalent_box(mass: float, inertia: np.ndarray) -> Shape:
@@ -126,7 +136,8 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
     Read a body's ``shape`` mapping; ``fail``, ``number``, ``vector`` report errors.
 
     Forms: ``{box: [x, y, z]}``, ``{cylinder: [radius, length]}``,
-    ``{sphere: radius}``, ``{mesh: file or URL, scale: [sx, sy, sz]}``, each
+    ``{sphere: radius}``, ``{capsule: [radius, length]}``,
+    ``{mesh: file or URL, scale: [sx, sy, sz]}``, each
     with an optional ``offset: [x, y, z]`` (body axes, m, from the CG).
     """
     if not isinstance(value, dict):
@@ -144,15 +155,22 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
     spec, where = value[kind], f'{key}.{kind}'
     if kind == 'box':
         size = tuple(float(v) for v in vector(spec, where))
-    elif kind == 'cylinder':
+    elif kind in ('cylinder', 'capsule'):
         size = tuple(float(v) for v in vector(spec, where, 2))
+        if kind == 'capsule' and min(size) > 0.0 and size[1] < 2.0 * size[0]:
+            fail(where, f'is {list(size)}: shorter than its two hemispheres',
+                 '[radius, overall length] with length >= 2 radius')
     elif kind == 'sphere':
         size = (number(spec, where, positive=True),)
     else:
         if not isinstance(spec, str) or not spec.strip():
             fail(where, f'is {spec!r:.80}', 'a mesh file or URL (package://, file://, http://)')
         size = tuple(float(v) for v in vector(value.get('scale', [1, 1, 1]), f'{key}.scale'))
-        return Shape('mesh', size, offset, mesh=_mesh_url(spec.strip(), base_dir))
+        url = _mesh_url(spec.strip(), base_dir)
+        hull = ()
+        if url.startswith('file://'):
+            hull = mesh_hull(url[len('file://'):], size, where, fail)
+        return Shape('mesh', size, offset, mesh=url, hull=hull)
     if min(size) <= 0.0:
         fail(where, f'is {list(size)}', 'sizes > 0 m')
     return Shape(kind, size, offset)
@@ -164,3 +182,79 @@ def _mesh_url(spec: str, base_dir: str) -> str:
         return spec
     path = spec if os.path.isabs(spec) else os.path.join(base_dir or os.getcwd(), spec)
     return 'file://' + os.path.abspath(path)
+
+
+def triangles(shape: Shape) -> np.ndarray:
+    """
+    Return the triangles that draw a capsule or a mesh's hull, shape axes, m, shape (k, 3, 3).
+
+    A capsule in 24 facets around and 6 rings per end cap; a hull by its
+    facets (Qhull's). Empty for the other shapes (viewers draw those).
+    """
+    if shape.kind == 'capsule':
+        radius, length = shape.size
+        half = 0.5 * length - radius
+        caps = np.linspace(0.0, 0.5 * np.pi, 7)
+        rings = [(-half - radius * math.cos(a), radius * math.sin(a)) for a in caps]
+        rings += [(half + radius * math.cos(a), radius * math.sin(a)) for a in caps[::-1]]
+        around = np.linspace(0.0, 2 * np.pi, 25)
+        points = np.array([[[x, r * math.cos(b), r * math.sin(b)] for b in around]
+                           for x, r in rings])
+        quads = [(points[i, j], points[i + 1, j], points[i + 1, j + 1], points[i, j + 1])
+                 for i in range(len(rings) - 1) for j in range(len(around) - 1)]
+        return np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    if shape.kind == 'mesh' and shape.hull:
+        from scipy.spatial import ConvexHull
+        points = np.array(shape.hull)
+        return points[ConvexHull(points).simplices]
+    return np.zeros((0, 3, 3))
+
+
+def mesh_hull(path: str, scale, key: str, fail: Callable) -> tuple:
+    """
+    Return the vertices of a mesh file's convex hull, scaled, m (scipy's Qhull).
+
+    Reads binary or ASCII STL and OBJ (its ``v`` lines). A file that cannot
+    be read, or whose points span no volume, is reported through ``fail``.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    name = os.path.basename(path)
+    try:
+        points = read_mesh_vertices(path)
+    except (OSError, ValueError) as err:
+        fail(key, f'{name}: {err}', 'a readable STL or OBJ file')
+    points = points * np.asarray(scale, dtype=float)
+    if len(points) < 4 or not np.all(np.isfinite(points)):
+        fail(key, f'{name} has {len(points)} finite vertices', 'a mesh that encloses a volume')
+    try:
+        hull = ConvexHull(points)
+    except QhullError:
+        fail(key, f'{name} is flat (its vertices span no volume)', 'a mesh that encloses a '
+             'volume (its convex hull is the collision shape)')
+    return tuple(tuple(float(c) for c in points[i]) for i in hull.vertices)
+
+
+def read_mesh_vertices(path: str) -> np.ndarray:
+    """Return the vertices of an STL (binary or ASCII) or OBJ file, shape (n, 3)."""
+    with open(path, 'rb') as handle:
+        data = handle.read()
+    lower = path.lower()
+    if lower.endswith('.obj'):
+        rows = [line.split()[1:4] for line in data.decode('utf-8', 'replace').splitlines()
+                if line.startswith('v ')]
+        return np.array(rows, dtype=float).reshape(-1, 3)
+    if not lower.endswith('.stl'):
+        raise ValueError('not an .stl or .obj file')
+    if len(data) >= 84:
+        count = int.from_bytes(data[80:84], 'little')
+        if 84 + 50 * count == len(data) and count <= MAX_MESH_VERTICES // 3:
+            record = np.dtype([('normal', '<f4', 3), ('vertices', '<f4', (3, 3)),
+                               ('attribute', '<u2')])
+            triangles = np.frombuffer(data, dtype=record, count=count, offset=84)
+            return triangles['vertices'].reshape(-1, 3).astype(float)
+    text = data.decode('ascii', 'replace')
+    rows = [line.split()[1:4] for line in text.splitlines() if line.strip().startswith('vertex')]
+    if not rows:
+        raise ValueError('no vertices (neither binary nor ASCII STL)')
+    return np.array(rows, dtype=float)

@@ -552,8 +552,9 @@ class StateRecorder:
 
     def _markers(self, stamp_ns: int):
         released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
+        contacts = [e for e in self.sim.events if e.get('event') == 'contact']
         self.recorder.write(self.topic('markers'), MARKERS, visuals.markers(
-            self.sim.model, stamp(stamp_ns), self.namespace, released), stamp_ns,
+            self.sim.model, stamp(stamp_ns), self.namespace, released, contacts), stamp_ns,
             qos=LATCHED_QOS)
 
     def sample(self):
@@ -614,8 +615,9 @@ class StateRecorder:
             self.recorder.write(topic, STRING, {'data': json.dumps(event)},
                                 self.stamp_ns(event['time']), qos=EVENTS_QOS)
         self._events_written = len(self.sim.events)
-        if self._scene_written and any(e.get('event') == 'release' for e in new):
-            self._markers(self.stamp_ns(new[-1]['time']))   # released joints change colour
+        if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
+            # released joints change colour; contacts get their marker
+            self._markers(self.stamp_ns(new[-1]['time']))
 
     def failed(self):
         """Record the run's failure as an ``error`` event at the time it stopped."""

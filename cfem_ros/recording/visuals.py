@@ -16,11 +16,15 @@ once released.
 from __future__ import annotations
 
 from cfem_ros.core import rotations
-from cfem_ros.core.shapes import default_shape, Shape
+from cfem_ros.core.shapes import default_shape, Shape, triangles
 import numpy as np
 
 #: visualization_msgs/Marker types.
-CUBE, SPHERE, CYLINDER, MESH_RESOURCE = 1, 2, 3, 10
+CUBE, SPHERE, CYLINDER, MESH_RESOURCE, TRIANGLE_LIST = 1, 2, 3, 10, 11
+#: A contact point (``contacts``) is drawn in this colour.
+CONTACT_COLOR = (1.0, 0.0, 0.0, 1.0)
+#: A mesh's collision hull is drawn over the mesh in this colour.
+HULL_COLOR = (1.0, 0.85, 0.0, 0.35)
 #: Colours (r, g, b, a) of moving bodies, in turn; fixed bodies are grey.
 PALETTE = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
            (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0), (0.89, 0.47, 0.76, 1.0))
@@ -62,6 +66,8 @@ def _shape_marker(shape: Shape) -> dict:
         radius, length = shape.size
         kind, scale = CYLINDER, (2 * radius, 2 * radius, length)
         orientation = rotations.multiply(orientation, _Z_TO_X)
+    elif shape.kind == 'capsule':
+        return _triangle_marker(shape)
     else:
         kind, scale = MESH_RESOURCE, shape.size
     marker = {'type': kind, 'pose': {'position': _xyz(shape.offset),
@@ -70,6 +76,14 @@ def _shape_marker(shape: Shape) -> dict:
     if kind == MESH_RESOURCE:
         marker['mesh_resource'] = shape.mesh
     return marker
+
+
+def _triangle_marker(shape: Shape) -> dict:
+    """Return a TRIANGLE_LIST marker of a capsule or a mesh's hull, in its body's frame."""
+    return {'type': TRIANGLE_LIST, 'pose': {'position': _xyz(shape.offset),
+                                            'orientation': _quat(shape.orientation_xyzw)},
+            'scale': _xyz((1.0, 1.0, 1.0)),
+            'points': [_xyz(p) for p in triangles(shape).reshape(-1, 3)]}
 
 
 def _extent(shape: Shape) -> float:
@@ -90,7 +104,7 @@ def joint_points_on_parents(model) -> np.ndarray:
     return out
 
 
-def markers(model, stamp: dict, namespace: str, released=()) -> dict:
+def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dict:
     """
     Return the MarkerArray of a model: its bodies' shapes and its joints' points.
 
@@ -104,6 +118,8 @@ def markers(model, stamp: dict, namespace: str, released=()) -> dict:
         The markers' ``ns`` prefix (the node's namespace).
     released : collection of str
         Joints already released (drawn red and faded).
+    contacts : sequence of dict
+        Contact events so far: a red sphere at each point (world frame).
 
     """
     out = []
@@ -115,7 +131,21 @@ def markers(model, stamp: dict, namespace: str, released=()) -> dict:
                       ns=f'{namespace}/bodies', id=i, action=0, frame_locked=True,
                       color=_color(FIXED_COLOR if body.fixed else next(colors)), text=body.name)
         out.append(marker)
+        if shape.kind == 'mesh' and shape.hull:   # what contacts use: the hull
+            hull = _triangle_marker(shape)
+            hull.update(header={'stamp': stamp, 'frame_id': body.name}, action=0,
+                        ns=f'{namespace}/collision', id=i, frame_locked=True,
+                        color=_color(HULL_COLOR), text=f'{body.name} hull')
+            out.append(hull)
     size = max(0.02, JOINT_SIZE * max((_extent(s) for s in shapes), default=1.0))
+    for k, event in enumerate(contacts):
+        out.append({'header': {'stamp': stamp, 'frame_id': model.frame_id},
+                    'ns': f'{namespace}/contacts', 'id': k, 'type': SPHERE, 'action': 0,
+                    'pose': {'position': _xyz(event['point']),
+                             'orientation': _quat((0, 0, 0, 1))},
+                    'scale': _xyz((size, size, size)), 'frame_locked': False,
+                    'color': _color(CONTACT_COLOR),
+                    'text': f'contact {" ".join(event["bodies"])} t={event["time"]:.6f} s'})
     for k, (joint, point) in enumerate(zip(model.joints, joint_points_on_parents(model))):
         out.append({'header': {'stamp': stamp, 'frame_id': model.bodies[joint.parent].name},
                     'ns': f'{namespace}/joints', 'id': k, 'type': SPHERE, 'action': 0,

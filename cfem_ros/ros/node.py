@@ -39,7 +39,7 @@ from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
-from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy
@@ -61,6 +61,8 @@ except ImportError:   # pragma: no cover - depends on the install
 
 EXIT_OK = 0
 EXIT_FAILED = 1
+#: The run stopped at a contact (scenario `contacts:` with on_contact: stop).
+EXIT_CONTACT = 3
 EXIT_BAD_INPUT = 2
 
 #: Outputs and inputs: what ``ros2 topic pub``, ``ros2 topic echo`` and
@@ -222,6 +224,8 @@ def _fill(msg, values: dict):
     for name, value in values.items():
         if isinstance(value, dict):
             _fill(getattr(msg, name), value)
+        elif name == 'points':   # a triangle list's vertices
+            setattr(msg, name, [_fill(Point(), p) for p in value])
         else:
             setattr(msg, name, value)
     return msg
@@ -303,9 +307,10 @@ class _Publishers:
         model = self.sim.model
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
         released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
+        contacts = [e for e in self.sim.events if e.get('event') == 'contact']
         self.marker_publisher.publish(MarkerArray(markers=[
             _fill(Marker(), m) for m in visuals.markers(
-                model, stamp, self.namespace, released)['markers']]))
+                model, stamp, self.namespace, released, contacts)['markers']]))
         if TFMessage is not None and not self._scene_sent:
             self.tf_static.publish(TFMessage(transforms=[
                 _fill(TransformStamped(), t)
@@ -388,6 +393,11 @@ class _Publishers:
     def events(self):
         for event in self.sim.events[self._events_sent:]:
             self.event_publisher.publish(String(data=json.dumps(event)))
+            if event['event'] == 'contact':
+                self.node.get_logger().warning(
+                    f"contact between {' and '.join(event['bodies'])} at t = "
+                    f"{event['time']:.9g} s, point {event['point']} (world, m)")
+                continue
             if event.get('event') != 'release':
                 self.node.get_logger().info(describe_event(event))
                 continue
@@ -693,7 +703,10 @@ class CfemNode(Node):
             self._end()
 
     def _end(self):
-        if self.session.failed:
+        if self.sim.status == 'contact':
+            self.get_logger().warning(f'run stopped: {self.sim.message}')
+            self.exit_code = EXIT_CONTACT
+        elif self.session.failed:
             self.get_logger().error(f'the run failed {self.sim.message}')
             self._publishers_sink.event_publisher.publish(String(data=json.dumps(
                 {'event': 'error', 'time': self.sim.t, 'message': self.sim.message})))

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.study.shape_metrics import compute_distance
 from cfem_ros.study.spec import STROKE_COLUMNS
 import numpy as np
 
@@ -37,6 +38,8 @@ class Samples:
     releases : list of (time, joint, cause)
     strokes : dict of str to (time, velocity (3,), rates (3,))
         End-of-stroke figures by wrench (SPEC section 7), the first of a name.
+    contacts : list of (time, (body a, body b))
+        The run's contact events.
 
     """
 
@@ -44,6 +47,7 @@ class Samples:
     joints: dict = field(default_factory=dict)
     releases: list = field(default_factory=list)
     strokes: dict = field(default_factory=dict)
+    contacts: list = field(default_factory=list)
 
 
 def from_run(run) -> Samples:
@@ -53,7 +57,14 @@ def from_run(run) -> Samples:
         joints={name: (j.time, j.force, j.moment) for name, j in run.joints.items()},
         releases=list(run.releases()),
         strokes={name: (e['time'], e['velocity'], e['rates'])
-                 for name, e in run.stroke_ends().items()})
+                 for name, e in run.stroke_ends().items()},
+        contacts=_contacts(run.events))
+
+
+def _contacts(events) -> list:
+    """Return the contact events as (time, (body a, body b))."""
+    return [(float(e['time']), tuple(e['bodies'])) for e in events
+            if e.get('event') == 'contact' and 'time' in e and len(e.get('bodies', ())) == 2]
 
 
 def sample_times(times) -> np.ndarray:
@@ -146,7 +157,8 @@ class Collector:
         for e in self.sim.events:
             if e.get('event') == 'stroke_end':
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
-        return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes)
+        return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes,
+                       contacts=_contacts(self.sim.events))
 
 
 def _kernel():
@@ -213,6 +225,11 @@ def compute(samples: Samples, metrics) -> dict:
                 raise KeyError(f'no body {name!r} in the run')
         t, pos_a, quat_a = samples.bodies[c.body_a]
         _, pos_b, quat_b = samples.bodies[c.body_b]
+        inside = c.window.mask(np.asarray(t), samples.releases)
+        if not inside.all():   # a window (from/to): only its samples
+            t, pos_a, quat_a = np.asarray(t)[inside], np.asarray(pos_a)[inside], \
+                np.asarray(quat_a)[inside]
+            pos_b, quat_b = np.asarray(pos_b)[inside], np.asarray(quat_b)[inside]
         values = (NAN, NAN, -1, -1)
         if len(t):
             best = np.empty(4)
@@ -222,6 +239,8 @@ def compute(samples: Samples, metrics) -> dict:
                 values = (float(best[0]), float(t[int(best[1])]), int(best[2]), int(best[3]))
         for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
             out[f'{c.prefix}_{suffix}'] = value
+    for entry in metrics.distance:
+        out.update(compute_distance(entry, samples))
     released = {}
     for t, joint, cause in samples.releases:
         released.setdefault(joint, (float(t), str(cause)))

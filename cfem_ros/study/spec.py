@@ -27,11 +27,12 @@ from typing import Any, Optional
 
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
+from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
 import numpy as np
 
 TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics')
-METRIC_KEYS = ('clearance', 'at')
-CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b')
+METRIC_KEYS = ('clearance', 'at', 'distance')
+CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to')
 AT_KEYS = ('time', 'body', 'relative_to')
 #: Distribution name -> what its list holds.
 DISTRIBUTIONS = {
@@ -167,6 +168,7 @@ class Clearance:
     body_b: str
     points_a: np.ndarray
     points_b: np.ndarray
+    window: Window = field(default_factory=Window)   # ``from``/``to`` (shape_metrics.py)
 
     @property
     def prefix(self) -> str:
@@ -200,6 +202,7 @@ class Metrics:
     at: list = field(default_factory=list)
     joints: list = field(default_factory=list)
     strokes: list = field(default_factory=list)
+    distance: list = field(default_factory=list)   # shape_metrics.Distance
 
     def columns(self) -> list:
         """Return the metric column names, in table order."""
@@ -207,6 +210,8 @@ class Metrics:
         for c in self.clearance:
             names += [f'{c.prefix}_min', f'{c.prefix}_time', f'{c.prefix}_point_a',
                       f'{c.prefix}_point_b']
+        for d in self.distance:
+            names += d.columns()
         for joint in self.joints:
             names += [f'release_{joint}_time', f'release_{joint}_cause']
         for joint in self.joints:
@@ -286,6 +291,12 @@ class SweepSpec:
                 'at': [[a.time, a.body, a.relative_to] for a in self.metrics.at],
                 'joints': self.metrics.joints},
             'total': self.total}
+        windows = [c.window.describe() for c in self.metrics.clearance]
+        if self.metrics.distance or any(w != Window().describe() for w in windows):
+            # absent otherwise: a sweep without them keeps its hash
+            resolved['metrics']['windows'] = windows
+            resolved['metrics']['distance'] = [
+                [d.body_a, d.body_b, d.window.describe()] for d in self.metrics.distance]
         if self.correlations:   # absent otherwise: a sweep without it keeps its hash
             resolved['correlate'] = [[a, b, repr(rho)] for a, b, rho in self.correlations]
         return json.dumps(resolved, sort_keys=True, default=repr)
@@ -346,7 +357,7 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
         fail('scenario', f'is {_show(document["scenario"])}', 'a file name')
     scenario = os.path.join(os.path.dirname(os.path.abspath(path)), document['scenario'])
     base = _load_yaml(scenario, 'scenario file (SPEC section 1)')
-    parse_scenario(base, source=scenario)   # the base scenario must be valid
+    model = parse_scenario(base, source=scenario)   # the base scenario must be valid
     count = document.get('runs', 1) if runs is None else runs
     key = 'runs' if runs is None else '--runs'
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
@@ -362,7 +373,7 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     variables = _parse_vary(fail, document.get('vary') or {}, base)
     correlate = document.get('correlate')
     correlations = _parse_correlate(fail, [] if correlate is None else correlate, variables)
-    metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate)
+    metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate, model)
     values = draw(variables, count, seed, correlations)
     _check_new_keys(fail, base, variables, values, scenario)
     return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
@@ -559,7 +570,7 @@ def _points(fail, key, value):
     return np.array([_number_list(fail, f'{key}[{i}]', p, 3) for i, p in enumerate(value)])
 
 
-def _parse_metrics(fail, metrics, base, rate) -> Metrics:
+def _parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
     if not isinstance(metrics, dict):
         fail('metrics', f'is {_show(metrics)}', 'a mapping with clearance and at')
     for name in metrics:
@@ -598,7 +609,18 @@ def _parse_metrics(fail, metrics, base, rate) -> Metrics:
         seen.add((a, b))
         out.clearance.append(Clearance(a, b, _points(fail, f'{key}.points_a',
                                                      entry.get('points_a')),
-                                       _points(fail, f'{key}.points_b', entry.get('points_b'))))
+                                       _points(fail, f'{key}.points_b', entry.get('points_b')),
+                                       parse_window(fail, entry, key, base)))
+    distance = metrics.get('distance') or []
+    if not isinstance(distance, list):
+        fail('metrics.distance', f'is {_show(distance)}', 'a list of {bodies: [a, b], from, to}')
+    pairs = set()
+    for i, entry in enumerate(distance):
+        found = parse_distance(fail, entry, f'metrics.distance[{i}]', base, model)
+        if (found.body_a, found.body_b) in pairs:
+            fail(f'metrics.distance[{i}].bodies', 'repeats a pair', 'each pair once')
+        pairs.add((found.body_a, found.body_b))
+        out.distance.append(found)
     at = metrics.get('at') or []
     if not isinstance(at, list):
         fail('metrics.at', f'is {_show(at)}', 'a list of {time, body, relative_to}')

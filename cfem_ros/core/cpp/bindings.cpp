@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "aeroshapes.hpp"
 #include "common.hpp"
 #include "conditions.hpp"
 #include "dynamics.hpp"
@@ -147,6 +148,7 @@ PYBIND11_MODULE(_kernel, m) {
   m.doc() = "The compiled hot path of cfem_ros (C++17); cfem_ros.core.kernel is its API.";
 
   m.def("workspace_size", &cfem::workspace_size, py::arg("n"), py::arg("m"), py::arg("nj"));
+  cfem::bind_aeroshapes(m);   // aerodynamic tables and shape distances, vectorised
 
   m.def("derivative", [](const py::handle& y, const py::handle& dy, SYSTEM_ARGS) {
     Bound b = BIND;
@@ -271,9 +273,11 @@ PYBIND11_MODULE(_kernel, m) {
     py::array wf = checked<idx>(wrenches_found, "wrenches_found", 1, true);
     idx scheduled = 0;
     for (idx row = n; row < b.s.loads.rows; ++row)
-      if (b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_SCHEDULED) ++scheduled;
+      if (b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_SCHEDULED
+          || b.s.loads(row, cfem::loads::S_KIND) == cfem::loads::KIND_CONTACT) ++scheduled;
     if (wf.shape(0) < scheduled)
-      throw py::value_error("wrenches_found: expected one entry per scheduled wrench");
+      throw py::value_error("wrenches_found: expected one entry per scheduled wrench and "
+                            "contact pair");
     double* ip = vec(info, "info", true, 7);
     py::gil_scoped_release free;
     cfem::locate(y0p, 13 * n, h, y1p, ysp, b.s, b.v, t, ptr<idx>(jf), ptr<idx>(wf), ip);

@@ -55,7 +55,8 @@ int release_values(const Search& q, const double* y, idx first, idx count) {
 
 // The excess of a condition at rk4(y0, s) over its limit, and a code. col 0-2: watched
 // joint which's angle, distance or force; col 3: scheduled row which's stroke. Each RK4
-// raises the largest stage violation info[0].
+// raises the largest stage violation info[0]. col 4: contact row which's CONTACT_GAP less
+// the distance between its shapes.
 double excess(const Search& q, double s, idx which, int col, int* code) {
   const double* state = q.y0;
   *code = REACHED;
@@ -71,6 +72,9 @@ double excess(const Search& q, double s, idx which, int col, int* code) {
   if (col == 3) {
     return loads::point_and_stroke(state, q.s.loads, which, q.s.n(), nullptr)
            - q.s.loads(which, loads::S_STROKE);
+  }
+  if (col == 4) {   // a contact pair: >= 0 once its shapes are within CONTACT_GAP
+    return loads::CONTACT_GAP - loads::contact_gap(state, q.s.loads, which, q.s.n(), nullptr);
   }
   *code = release_values(q, state, which, 1);
   if (*code != REACHED) return NAN;
@@ -224,20 +228,33 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       info[3] = best, info[4] = static_cast<double>(count);
     }
   }
-  // the ejectors' stroke ends (ScheduledLoads.crossing)
+  // the ejectors' stroke ends (ScheduledLoads.crossing) and the contacts of armed pairs
+  // (ScheduledLoads.contacts), both reported by row in wrenches_found
   double best = h;
   idx count = -1;
   for (idx row = n; row < s.loads.rows; ++row) {
-    if (s.loads(row, loads::S_KIND) != loads::KIND_SCHEDULED) break;  // scheduled rows first
-    double limit = s.loads(row, loads::S_STROKE);
-    if (!(s.loads(row, loads::S_ON) > 0.0 && std::isfinite(limit)
-          && loads::point_and_stroke(y1, s.loads, row, n, nullptr) >= limit))
+    double kind = s.loads(row, loads::S_KIND);
+    if (kind == loads::KIND_TABLE || kind == loads::KIND_SCRATCH) break;  // the tables
+    int col;
+    if (kind == loads::KIND_SCHEDULED) {
+      double limit = s.loads(row, loads::S_STROKE);
+      if (!(s.loads(row, loads::S_ON) > 0.0 && std::isfinite(limit)
+            && loads::point_and_stroke(y1, s.loads, row, n, nullptr) >= limit))
+        continue;
+      col = 3;
+    } else if (kind == loads::KIND_CONTACT) {
+      if (!(s.loads(row, loads::S_ON) > 0.0
+            && loads::contact_gap(y1, s.loads, row, n, nullptr) <= loads::CONTACT_GAP))
+        continue;
+      col = 4;
+    } else {
       continue;
+    }
     if (count < 0) count = 0;
-    double at0 = excess(q, 0.0, row, 3, &code);
+    double at0 = excess(q, 0.0, row, col, &code);
     double at = 0.0;
     if (!(at0 >= 0.0)) {
-      at = brentq(q, h, row, 3, &code);
+      at = brentq(q, h, row, col, &code);
       if (code != REACHED) {
         info[1] = code;
         info[2] = at;

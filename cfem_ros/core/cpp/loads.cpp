@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "aero.hpp"
 #include "algebra.hpp"
+#include "distance.hpp"
 
 namespace cfem {
 namespace loads {
@@ -81,70 +83,17 @@ bool scheduled_wrench(const double* y, const double* rot, const Mat& loads, idx 
   return true;
 }
 
-// (i, u): x between grid values i and i + 1 at fraction u, held at the ends.
-void bracket(const Mat& loads, idx first, idx count, double x, idx* i_out, double* u_out) {
-  if (count == 1 || x <= loads(first, 0)) {
-    *i_out = 0;
-    *u_out = 0.0;
-    return;
-  }
-  if (x >= loads(first + count - 1, 0)) {
-    *i_out = count - 2;
-    *u_out = 1.0;
-    return;
-  }
-  idx i = 0;
-  while (loads(first + i + 1, 0) < x) ++i;
-  *i_out = i;
-  *u_out = (x - loads(first + i, 0)) / (loads(first + i + 1, 0) - loads(first + i, 0));
-}
-
 // The aerodynamic force and moment about the CG of the row's body at y into out[0:6]
-// (world axes; out[6:12] scratch); zero at zero airspeed.
+// (world axes): aero.hpp on the row's packed table (loads.py keeps it in the first 23
+// columns of the rows from A_FIRST on); zero at zero airspeed.
 void aero_wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
                  double* out) {
   idx b = static_cast<idx>(loads(row, A_BODY));
+  idx c = static_cast<idx>(loads(row, A_CARRIER));
+  if (c < 0) c = b;   // no proximity table: the carrier is not read
   const double* rb = rot + 9 * b;
-  double rel0 = y[3 * n + 3 * b] - loads(row, A_WIND);
-  double rel1 = y[3 * n + 3 * b + 1] - loads(row, A_WIND + 1);
-  double rel2 = y[3 * n + 3 * b + 2] - loads(row, A_WIND + 2);
-  double u = rb[0] * rel0 + rb[3] * rel1 + rb[6] * rel2;
-  double v = rb[1] * rel0 + rb[4] * rel1 + rb[7] * rel2;
-  double w = rb[2] * rel0 + rb[5] * rel1 + rb[8] * rel2;
-  double speed = std::sqrt(u * u + v * v + w * w);
-  for (int k = 0; k < 6; ++k) out[k] = 0.0;
-  if (speed == 0.0) return;
-  double alpha = std::atan2(w, u);
-  double beta = std::asin(std::min(1.0, std::max(-1.0, v / speed)));
-  idx na = static_cast<idx>(loads(row, A_NA)), nb = static_cast<idx>(loads(row, A_NB));
-  idx first = static_cast<idx>(loads(row, A_FIRST));
-  idx i, j;
-  double fa, fb;
-  bracket(loads, first, na, alpha, &i, &fa);
-  bracket(loads, first + na, nb, beta, &j, &fb);
-  idx nodes = first + na + nb;
-  idx i1 = std::min(i + 1, na - 1);
-  idx j1 = std::min(j + 1, nb - 1);
-  double* c = out + 6;
-  for (int k = 0; k < 6; ++k) {
-    double c00 = loads(nodes + i * nb + j, 1 + k);
-    double c01 = loads(nodes + i * nb + j1, 1 + k);
-    double c10 = loads(nodes + i1 * nb + j, 1 + k);
-    double c11 = loads(nodes + i1 * nb + j1, 1 + k);
-    double low = c00 + fb * (c01 - c00);
-    double high = c10 + fb * (c11 - c10);
-    c[k] = low + fa * (high - low);
-  }
-  double qs = 0.5 * loads(row, A_DENSITY) * speed * speed * loads(row, A_AREA);
-  double length = loads(row, A_LENGTH);
-  double scale = length / (2.0 * speed);
-  idx o = 10 * n + 3 * b;
-  double f[3] = {qs * c[0], qs * c[1], qs * c[2]};
-  double m[3] = {qs * length * (c[3] + loads(row, A_DAMPING) * y[o] * scale),
-                 qs * length * (c[4] + loads(row, A_DAMPING + 1) * y[o + 1] * scale),
-                 qs * length * (c[5] + loads(row, A_DAMPING + 2) * y[o + 2] * scale)};
-  turn(rb, f, out);
-  turn(rb, m, out + 3);
+  aero::wrench(Rows{loads.row(static_cast<idx>(loads(row, A_FIRST)))}, y + 3 * b,
+               y + 3 * n + 3 * b, rb, y + 10 * n + 3 * b, y + 3 * c, rot + 9 * c, out);
 }
 
 }  // namespace
@@ -237,12 +186,36 @@ void strokes(const double* y, const Mat& loads, idx n, double* out) {
 bool stroke_reached(const double* y, const Mat& loads, idx n) {
   for (idx row = n; row < loads.rows; ++row) {
     double kind = loads(row, S_KIND);
-    if (kind != KIND_SCHEDULED && kind != KIND_AERO) break;  // the tables
+    if (kind != KIND_SCHEDULED && kind != KIND_AERO && kind != KIND_CONTACT) break;
     if (kind == KIND_SCHEDULED && loads(row, S_ON) > 0.0 && loads(row, S_STROKE) < INFINITY) {
       if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
     }
+    if (kind == KIND_CONTACT) {
+      // the bounding spheres first: shapes far apart need no GJK
+      idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
+      double d0 = y[3 * a] - y[3 * b], d1 = y[3 * a + 1] - y[3 * b + 1];
+      double d2 = y[3 * a + 2] - y[3 * b + 2];
+      bool apart = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - loads(row, C_RADIUS_A)
+                       - loads(row, C_RADIUS_B) > CONTACT_GAP
+                   || contact_gap(y, loads, row, n, nullptr) > CONTACT_GAP;
+      if (loads(row, S_ON) > 0.0 && !apart) return true;
+      if (apart) loads(row, S_ON) = 1.0;   // apart again: watched again
+    }
   }
   return false;
+}
+
+double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points) {
+  idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
+  double rot_a[9], rot_b[9], scratch[6];
+  const double* qa = y + 6 * n + 4 * a;
+  const double* qb = y + 6 * n + 4 * b;
+  quat_matrix(qa[0], qa[1], qa[2], qa[3], rot_a);
+  quat_matrix(qb[0], qb[1], qb[2], qb[3], rot_b);
+  double* p = points ? points : scratch;
+  return shapes::distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
+                          y + 3 * a, Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))},
+                          rot_b, y + 3 * b, p, p + 3, loads.row(row) + C_GUESS);
 }
 
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,

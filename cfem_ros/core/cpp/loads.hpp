@@ -21,9 +21,19 @@ constexpr int S_TABLE = 17, S_FIRST = 18, S_COUNT = 19;
 constexpr int S_T0 = 20, S_T = 21, S_START = 22;
 constexpr int S_KIND = 23;
 constexpr int TABLE_NONE = 0, TABLE_TIME = 1, TABLE_STROKE = 2;
-constexpr int A_BODY = 0, A_AREA = 1, A_LENGTH = 2, A_DENSITY = 3, A_WIND = 4, A_DAMPING = 7;
-constexpr int A_NA = 10, A_NB = 11, A_FIRST = 12;
+// Aerodynamic rows: the body, the carrier of its proximity table (-1 none), the first
+// row of its packed table (aero.hpp, aeropack.py; 23 numbers a row).
+constexpr int A_BODY = 0, A_CARRIER = 1, A_FIRST = 12;
 constexpr double KIND_SCHEDULED = 1.0, KIND_TABLE = 2.0, KIND_AERO = 3.0, KIND_SCRATCH = 4.0;
+// Contact rows (KIND_CONTACT): the two bodies, armed (S_ON: 1.0 while the shapes are apart),
+// the first rows of their packed shapes (distance.hpp, 23 numbers a row), GJK's last
+// direction (3, its warm start), each shape's bounding radius about its body's CG (m).
+constexpr double KIND_CONTACT = 5.0;
+constexpr int C_A = 0, C_B = 1, C_SHAPE_A = 4, C_SHAPE_B = 5, C_GUESS = 6, C_RADIUS_A = 9,
+              C_RADIUS_B = 10;
+// A contact is reached when the shapes are this close, m (GJK's own tolerance, 1e-12 m, is
+// below it: the time it costs is this over the approach speed).
+constexpr double CONTACT_GAP = 1e-10;
 
 // The held torque of body i plus r x F (world axes), r its point turned by rot (3x3).
 inline void held_moment(const double* rot, const Mat& loads, idx i, const double* force,
@@ -61,8 +71,13 @@ void rotations(const double* y, idx n, double* rot);
 // Each scheduled row's stroke so far at y into out (rows n.., -1 for the others).
 void strokes(const double* y, const Mat& loads, idx n, double* out);
 
-// True if a scheduled wrench that is on has reached its stroke at y.
+// True if a scheduled wrench that is on has reached its stroke at y, or an armed contact
+// pair touches (a pair that is not armed is armed when its shapes are apart at y).
 bool stroke_reached(const double* y, const Mat& loads, idx n);
+
+// The distance between the shapes of contact row `row` at y, m (distance.hpp); the
+// closest points (world) into points[0:6] if points is not null.
+double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points);
 
 // Each scheduled wrench's (and aero table's) load at y into out, 6 a source; rot (n, 3, 3)
 // and w (18) scratch.

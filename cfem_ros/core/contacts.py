@@ -1,0 +1,77 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Collision shapes packed for the compiled distance (``cpp/distance.hpp``), and distances.
+
+A packed shape is ``SHAPE_HEADER`` numbers (kind, size (3), the shape's
+axes in its body's (row-major 3x3), its centre from the CG (body axes, m),
+the hull's vertex count) and then the hull's vertices (shape axes, m).
+"""
+
+from __future__ import annotations
+
+from cfem_ros.core import rotations
+from cfem_ros.core.shapes import Shape
+import numpy as np
+
+#: Kind codes (``cfem::shapes::kSphere`` ..).
+KIND_CODES = {'sphere': 0, 'capsule': 1, 'box': 2, 'cylinder': 3, 'mesh': 4}
+SHAPE_HEADER = 17
+
+
+def pack_shape(shape: Shape) -> np.ndarray:
+    """Return a body's collision shape packed (a mesh by its hull's vertices)."""
+    hull = np.asarray(shape.hull, dtype=float).reshape(-1, 3) if shape.kind == 'mesh' else ()
+    if shape.kind == 'mesh' and not len(hull):
+        raise ValueError(f'the mesh {shape.mesh} has no hull (not a local file)')
+    out = np.zeros(SHAPE_HEADER + 3 * len(hull))
+    out[0] = KIND_CODES[shape.kind]
+    size = shape.size if shape.kind != 'mesh' else ()
+    out[1:1 + len(size)] = size
+    axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
+    out[4:13] = axes.ravel()
+    out[13:16] = shape.offset
+    out[16] = len(hull)
+    out[SHAPE_HEADER:] = np.ravel(hull)
+    return out
+
+
+def bounding_radius(packed: np.ndarray) -> float:
+    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
+    kind, size = int(packed[0]), packed[1:4]
+    reach = {0: size[0], 1: 0.5 * size[1], 2: 0.5 * float(np.linalg.norm(size)),
+             3: float(np.hypot(size[0], 0.5 * size[1]))}.get(kind)
+    if reach is None:   # a hull: its farthest vertex
+        reach = float(np.max(np.linalg.norm(packed[SHAPE_HEADER:].reshape(-1, 3), axis=1)))
+    return float(np.linalg.norm(packed[13:16])) + reach
+
+
+def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
+              shape_b: np.ndarray, quat_b: np.ndarray, position_b: np.ndarray):
+    """
+    Return the distance between two packed shapes at n pose pairs, and the closest points.
+
+    Parameters
+    ----------
+    shape_a, shape_b : ndarray
+        From ``pack_shape``.
+    quat_a, quat_b : ndarray, shape (n, 4)
+        Body-to-world orientations (x, y, z, w).
+    position_a, position_b : ndarray, shape (n, 3)
+        The bodies' CGs, world, m.
+
+    Returns
+    -------
+    distance : ndarray, shape (n,)
+        Signed, m: negative by the penetration depth when the shapes overlap
+        (the shortest translation that parts them; EPA's, ``cpp/distance.hpp``).
+    points : ndarray, shape (n, 6)
+        The closest (or, overlapping, deepest) point on a, then on b, world, m.
+
+    """
+    from cfem_ros.core import native
+
+    rot_a = rotations.matrices(np.asarray(quat_a, dtype=float)).reshape(-1, 9)
+    rot_b = rotations.matrices(np.asarray(quat_b, dtype=float)).reshape(-1, 9)
+    return native.load().distance(shape_a, rot_a, np.asarray(position_a, dtype=float),
+                                  shape_b, rot_b, np.asarray(position_b, dtype=float))

@@ -1,0 +1,159 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// Python bindings of the aerodynamic-table and shape-distance headers, added to
+// cfem_ros.core._kernel by bind_aeroshapes (bindings.cpp calls it): vectorised over
+// many states for tests, metrics and recordings; shapes and dtypes checked once per
+// call, the GIL released around the loops.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <stdexcept>
+#include <vector>
+#include <string>
+
+#include "aero.hpp"
+#include "aeroshapes.hpp"
+#include "distance.hpp"
+#include "isa.hpp"
+#include "multilinear.hpp"
+
+namespace py = pybind11;
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+namespace {
+
+void need(bool ok, const std::string& message) {
+  if (!ok) throw py::value_error(message);
+}
+
+void need_rows(const Array& a, const char* name, py::ssize_t width, py::ssize_t rows) {
+  need(a.ndim() == 2 && a.shape(1) == width && a.shape(0) == rows,
+       std::string(name) + ": shape (" + std::to_string(rows) + ", " + std::to_string(width) +
+           ") expected");
+}
+
+// values at points: grids (list of 1-D), values (sizes..., width), points (n, axes)
+Array py_multilinear(py::list grids, Array values, Array points) {
+  int axes = static_cast<int>(grids.size());
+  need(axes >= 1 && axes <= cfem::kMaxAxes, "grids: 1 to 8 axes expected");
+  need(values.ndim() == axes + 1, "values: one dimension per axis plus the outputs expected");
+  std::vector<double> flat;
+  int sizes[cfem::kMaxAxes];
+  for (int d = 0; d < axes; ++d) {
+    Array g = grids[d].cast<Array>();
+    need(g.ndim() == 1 && g.shape(0) == values.shape(d), "grids: a grid per axis of values");
+    sizes[d] = static_cast<int>(g.shape(0));
+    flat.insert(flat.end(), g.data(), g.data() + g.shape(0));
+  }
+  int width = static_cast<int>(values.shape(axes));
+  need(width >= 1 && width <= cfem::kMaxWidth, "values: 1 to 8 numbers per node expected");
+  need(points.ndim() == 2 && points.shape(1) == axes, "points: shape (n, axes) expected");
+  py::ssize_t n = points.shape(0);
+  Array out({n, static_cast<py::ssize_t>(width)});
+  // one flat array: the grids, then the values
+  long values_at = static_cast<long>(flat.size());
+  flat.insert(flat.end(), values.data(), values.data() + values.size());
+  cfem::Flat grid_data{flat.data()};
+  const double* p = points.data();
+  double* o = out.mutable_data();
+  {
+    py::gil_scoped_release release;
+    for (py::ssize_t k = 0; k < n; ++k) {
+      cfem::multilinear(axes, sizes, grid_data, 0, values_at, width, p + k * axes,
+                        o + k * width);
+    }
+  }
+  return out;
+}
+
+py::tuple py_isa(double altitude) {
+  double density, sound;
+  cfem::isa(altitude, density, sound);
+  return py::make_tuple(density, sound);
+}
+
+// the aerodynamic wrench at n states: (n, 6) world force and moment about the CG, and
+// (n, 18) alpha, beta, Mach, speed, density, altitude, coefficients (6), increments (6)
+py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
+                      Array carrier_position, Array carrier_rot) {
+  need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
+           packed.data()[cfem::aero::kTotal] == packed.shape(0),
+       "packed: a table from cfem_ros.core.aeropack.pack expected");
+  py::ssize_t n = position.ndim() == 2 ? position.shape(0) : -1;
+  need_rows(position, "position", 3, n);
+  need_rows(velocity, "velocity", 3, n);
+  need_rows(rot, "rot", 9, n);
+  need_rows(rates, "rates", 3, n);
+  need_rows(carrier_position, "carrier_position", 3, n);
+  need_rows(carrier_rot, "carrier_rot", 9, n);
+  Array out({n, py::ssize_t(6)}), air({n, py::ssize_t(18)});
+  double* o = out.mutable_data();
+  double* a = air.mutable_data();
+  {
+    py::gil_scoped_release release;
+    for (py::ssize_t k = 0; k < n; ++k) {
+      cfem::aero::Air info;
+      cfem::aero::wrench(cfem::Flat{packed.data()}, position.data() + 3 * k, velocity.data() + 3 * k,
+                         rot.data() + 9 * k, rates.data() + 3 * k,
+                         carrier_position.data() + 3 * k, carrier_rot.data() + 9 * k,
+                         o + 6 * k, &info);
+      double head[6] = {info.alpha, info.beta, info.mach, info.speed, info.density,
+                        info.altitude};
+      for (int j = 0; j < 6; ++j) {
+        a[18 * k + j] = head[j];
+        a[18 * k + 6 + j] = info.coefficients[j];
+        a[18 * k + 12 + j] = info.increments[j];
+      }
+    }
+  }
+  return py::make_tuple(out, air);
+}
+
+void need_shape(const Array& s, const char* name) {
+  need(s.ndim() == 1 && s.shape(0) >= cfem::shapes::kShapeHeader &&
+           s.shape(0) == cfem::shapes::kShapeHeader +
+                             3 * static_cast<py::ssize_t>(s.data()[cfem::shapes::kVertices]),
+       std::string(name) + ": a shape from cfem_ros.core.contacts.pack_shape expected");
+}
+
+// distances at n pose pairs: (n,) m, and (n, 6) the closest points on a and b (world)
+py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_b, Array rot_b,
+                   Array position_b) {
+  need_shape(shape_a, "shape_a");
+  need_shape(shape_b, "shape_b");
+  py::ssize_t n = position_a.ndim() == 2 ? position_a.shape(0) : -1;
+  need_rows(position_a, "position_a", 3, n);
+  need_rows(position_b, "position_b", 3, n);
+  need_rows(rot_a, "rot_a", 9, n);
+  need_rows(rot_b, "rot_b", 9, n);
+  Array out(n), points({n, py::ssize_t(6)});
+  double* o = out.mutable_data();
+  double* p = points.mutable_data();
+  {
+    py::gil_scoped_release release;
+    for (py::ssize_t k = 0; k < n; ++k) {
+      o[k] = cfem::shapes::distance(cfem::Flat{shape_a.data()}, rot_a.data() + 9 * k,
+                                    position_a.data() + 3 * k, cfem::Flat{shape_b.data()},
+                                    rot_b.data() + 9 * k, position_b.data() + 3 * k,
+                                    p + 6 * k, p + 6 * k + 3);
+    }
+  }
+  return py::make_tuple(out, points);
+}
+
+}  // namespace
+
+namespace cfem {
+
+void bind_aeroshapes(py::module_& m) {
+  m.def("multilinear", &py_multilinear, py::arg("grids"), py::arg("values"), py::arg("points"));
+  m.def("isa", &py_isa, py::arg("altitude"));
+  m.def("aero_wrench", &py_aero_wrench, py::arg("packed"), py::arg("position"),
+        py::arg("velocity"), py::arg("rot"), py::arg("rates"), py::arg("carrier_position"),
+        py::arg("carrier_rot"));
+  m.def("distance", &py_distance, py::arg("shape_a"), py::arg("rot_a"), py::arg("position_a"),
+        py::arg("shape_b"), py::arg("rot_b"), py::arg("position_b"));
+}
+
+}  // namespace cfem
