@@ -50,15 +50,24 @@ def test_tf_carries_every_pose_and_static_the_fixed_bodies(store):
         assert (b.x, b.y, b.z, b.w) == (pose.orientation.x, pose.orientation.y,
                                         pose.orientation.z, pose.orientation.w)
     (static,) = [m for topic, _, m in store if topic == '/tf_static']
-    assert [t.child_frame_id for t in static.transforms] == ['pylon']
+    # z-up root, the fixed pylon, and the joint's frame on its child
+    assert [(t.header.frame_id, t.child_frame_id) for t in static.transforms] == [
+        ('map', 'world'), ('world', 'pylon'), ('store', 'pivot')]
 
 
 def test_markers_place_the_shapes_and_mark_the_release(store):
     arrays = [(t, m) for topic, t, m in store if topic == '/cfem/markers']
-    assert len(arrays) == 2   # at t = 0, and when the pivot lets go
-    (t0, first), (t1, second) = arrays
+    # at t = 0, when the pivot lets go, and again each second for late viewers
+    assert len(arrays) == 3
+    (t0, first), (t1, second), (t2, third) = arrays
     release = next(m for topic, _, m in store if topic == '/cfem/events')
     assert t0 == 0 and t1 == round(yaml.safe_load(release.data)['time'] * 1e9)
+    assert t2 == 1_000_000_000
+
+    def drawn(array):
+        return [(m.ns, m.id, m.type, m.header.frame_id, m.color.r, m.color.a)
+                for m in array.markers]
+    assert drawn(third) == drawn(second) != drawn(first)
     bodies = {m.text: m for m in first.markers if m.ns == '/cfem/bodies'}
     store_marker, pylon_marker = bodies['store'], bodies['pylon']
     assert store_marker.header.frame_id == 'store' and store_marker.frame_locked
@@ -71,7 +80,7 @@ def test_markers_place_the_shapes_and_mark_the_release(store):
     assert pylon_marker.type == visuals.CUBE and pylon_marker.header.frame_id == 'pylon'
     # the pylon's box sits 0.45 m above the store's CG (z down), through /tf_static
     (static,) = [m for topic, _, m in store if topic == '/tf_static']
-    frame = static.transforms[0].transform
+    frame = static.transforms[1].transform
     p = pylon_marker.pose.position
     centre = _apply([frame.translation.x, frame.translation.y, frame.translation.z],
                     [frame.rotation.x, frame.rotation.y, frame.rotation.z, frame.rotation.w],
