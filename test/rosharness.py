@@ -122,8 +122,10 @@ class Peer:
             self._collect(TwistStamped, f'bodies/{body}/twist')
         for joint in scenario_joints:
             self._collect(WrenchStamped, f'joints/{joint}/wrench')
+            self._collect(WrenchStamped, f'joints/{joint}/wrench_world')
         for body, source in applied:
             self._collect(WrenchStamped, f'bodies/{body}/applied/{source}')
+            self._collect(WrenchStamped, f'bodies/{body}/applied_world/{source}')
         self._collect(String, 'events')
         self._collect(MarkerArray, 'markers', LATCHED)
         self.wrench_pubs = {b: self.node.create_publisher(
