@@ -164,3 +164,73 @@ def test_bad_shapes_are_refused_with_the_key_path(shape, fragment):
     with pytest.raises(Exception) as err:
         parse_scenario(document)
     assert type(err.value).__name__ == 'ScenarioError' and fragment in str(err.value)
+
+
+def _compose(statics, moving, frame):
+    """Return (translation, rotation) of frame in the root of the tf tree, and the root."""
+    translation, rotation = np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
+    while frame in statics or frame in moving:
+        parent, t, q = statics[frame] if frame in statics else moving[frame]
+        matrix = rotations.matrices(np.array([q]))[0]
+        translation = np.asarray(t) + matrix @ translation
+        rotation = rotations.multiply(np.array(q), rotation)
+        frame = parent
+    return translation, rotation, frame
+
+
+def _transforms(message):
+    return {t.child_frame_id: (t.header.frame_id,
+                               [t.transform.translation.x, t.transform.translation.y,
+                                t.transform.translation.z],
+                               [t.transform.rotation.x, t.transform.rotation.y,
+                                t.transform.rotation.z, t.transform.rotation.w])
+            for t in message.transforms}
+
+
+def test_viewers_see_the_store_fall_below_the_pylon(store):
+    """Composed as a viewer composes /tf: z up, the store under the pylon and falling."""
+    (static,) = [m for topic, _, m in store if topic == '/tf_static']
+    statics = _transforms(static)
+    heights = []
+    for _, message in [(t, m) for topic, t, m in store if topic == '/tf']:
+        position, _, root = _compose(statics, _transforms(message), 'store')
+        assert root == 'map'
+        heights.append(position[2])
+    heights = np.array(heights)
+    assert np.all(np.diff(heights) < 0)            # falling all the way, as gravity pulls
+    assert heights[0] - heights[-1] > 5.0          # 7.77 m down in 1.5 s (z down in world)
+    # the pylon's shape (its marker, on its frame) is above the store
+    (array, *_) = [m for topic, _, m in store if topic == '/cfem/markers']
+    (shape,) = [m.pose.position for m in array.markers if m.text == 'pylon']
+    pylon, pylon_turn, _ = _compose(statics, {}, 'pylon')
+    centre = pylon + rotations.matrices(np.array([pylon_turn]))[0] @ [shape.x, shape.y, shape.z]
+    assert centre[2] - heights[0] == pytest.approx(0.45)
+    # the root's -z is the scenario's gravity (0, 0, +g in z-down axes)
+    _, up, _ = _compose(statics, {}, 'world')
+    np.testing.assert_allclose(rotations.matrices(np.array([up]))[0] @ [0, 0, 9.80665],
+                               [0, 0, -9.80665], atol=1e-12)
+    # the joint's frame is at the anchor on the store, in the store's axes
+    (first,) = [m for topic, t, m in store if topic == '/tf' and t == 0]
+    moving = _transforms(first)
+    pivot, turn, _ = _compose(statics, moving, 'pivot')
+    store_at, store_turn, _ = _compose(statics, moving, 'store')
+    anchor, _, _ = _compose(statics, {}, 'world')
+    world_turn = rotations.matrices(np.array([up]))[0]
+    np.testing.assert_allclose(pivot, world_turn @ [-0.3292, 0, -0.25], atol=1e-12)
+    np.testing.assert_allclose(turn, store_turn, atol=1e-15)
+
+
+def test_loads_are_stamped_where_they_act(store):
+    """joints/pivot/wrench in the pivot's frame (store axes); wrench_world in world axes."""
+    poses = {t: m.pose.orientation for topic, t, m in store if topic == '/cfem/bodies/store/pose'}
+    world = {t: m for topic, t, m in store if topic == '/cfem/joints/pivot/wrench_world'}
+    local = [(t, m) for topic, t, m in store if topic == '/cfem/joints/pivot/wrench']
+    assert len(local) == len(world) > 10
+    for t, message in local:
+        assert message.header.frame_id == 'pivot' and world[t].header.frame_id == 'world'
+        q = poses[t]
+        turn = rotations.matrices(np.array([[q.x, q.y, q.z, q.w]]))[0]
+        for kind in ('force', 'torque'):
+            v, w = getattr(message.wrench, kind), getattr(world[t].wrench, kind)
+            np.testing.assert_allclose(turn @ [v.x, v.y, v.z], [w.x, w.y, w.z], rtol=0,
+                                       atol=1e-9 * max(1.0, abs(w.x), abs(w.z)))
