@@ -234,3 +234,42 @@ def test_loads_are_stamped_where_they_act(store):
             v, w = getattr(message.wrench, kind), getattr(world[t].wrench, kind)
             np.testing.assert_allclose(turn @ [v.x, v.y, v.z], [w.x, w.y, w.z], rtol=0,
                                        atol=1e-9 * max(1.0, abs(w.x), abs(w.z)))
+
+
+def _corners(body):
+    """Return the 8 corners of a body's shape's bounding box at t = 0, world, m."""
+    shape = visuals.body_shape(body)
+    if shape.kind == 'box':
+        half = np.array(shape.size) / 2
+    elif shape.kind == 'cylinder':
+        half = np.array([shape.size[1] / 2, shape.size[0], shape.size[0]])
+    else:
+        half = np.full(3, shape.size[0])
+    local = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half
+    turn = rotations.matrices(np.array([shape.orientation_xyzw]))[0]
+    body_turn = rotations.matrices(np.array([body.orientation_xyzw]))[0]
+    return body.position + (body_turn @ (np.asarray(shape.offset) + local @ turn.T).T).T
+
+
+def _inside(points, body):
+    shape_box = _corners(body)
+    centre = shape_box.mean(axis=0)
+    axes = [shape_box[4] - shape_box[0], shape_box[2] - shape_box[0], shape_box[1] - shape_box[0]]
+    for axis in axes:
+        length = np.linalg.norm(axis)
+        along = (points - centre) @ (axis / length)
+        if np.any(np.abs(along) > length / 2 + 1e-9):
+            return False
+    return True
+
+
+@pytest.mark.parametrize('name', sorted(p.name for p in CONFIG.glob('*.yaml')
+                                        if 'ros__parameters' not in p.read_text()))
+def test_no_body_is_hidden_inside_another_in_the_examples(name):
+    model = load_scenario(str(CONFIG / name))
+    for a in model.bodies:
+        for b in model.bodies:
+            if a is not b:
+                assert not _inside(_corners(a), b), f'{name}: {a.name} hidden in {b.name}'
+    if name.startswith('store_'):   # the carrier is drawn as given, not as a stand-in cube
+        assert all(b.shape is not None for b in model.bodies), name
