@@ -3,10 +3,12 @@
 """A sweep's runs: the same metrics as cfem-sim run's recordings, failures as rows."""
 
 import copy
+import logging
 import math
 import os
 
 from cfem_ros import cli
+from cfem_ros.core.engine import REDUNDANT_WARNING
 from cfem_ros.core.model import STANDARD_GRAVITY
 from cfem_ros.study import Sweep
 from cfem_ros.study.metrics import compute, from_run
@@ -141,6 +143,19 @@ def test_summarize_reports_a_truncated_or_foreign_file_as_a_row(tmp_path, capsys
     assert 'cut.mcap' in table['message'][1] and 'notes.mcap' in table['message'][2]
     assert table['clearance_store_pylon_min'][0] > 0
     assert os.path.exists(out)
+
+
+def test_the_redundant_joint_warning_comes_once_per_sweep(tmp_path, caplog):
+    scenario = copy.deepcopy(STORE)
+    scenario['joints']['pin'] = {k: v for k, v in scenario['joints']['pivot'].items()
+                                 if k != 'release'}
+    path = write_sweep(tmp_path, runs=4, vary={'bodies.store.mass': {'normal': [907.0, 5.0]}},
+                       scenario=scenario)
+    with caplog.at_level(logging.WARNING, logger='cfem_ros'):
+        table = Sweep.from_file(path).run(None, str(tmp_path / 'out'))
+    assert (table['status'] == 'ok').all() and len(table) == 4
+    redundant = [r for r in caplog.records if r.msg == REDUNDANT_WARNING]
+    assert len(redundant) == 1 and 'pin, pivot' in redundant[0].getMessage()
 
 
 def test_summarize_relative_paths_on_a_cluster_elsewhere_and_no_silent_replace(
