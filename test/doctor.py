@@ -71,8 +71,8 @@ class _Doctor:
                 self.count += 1
                 self.per_channel[record.channel_id] = (
                     self.per_channel.get(record.channel_id, 0) + 1)
-                entries = dict((o, t) for t, o in getattr(
-                    indexes.get(record.channel_id), 'records', []))
+                entries = {o: t for t, o in getattr(
+                    indexes.get(record.channel_id), 'records', [])}
                 if entries.get(position) != record.log_time:
                     self.problems.append(f'no message index entry for channel '
                                          f'{record.channel_id} at {position}')

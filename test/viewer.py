@@ -74,11 +74,9 @@ def render(path, out, times):
             static.update(transforms(message))
     tf = {t: transforms(m) for topic, t, m in messages if topic == '/tf'}
     stamps = sorted(tf)
-    markers = [(t, m) for topic, t, m in messages if topic.endswith('/markers')]
-    wrenches = {}
-    for topic, t, m in messages:
-        if topic.endswith('/wrench') and '/joints/' in topic:
-            wrenches.setdefault(t, []).append(m)
+    markers = [(t, m) for topic, t, m in messages if topic.endswith('/markers')
+               and not topic.endswith('/load_markers')]
+    arrows = [(t, m) for topic, t, m in messages if topic.endswith('/load_markers')]
     fig = plt.figure(figsize=(9, 7))
     ax = fig.add_subplot(projection='3d')
     everything = []
@@ -102,13 +100,15 @@ def render(path, out, times):
             if marker.ns.endswith('/bodies') and when == times[0]:
                 ax.text(*centre, f' {marker.text}', fontsize=8)
             everything.append(centre)
-        for wrench in wrenches.get(stamp, []):
-            origin, turn, _ = compose(tree, wrench.header.frame_id)
-            f = wrench.wrench.force
-            arrow = turn.apply([f.x, f.y, f.z]) * 1e-4   # 1 m per 10 kN
-            ax.quiver(*origin, *arrow, color='crimson', lw=2)
-            ax.text(*(origin + arrow), f' {wrench.header.frame_id} (1 m = 10 kN)', fontsize=7,
-                    color='crimson')
+        for marker in ([m for t, m in arrows if t <= stamp] or [None])[-1].markers \
+                if arrows else ():
+            if marker.type != 0 or marker.action != 0:   # arrows (DELETEALL comes first)
+                continue
+            origin, turn, _ = compose(tree, marker.header.frame_id)
+            a, b = ([p.x, p.y, p.z] for p in marker.points)
+            start, end = origin + turn.apply(a), origin + turn.apply(b)
+            ax.quiver(*start, *(end - start), color='crimson', lw=2)
+            ax.text(*end, f' {marker.text}', fontsize=7, color='crimson')
     everything = np.array(everything)
     middle, half = everything.mean(axis=0), np.ptp(everything, axis=0).max() / 2 + 1.5
     for setter, m in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), middle):

@@ -456,7 +456,9 @@ class SampleLayout:
 @functools.lru_cache(maxsize=64)
 def _layout_template(channels: tuple, messages: tuple):
     """
-    Return the record dtype, value columns, message offsets, a filled record buffer,
+    Return the layout of a kind of sample's records, and a filled record buffer.
+
+    That is: the record dtype, value columns, message offsets, the buffer,
     the number of a sample's columns and the ``InBodyAxes`` of turned messages.
 
     The buffer holds a chunk's worth of samples with every constant field
@@ -558,6 +560,11 @@ def _transforms_template(transforms: TransformsOf):
     return fields, parts, constant
 
 
+def _periods(t: float, period: float) -> float:
+    """Return t in periods, a sample on a multiple counting as there (t = 0.3, period 0.1: 3)."""
+    return t / period + 1e-9
+
+
 def _frame_bytes(frame_id: str) -> bytes:
     """CDR of a frame_id string: uint32 length with the NUL, the bytes, the NUL."""
     text = frame_id.encode() + b'\0'
@@ -599,7 +606,8 @@ class StateRecorder:
             self.world, tuple(model.bodies[i].name for i in moving),
             tuple(13 * i for i in moving)) if moving else None
         self._scene_written = False
-        self._markers_due = visuals.MARKER_PERIOD   # simulated time of the next sending
+        # the next sendings, counted in periods: the markers at 1, the arrows at 0
+        self._markers_due, self._arrows_due = 1, 0
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -627,12 +635,38 @@ class StateRecorder:
         """
         out = []
         for k, t in enumerate(times):
-            if t >= self._markers_due:
+            if _periods(t, visuals.MARKER_PERIOD) >= self._markers_due:
                 when = self.stamp_ns(t)
                 out.append((k + 1, self.topic('markers'), MARKERS,
                             self._marker_array(when, t), when, LATCHED_QOS))
-                self._markers_due = (math.floor(t / visuals.MARKER_PERIOD) + 1) \
-                    * visuals.MARKER_PERIOD
+                self._markers_due = math.floor(_periods(t, visuals.MARKER_PERIOD)) + 1
+        return out
+
+    def _arrows_again(self, times, rows, active) -> list:
+        """
+        Return the joint-load arrows among samples at these times (s), as ``between``.
+
+        Every ``ARROW_PERIOD`` of simulated time, from the samples' numbers
+        (rows in ``Simulator.outputs`` order, these joints active): the
+        force on each child turned into its axes, drawn in the joint's frame.
+        """
+        model = self.sim.model
+        if not model.joints:
+            return []
+        out = []
+        first = 13 * len(model.bodies)
+        for k, t in enumerate(times):
+            if _periods(t, visuals.ARROW_PERIOD) < self._arrows_due:
+                continue
+            row, loads = rows[k], []
+            for i, j in enumerate(active):
+                child = 13 * model.joints[j].child + 3
+                force = row[first + 6 * i:first + 6 * i + 3]
+                loads.append((j, rotations.to_body(row[None, child:child + 4], force[None])[0]))
+            when = self.stamp_ns(t)
+            out.append((k + 1, self.topic('load_markers'), MARKERS, visuals.load_arrows(
+                model, stamp(when), self.namespace, loads), when, OFFERED_QOS))
+            self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
         return out
 
     def _marker_array(self, stamp_ns: int, t: float) -> dict:
@@ -652,23 +686,29 @@ class StateRecorder:
             self._scene()
         sim = self.sim
         layout = self._layout(sim.active_joints)
-        sim.outputs(out=layout.next_row())
+        row = layout.next_row()
+        sim.outputs(out=row)
+        arrows = self._arrows_again([sim.t], [row], sim.active_joints)
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
         self.samples += 1
-        for _, *message in self._markers_again([sim.t]):
+        for _, *message in arrows + self._markers_again([sim.t]):
             self.recorder.write(*message)
 
     def sample_rows(self) -> np.ndarray:
         """Return buffer rows for the next samples' ``Simulator.outputs`` (see ``took_rows``)."""
         if not self._scene_written:
             self._scene()
-        self._rows_layout = self._layout(self.sim.active_joints)
+        self._rows_active = self.sim.active_joints
+        self._rows_layout = self._layout(self._rows_active)
         return self.recorder.free_rows(self._rows_layout)
 
     def took_rows(self, times: np.ndarray):
         """Record the samples at these simulated times (s), in the first rows given."""
         stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
-        self.recorder.commit_rows(self._rows_layout, stamps, self._markers_again(times))
+        layout = self._rows_layout
+        rows = layout.values[layout.count:layout.count + len(stamps)]
+        between = self._arrows_again(times, rows, self._rows_active) + self._markers_again(times)
+        self.recorder.commit_rows(layout, stamps, sorted(between, key=lambda m: m[0]))
         self.samples += len(stamps)
 
     def _layout(self, active) -> 'SampleLayout':

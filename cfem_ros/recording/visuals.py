@@ -214,3 +214,40 @@ def static_transforms(model, stamp: dict) -> dict:
                               (0, 0, 0, 1))
                    for joint, point in zip(model.joints, joint_points_on_children(model))]
     return {'transforms': transforms}
+
+
+#: Seconds of simulated time between two sendings of the joint-load arrows.
+ARROW_PERIOD = 0.1
+ARROW, DELETEALL = 0, 3
+ARROW_COLOR = (0.85, 0.1, 0.1, 0.9)
+
+
+def metres_per_newton(model) -> float:
+    """Return the joint-load arrows' scale: 1 m for the weight of the heaviest moving body."""
+    weights = [body.mass * float(np.linalg.norm(model.gravity))
+               for body in model.bodies if body.dynamic]
+    biggest = max(weights, default=0.0)
+    return 1.0 / biggest if biggest > 0.0 else 1e-3
+
+
+def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
+    """
+    Return the MarkerArray of the joints' forces as arrows, each at its joint point.
+
+    loads: (joint index, force on the child in the child's axes, N) of each
+    active joint. An arrow lies in its joint's frame (at the joint point, the
+    child's axes), from the point along the force, 1 m per the heaviest
+    moving body's weight; a first DELETEALL clears the released joints' arrows.
+    """
+    scale = metres_per_newton(model)
+    out = [{'header': {'stamp': stamp, 'frame_id': model.frame_id},
+            'ns': f'{namespace}/joint_loads', 'id': 0, 'action': DELETEALL}]
+    for k, force in loads:
+        joint = model.joints[k]
+        out.append({'header': {'stamp': stamp, 'frame_id': joint.name},
+                    'ns': f'{namespace}/joint_loads', 'id': k, 'type': ARROW, 'action': 0,
+                    'pose': {'orientation': _quat((0, 0, 0, 1))},
+                    'points': [_xyz((0, 0, 0)), _xyz(np.asarray(force) * scale)],
+                    'scale': _xyz((0.03, 0.06, 0.08)), 'color': _color(ARROW_COLOR),
+                    'text': f'{joint.name}: {float(np.linalg.norm(force)):.4g} N'})
+    return {'markers': out}

@@ -38,7 +38,7 @@ from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
-from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
@@ -297,7 +297,10 @@ class _Publishers:
                         'header': {'frame_id': world}, 'child_frame_id': model.bodies[i].name})
                         for i in moving]), moving)
         self._scene_sent = False
-        self._markers_due = visuals.MARKER_PERIOD   # simulated time of the next sending
+        # the next sendings, counted in periods: the markers at 1, the arrows at 0
+        self._markers_due, self._arrows_due = 1, 0
+        self.arrow_publisher = (node.create_publisher(MarkerArray, 'load_markers', TOPIC_QOS)
+                                if model.joints else None)
 
     def _wrench(self, topic: str, frame_id: str):
         """Return a WrenchStamped publisher on topic and its message, stamped in frame_id."""
@@ -322,15 +325,22 @@ class _Publishers:
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
 
+    def _arrows(self, stamp_ns: int, loads):
+        """Publish the joint-load arrows: (joint, force on the child in its axes) of each."""
+        stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
+        array = visuals.load_arrows(self.sim.model, stamp, self.namespace, loads)
+        self.arrow_publisher.publish(MarkerArray(markers=[
+            _fill(Marker(), {**m, 'points': [_fill(Point(), p) for p in m.get('points', [])]})
+            for m in array['markers']]))
+
     def sample(self):
         sim = self.sim
         stamp_ns = self.stamp_ns(sim.t)
         if not self._scene_sent:
             self._scene(stamp_ns)
-        elif sim.t >= self._markers_due:   # again, for viewers that subscribe late
-            self._scene(stamp_ns)
-            self._markers_due = (math.floor(sim.t / visuals.MARKER_PERIOD) + 1) \
-                * visuals.MARKER_PERIOD
+        elif sim.t / visuals.MARKER_PERIOD + 1e-9 >= self._markers_due:
+            self._scene(stamp_ns)   # again, for viewers that subscribe late
+            self._markers_due = math.floor(sim.t / visuals.MARKER_PERIOD + 1e-9) + 1
         position, quat = sim.position, sim.orientation
         velocity, rates = sim.velocity_body(), sim.rates
         if self.tf is not None:
@@ -353,10 +363,16 @@ class _Publishers:
             _vector3(twist.twist.linear, velocity[i])
             _vector3(twist.twist.angular, rates[i])
             publisher.publish(twist)
+        arrows = self.arrow_publisher is not None and sim.t / visuals.ARROW_PERIOD + 1e-9 \
+            >= self._arrows_due
+        if arrows:   # the joint-load arrows, a few per simulated second
+            self._arrows_due = math.floor(sim.t / visuals.ARROW_PERIOD + 1e-9) + 1
         if self.wrenches:
             force, moment = sim.joint_wrenches()
             turned = quat[self.children]
             axes = rotations.to_body(turned, force), rotations.to_body(turned, moment)
+            if arrows:
+                self._arrows(stamp_ns, [(k, axes[0][k]) for k in self.wrenches])
             for k, publishers in self.wrenches.items():
                 for (publisher, wrench), (f, m) in zip(publishers, (
                         (axes[0][k], axes[1][k]), (force[k], moment[k]))):
@@ -364,6 +380,8 @@ class _Publishers:
                     _vector3(wrench.wrench.force, f)
                     _vector3(wrench.wrench.torque, m)
                     publisher.publish(wrench)
+        elif arrows:
+            self._arrows(stamp_ns, [])
         if self.applied:
             loads = sim.applied_loads()
             turned = quat[[body for _, _, body in self.applied]]

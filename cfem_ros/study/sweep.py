@@ -194,23 +194,12 @@ def _set_copying(part: dict, tokens, value):
     container[last] = copy.deepcopy(value)
 
 
-class _RedundantJoints(logging.Filter):
-    """Let through only the redundant-joint warning (keep), or everything else."""
-
-    def __init__(self, keep: bool):
-        super().__init__()
-        self.keep = keep
-
-    def filter(self, record) -> bool:
-        return (record.msg == REDUNDANT_WARNING) == self.keep
-
-
 #: The runs' simulators log here: all but the redundant-joint warning, given once
 #: per sweep (``warn_once``) instead of once per run, in every worker's log.
 RUNS_LOG = logging.getLogger('cfem_ros.sweep.runs')
-RUNS_LOG.addFilter(_RedundantJoints(keep=False))
+RUNS_LOG.addFilter(lambda record: record.msg != REDUNDANT_WARNING)
 _ONCE_LOG = logging.getLogger('cfem_ros.sweep')
-_ONCE_LOG.addFilter(_RedundantJoints(keep=True))
+_ONCE_LOG.addFilter(lambda record: record.msg == REDUNDANT_WARNING)   # only it
 
 
 def warn_once(spec: SweepSpec):

@@ -16,9 +16,9 @@ import sys
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.inputs import release_input, wrench_input
 from cfem_ros.recording.recorder import Recorder, StateRecorder
+from doctor import diagnose
 import numpy as np
 import pytest
-from doctor import diagnose
 from recordings import fields, read_checked, read_mcap, read_rosbags
 import yaml
 

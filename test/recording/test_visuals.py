@@ -273,3 +273,26 @@ def test_no_body_is_hidden_inside_another_in_the_examples(name):
                 assert not _inside(_corners(a), b), f'{name}: {a.name} hidden in {b.name}'
     if name.startswith('store_'):   # the carrier is drawn as given, not as a stand-in cube
         assert all(b.shape is not None for b in model.bodies), name
+
+
+def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
+    """What Foxglove's 3D panel draws of the loads (it draws no WrenchStamped): arrows."""
+    local = {t: m.wrench.force for topic, t, m in store if topic == '/cfem/joints/pivot/wrench'}
+    arrays = [(t, m) for topic, t, m in store if topic == '/cfem/load_markers']
+    assert [t for t, _ in arrays] == [round(k * 1e8) for k in range(16)]
+    scale = 1 / (907.1848 * 9.80665)   # 1 m for the store's weight
+    release = next(yaml.safe_load(m.data)['time'] for topic, _, m in store
+                   if topic == '/cfem/events')
+    for t, array in arrays:
+        first, *arrows = array.markers
+        assert first.action == 3    # DELETEALL: a released joint's arrow goes
+        if t / 1e9 > release:
+            assert arrows == []
+            continue
+        (arrow,) = arrows
+        assert arrow.header.frame_id == 'pivot' and arrow.type == 0
+        start, end = arrow.points
+        assert (start.x, start.y, start.z) == (0, 0, 0)
+        f = local[t]
+        np.testing.assert_allclose([end.x, end.y, end.z], np.array([f.x, f.y, f.z]) * scale,
+                                   rtol=1e-12, atol=1e-12)

@@ -258,6 +258,13 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
             durability=DurabilityPolicy.VOLATILE))
         peer.spin_until(lambda: late, timeout=5.0, what='markers for a late volatile viewer')
         assert len(late[0].markers) == 3
+        # the joint-load arrows: at the pivot while it held, then cleared
+        arrows = []
+        peer.node.create_subscription(MarkerArray, '/cfem/load_markers', arrows.append, 10)
+        peer.spin_until(lambda: arrows, timeout=5.0, what='the joint-load arrows')
+        assert [m.action for m in arrows[-1].markers] == [3]   # DELETEALL: pivot released
+        held = [m for a in peer.received['load_markers'] for m in a.markers if m.action == 0]
+        assert held and {m.header.frame_id for m in held} == {'pivot'}
     finally:
         status = node.stop(signal.SIGTERM)
     assert status == 0, node.output
