@@ -11,8 +11,9 @@ frame, lands on the body's CG (plus the shape's offset turned with the body).
 
 import math
 import pathlib
+import urllib.parse
 
-from cfem_ros import cli, load_scenario, parse_scenario
+from cfem_ros import analysis, cli, load_scenario, parse_scenario
 from cfem_ros.core import rotations
 from cfem_ros.core.shapes import equivalent_box
 from cfem_ros.recording import visuals
@@ -25,10 +26,15 @@ CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
 
 @pytest.fixture(scope='module')
-def store(tmp_path_factory):
+def store_file(tmp_path_factory):
     out = tmp_path_factory.mktemp('visuals') / 'store.mcap'
     assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(out)]) == 0
-    messages, _ = read_rosbags(out)
+    return out
+
+
+@pytest.fixture(scope='module')
+def store(store_file):
+    messages, _ = read_rosbags(store_file)
     return messages
 
 
@@ -166,6 +172,41 @@ def test_bad_shapes_are_refused_with_the_key_path(shape, fragment):
     assert type(err.value).__name__ == 'ScenarioError' and fragment in str(err.value)
 
 
+def test_mesh_paths_are_percent_encoded_urls_and_a_missing_mesh_is_refused(tmp_path):
+    folder = tmp_path / 'mesh test'
+    folder.mkdir()
+    (folder / 'store mesh.stl').write_text('solid store\nendsolid store\n')
+    scenario = folder / 'scenario.yaml'
+    document = {'bodies': {'store': {'mass': 1.0, 'inertia': [1, 1, 1],
+                                     'shape': {'mesh': 'store mesh.stl'}}}}
+    scenario.write_text(yaml.safe_dump(document))
+    (marker,) = visuals.markers(load_scenario(str(scenario)), {'sec': 0, 'nanosec': 0},
+                                '/cfem')['markers']
+    url = marker['mesh_resource']
+    assert url == 'file://' + str(folder).replace(' ', '%20') + '/store%20mesh.stl'
+    assert ' ' not in url and pathlib.Path(urllib.parse.unquote(url[7:])).is_file()
+    document['bodies']['store']['shape']['mesh'] = 'missing mesh.stl'
+    scenario.write_text(yaml.safe_dump(document))
+    with pytest.raises(Exception) as err:
+        load_scenario(str(scenario))
+    message = str(err.value)
+    assert 'bodies.store.shape.mesh' in message and 'missing mesh.stl' in message
+    assert 'not a file' in message and 'existing mesh file' in message
+    # a URL is taken as it is (package:// is resolved by the viewer)
+    document['bodies']['store']['shape']['mesh'] = 'package://my_pkg/meshes/store.stl'
+    scenario.write_text(yaml.safe_dump(document))
+    assert load_scenario(str(scenario)).bodies[0].shape.mesh.startswith('package://my_pkg')
+
+
+def test_a_joint_cannot_take_a_frame_name():
+    document = {'bodies': {'b': {'mass': 1.0, 'inertia': [1, 1, 1]}, 'c': {'fixed': True}},
+                'joints': {'c': {'type': 'ball', 'parent': 'c', 'child': 'b',
+                                 'anchor': [0, 0, 0]}}}
+    with pytest.raises(Exception) as err:
+        parse_scenario(document)
+    assert 'joints.c' in str(err.value) and 'tf frame' in str(err.value)
+
+
 def _compose(statics, moving, frame):
     """Return (translation, rotation) of frame in the root of the tf tree, and the root."""
     translation, rotation = np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
@@ -296,3 +337,24 @@ def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
         f = local[t]
         np.testing.assert_allclose([end.x, end.y, end.z], np.array([f.x, f.y, f.z]) * scale,
                                    rtol=1e-12, atol=1e-12)
+
+
+def test_open_run_reads_world_axes_loads_old_and_new(tmp_path, store, store_file):
+    from cfem_ros.recording.recorder import POSE, Recorder, WRENCH
+
+    def header(frame):
+        return {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': frame}
+    pose = {'header': header('world'), 'pose': {'orientation': {'w': 1.0}}}
+    old = tmp_path / 'old.mcap'   # before the _world topics: world axes on wrench
+    with Recorder(str(old)) as recorder:
+        recorder.write('/cfem/bodies/store/pose', POSE, pose, 0)
+        recorder.write('/cfem/joints/pivot/wrench', WRENCH, {
+            'header': header('world'), 'wrench': {'force': {'z': -5.0}}}, 0)
+        recorder.write('/cfem/joints/other/wrench', WRENCH, {   # in its own axes only
+            'header': header('other'), 'wrench': {'force': {'z': -7.0}}}, 0)
+    run = analysis.open_run(str(old))
+    assert list(run.joints) == ['pivot'] and run.joints['pivot'].force[0, 2] == -5.0
+    # a new recording: the world-axes numbers of wrench_world, whatever wrench holds
+    new = analysis.open_run(str(store_file))
+    world = [m.wrench.force for topic, _, m in store if topic == '/cfem/joints/pivot/wrench_world']
+    np.testing.assert_array_equal(new.joints['pivot'].force[:, 2], [f.z for f in world])
