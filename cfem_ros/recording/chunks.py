@@ -202,6 +202,10 @@ class ChunkedWriter:
         if self._chunk_bytes >= self._chunk_size:
             self.close_chunk()
 
+    def chunk_room(self) -> int:
+        """Return the bytes the chunk in progress takes before it is closed."""
+        return max(0, self._chunk_size - self._chunk_bytes)
+
     def _add_to_chunk(self, channel: int):
         """Put the channel's record (and its schema's, the first time) in the chunk."""
         schema = self._channel_schema[channel]

@@ -298,10 +298,13 @@ class Recorder:
             cuts = sorted({k for k, *_ in between if k < layout.count} | {layout.count})
             start = 0
             for cut in cuts:
-                for first in range(start, cut, layout.chunk_rows):
-                    stop = min(first + layout.chunk_rows, cut)
+                first = start
+                while first < cut:   # as many rows as fill the chunk in progress
+                    rows = -(-self._writer.chunk_room() // layout.dtype.itemsize)
+                    stop = min(first + max(1, min(rows, layout.chunk_rows)), cut)
                     self._writer.add_messages(*layout.records(self.message_count, first, stop))
                     self.message_count += (stop - first) * per
+                    first = stop
                 for k, *message in between:
                     if k == cut or (cut == layout.count and k > cut):
                         self._write(*message)

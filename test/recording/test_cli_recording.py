@@ -56,7 +56,7 @@ def test_recording_follows_the_ros2_profile(store_run):
     assert topics == {'/cfem/bodies/pylon/pose', '/cfem/bodies/pylon/twist',
                       '/cfem/bodies/store/pose', '/cfem/bodies/store/twist',
                       '/cfem/joints/pivot/wrench', '/cfem/joints/pivot/wrench_world',
-                      '/cfem/events', '/cfem/markers', '/tf',
+                      '/cfem/events', '/cfem/markers', '/cfem/load_markers', '/tf',
                       '/tf_static'}
 
 
