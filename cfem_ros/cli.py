@@ -543,8 +543,13 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
 
 
 def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[int] = None,
-                  scheduler: Optional[str] = None, csv: bool = False) -> int:
+                  scheduler: Optional[str] = None, csv: bool = False,
+                  overwrite: bool = False) -> int:
     """Compute a sweep file's metrics over recordings into a table; exit 0, 1 or 2."""
+    tables = [output] + ([os.path.splitext(output)[0] + '.csv'] if csv else [])
+    for table in tables:
+        if not overwrite and os.path.lexists(table):
+            return _error(f'{table}: already exists; pass --overwrite to replace it')
     try:
         study = _study_imports()
         spec = study.load_sweep(metrics_file, runs=1)
@@ -680,6 +685,8 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument('--workers', type=int, metavar='N', help='local worker processes')
     where.add_argument('--scheduler', metavar='ADDRESS', help='use a running Dask scheduler')
     summ.add_argument('--csv', action='store_true', help='also write TABLE.csv')
+    summ.add_argument('--overwrite', action='store_true',
+                      help='replace an existing table (else refused)')
     return parser
 
 
@@ -734,7 +741,8 @@ def main(argv=None) -> int:
                              csv=args.csv)
         if args.command == 'summarize':
             return cmd_summarize(args.recordings, args.metrics, args.output,
-                                 workers=args.workers, scheduler=args.scheduler, csv=args.csv)
+                                 workers=args.workers, scheduler=args.scheduler, csv=args.csv,
+                                 overwrite=args.overwrite)
         if args.command == 'compare':
             return cmd_compare(args.first, args.second, args.output, args.map)
         if args.command == 'play':

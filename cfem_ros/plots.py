@@ -32,12 +32,37 @@ COLORS = ('tab:blue', 'tab:orange', 'tab:green', 'black')
 DPI = 110
 
 
+#: Releases closer than this fraction of the time axis get their labels one under another.
+CLOSE_RELEASES = 0.15
+
+
+def release_groups(run: Run) -> list:
+    """
+    Return the run's releases as (time, 'joint, joint', 'cause') groups, in time order.
+
+    Joints released in the same instant (a group, or triggers met together)
+    make one group: one mark and one label, not labels printed over each other.
+    """
+    groups = []
+    for t, joint, cause in sorted(run.releases()):
+        if groups and abs(t - groups[-1][0]) <= 1e-9 * max(1.0, abs(t)):
+            groups[-1][1].append(joint)
+            groups[-1][2].add(cause)
+        else:
+            groups.append((t, [joint], {cause}))
+    return [(t, ', '.join(joints), ', '.join(sorted(causes))) for t, joints, causes in groups]
+
+
 def _mark_releases(ax, run: Run, label: bool):
-    for t, joint, cause in run.releases():
+    span, previous, row = max(run.duration, 1e-9), None, 0
+    for t, joints, cause in release_groups(run):
         ax.axvline(t, color='tab:red', linestyle='--', linewidth=1.0, alpha=0.8)
         if label:
-            ax.annotate(f'{joint} released ({cause}) t = {t:.4f} s', xy=(t, 1.0),
-                        xycoords=('data', 'axes fraction'), xytext=(3, -12),
+            row = row + 1 if previous is not None and t - previous < CLOSE_RELEASES * span \
+                else 0
+            previous = t
+            ax.annotate(f'{joints} released ({cause}) t = {t:.4f} s', xy=(t, 1.0),
+                        xycoords=('data', 'axes fraction'), xytext=(3, -12 - 11 * row),
                         textcoords='offset points', color='tab:red', fontsize=8)
 
 
@@ -209,17 +234,14 @@ def trajectory_figure(run: Run):
         ax.plot(path[:, 0], path[:, 1], path[:, 2], ':', color=f'C{k + 5}', linewidth=1.5,
                 label=f'joint {name} point (on its child)')
         points.append(path)
-    for t, joint, cause in run.releases():
+    for t, joints, cause in release_groups(run):
         ax.scatter([], [], [], color='tab:red', marker='*', s=120,
-                   label=f'{joint} released ({cause}), t = {t:.4f} s')
+                   label=f'{joints} released ({cause}), t = {t:.4f} s')
     ax.scatter([], [], [], color='gray', marker='o', label='start')
     ax.scatter([], [], [], color='gray', marker='s', label='end')
+    equal = True
     if points:
-        every = np.vstack(points)
-        center = (every.max(axis=0) + every.min(axis=0)) / 2
-        half = max(np.ptp(every, axis=0).max() / 2, 1e-3) * 1.05
-        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), center):
-            setter(c - half, c + half)
+        equal = _limits(ax, np.vstack(points))
     ax.set_box_aspect((1, 1, 1))
     ax.set_xlabel('x [m]')
     ax.set_ylabel('y [m]')
@@ -227,9 +249,37 @@ def trajectory_figure(run: Run):
     down = _z_down(run)
     if down:
         ax.invert_zaxis()
-    ax.set_title(f'CG trajectories, world frame, equal scales{" (z down)" if down else ""}')
+    scales = 'equal scales' if equal else 'scales differ by axis (a long path)'
+    ax.set_title(f'CG trajectories, world frame, {scales}{" (z down)" if down else ""}')
     ax.legend(loc='upper left', fontsize=8)
     return fig
+
+
+#: A path longer than this many times its extent across it is drawn with its own scale
+#: on each axis: at equal scales a separation of metres within a flight of hundreds
+#: of metres is a single line.
+LONG_PATH = 10.0
+
+
+def _limits(ax, every: np.ndarray) -> bool:
+    """Set a 3D axes' limits around points (n, 3): equal scales unless the path is long."""
+    center = (every.max(axis=0) + every.min(axis=0)) / 2
+    spans = np.ptp(every, axis=0)
+    across = np.sort(spans)[1]   # the middle span: across the path's length
+    if spans.max() <= LONG_PATH * max(across, 1e-3):
+        half = max(spans.max() / 2, 1e-3) * 1.05
+        for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), center):
+            setter(c - half, c + half)
+        return True
+    floor = max(across / 2, 1e-3)
+    for setter, c, span in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), center, spans):
+        half = max(span / 2, floor) * 1.05
+        setter(c - half, c + half)
+    return False
+
+
+#: Smallest span of a relative-trajectory axis, m.
+MIN_SPAN = 0.1
 
 
 def relative_trajectory_figure(run: Run):
@@ -239,28 +289,37 @@ def relative_trajectory_figure(run: Run):
         p = track.position
         label = f'{track.name} in {track.reference} axes'
         for ax, (i, j) in zip(axes, ((0, 2), (1, 2))):
-            ax.plot(p[:, i], p[:, j], color=f'C{k}', label=label)
-            ax.scatter(p[0, i], p[0, j], color=f'C{k}', marker='o', s=30)
-            ax.scatter(p[-1, i], p[-1, j], color=f'C{k}', marker='s', s=30)
-            for t, joint, cause in run.releases():
+            ax.plot(p[:, i], p[:, j], color=f'C{k}', label=label, zorder=2)
+            # hollow start and end marks above the release star, which may share the spot
+            for row, marker in ((0, 'o'), (-1, 's')):
+                ax.scatter(p[row, i], p[row, j], facecolors='none', edgecolors=f'C{k}',
+                           marker=marker, s=70, linewidths=1.5, zorder=4)
+            for t, _, _ in release_groups(run):
                 if len(track.time) and track.time[0] <= t <= track.time[-1]:
                     at = [np.interp(t, track.time, p[:, c]) for c in (i, j)]
-                    ax.scatter(*at, color='tab:red', marker='*', s=120)
+                    ax.scatter(*at, color='tab:red', marker='*', s=120, zorder=3)
     for ax, (a, b) in zip(axes, (('x', 'z'), ('y', 'z'))):
         ax.set_xlabel(f'{a} [m]')
         ax.set_ylabel(f'{b} [m]')
+        # at least MIN_SPAN each way: rounding is not drawn as motion
+        center = (np.mean(ax.get_xlim()), np.mean(ax.get_ylim()))
+        ax.update_datalim([[c - MIN_SPAN / 2 for c in center], [c + MIN_SPAN / 2 for c in center]])
+        ax.autoscale_view()
         ax.set_aspect('equal', adjustable='datalim')
         ax.grid(True, alpha=0.3)
         if _z_down(run):
             ax.invert_yaxis()
     axes[0].set_title('relative to the carrier: side view (x-z)')
     axes[1].set_title('relative to the carrier: front view (y-z)')
-    for t, joint, cause in run.releases():
+    for t, joints, cause in release_groups(run):
         axes[0].scatter([], [], color='tab:red', marker='*', s=120,
-                        label=f'{joint} released ({cause}), t = {t:.4f} s')
+                        label=f'{joints} released ({cause}), t = {t:.4f} s')
     for marker, label in (('o', 'start'), ('s', 'end')):
-        axes[0].scatter([], [], color='gray', marker=marker, label=label)
-    axes[0].legend(loc='best', fontsize=8)
+        axes[0].scatter([], [], facecolors='none', edgecolors='gray', marker=marker, s=70,
+                        linewidths=1.5, label=label)
+    # below the panels, where it hides no mark
+    fig.legend(*axes[0].get_legend_handles_labels(), loc='outside lower center', fontsize=8,
+               ncol=4)
     return fig
 
 
@@ -268,7 +327,7 @@ def compare_body_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     """Overlay one body's motion from two runs (A solid, B dashed), with A - B below."""
     ta, tb = a.bodies[name], b.bodies[name]
     fig = plt.figure(figsize=(10, 11), layout='constrained')
-    fig.suptitle(f'{name}: {labels[0]} (solid) against {labels[1]} (dashed)')
+    fig.suptitle(f'{name}: {_which(a, b, labels)}')
     axes = _time_axes(fig, a, 4)
     _lines(axes[0], _two(ta.time, ta.position, tb.time, tb.position, labels), AXES,
            'position [m]', 'CG position, world axes')
@@ -287,6 +346,12 @@ def compare_body_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     return fig
 
 
+def _which(a: Run, b: Run, labels) -> str:
+    """Name the two runs of a comparison: which is solid, which dashed, and their files."""
+    return (f'{labels[0]} (solid) = {os.path.basename(a.path)}, '
+            f'{labels[1]} (dashed) = {os.path.basename(b.path)}')
+
+
 def _difference(t_a, values_a, t_b, values_b):
     """Return A's times inside B's span and A - B there (B interpolated linearly)."""
     inside = (t_a >= t_b[0] - 1e-12) & (t_a <= t_b[-1] + 1e-12) if len(t_b) else t_a < -1
@@ -300,7 +365,7 @@ def compare_joint_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     """Overlay one joint's load from two runs (A solid, B dashed)."""
     ja, jb = a.joints[name], b.joints[name]
     fig = plt.figure(figsize=(10, 7), layout='constrained')
-    fig.suptitle(f'joint {name}: {labels[0]} (solid) against {labels[1]} (dashed)')
+    fig.suptitle(f'joint {name}: {_which(a, b, labels)}')
     axes = _time_axes(fig, a, 3)
     force_scale, moment_scale = _load_scales(np.vstack([ja.force, jb.force]),
                                              np.vstack([ja.moment, jb.moment]))

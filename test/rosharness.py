@@ -122,10 +122,14 @@ class Peer:
             self._collect(TwistStamped, f'bodies/{body}/twist')
         for joint in scenario_joints:
             self._collect(WrenchStamped, f'joints/{joint}/wrench')
+            self._collect(WrenchStamped, f'joints/{joint}/wrench_world')
         for body, source in applied:
             self._collect(WrenchStamped, f'bodies/{body}/applied/{source}')
+            self._collect(WrenchStamped, f'bodies/{body}/applied_world/{source}')
         self._collect(String, 'events')
         self._collect(MarkerArray, 'markers', LATCHED)
+        if scenario_joints:   # the joint-load arrows (none without joints)
+            self._collect(MarkerArray, 'load_markers')
         self.wrench_pubs = {b: self.node.create_publisher(
             WrenchStamped, f'{namespace}/bodies/{b}/wrench', RELIABLE) for b in scenario_bodies}
         self.release_pub = self.node.create_publisher(String, f'{namespace}/release', RELIABLE)

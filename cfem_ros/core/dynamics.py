@@ -38,6 +38,12 @@ from cfem_ros.core.ties import TiedLoads
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
+#: The warning (a logging format, its arguments the joints and the count) of redundant
+#: joints, which a sweep gives once, not once per run.
+REDUNDANT_WARNING = ('the joints %s constrain %d direction(s) more than once (redundant '
+                     'joints or a closed loop): the motion is exact, the loads of the '
+                     'redundant directions are shared in the least-norm sense (weighted '
+                     "by the joints' compliance where given)")
 
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
@@ -130,12 +136,7 @@ class Dynamics(SampledState):
         if rank < top.m:
             if not getattr(self, '_warned_redundant', False):
                 names = sorted({self.model.joints[k].name for k in top.joint})
-                self.log.warning(
-                    'the joints %s constrain %d direction(s) more than once (redundant '
-                    'joints or a closed loop): the motion is exact, the loads of the '
-                    'redundant directions are shared in the least-norm sense (weighted '
-                    "by the joints' compliance where given)",
-                    ', '.join(names), top.m - rank)
+                self.log.warning(REDUNDANT_WARNING, ', '.join(names), top.m - rank)
                 self._warned_redundant = True
             top.dense = 2
         return free_dof - rank

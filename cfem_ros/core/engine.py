@@ -25,7 +25,7 @@ from typing import Optional
 
 from cfem_ros.core import kernel, sampling
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.dynamics import Dynamics
+from cfem_ros.core.dynamics import Dynamics, REDUNDANT_WARNING  # noqa: F401 - for sweeps
 from cfem_ros.core.groups import ReleaseGroups, row_weights
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users

@@ -576,6 +576,11 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
         check.fail('joints', f'is {_show(joints_doc)}', 'a mapping of joint names')
     joints = [_parse_joint(check, joint_name, spec, index, bodies)
               for joint_name, spec in joints_doc.items()]
+    for joint in joints:   # each joint point is a tf frame of its own name (SPEC section 4)
+        if joint.name in index or joint.name == frame_id:
+            check.fail(_key('joints', joint.name), 'has the name of a body or of the world '
+                       'frame; each is a tf frame, so the frames would clash',
+                       'a joint name that is no body name and not ' + repr(frame_id))
     groups = _parse_release_groups(check, top.get('release_groups'), joints, joints_doc)
     joints = _with_group_releases(joints, groups)
     wrenches = _parse_wrenches(check, top.get('wrenches'), index, bodies, frame_id,

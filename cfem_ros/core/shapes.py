@@ -17,7 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 import math
 import os
+import pathlib
 from typing import Callable
+import urllib.parse
 
 import numpy as np
 
@@ -169,7 +171,12 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
         url = _mesh_url(spec.strip(), base_dir)
         hull = ()
         if url.startswith('file://'):
-            hull = mesh_hull(url[len('file://'):], size, where, fail)
+            path = urllib.parse.unquote(urllib.parse.urlsplit(url).path)
+            if not os.path.isfile(path):
+                fail(where, f'names {path!r}, which is not a file',
+                     'the path of an existing mesh file (STL, DAE or OBJ), relative to the '
+                     'scenario file, or a package:// or http(s):// URL')
+            hull = mesh_hull(path, size, where, fail)
         return Shape('mesh', size, offset, mesh=url, hull=hull)
     if min(size) <= 0.0:
         fail(where, f'is {list(size)}', 'sizes > 0 m')
@@ -177,11 +184,16 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
 
 
 def _mesh_url(spec: str, base_dir: str) -> str:
-    """Return a mesh reference as a URL viewers resolve (paths become file:// URLs)."""
+    """
+    Return a mesh reference as a URL viewers resolve.
+
+    A path becomes a ``file://`` URL, percent-encoded (RFC 8089: a space is
+    ``%20``), as RViz's resource retriever (libcurl) and Foxglove require.
+    """
     if '://' in spec:
         return spec
     path = spec if os.path.isabs(spec) else os.path.join(base_dir or os.getcwd(), spec)
-    return 'file://' + os.path.abspath(path)
+    return pathlib.Path(os.path.abspath(path)).as_uri()
 
 
 def triangles(shape: Shape) -> np.ndarray:

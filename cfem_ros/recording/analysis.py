@@ -38,6 +38,11 @@ MCAP_MAGIC = b'\x89MCAP0\r\n'
 BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
+#: The loads in world axes (SPEC sections 3 and 5): what a ``Run`` holds. Recordings
+#: made before these topics existed had the world axes on the topics above.
+JOINT_WORLD_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench_world$')
+APPLIED_WORLD_TOPIC = re.compile(
+    r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied_world/(?P<source>[^/]+)$')
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
 RELATIVE_TOPIC = re.compile(
     r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/relative_(?P<kind>pose|twist)$')
@@ -389,7 +394,8 @@ def _renamed(channel, renamed: dict):
 
 def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
     raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
-           'relative_pose': {}, 'relative_twist': {}, 'reference': {}}
+           'relative_pose': {}, 'relative_twist': {}, 'reference': {},
+           'joint_in': {}, 'applied_in': {}, 'world': set()}   # *_in: loads, frame_id
     for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
         topic = (renamed or {}).get(channel.topic, channel.topic)
         relative = RELATIVE_TOPIC.match(topic)
@@ -413,20 +419,21 @@ def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
             if body['kind'] == 'pose':
                 p, q = decoded.pose.position, decoded.pose.orientation
                 values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+                raw['world'].add(decoded.header.frame_id)
             else:
                 a, b = decoded.twist.linear, decoded.twist.angular
                 values = (a.x, a.y, a.z, b.x, b.y, b.z)
             raw[body['kind']].setdefault(body['name'], []).append((when, values))
             continue
-        joint = JOINT_TOPIC.match(topic)
-        applied = APPLIED_TOPIC.match(topic)
-        if (joint and joint['ns'] == ns) or (applied and applied['ns'] == ns):
+        load = _load_topic(topic, ns)
+        if load is not None:
+            kind, name = load
             stamp = decoded.header.stamp
             f, m = decoded.wrench.force, decoded.wrench.torque
-            kind, name = (('joint', joint['name']) if joint else
-                          ('applied', f"{applied['body']}/{applied['source']}"))
-            raw[kind].setdefault(name, []).append(
-                (stamp.sec * 1_000_000_000 + stamp.nanosec, (f.x, f.y, f.z, m.x, m.y, m.z)))
+            row = (stamp.sec * 1_000_000_000 + stamp.nanosec, (f.x, f.y, f.z, m.x, m.y, m.z))
+            if kind.endswith('_in'):
+                row += (decoded.header.frame_id,)
+            raw[kind].setdefault(name, []).append(row)
             continue
         events = EVENTS_TOPIC.match(topic)
         if events and events['ns'] == ns:
@@ -438,7 +445,37 @@ def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
     return raw
 
 
+def _load_topic(topic: str, ns: str):
+    """
+    Return (kind, name) of a load topic of namespace ns, else None.
+
+    kind is 'joint' or 'applied' for world axes, 'joint_in' or 'applied_in'
+    for the topics in the axes where the load acts.
+    """
+    for pattern, kind in ((JOINT_WORLD_TOPIC, 'joint'), (APPLIED_WORLD_TOPIC, 'applied'),
+                          (JOINT_TOPIC, 'joint_in'), (APPLIED_TOPIC, 'applied_in')):
+        match = pattern.match(topic)
+        if match and match['ns'] == ns:
+            return kind, (match['name'] if kind.startswith('joint')
+                          else f"{match['body']}/{match['source']}")
+    return None
+
+
+def _world_axes_loads(raw: dict):
+    """
+    Keep the world-axes loads; a load with only its other topic, stamped in world axes, too.
+
+    Recordings made before the ``_world`` topics had the world axes on
+    ``joints/<joint>/wrench`` and ``applied/<source>``.
+    """
+    for kind in ('joint', 'applied'):
+        for name, rows in raw[f'{kind}_in'].items():
+            if name not in raw[kind] and {r[2] for r in rows} <= raw['world']:
+                raw[kind][name] = [r[:2] for r in rows]
+
+
 def _assemble(path, ns, topics, metadata, raw) -> Run:
+    _world_axes_loads(raw)
     poses = raw['pose']
     if 'start_stamp_ns' in metadata:
         start_ns = int(metadata['start_stamp_ns'])

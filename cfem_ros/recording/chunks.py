@@ -15,10 +15,11 @@ which the caller builds many at once (``message_records``), and
 MessageIndex records, built here with numpy. The readers in the tests
 (``mcap``'s with CRC checks, and ``rosbags``) read what it writes.
 
-Schema and channel records are written in the data section when they are
-registered and again at the start of the first chunk that holds a message
-of the channel, so that every chunk read on its own (a stream reader, a
-recovery tool) meets a message's channel and schema before the message.
+Schema and channel records are written once in the data section, in the
+first chunk that holds a message of the channel, before that message (as
+rosbag2's writer does: ``mcap doctor`` warns of a record written twice), and
+again in the summary for the readers that stop there. A stream reader or a
+recovery tool meets a message's channel and schema before the message.
 
 A chunk is written with SIGINT and SIGTERM held (``signals_held``): a
 signal handler runs only between chunks, never inside a half-written one.
@@ -134,26 +135,22 @@ class ChunkedWriter:
     # --------------------------------------------------------------- records
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
-        """Write a schema record; return its id."""
+        """Register a schema (written with its channel's first message); return its id."""
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
-        record = _serialize(schema)
-        self._schemas[schema.id] = record   # written again in a chunk and the summary
+        self._schemas[schema.id] = _serialize(schema)   # in a chunk, and in the summary
         self.statistics.schema_count += 1
-        self._write_data(record)
         return schema.id
 
     def register_channel(self, topic: str, message_encoding: str, schema_id: int,
                          metadata: Dict[str, str]) -> int:
-        """Write a channel record; return its id."""
+        """Register a channel (written before its first message); return its id."""
         channel = Channel(id=len(self._channels) + 1, topic=topic,
                           message_encoding=message_encoding, schema_id=schema_id,
                           metadata=metadata)
-        record = _serialize(channel)
-        self._channels[channel.id] = record   # written again in a chunk and the summary
+        self._channels[channel.id] = _serialize(channel)   # in a chunk, and in the summary
         self._channel_schema[channel.id] = schema_id
         self.statistics.channel_count += 1
         self.statistics.channel_message_counts[channel.id] = 0
-        self._write_data(record)
         return channel.id
 
     def add_metadata(self, name: str, data: Dict[str, str]):
@@ -204,6 +201,10 @@ class ChunkedWriter:
         self._chunk_bytes += len(records)
         if self._chunk_bytes >= self._chunk_size:
             self.close_chunk()
+
+    def chunk_room(self) -> int:
+        """Return the bytes the chunk in progress takes before it is closed."""
+        return max(0, self._chunk_size - self._chunk_bytes)
 
     def _add_to_chunk(self, channel: int):
         """Put the channel's record (and its schema's, the first time) in the chunk."""
@@ -287,6 +288,14 @@ class ChunkedWriter:
             self._finish()
 
     def _finish(self):
+        # channels that never had a message: in the data section too, as the summary's are
+        for channel in self._channels:
+            if channel not in self._chunked_channels:
+                schema = self._channel_schema[channel]
+                if schema and schema not in self._chunked_schemas:
+                    self._write_data(self._schemas[schema])
+                    self._chunked_schemas.add(schema)
+                self._write_data(self._channels[channel])
         self._write_data(_serialize(DataEnd(data_section_crc=self._data_crc)))
         summary_start = self._offset
         parts, offsets = [], []

@@ -76,13 +76,14 @@ def estimate_bytes(model, samples: int) -> float:
     """
     Return about how many bytes a run of so many samples records.
 
-    Per sample: a pose (7 float64) and a twist (6) per body and a wrench (6)
-    per joint, each a Message record (31 bytes), CDR header and stamp (12),
-    frame_id (about 16) and its index entry (16); and a /tf message with a
-    transform (7 float64, stamp, two frame names) per moving body.
+    Per sample: a pose (7 float64) and a twist (6) per body and two wrenches
+    (6) per joint (its axes and world axes), each a Message record (31
+    bytes), CDR header and stamp (12), frame_id (about 16) and its index
+    entry (16); and a /tf message with a transform (7 float64, stamp, two
+    frame names) per moving body.
     """
-    doubles = 13 * len(model.bodies) + 6 * len(model.joints)
-    messages = 2 * len(model.bodies) + len(model.joints)
+    doubles = 13 * len(model.bodies) + 12 * len(model.joints)
+    messages = 2 * len(model.bodies) + 2 * len(model.joints)
     moving = sum(not body.fixed for body in model.bodies)
     tf = (31 + 8 + 16 + moving * (8 * 7 + 8 + 32)) if moving else 0
     return float(samples) * (8 * doubles + (31 + 12 + 16 + 16) * messages + tf)

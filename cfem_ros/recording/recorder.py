@@ -14,11 +14,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 import functools
 import json
+import math
 import os
 import struct
 from typing import Optional
 
 from cfem_ros import __version__
+from cfem_ros.core import rotations
 from cfem_ros.recording import visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import RecordingError
@@ -86,6 +88,20 @@ class TransformsOf:
     parent: str
     children: tuple
     columns: tuple
+
+
+@dataclass(frozen=True)
+class InBodyAxes:
+    """
+    A sample's force and moment turned from world axes into a body's axes.
+
+    It takes no numbers of its own: the 6 numbers (force, moment) start at
+    column ``first`` of the sample, the body's quaternion (x y z w, body to
+    world) at column ``quaternion``.
+    """
+
+    first: int
+    quaternion: int
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -174,6 +190,7 @@ class Recorder:
         self._encoders = {}
         self._channels = {}
         self._pending = None    # the layout of the samples waiting in its buffer
+        self._between = []   # messages to write among them (``commit_rows``)
         #: Messages written so far.
         self.message_count = 0
         self._finished = False
@@ -204,6 +221,9 @@ class Recorder:
               qos: str = OFFERED_QOS):
         """Encode and write one message given as a dict; log and publish time = stamp_ns."""
         self._flush_samples()
+        self._write(topic, msgtype, message, stamp_ns, qos)
+
+    def _write(self, topic: str, msgtype: str, message: dict, stamp_ns: int, qos: str):
         channel = self.channel(topic, msgtype, qos)
         encode = self._encoders.get(msgtype)
         if encode is None:
@@ -218,7 +238,9 @@ class Recorder:
         Make the layout of a kind of sample (keep it: it holds the sample buffer).
 
         messages: (topic, msgtype, frame_id, number of float64) per message,
-        in the order of a sample's values.
+        in the order of a sample's values; or (topic, msgtype, frame_id,
+        InBodyAxes) for numbers turned from others, or (topic, TF,
+        TransformsOf, None).
         """
         channels = [self.channel(topic, msgtype) for topic, msgtype, _, _ in messages]
         return SampleLayout(channels, [(frame, count) for _, _, frame, count in messages])
@@ -250,10 +272,17 @@ class Recorder:
             self._pending = layout
         return layout.values[layout.count:]
 
-    def commit_rows(self, layout: 'SampleLayout', stamps_ns: np.ndarray):
-        """Write the samples in the first len(stamps_ns) free rows, stamped stamps_ns."""
+    def commit_rows(self, layout: 'SampleLayout', stamps_ns: np.ndarray, between=()):
+        """
+        Write the samples in the first len(stamps_ns) free rows, stamped stamps_ns.
+
+        between: (k, topic, msgtype, message, stamp_ns, qos) of messages
+        written among them, before the k-th of these samples (k = their
+        number: after the last), so that the file stays in time order.
+        """
         if self._pending is not layout:
             raise ValueError('commit_rows: the rows were not taken from this layout last')
+        self._between += [(layout.count + k, *rest) for k, *rest in between]
         if layout.extend(stamps_ns):
             self._flush_samples()
 
@@ -265,10 +294,21 @@ class Recorder:
             if not layout.count:
                 return
             per = len(layout.channels)
-            for start in range(0, layout.count, layout.chunk_rows):
-                stop = min(start + layout.chunk_rows, layout.count)
-                self._writer.add_messages(*layout.records(self.message_count, start, stop))
-                self.message_count += (stop - start) * per
+            between, self._between = self._between, []
+            cuts = sorted({k for k, *_ in between if k < layout.count} | {layout.count})
+            start = 0
+            for cut in cuts:
+                first = start
+                while first < cut:   # as many rows as fill the chunk in progress
+                    rows = -(-self._writer.chunk_room() // layout.dtype.itemsize)
+                    stop = min(first + max(1, min(rows, layout.chunk_rows)), cut)
+                    self._writer.add_messages(*layout.records(self.message_count, first, stop))
+                    self.message_count += (stop - first) * per
+                    first = stop
+                for k, *message in between:
+                    if k == cut or (cut == layout.count and k > cut):
+                        self._write(*message)
+                start = cut
             layout.count = 0
 
     def finish(self):
@@ -336,18 +376,20 @@ class SampleLayout:
     channels : list of int
         Channel of each message.
     messages : list of (str, int)
-        frame_id and number of float64 of each message; or (TransformsOf,
-        None) for a TFMessage made of other messages' numbers.
+        frame_id and number of float64 of each message, whose numbers are
+        the next columns of a sample; or (TransformsOf, None) for a
+        TFMessage made of other messages' numbers; or (frame_id,
+        InBodyAxes) for a wrench made of another message's numbers turned
+        into a body's axes.
 
     """
 
     def __init__(self, channels, messages):
         self.channels = [int(c) for c in channels]
-        self.dtype, self.columns, self.offsets, template = _layout_template(
-            tuple(self.channels), tuple(
-                (f, None) if isinstance(f, TransformsOf) else (str(f), int(c))
-                for f, c in messages))
-        self.size = max((b for part in self.columns for _, (_, b) in part), default=0)
+        self.dtype, self.columns, self.offsets, template, self.size, self.turned = \
+            _layout_template(tuple(self.channels), tuple(
+                (f, None) if isinstance(f, TransformsOf) else
+                (str(f), c if isinstance(c, InBodyAxes) else int(c)) for f, c in messages))
         #: Samples whose records make a chunk.
         self.chunk_rows = len(template)
         capacity = BATCH_CHUNKS * self.chunk_rows
@@ -395,6 +437,10 @@ class SampleLayout:
         stop = self.count if stop is None else stop
         k, per = stop - start, len(self.channels)
         stamps = self.stamps[start:stop]
+        block = self.values[start:stop]
+        if self.turned:
+            block = np.concatenate([block] + [_in_body_axes(block, t) for t in self.turned],
+                                   axis=1)
         records = self._records[:k]
         stamp = np.empty(k, dtype=_STAMP)
         stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
@@ -405,7 +451,7 @@ class SampleLayout:
             log[:k] = times
             for ((_, (a, b)), (head, values)) in zip(part, views):
                 head[:k] = stamp
-                values[:k] = self.values[start:stop, a:b]
+                values[:k] = block[:, a:b]
         offsets = self.dtype.itemsize * np.arange(k)[:, None] + self.offsets
         return records.tobytes(), self.channels, stamps.copy(), offsets
 
@@ -413,30 +459,34 @@ class SampleLayout:
 @functools.lru_cache(maxsize=64)
 def _layout_template(channels: tuple, messages: tuple):
     """
-    Return the record dtype, value columns, message offsets and a filled record buffer.
+    Return the layout of a kind of sample's records, and a filled record buffer.
+
+    That is: the record dtype, value columns, message offsets, the buffer,
+    the number of a sample's columns and the ``InBodyAxes`` of turned messages.
 
     The buffer holds a chunk's worth of samples with every constant field
     set (opcode, length, channel, encapsulation, frame_id); kept per kind
     of sample, since building numpy's structured dtypes is most of a
     recording's fixed cost. The columns of message i are a list of
     ((stamp field, values field), (first, end column)), one per stamp of
-    the message (a TFMessage has one per transform).
+    the message (a TFMessage has one per transform); a turned message's
+    numbers are computed into columns after the sample's own.
     """
     fields, columns, constants, column = [], [], [], 0
+    width = sum(c for f, c in messages if isinstance(c, int))
+    turned = tuple(c for f, c in messages if isinstance(c, InBodyAxes))
     for i, (frame_id, count) in enumerate(messages):
-        if isinstance(frame_id, TransformsOf):
+        if isinstance(count, InBodyAxes):
+            data, constant = _stamped_template(frame_id, 6)
+            first = width + 6 * turned.index(count)
+            columns.append([(('stamp', 'values'), (first, first + 6))])
+        elif isinstance(frame_id, TransformsOf):
             data, parts, constant = _transforms_template(frame_id)
             columns.append([(names, (first, first + 7))
                             for names, first in zip(parts, frame_id.columns)])
         else:
-            frame = _frame_bytes(frame_id)
-            data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
-            pad = -(8 + len(frame)) % 8
-            if pad:
-                data.append(('pad', f'V{pad}'))
-            data.append(('values', '<f8', (count,)))
+            data, constant = _stamped_template(frame_id, count)
             columns.append([(('stamp', 'values'), (column, column + count))])
-            constant = {'encapsulation': CDR_LE, 'frame': frame}
             column += count
         fields.append((f'm{i}', message_record_fields(np.dtype(data))))
         constants.append(constant)
@@ -452,7 +502,28 @@ def _layout_template(channels: tuple, messages: tuple):
         for name, value in constant.items():
             record['data'][name] = np.void(value)
     template.flags.writeable = False
-    return dtype, columns, offsets, template
+    return dtype, columns, offsets, template, width, turned
+
+
+def _stamped_template(frame_id: str, count: int):
+    """Return the CDR layout of a header and count float64: numpy fields, constants."""
+    frame = _frame_bytes(frame_id)
+    data = [('encapsulation', 'V4'), ('stamp', _STAMP), ('frame', f'V{len(frame)}')]
+    pad = -(8 + len(frame)) % 8
+    if pad:
+        data.append(('pad', f'V{pad}'))
+    data.append(('values', '<f8', (count,)))
+    return data, {'encapsulation': CDR_LE, 'frame': frame}
+
+
+def _in_body_axes(block: np.ndarray, turned: InBodyAxes) -> np.ndarray:
+    """Return the force and moment of samples (k, columns) in a body's axes, (k, 6)."""
+    matrices = rotations.matrices(block[:, turned.quaternion:turned.quaternion + 4])
+    out = np.empty((len(block), 6))
+    for a in (0, 3):
+        vector = block[:, turned.first + a:turned.first + a + 3]
+        out[:, a:a + 3] = np.einsum('nji,nj->ni', matrices, vector)
+    return out
 
 
 def _transforms_template(transforms: TransformsOf):
@@ -490,6 +561,11 @@ def _transforms_template(transforms: TransformsOf):
         constant[f'c{len(constant)}'] = data[at:]
     parts = [(f's{j}', f'v{j}') for j in range(len(marks))]
     return fields, parts, constant
+
+
+def _periods(t: float, period: float) -> float:
+    """Return t in periods, a sample on a multiple counting as there (t = 0.3, period 0.1: 3)."""
+    return t / period + 1e-9
 
 
 def _frame_bytes(frame_id: str) -> bytes:
@@ -533,6 +609,8 @@ class StateRecorder:
             self.world, tuple(model.bodies[i].name for i in moving),
             tuple(13 * i for i in moving)) if moving else None
         self._scene_written = False
+        # the next sendings, counted in periods: the markers at 1, the arrows at 0
+        self._markers_due, self._arrows_due = 1, 0
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -550,12 +628,62 @@ class StateRecorder:
             self.sim.model, stamp(when)), when, qos=LATCHED_QOS)
         self._markers(when)
 
+    def _markers_again(self, times) -> list:
+        """
+        Return the markers to send again among samples at these times (s), as ``between``.
+
+        One sending after the first sample of each ``MARKER_PERIOD`` of
+        simulated time, for the viewers that join late with volatile
+        durability (RViz's default, live or during ``ros2 bag play``).
+        """
+        out = []
+        for k, t in enumerate(times):
+            if _periods(t, visuals.MARKER_PERIOD) >= self._markers_due:
+                when = self.stamp_ns(t)
+                out.append((k + 1, self.topic('markers'), MARKERS,
+                            self._marker_array(when, t), when, LATCHED_QOS))
+                self._markers_due = math.floor(_periods(t, visuals.MARKER_PERIOD)) + 1
+        return out
+
+    def _arrows_again(self, times, rows, active) -> list:
+        """
+        Return the joint-load arrows among samples at these times (s), as ``between``.
+
+        Every ``ARROW_PERIOD`` of simulated time, from the samples' numbers
+        (rows in ``Simulator.outputs`` order, these joints active): the
+        force on each child turned into its axes, drawn in the joint's frame.
+        """
+        model = self.sim.model
+        if not model.joints:
+            return []
+        out = []
+        first = 13 * len(model.bodies)
+        for k, t in enumerate(times):
+            if _periods(t, visuals.ARROW_PERIOD) < self._arrows_due:
+                continue
+            row, loads = rows[k], []
+            for i, j in enumerate(active):
+                child = 13 * model.joints[j].child + 3
+                force = row[first + 6 * i:first + 6 * i + 3]
+                loads.append((j, rotations.to_body(row[None, child:child + 4], force[None])[0]))
+            when = self.stamp_ns(t)
+            out.append((k + 1, self.topic('load_markers'), MARKERS, visuals.load_arrows(
+                model, stamp(when), self.namespace, loads), when, OFFERED_QOS))
+            self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
+        return out
+
+    def _marker_array(self, stamp_ns: int, t: float) -> dict:
+        """Return the MarkerArray at simulated time t (the joints released by then in red)."""
+        released = {e['joint'] for e in self.sim.events
+                    if e.get('event') == 'release' and e['time'] <= t}
+        contacts = [e for e in self.sim.events if e.get('event') == 'contact' and e['time'] <= t]
+        return visuals.markers(self.sim.model, stamp(stamp_ns), self.namespace, released,
+                               contacts)
+
     def _markers(self, stamp_ns: int):
-        released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
-        contacts = [e for e in self.sim.events if e.get('event') == 'contact']
-        self.recorder.write(self.topic('markers'), MARKERS, visuals.markers(
-            self.sim.model, stamp(stamp_ns), self.namespace, released, contacts), stamp_ns,
-            qos=LATCHED_QOS)
+        t = (stamp_ns - self.start_ns) / 1e9
+        self.recorder.write(self.topic('markers'), MARKERS, self._marker_array(stamp_ns, t),
+                            stamp_ns, qos=LATCHED_QOS)
 
     def sample(self):
         """Record poses, twists and active joints' wrenches at the current state."""
@@ -563,21 +691,29 @@ class StateRecorder:
             self._scene()
         sim = self.sim
         layout = self._layout(sim.active_joints)
-        sim.outputs(out=layout.next_row())
+        row = layout.next_row()
+        sim.outputs(out=row)
+        arrows = self._arrows_again([sim.t], [row], sim.active_joints)
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
         self.samples += 1
+        for _, *message in arrows + self._markers_again([sim.t]):
+            self.recorder.write(*message)
 
     def sample_rows(self) -> np.ndarray:
         """Return buffer rows for the next samples' ``Simulator.outputs`` (see ``took_rows``)."""
         if not self._scene_written:
             self._scene()
-        self._rows_layout = self._layout(self.sim.active_joints)
+        self._rows_active = self.sim.active_joints
+        self._rows_layout = self._layout(self._rows_active)
         return self.recorder.free_rows(self._rows_layout)
 
     def took_rows(self, times: np.ndarray):
         """Record the samples at these simulated times (s), in the first rows given."""
         stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
-        self.recorder.commit_rows(self._rows_layout, stamps)
+        layout = self._rows_layout
+        rows = layout.values[layout.count:layout.count + len(stamps)]
+        between = self._arrows_again(times, rows, self._rows_active) + self._markers_again(times)
+        self.recorder.commit_rows(layout, stamps, sorted(between, key=lambda m: m[0]))
         self.samples += len(stamps)
 
     def _layout(self, active) -> 'SampleLayout':
@@ -587,20 +723,39 @@ class StateRecorder:
         return layout
 
     def _messages(self, active):
-        """List the messages of a sample with these joints active (``Simulator.outputs`` order)."""
-        messages = []
-        for i, body in enumerate(self.sim.model.bodies):
+        """
+        List the messages of a sample with these joints active.
+
+        First those whose numbers a sample holds, in ``Simulator.outputs``
+        order (the loads in world axes); then the loads again in the axes
+        where they act (the joint's child, the loaded body: SPEC sections
+        3 and 5), turned from those numbers, and /tf.
+        """
+        messages, turned = [], []
+        model = self.sim.model
+        bodies = model.bodies
+        for i, body in enumerate(bodies):
             messages.append((self._pose_topics[i], POSE, self.world, 7))
             messages.append((self._twist_topics[i], TWIST, body.name, 6))
-        messages.extend((self._wrench_topics[k], WRENCH, self.world, 6) for k in active)
-        messages.extend((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, self.world, 6)
-                        for body, source in self.sim.applied_sources)   # scheduled loads
-        bodies = self.sim.model.bodies
+        column = 13 * len(bodies)
+        for k in active:
+            joint = model.joints[k]
+            messages.append((self._wrench_topics[k] + '_world', WRENCH, self.world, 6))
+            turned.append((self._wrench_topics[k], WRENCH, joint.name,
+                           InBodyAxes(column, 13 * joint.child + 3)))
+            column += 6
+        for body, source in self.sim.applied_sources:   # scheduled loads
+            messages.append((self.topic(f'bodies/{body}/applied_world/{source}'), WRENCH,
+                             self.world, 6))
+            turned.append((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, body,
+                           InBodyAxes(column, 13 * model.body_index(body) + 3)))
+            column += 6
         for body, ref in self.sim.model.references:   # in a carrier's frame (core/motion.py)
             messages.append((self.topic(f'bodies/{bodies[body].name}/relative_pose'), POSE,
                              bodies[ref].name, 7))
             messages.append((self.topic(f'bodies/{bodies[body].name}/relative_twist'), TWIST,
                              bodies[ref].name, 6))
+        messages += turned
         if self._transforms is not None:
             messages.append(('/tf', TF, self._transforms, None))
         return messages

@@ -1,19 +1,33 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-What viewers draw: a body's shape and each joint's point as markers, bodies as frames.
+What viewers draw: the frames of the bodies and joints (tf), and markers on them.
 
-Every body is a tf frame named after it, child of the world frame: fixed
-bodies on ``/tf_static``, the others on ``/tf`` at every sample (the same
-numbers as the body's pose). The markers (``visualization_msgs/MarkerArray``
-on ``<namespace>/markers``) are frame-locked to those frames, so they are
-sent once and move with the frames in RViz and in Foxglove's 3D panel: one
-marker per body (its ``shape``, drawn about its CG), one sphere per joint at
-the joint's point on the parent, green while the joint holds, red and faded
-once released.
+The frames (SPEC section 4), each with the axes viewers expect:
+
+- ``map``, the root, z up (REP-103/105). Its child is the scenario's frame
+  (``frame_id``) by a fixed rotation that turns the scenario's gravity to
+  -z, so that viewers with default settings show things falling down.
+  When the scenario's gravity already points along -z (or there is none),
+  the scenario's frame is the root and there is no ``map``.
+- one frame per body, named after it, at its CG in its axes, child of the
+  scenario's frame: fixed bodies on ``/tf_static``, the others on ``/tf``
+  at every sample (the same numbers as the body's pose).
+- one frame per joint, named after it, at the joint point fixed on the
+  child, in the child's axes, child of the child's frame (``/tf_static``):
+  a joint's wrench is stamped with it, so viewers draw it at the joint.
+
+The markers (``visualization_msgs/MarkerArray`` on ``<namespace>/markers``,
+transient local, sent again every ``MARKER_PERIOD``) are frame-locked to
+those frames, so they move with the frames in RViz and in Foxglove's 3D
+panel: one marker per body (its ``shape``, drawn about its CG), one sphere
+per joint at the joint's point on the parent, green while the joint holds,
+red and faded once released.
 """
 
 from __future__ import annotations
+
+import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.shapes import default_shape, Shape, triangles
@@ -29,6 +43,11 @@ HULL_COLOR = (1.0, 0.85, 0.0, 0.35)
 PALETTE = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
            (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0), (0.89, 0.47, 0.76, 1.0))
 FIXED_COLOR = (0.6, 0.6, 0.6, 0.6)
+#: The z-up root frame (REP-105's ``map``) above a scenario frame that is not z up.
+ROOT_FRAME = 'map'
+#: Seconds of simulated time between two sendings of the markers (for viewers
+#: that subscribe late with volatile durability, RViz's default).
+MARKER_PERIOD = 1.0
 HELD_COLOR = (0.1, 0.8, 0.1, 1.0)
 RELEASED_COLOR = (0.9, 0.1, 0.1, 0.35)
 #: A joint's sphere is this fraction of the largest body's size (at least 2 cm).
@@ -156,10 +175,109 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
     return {'markers': out}
 
 
+def up_rotation(gravity) -> tuple:
+    """
+    Return the rotation (x, y, z, w) from a scenario's axes to z-up axes, or None.
+
+    The smallest rotation that turns gravity to -z; half a turn about x when
+    gravity points along +z (a z-down frame, x forward, y right, z down,
+    becomes x forward, y left, z up, as REP-103 has it). None when gravity
+    is zero or already points along -z: the scenario's axes are z up.
+    """
+    g = np.asarray(gravity, dtype=float)
+    norm = float(np.linalg.norm(g))
+    if norm == 0.0:
+        return None
+    down = g / norm
+    cos = -down[2]   # the cosine of the angle from gravity to -z
+    if cos >= 1.0 - 1e-15:
+        return None
+    if cos <= -1.0 + 1e-15:
+        return (1.0, 0.0, 0.0, 0.0)
+    axis = np.cross(down, [0.0, 0.0, -1.0])
+    half = 0.5 * math.atan2(float(np.linalg.norm(axis)), cos)
+    axis = axis / np.linalg.norm(axis) * math.sin(half)
+    return (float(axis[0]), float(axis[1]), float(axis[2]), math.cos(half))
+
+
+def root_frame(model) -> str:
+    """Return the root of a model's tf tree: ``map`` above a scenario frame not z up, or it."""
+    if up_rotation(model.gravity) is None:
+        return model.frame_id
+    taken = {model.frame_id} | {b.name for b in model.bodies} | {j.name for j in model.joints}
+    root = ROOT_FRAME
+    while root in taken:   # a body or joint named map: the root takes another name
+        root += '_z_up'
+    return root
+
+
+def joint_points_on_children(model) -> np.ndarray:
+    """Each joint's point in its child's body axes (from t = 0), m, shape (n_joints, 3)."""
+    out = np.zeros((len(model.joints), 3))
+    for k, joint in enumerate(model.joints):
+        child = model.bodies[joint.child]
+        rot = rotations.matrices(np.asarray(child.orientation_xyzw, dtype=float)[None])[0]
+        out[k] = rot.T @ (np.asarray(joint.anchor) - np.asarray(child.position))
+    return out
+
+
+def _transform(parent: str, child: str, stamp: dict, translation, rotation) -> dict:
+    return {'header': {'stamp': stamp, 'frame_id': parent}, 'child_frame_id': child,
+            'transform': {'translation': _xyz(translation), 'rotation': _quat(rotation)}}
+
+
 def static_transforms(model, stamp: dict) -> dict:
-    """Return the TFMessage of the fixed bodies: world frame to each, at its pose."""
-    return {'transforms': [
-        {'header': {'stamp': stamp, 'frame_id': model.frame_id}, 'child_frame_id': body.name,
-         'transform': {'translation': _xyz(body.position),
-                       'rotation': _quat(body.orientation_xyzw)}}
-        for body in model.bodies if body.fixed]}
+    """
+    Return the TFMessage of the frames that never move relative to their parent.
+
+    The root ``map`` to the scenario's frame (if that is not z up), the
+    scenario's frame to each fixed body (at its pose), and each joint's
+    child to the joint's frame (at the joint point, in the child's axes).
+    """
+    transforms = []
+    up = up_rotation(model.gravity)
+    if up is not None:
+        transforms.append(_transform(root_frame(model), model.frame_id, stamp, (0, 0, 0), up))
+    transforms += [_transform(model.frame_id, body.name, stamp, body.position,
+                              body.orientation_xyzw) for body in model.bodies if body.fixed]
+    transforms += [_transform(model.bodies[joint.child].name, joint.name, stamp, point,
+                              (0, 0, 0, 1))
+                   for joint, point in zip(model.joints, joint_points_on_children(model))]
+    return {'transforms': transforms}
+
+
+#: Seconds of simulated time between two sendings of the joint-load arrows.
+ARROW_PERIOD = 0.1
+ARROW, DELETEALL = 0, 3
+ARROW_COLOR = (0.85, 0.1, 0.1, 0.9)
+
+
+def metres_per_newton(model) -> float:
+    """Return the joint-load arrows' scale: 1 m for the weight of the heaviest moving body."""
+    weights = [body.mass * float(np.linalg.norm(model.gravity))
+               for body in model.bodies if body.dynamic]
+    biggest = max(weights, default=0.0)
+    return 1.0 / biggest if biggest > 0.0 else 1e-3
+
+
+def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
+    """
+    Return the MarkerArray of the joints' forces as arrows, each at its joint point.
+
+    loads: (joint index, force on the child in the child's axes, N) of each
+    active joint. An arrow lies in its joint's frame (at the joint point, the
+    child's axes), from the point along the force, 1 m per the heaviest
+    moving body's weight; a first DELETEALL clears the released joints' arrows.
+    """
+    scale = metres_per_newton(model)
+    out = [{'header': {'stamp': stamp, 'frame_id': model.frame_id},
+            'ns': f'{namespace}/joint_loads', 'id': 0, 'action': DELETEALL}]
+    for k, force in loads:
+        joint = model.joints[k]
+        out.append({'header': {'stamp': stamp, 'frame_id': joint.name},
+                    'ns': f'{namespace}/joint_loads', 'id': k, 'type': ARROW, 'action': 0,
+                    'pose': {'orientation': _quat((0, 0, 0, 1))},
+                    'points': [_xyz((0, 0, 0)), _xyz(np.asarray(force) * scale)],
+                    'scale': _xyz((0.03, 0.06, 0.08)), 'color': _color(ARROW_COLOR),
+                    'text': f'{joint.name}: {float(np.linalg.norm(force)):.4g} N'})
+    return {'markers': out}

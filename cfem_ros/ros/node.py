@@ -30,6 +30,7 @@ import sys
 import time
 from typing import Optional
 
+from cfem_ros.core import rotations
 from cfem_ros.core.carrier import ODOMETRY_HORIZON
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
@@ -41,6 +42,7 @@ from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
@@ -264,12 +266,13 @@ class _Publishers:
                 PoseStamped, f'bodies/{body.name}/pose', TOPIC_QOS), pose))
             self.twists.append((node.create_publisher(
                 TwistStamped, f'bodies/{body.name}/twist', TOPIC_QOS), twist))
-        self.wrenches = {}
+        # loads in the frames where they act (the joint's frame, the loaded body's),
+        # and in world axes on <topic>_world (SPEC sections 3 and 5)
+        self.wrenches = {}   # joint index -> its two (publisher, message)
         for k, joint in enumerate(model.joints):
-            wrench = WrenchStamped()
-            wrench.header.frame_id = world
-            self.wrenches[k] = (node.create_publisher(
-                WrenchStamped, f'joints/{joint.name}/wrench', TOPIC_QOS), wrench)
+            self.wrenches[k] = (self._wrench(f'joints/{joint.name}/wrench', joint.name),
+                                self._wrench(f'joints/{joint.name}/wrench_world', world))
+        self.children = [joint.child for joint in model.joints]
         self.relative = []   # poses and twists in a carrier's frame, per model.references
         for body, ref in model.references:
             pose, twist = PoseStamped(), TwistStamped()
@@ -280,12 +283,11 @@ class _Publishers:
                 pose,
                 node.create_publisher(TwistStamped, f'bodies/{name}/relative_twist', TOPIC_QOS),
                 twist))
-        self.applied = []   # scheduled loads, per source
+        self.applied = []   # scheduled loads, per source: the body's, and world axes
         for body, source in sim.applied_sources:
-            wrench = WrenchStamped()
-            wrench.header.frame_id = world
-            self.applied.append((node.create_publisher(
-                WrenchStamped, f'bodies/{body}/applied/{source}', TOPIC_QOS), wrench))
+            self.applied.append((self._wrench(f'bodies/{body}/applied/{source}', body),
+                                 self._wrench(f'bodies/{body}/applied_world/{source}', world),
+                                 model.body_index(body)))
         self.event_publisher = node.create_publisher(String, 'events', EVENT_QOS)
         self._events_sent = 0
         # what viewers draw: markers on the bodies' tf frames (recording.visuals)
@@ -301,9 +303,19 @@ class _Publishers:
                         'header': {'frame_id': world}, 'child_frame_id': model.bodies[i].name})
                         for i in moving]), moving)
         self._scene_sent = False
+        # the next sendings, counted in periods: the markers at 1, the arrows at 0
+        self._markers_due, self._arrows_due = 1, 0
+        self.arrow_publisher = (node.create_publisher(MarkerArray, 'load_markers', TOPIC_QOS)
+                                if model.joints else None)
+
+    def _wrench(self, topic: str, frame_id: str):
+        """Return a WrenchStamped publisher on topic and its message, stamped in frame_id."""
+        message = WrenchStamped()
+        message.header.frame_id = frame_id
+        return self.node.create_publisher(WrenchStamped, topic, TOPIC_QOS), message
 
     def _scene(self, stamp_ns: int):
-        """Publish the markers (and the fixed bodies' frames on /tf_static)."""
+        """Publish the markers (and, the first time, the frames on /tf_static)."""
         model = self.sim.model
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
         released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
@@ -320,11 +332,22 @@ class _Publishers:
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
 
+    def _arrows(self, stamp_ns: int, loads):
+        """Publish the joint-load arrows: (joint, force on the child in its axes) of each."""
+        stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
+        array = visuals.load_arrows(self.sim.model, stamp, self.namespace, loads)
+        self.arrow_publisher.publish(MarkerArray(markers=[
+            _fill(Marker(), {**m, 'points': [_fill(Point(), p) for p in m.get('points', [])]})
+            for m in array['markers']]))
+
     def sample(self):
         sim = self.sim
         stamp_ns = self.stamp_ns(sim.t)
         if not self._scene_sent:
             self._scene(stamp_ns)
+        elif sim.t / visuals.MARKER_PERIOD + 1e-9 >= self._markers_due:
+            self._scene(stamp_ns)   # again, for viewers that subscribe late
+            self._markers_due = math.floor(sim.t / visuals.MARKER_PERIOD + 1e-9) + 1
         position, quat = sim.position, sim.orientation
         velocity, rates = sim.velocity_body(), sim.rates
         if self.tf is not None:
@@ -347,19 +370,36 @@ class _Publishers:
             _vector3(twist.twist.linear, velocity[i])
             _vector3(twist.twist.angular, rates[i])
             publisher.publish(twist)
+        arrows = self.arrow_publisher is not None and sim.t / visuals.ARROW_PERIOD + 1e-9 \
+            >= self._arrows_due
+        if arrows:   # the joint-load arrows, a few per simulated second
+            self._arrows_due = math.floor(sim.t / visuals.ARROW_PERIOD + 1e-9) + 1
         if self.wrenches:
             force, moment = sim.joint_wrenches()
-            for k, (publisher, wrench) in self.wrenches.items():
-                _time_msg(wrench.header.stamp, stamp_ns)
-                _vector3(wrench.wrench.force, force[k])
-                _vector3(wrench.wrench.torque, moment[k])
-                publisher.publish(wrench)
+            turned = quat[self.children]
+            axes = rotations.to_body(turned, force), rotations.to_body(turned, moment)
+            if arrows:
+                self._arrows(stamp_ns, [(k, axes[0][k]) for k in self.wrenches])
+            for k, publishers in self.wrenches.items():
+                for (publisher, wrench), (f, m) in zip(publishers, (
+                        (axes[0][k], axes[1][k]), (force[k], moment[k]))):
+                    _time_msg(wrench.header.stamp, stamp_ns)
+                    _vector3(wrench.wrench.force, f)
+                    _vector3(wrench.wrench.torque, m)
+                    publisher.publish(wrench)
+        elif arrows:
+            self._arrows(stamp_ns, [])
         if self.applied:
-            for (publisher, wrench), load in zip(self.applied, sim.applied_loads()):
-                _time_msg(wrench.header.stamp, stamp_ns)
-                _vector3(wrench.wrench.force, load[:3])
-                _vector3(wrench.wrench.torque, load[3:])
-                publisher.publish(wrench)
+            loads = sim.applied_loads()
+            turned = quat[[body for _, _, body in self.applied]]
+            axes = np.hstack([rotations.to_body(turned, loads[:, :3]),
+                              rotations.to_body(turned, loads[:, 3:])])
+            for (local, world, _), load, load_axes in zip(self.applied, loads, axes):
+                for (publisher, wrench), values in ((local, load_axes), (world, load)):
+                    _time_msg(wrench.header.stamp, stamp_ns)
+                    _vector3(wrench.wrench.force, values[:3])
+                    _vector3(wrench.wrench.torque, values[3:])
+                    publisher.publish(wrench)
         if self.relative:
             for (pose_pub, pose, twist_pub, twist), state in zip(
                     self.relative, sim.relative_states()):
@@ -386,9 +426,10 @@ class _Publishers:
             q.x, q.y, q.z, q.w = (float(c) for c in quat[i])
         if self.wrenches:
             force, moment = sim.joint_wrenches()
-            for k, (_, wrench) in self.wrenches.items():
-                _vector3(wrench.wrench.force, force[k])
-                _vector3(wrench.wrench.torque, moment[k])
+            for k, publishers in self.wrenches.items():
+                for _, wrench in publishers:
+                    _vector3(wrench.wrench.force, force[k])
+                    _vector3(wrench.wrench.torque, moment[k])
 
     def events(self):
         for event in self.sim.events[self._events_sent:]:
@@ -406,9 +447,8 @@ class _Publishers:
                 f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
                 f"(cause: {event['cause']}){group}")
             k = self.sim.model.joint_index(event['joint'])
-            publisher = self.wrenches.pop(k, None)
-            if publisher is not None:
-                self.node.destroy_publisher(publisher[0])
+            for publisher, _ in self.wrenches.pop(k, ()):
+                self.node.destroy_publisher(publisher)
         if self._scene_sent and len(self.sim.events) > self._events_sent:
             self._scene(self.stamp_ns(self.sim.events[-1]['time']))   # released joints
         self._events_sent = len(self.sim.events)

@@ -187,7 +187,8 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
     remaps = remaps or {}
     own = node is None
     if own:
-        rclpy.init()
+        # not the command line: rcl would read --remap FROM:=TO as its own deprecated form
+        rclpy.init(args=[])
         node = rclpy.create_node('cfem_player')
     try:
         publishers, skipped, unstamped = {}, set(), set()

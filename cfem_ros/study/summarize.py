@@ -46,13 +46,17 @@ def summarize(paths, metrics, client=None):
     """
     Return the metrics of recordings as a pandas DataFrame, in the order given.
 
-    With a Dask client the files are read in parallel (a few per task).
+    With a Dask client the files are read in parallel (a few per task), by
+    their absolute paths: a worker's working directory is its own (on a
+    remote cluster, another machine's), so the files must be where the
+    paths say on a shared file system.
     """
     import pandas as pd
     paths = list(paths)
     if client is None:
         rows = _summarize_group(paths, metrics)
     else:
+        paths = [os.path.abspath(p) for p in paths]
         workers = max(1, len(client.scheduler_info().get('workers', {})))
         size = max(1, -(-len(paths) // (4 * workers)))
         chunks = [paths[i:i + size] for i in range(0, len(paths), size)]

@@ -18,6 +18,7 @@ import copy
 import dataclasses
 import glob
 import json
+import logging
 import math
 import os
 import sys
@@ -27,7 +28,7 @@ import time
 from typing import Callable, Optional
 import uuid
 
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine import REDUNDANT_WARNING, Simulator
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
 from cfem_ros.study.metrics import Collector, compute, empty
@@ -193,6 +194,22 @@ def _set_copying(part: dict, tokens, value):
     container[last] = copy.deepcopy(value)
 
 
+#: The runs' simulators log here: all but the redundant-joint warning, given once
+#: per sweep (``warn_once``) instead of once per run, in every worker's log.
+RUNS_LOG = logging.getLogger('cfem_ros.sweep.runs')
+RUNS_LOG.addFilter(lambda record: record.msg != REDUNDANT_WARNING)
+_ONCE_LOG = logging.getLogger('cfem_ros.sweep')
+_ONCE_LOG.addFilter(lambda record: record.msg == REDUNDANT_WARNING)   # only it
+
+
+def warn_once(spec: SweepSpec):
+    """Give the redundant-joint warning of the sweep's first run, once for the whole sweep."""
+    try:
+        Simulator(Models(spec).model(0, spec.run_values(0)), logger=_ONCE_LOG)
+    except Exception:   # noqa: B902 (an invalid first run is that run's failed row)
+        pass
+
+
 def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
             models: Optional[Models] = None) -> dict:
     """
@@ -210,7 +227,7 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     row.update(status='ok', message='')
     try:
         model = full_model(spec, k, values) if models is None else models.model(k, values)
-        sim = Simulator(model)
+        sim = Simulator(model, logger=RUNS_LOG)
     except Exception as err:   # noqa: B902 (any refusal is this run's failure)
         row.update(status='failed', message=str(err))
         row.update(empty(spec.metrics))
@@ -491,6 +508,8 @@ class Sweep:
                 return self.run(client, tmp, record=record, csv=csv, progress=progress,
                                 threads=threads)
         todo = prepare(self.spec, outdir, record)
+        if todo:
+            warn_once(self.spec)
         if client is None:
             threads = threads or os.cpu_count() or 1
             for runs in groups(todo, 1):

@@ -150,7 +150,7 @@ def _rosbags_copy(source, directory, plant=None):
 
     _, summary, messages = read_mcap(source)
     kinds = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()
-             if not c.topic.startswith('/tf') and not c.topic.endswith('/markers')}
+             if not c.topic.startswith('/tf') and not c.topic.endswith('markers')}
     bag = pathlib.Path(directory) / 'bag'
     with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         connections = {topic: writer.add_connection(topic, kind, typestore=store)

@@ -15,8 +15,10 @@ import zlib
 from cfem_ros.recording.chunks import MESSAGE_HEADER
 from cfem_ros.recording.msgdefs import DEFINITIONS
 from cfem_ros.recording.recorder import CHUNK_SIZE, POSE, Recorder, SampleLayout, STRING, TWIST
+from doctor import diagnose
 from mcap.reader import make_reader
-from mcap.records import Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex, Statistics
+from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex,
+                          Schema, Statistics)
 from mcap.stream_reader import breakup_chunk, StreamReader
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
@@ -162,3 +164,39 @@ def test_magic_is_mcaps():
     from cfem_ros.recording.chunks import MCAP0_MAGIC
     from mcap.writer import MCAP0_MAGIC as theirs
     assert MCAP0_MAGIC == theirs
+
+
+def test_mcap_doctor_finds_nothing(tmp_path):
+    path = tmp_path / 'mixed.mcap'
+    _write_mixed(path)
+    assert diagnose(path) == []
+    records = list(StreamReader(io.BytesIO(path.read_bytes()), emit_chunks=True).records)
+    # schemas and channels only inside chunks (and in the summary), each once
+    data_section = records[:next(i for i, r in enumerate(records) if isinstance(r, DataEnd))]
+    assert not [r for r in data_section if isinstance(r, (Schema, Channel))]
+
+
+def test_the_doctor_sees_what_it_should(tmp_path):
+    """The check above can fail: records written twice, or out of time order, are found."""
+    path = tmp_path / 'twice.mcap'
+    with Recorder(str(path)) as recorder:
+        recorder.write('/a', STRING, {'data': 'x'}, 10)
+        recorder._writer.close_chunk()
+        recorder._writer._chunked_channels.clear()   # as the writer used to: again
+        recorder._writer._chunked_schemas.clear()
+        recorder.write('/a', STRING, {'data': 'y'}, 5)
+    found = diagnose(path)
+    assert any('duplicate schema' in p for p in found)
+    assert any('duplicate channel' in p for p in found)
+    assert any('less than the latest log time' in p for p in found)
+
+
+def test_a_channel_without_messages_is_in_the_data_section_too(tmp_path):
+    path = tmp_path / 'unused.mcap'
+    with Recorder(str(path)) as recorder:
+        recorder.channel('/never', STRING)
+        recorder.write('/a', STRING, {'data': 'x'}, 10)
+    assert diagnose(path) == []
+    with open(path, 'rb') as stream:
+        summary = make_reader(stream).get_summary()
+    assert {c.topic for c in summary.channels.values()} == {'/never', '/a'}

@@ -16,6 +16,7 @@ import sys
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.inputs import release_input, wrench_input
 from cfem_ros.recording.recorder import Recorder, StateRecorder
+from doctor import diagnose
 import numpy as np
 import pytest
 from recordings import fields, read_checked, read_mcap, read_rosbags
@@ -54,7 +55,8 @@ def test_recording_follows_the_ros2_profile(store_run):
     topics = {c.topic for c in summary.channels.values()}
     assert topics == {'/cfem/bodies/pylon/pose', '/cfem/bodies/pylon/twist',
                       '/cfem/bodies/store/pose', '/cfem/bodies/store/twist',
-                      '/cfem/joints/pivot/wrench', '/cfem/events', '/cfem/markers', '/tf',
+                      '/cfem/joints/pivot/wrench', '/cfem/joints/pivot/wrench_world',
+                      '/cfem/events', '/cfem/markers', '/cfem/load_markers', '/tf',
                       '/tf_static'}
 
 
@@ -195,3 +197,7 @@ def test_inputs_after_the_run_are_named_and_foreign_logs_refused_clearly(tmp_pat
     assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o',
                      str(tmp_path / 'y.mcap'), '--inputs', str(cut)]) == 2
     assert 'cfem-sim recover' in capsys.readouterr().err
+
+
+def test_mcap_doctor_finds_nothing_in_a_run(store_run):
+    assert diagnose(store_run) == []

@@ -20,13 +20,16 @@ import sys
 import time
 
 from cfem_ros import analysis, cli
+from cfem_ros.core import rotations
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from recordings import read_checked, read_mcap
 from rosharness import NodeProcess, Peer, stamp_ns
+from visualization_msgs.msg import MarkerArray
 import yaml
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
@@ -241,12 +244,27 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
         count = len(poses)
         peer.spin_until(lambda: len(poses) > count + 10, what='poses after the bad messages')
         assert node.alive()
-        # the released joint's wrench topic is gone
-        peer.spin_until(lambda: peer.node.count_publishers('/cfem/joints/pivot/wrench') == 0,
-                        what='the pivot wrench topic to go')
+        # the released joint's wrench topics are gone
+        peer.spin_until(lambda: peer.node.count_publishers('/cfem/joints/pivot/wrench')
+                        + peer.node.count_publishers('/cfem/joints/pivot/wrench_world') == 0,
+                        what='the pivot wrench topics to go')
         # markers: each body's shape on its frame, the joint green, then red once released
         markers = peer.received['markers']
         peer.spin_until(lambda: len(markers) >= 2, what='the markers after the release')
+        # a viewer that subscribes late and volatile (RViz's default) still gets them
+        late = []
+        peer.node.create_subscription(MarkerArray, '/cfem/markers', late.append, QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE))
+        peer.spin_until(lambda: late, timeout=5.0, what='markers for a late volatile viewer')
+        assert len(late[0].markers) == 3
+        # the joint-load arrows: at the pivot while it held, then cleared
+        arrows = []
+        peer.node.create_subscription(MarkerArray, '/cfem/load_markers', arrows.append, 10)
+        peer.spin_until(lambda: arrows, timeout=5.0, what='the joint-load arrows')
+        assert [m.action for m in arrows[-1].markers] == [3]   # DELETEALL: pivot released
+        held = [m for a in peer.received['load_markers'] for m in a.markers if m.action == 0]
+        assert held and {m.header.frame_id for m in held} == {'pivot'}
     finally:
         status = node.stop(signal.SIGTERM)
     assert status == 0, node.output
@@ -256,6 +274,19 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
     release_ns = start_ns + round(event['time'] * 1e9)
     wrenches = [stamp_ns(m.header) for m in peer.received['joints/pivot/wrench']]
     assert wrenches and max(wrenches) <= release_ns  # a sample at t comes before inputs at t
+    # the wrench in the joint's frame (the store's axes) is the world one turned
+    store = {stamp_ns(m.header): m.pose.orientation for m in peer.received['bodies/store/pose']}
+    in_world = {stamp_ns(m.header): m for m in peer.received['joints/pivot/wrench_world']}
+    for message in peer.received['joints/pivot/wrench']:
+        stamp = stamp_ns(message.header)
+        world, q = in_world[stamp], store[stamp]
+        assert (message.header.frame_id, world.header.frame_id) == ('pivot', 'world')
+        for kind in ('force', 'torque'):
+            v, w = getattr(message.wrench, kind), getattr(world.wrench, kind)
+            turned = rotations.to_body(np.array([[q.x, q.y, q.z, q.w]]), np.array([[w.x, w.y,
+                                                                                   w.z]]))[0]
+            np.testing.assert_allclose([v.x, v.y, v.z], turned, rtol=0, atol=1e-9 * max(
+                1.0, abs(w.x), abs(w.y), abs(w.z)))
 
     first, last = markers[0].markers, markers[-1].markers
     assert [(m.ns, m.header.frame_id, m.frame_locked) for m in first] == [

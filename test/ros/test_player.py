@@ -82,6 +82,17 @@ def test_play_refuses_bad_arguments(tmp_path, capsys):
     assert 'missing.mcap' in err and err.count('\n') == 1
 
 
+def test_play_remaps_without_rcl_deprecation_warning(tmp_path):
+    log = tmp_path / 'log.mcap'
+    write_log(log)
+    done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--remap',
+                           '/cfem/release:=/other/release', '--wait', '0', '--rate', '50'],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert 'messages played' in done.stdout
+    assert 'deprecated' not in done.stderr and 'remap rule' not in done.stderr, done.stderr
+
+
 def wait_for_clock_subscription(node, timeout=120.0):
     """Wait (bounded) until the node says it waits for /clock: its subscription exists."""
     deadline = time.monotonic() + timeout

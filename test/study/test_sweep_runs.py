@@ -3,10 +3,12 @@
 """A sweep's runs: the same metrics as cfem-sim run's recordings, failures as rows."""
 
 import copy
+import logging
 import math
 import os
 
 from cfem_ros import cli
+from cfem_ros.core.engine import REDUNDANT_WARNING
 from cfem_ros.core.model import STANDARD_GRAVITY
 from cfem_ros.study import Sweep
 from cfem_ros.study.metrics import compute, from_run
@@ -141,6 +143,47 @@ def test_summarize_reports_a_truncated_or_foreign_file_as_a_row(tmp_path, capsys
     assert 'cut.mcap' in table['message'][1] and 'notes.mcap' in table['message'][2]
     assert table['clearance_store_pylon_min'][0] > 0
     assert os.path.exists(out)
+
+
+def test_the_redundant_joint_warning_comes_once_per_sweep(tmp_path, caplog):
+    scenario = copy.deepcopy(STORE)
+    scenario['joints']['pin'] = {k: v for k, v in scenario['joints']['pivot'].items()
+                                 if k != 'release'}
+    path = write_sweep(tmp_path, runs=4, vary={'bodies.store.mass': {'normal': [907.0, 5.0]}},
+                       scenario=scenario)
+    with caplog.at_level(logging.WARNING, logger='cfem_ros'):
+        table = Sweep.from_file(path).run(None, str(tmp_path / 'out'))
+    assert (table['status'] == 'ok').all() and len(table) == 4
+    redundant = [r for r in caplog.records if r.msg == REDUNDANT_WARNING]
+    assert len(redundant) == 1 and 'pin, pivot' in redundant[0].getMessage()
+
+
+def test_summarize_relative_paths_on_a_cluster_elsewhere_and_no_silent_replace(
+        tmp_path, monkeypatch, capsys):
+    from dask.distributed import Client, LocalCluster
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, vary={}))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(['run', 'scenario.yaml', '-o', 'good.mcap']) == 0
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=':0') as cluster, Client(cluster) as client:
+        # the worker's working directory is another one, as on a remote machine
+        client.run(os.chdir, '/')
+        code = cli.main(['summarize', 'good.mcap', '--metrics', sweep.spec.path,
+                         '-o', 'table.parquet', '--scheduler', cluster.scheduler_address])
+    assert code == 0, capsys.readouterr().err
+    table = pd.read_parquet('table.parquet')
+    assert list(table['status']) == ['ok'] and table['clearance_store_pylon_min'][0] > 0
+    assert table['path'][0] == str(tmp_path / 'good.mcap')
+    # an existing table is replaced only with --overwrite
+    before = (tmp_path / 'table.parquet').read_bytes()
+    capsys.readouterr()
+    assert cli.main(['summarize', 'good.mcap', '--metrics', sweep.spec.path,
+                     '-o', 'table.parquet']) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ERROR: table.parquet: already exists') and '--overwrite' in err
+    assert (tmp_path / 'table.parquet').read_bytes() == before
+    assert cli.main(['summarize', 'good.mcap', '--metrics', sweep.spec.path,
+                     '-o', 'table.parquet', '--overwrite']) == 0
 
 
 def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path, capsys):
