@@ -175,13 +175,18 @@ def test_bad_shapes_are_refused_with_the_key_path(shape, fragment):
 def test_mesh_paths_are_percent_encoded_urls_and_a_missing_mesh_is_refused(tmp_path):
     folder = tmp_path / 'mesh test'
     folder.mkdir()
-    (folder / 'store mesh.stl').write_text('solid store\nendsolid store\n')
+    corners = ['0 0 0', '1 0 0', '0 1 0', '0 0 1']   # a tetrahedron: its hull is the shape
+    facets = ''.join('facet normal 0 0 0\nouter loop\n' + ''.join(
+        f'vertex {corners[i]}\n' for i in face) + 'endloop\nendfacet\n'
+        for face in [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)])
+    (folder / 'store mesh.stl').write_text(f'solid store\n{facets}endsolid store\n')
     scenario = folder / 'scenario.yaml'
     document = {'bodies': {'store': {'mass': 1.0, 'inertia': [1, 1, 1],
                                      'shape': {'mesh': 'store mesh.stl'}}}}
     scenario.write_text(yaml.safe_dump(document))
-    (marker,) = visuals.markers(load_scenario(str(scenario)), {'sec': 0, 'nanosec': 0},
-                                '/cfem')['markers']
+    (marker,) = [m for m in visuals.markers(load_scenario(str(scenario)),
+                                            {'sec': 0, 'nanosec': 0}, '/cfem')['markers']
+                 if m.get('mesh_resource')]
     url = marker['mesh_resource']
     assert url == 'file://' + str(folder).replace(' ', '%20') + '/store%20mesh.stl'
     assert ' ' not in url and pathlib.Path(urllib.parse.unquote(url[7:])).is_file()
