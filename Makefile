@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.cfem-installed
 CORE := $(VENV)/.cfem-core-compiled
 
-.PHONY: demo test venv bench figures clean
+.PHONY: demo test venv bench figures docs clean
 
 venv: $(CORE)
 
@@ -19,7 +19,7 @@ $(STAMP): setup.py setup.cfg package.xml
 	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
+	$(BIN)/python -m pip install -q -e '.[ros,test,study,docs]'
 	@touch $(STAMP)
 
 # compiles the kernel: numba's JIT cache, then the extension module (core.aot) a run
@@ -47,7 +47,7 @@ bench: $(CORE)
 	$(BIN)/python benchmarks/bench_node.py
 	$(BIN)/python benchmarks/bench_startup.py
 
-# The paper's figures in docs/verification.md, regenerated.
+# The paper's figures in docs/guide/verification.md, regenerated.
 figures: $(CORE)
 	@mkdir -p runs
 	for s in fixed_joint_spin double_pendulum store_separation; do \
@@ -55,5 +55,10 @@ figures: $(CORE)
 	  rm -rf docs/figures/$$s && $(BIN)/cfem-sim plot runs/$$s.mcap -o docs/figures/$$s || exit 1; \
 	done
 
+# The user guide as HTML in docs/_build/html (open docs/_build/html/index.html);
+# warnings are errors, as in the test that builds it
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) build install log runs *.egg-info
+	rm -rf $(VENV) build install log runs *.egg-info docs/_build

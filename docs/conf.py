@@ -1,0 +1,40 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Sphinx configuration of the cfem_ros user guide (Markdown pages read by MyST).
+
+``make docs`` builds it into ``docs/_build/html``; ``rosdoc2 build
+--package-path .`` finds it through ``rosdoc2.yaml`` (``sphinx_sourcedir:
+docs``). rosdoc2 executes this file from another folder, so nothing here
+depends on where the file lies.
+"""
+
+project = 'cfem_ros'
+author = 'the cfem_ros authors'
+copyright = '2026, the cfem_ros authors'  # noqa: A001 (the name Sphinx reads)
+release = '0.1.0'
+version = '0.1'
+
+extensions = ['myst_parser']
+source_suffix = {'.md': 'markdown', '.rst': 'restructuredtext'}
+root_doc = 'index'
+master_doc = root_doc  # for rosdoc2's older Sphinx
+exclude_patterns = ['_build', 'Thumbs.db', '.DS_Store']
+
+# Headings up to level 3 get anchors, so that [text](page.md#a-heading)
+# links are checked and resolved by MyST like any cross-reference.
+myst_heading_anchors = 3
+myst_enable_extensions = ['colon_fence', 'deflist']
+# Every internal reference must resolve: a broken link is a warning, and
+# the build treats warnings as errors (test/docs/test_guide_build.py).
+nitpicky = True
+
+html_theme = 'alabaster'
+html_title = 'cfem_ros user guide'
+html_static_path = []
+
+# rosdoc2 reads these settings; plain Sphinx ignores them.
+rosdoc2_settings = {
+    'enable_breathe': False,
+    'enable_exhale': False,
+}
