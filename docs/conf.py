@@ -9,6 +9,10 @@ docs``). rosdoc2 executes this file from another folder, so nothing here
 depends on where the file lies.
 """
 
+import fnmatch
+import posixpath
+import re
+
 project = 'cfem_ros'
 author = 'the cfem_ros authors'
 copyright = '2026, the cfem_ros authors'  # noqa: A001 (the name Sphinx reads)
@@ -38,3 +42,30 @@ rosdoc2_settings = {
     'enable_breathe': False,
     'enable_exhale': False,
 }
+
+
+# Pages that come with their features are listed in toctrees as glob patterns
+# that match only them (release-sequence[s], ...). Until such a page is
+# present its pattern matches nothing, which is not a mistake: the line is
+# dropped before Sphinx reads the toctree. An explicit entry that names no
+# page, and a page that is in no toctree, are still warnings.
+_GLOB_ENTRY = re.compile(r'^(\s*)(\S*\[[^\]]+\]\S*)\s*$')
+
+
+def _drop_empty_globs(app, docname, source):
+    """Remove glob entries of toctrees that match no document."""
+    folder = posixpath.dirname(docname)
+    kept = []
+    for line in source[0].split('\n'):
+        entry = _GLOB_ENTRY.match(line)
+        if entry:
+            pattern = posixpath.normpath(posixpath.join(folder, entry.group(2)))
+            if not fnmatch.filter(app.env.found_docs, pattern):
+                continue
+        kept.append(line)
+    source[0] = '\n'.join(kept)
+
+
+def setup(app):
+    """Register the optional toctree entries' filter."""
+    app.connect('source-read', _drop_empty_globs)
