@@ -46,20 +46,29 @@ rosdoc2_settings = {
 
 # Pages that come with their features are listed in toctrees as glob patterns
 # that match only them (release-sequence[s], ...). Until such a page is
-# present its pattern matches nothing, which is not a mistake: the line is
+# present its pattern matches nothing, which is not a mistake: the entry is
 # dropped before Sphinx reads the toctree. An explicit entry that names no
 # page, and a page that is in no toctree, are still warnings.
-_GLOB_ENTRY = re.compile(r'^(\s*)(\S*\[[^\]]+\]\S*)\s*$')
+_TOCTREE_START = re.compile(r'^\s*(?:(`{3,}|:{3,})\{toctree\}|\.\. toctree::)')
+_GLOB_ENTRY = re.compile(r'^\s*(\S*\[[^\]]+\]\S*)\s*$')
 
 
 def _drop_empty_globs(app, docname, source):
-    """Remove glob entries of toctrees that match no document."""
+    """Remove the glob entries of toctrees that match no document."""
     folder = posixpath.dirname(docname)
     kept = []
+    fence = None        # the toctree's closing fence (MyST), or '' in an rst toctree
     for line in source[0].split('\n'):
-        entry = _GLOB_ENTRY.match(line)
+        start = _TOCTREE_START.match(line)
+        if start:
+            fence = start.group(1) or ''
+        elif fence and line.strip() == fence:
+            fence = None
+        elif fence == '' and line.strip() and not line[:1].isspace():
+            fence = None
+        entry = _GLOB_ENTRY.match(line) if fence is not None and not start else None
         if entry:
-            pattern = posixpath.normpath(posixpath.join(folder, entry.group(2)))
+            pattern = posixpath.normpath(posixpath.join(folder, entry.group(1)))
             if not fnmatch.filter(app.env.found_docs, pattern):
                 continue
         kept.append(line)
