@@ -3,18 +3,22 @@
 """
 Every command block (```bash) of the README and the guide runs as written.
 
-Each page's blocks run in order in one fresh folder that holds the
-repository's ``config/``, ``examples/`` and ``benchmarks/`` and the
-environment (``.venv``), with that environment's ``bin`` first on PATH as
-``. .venv/bin/activate`` makes it, so blocks share what earlier blocks of
-the page wrote (``runs/...``) and nothing is written into the repository.
-A block fails the page when it exits non-zero (``bash -e``). Two-terminal
+The pages' blocks run in order (the README first) in one fresh folder that
+holds the repository's ``config/``, ``examples/`` and ``benchmarks/`` and
+the environment (``.venv``), with that environment's ``bin`` first on PATH
+as ``. .venv/bin/activate`` makes it; nothing is written into the
+repository. Each command of a block runs in ``bash -e -o pipefail`` and
+fails the page when it exits non-zero. Pages share what earlier commands
+wrote (``runs/...``): a command already run as written, with success, is
+not run again while the files it names are as it left them (unless a live
+run is under way), so the first run that several pages show costs once. Two-terminal
 walk-throughs run their first terminal in the background, DDS kept to this
 machine and to a domain of its own; every wait has a deadline. The comments
 that say how a block runs are described in ``docblocks.py``; a page of the
 guide joins by itself.
 """
 
+import concurrent.futures
 import os
 import pathlib
 import random
@@ -22,6 +26,7 @@ import signal
 import subprocess
 import sys
 import time
+from typing import Optional
 
 import pytest
 
@@ -35,6 +40,8 @@ SHARED = ('config', 'examples', 'benchmarks')
 BLOCK_TIMEOUT = 300.0
 STOP_TIMEOUT = 60.0
 WAIT_TIMEOUT = 180.0
+#: Pages run side by side (the machine's two cores), each lane in its own folder.
+LANES = 2
 VERBS = {'', 'skip', 'background', 'interrupt', 'wait', 'interrupt-after'}
 
 
@@ -57,15 +64,42 @@ def environment() -> dict:
     return env
 
 
-class Shell:
-    """One block run by bash in its own process group, its output in a file."""
+def commands(text: str) -> list:
+    """Return a block's commands: its lines, continuations joined, comments left out."""
+    found, current = [], ''
+    for line in text.split('\n'):
+        current += line
+        if current.endswith('\\'):
+            current = current[:-1] + ' '
+            continue
+        if current.strip() and not current.strip().startswith('#'):
+            found.append(current.strip())
+        current = ''
+    return found
 
-    def __init__(self, block, work: pathlib.Path, env: dict, index: int):
+
+def files_named(command: str, work: pathlib.Path) -> tuple:
+    """Return the size and time of each file a command names (what it read or wrote)."""
+    state = []
+    for word in command.replace('=', ' ').split():
+        path = work / word.strip('\'"')
+        if word[:1] not in '-|>' and path.is_file() and not path.is_symlink():
+            info = path.stat()
+            state.append((word, info.st_size, info.st_mtime_ns))
+    return tuple(state)
+
+
+class Shell:
+    """A block, or one command of it, run by bash in its own process group."""
+
+    def __init__(self, block, work: pathlib.Path, env: dict, text: Optional[str] = None):
         self.block = block
-        self.log = work / f'.block-{index}.log'
+        self.text = block.text if text is None else text
+        self.log = work / '.logs' / f'{time.monotonic_ns()}.log'
+        self.log.parent.mkdir(exist_ok=True)
         with open(self.log, 'wb') as out:
             self.process = subprocess.Popen(
-                ['bash', '-e', '-o', 'pipefail', '-c', block.text], cwd=work, env=env,
+                ['bash', '-e', '-o', 'pipefail', '-c', self.text], cwd=work, env=env,
                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                 start_new_session=True)
 
@@ -88,7 +122,7 @@ class Shell:
     def report(self, what: str) -> str:
         """Return what happened and the end of the block's output."""
         output = self.log.read_text(errors='replace')[-4000:]
-        return f'{self.block.where}: {what}\n--- block:\n{self.block.text}--- output:\n{output}'
+        return f'{self.block.where}: {what}\n--- ran:\n{self.text}\n--- output:\n{output}'
 
 
 def stop(shells, how: int, timeout: float):
@@ -105,18 +139,12 @@ def stop(shells, how: int, timeout: float):
     shells.clear()
 
 
-@pytest.mark.parametrize('page', command_pages(), ids=lambda p: str(p.relative_to(ROOT)))
-def test_page_commands_run(page, tmp_path):
-    work = tmp_path / 'repository'
-    work.mkdir()
-    for name in SHARED:
-        (work / name).symlink_to(ROOT / name)
-    (work / '.venv').symlink_to(BIN.parent)
-    env = environment()
+def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
+    """Run a page's command blocks in work; raise AssertionError on the first failure."""
     background = []
     ran = 0
     try:
-        for index, block in enumerate(docblocks.blocks(page)):
+        for block in docblocks.blocks(page):
             if block.lang != 'bash':
                 continue
             assert block.verb in VERBS, f'{block.where}: unknown doc-test comment'
@@ -129,12 +157,13 @@ def test_page_commands_run(page, tmp_path):
             elif block.verb == 'wait':
                 assert background, f'{block.where}: nothing runs in the background'
                 stop(background, None, WAIT_TIMEOUT)
-            shell = Shell(block, work, env, index)
-            ran += 1
             if block.verb == 'background':
-                background.append(shell)
+                background.append(Shell(block, work, env))
+                ran += 1
                 continue
             if block.verb == 'interrupt-after':
+                shell = Shell(block, work, env)
+                ran += 1
                 seconds = float(block.argument)
                 time.sleep(seconds)
                 assert shell.process.poll() is None, shell.report(
@@ -143,11 +172,77 @@ def test_page_commands_run(page, tmp_path):
                 status = shell.wait(STOP_TIMEOUT)
                 assert status == 130, shell.report(f'exit status {status} after Ctrl-C')
                 continue
-            status = shell.wait(BLOCK_TIMEOUT)
-            assert status == 0, shell.report(f'exit status {status}')
+            for command in commands(block.text):
+                ran += 1
+                named = files_named(command, work)
+                # a command that acts on a live run, or names no file it read or
+                # wrote, runs every time
+                if named and not background and (command, named) in done:
+                    continue
+                shell = Shell(block, work, env, command)
+                status = shell.wait(BLOCK_TIMEOUT)
+                assert status == 0, shell.report(f'exit status {status}')
+                done.add((command, files_named(command, work)))
         assert not background, f'{page.name}: a background block is never stopped or waited for'
     finally:
         for shell in background:
             shell.signal(signal.SIGKILL)
             shell.process.wait()
     assert ran, f'{page.name}: no command block ran'
+
+
+def lanes(pages: list, count: int) -> list:
+    """
+    Split the pages into lanes that run side by side, each in its own folder.
+
+    A page joins the lane that ends up with the fewest distinct commands (a
+    command that a lane's earlier pages show runs there once); the README
+    comes first.
+    """
+    found = [[] for _ in range(count)]
+    shown = [set() for _ in range(count)]
+    for page in pages:
+        mine = {c for b in docblocks.blocks(page) if b.lang == 'bash' and b.verb != 'skip'
+                for c in commands(b.text)}
+        lane = min(range(count), key=lambda k: len(shown[k] | mine))
+        found[lane].append(page)
+        shown[lane] |= mine
+    return found
+
+
+def run_lane(pages: list, work: pathlib.Path) -> dict:
+    """Run pages one after the other in work; return each page's failure (None if none)."""
+    for name in SHARED:
+        (work / name).symlink_to(ROOT / name)
+    (work / '.venv').symlink_to(BIN.parent)
+    env, done, failures = environment(), set(), {}
+    for page in pages:
+        try:
+            run_page(page, work, env, done)
+            failures[page] = None
+        except AssertionError as err:
+            failures[page] = str(err)
+    return failures
+
+
+@pytest.fixture(scope='module')
+def outcomes(tmp_path_factory):
+    """Every page's failure (None if none), the pages run in two lanes side by side."""
+    split = lanes(command_pages(), LANES)
+    folders = [tmp_path_factory.mktemp(f'lane{k}') for k in range(len(split))]
+    with concurrent.futures.ThreadPoolExecutor(len(split)) as pool:
+        results = list(pool.map(run_lane, split, folders))
+    return {page: failure for result in results for page, failure in result.items()}
+
+
+@pytest.mark.parametrize('page', command_pages(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_commands_run(page, outcomes):
+    failure = outcomes[page]
+    assert failure is None, failure
+
+
+def test_lanes_keep_every_page_once():
+    pages = command_pages()
+    split = lanes(pages, LANES)
+    assert sorted(p for lane in split for p in lane) == sorted(pages)
+    assert split[0][0].name == 'README.md'
