@@ -58,6 +58,12 @@ class Block:
         return self.directive.partition(' ')[2].strip() if self.directive else ''
 
 
+def _closes(line: str, marker: str) -> bool:
+    """Return whether line closes a fence opened by marker."""
+    text = line.strip()
+    return text.startswith(marker) and text.strip(marker[0]) == ''
+
+
 def blocks(path: pathlib.Path) -> List[Block]:
     """Return the fenced code blocks of a Markdown file, in order."""
     lines = path.read_text(encoding='utf-8').split('\n')
@@ -72,8 +78,7 @@ def blocks(path: pathlib.Path) -> List[Block]:
             indent, marker, lang = fence.group(1), fence.group(2), fence.group(3)
             body = []
             j = i + 1
-            while j < len(lines) and not (
-                    lines[j].strip().startswith(marker) and lines[j].strip().strip(marker[0]) == ''):
+            while j < len(lines) and not _closes(lines[j], marker):
                 body.append(lines[j][len(indent):] if lines[j].startswith(indent) else lines[j])
                 j += 1
             found.append(Block(path, i + 1, lang, '\n'.join(body) + '\n', section, pending))

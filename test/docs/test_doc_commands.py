@@ -28,9 +28,8 @@ import sys
 import time
 from typing import Optional
 
-import pytest
-
 import docblocks
+import pytest
 
 ROOT = docblocks.ROOT
 BIN = pathlib.Path(sys.executable).parent

@@ -20,10 +20,9 @@ import subprocess
 import sys
 
 from cfem_ros.core.scenario import load_yaml
+import docblocks
 import pytest
 import yaml
-
-import docblocks
 
 ROOT = docblocks.ROOT
 SPEC = ROOT / 'docs' / 'SPEC.md'
@@ -122,8 +121,8 @@ def base_scenario(block, path):
         scenario = (folder / path).resolve()
         if scenario.is_file():
             return str(scenario)
-    raise AssertionError(f'{block.where}: the sweep\'s scenario {path} is neither relative '
-                         f'to the page nor to config/sweeps/')
+    raise AssertionError(f"{block.where}: the sweep's scenario {path} is neither relative "
+                         'to the page nor to config/sweeps/')
 
 
 @pytest.mark.parametrize('block', list(yaml_blocks()), ids=_id)

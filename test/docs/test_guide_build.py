@@ -16,9 +16,8 @@ import shutil
 import subprocess
 import sys
 
-import pytest
-
 import docblocks
+import pytest
 
 ROOT = docblocks.ROOT
 DOCS = ROOT / 'docs'
@@ -39,7 +38,7 @@ def sphinx(source: pathlib.Path, out: pathlib.Path) -> subprocess.CompletedProce
 
 @pytest.fixture(scope='module')
 def built(tmp_path_factory):
-    """The guide built once for this module's tests."""
+    """Build the guide once for this module's tests."""
     out = tmp_path_factory.mktemp('html')
     done = sphinx(DOCS, out)
     return done, out
