@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-Every command block (```bash) of the README and the guide runs as written.
+Every command block (```bash) and Python example of the README and the guide runs as written.
 
 The pages' blocks run in order (the README first) in one fresh folder that
 holds the repository's ``config/``, ``examples/`` and ``benchmarks/`` and
@@ -39,6 +39,8 @@ SHARED = ('config', 'examples', 'benchmarks')
 BLOCK_TIMEOUT = 300.0
 STOP_TIMEOUT = 60.0
 WAIT_TIMEOUT = 180.0
+#: The blocks that run: commands, and Python examples (each as a script).
+RUN = ('bash', 'python')
 #: Pages run side by side (the machine's two cores), each lane in its own folder.
 LANES = 2
 VERBS = {'', 'skip', 'background', 'interrupt', 'wait', 'interrupt-after'}
@@ -47,7 +49,7 @@ VERBS = {'', 'skip', 'background', 'interrupt', 'wait', 'interrupt-after'}
 def command_pages():
     """Return the pages that have command blocks."""
     return [page for page in docblocks.pages()
-            if any(b.lang == 'bash' for b in docblocks.blocks(page))]
+            if any(b.lang in RUN for b in docblocks.blocks(page))]
 
 
 def environment() -> dict:
@@ -61,6 +63,11 @@ def environment() -> dict:
     env['PYTHONUNBUFFERED'] = '1'
     env.pop('PYTHONPATH', None)
     return env
+
+
+def python_script(text: str) -> str:
+    """Return the shell command that runs a Python block as a script."""
+    return f"python - <<'CFEM_DOC_PYTHON'\n{text}CFEM_DOC_PYTHON\n"
 
 
 def commands(text: str) -> list:
@@ -144,7 +151,7 @@ def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
     ran = 0
     try:
         for block in docblocks.blocks(page):
-            if block.lang != 'bash':
+            if block.lang not in RUN:
                 continue
             assert block.verb in VERBS, f'{block.where}: unknown doc-test comment'
             if block.verb == 'skip':
@@ -170,6 +177,12 @@ def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
                 shell.signal(signal.SIGINT)
                 status = shell.wait(STOP_TIMEOUT)
                 assert status == 130, shell.report(f'exit status {status} after Ctrl-C')
+                continue
+            if block.lang == 'python':
+                ran += 1
+                shell = Shell(block, work, env, python_script(block.text))
+                status = shell.wait(BLOCK_TIMEOUT)
+                assert status == 0, shell.report(f'exit status {status}')
                 continue
             for command in commands(block.text):
                 ran += 1
