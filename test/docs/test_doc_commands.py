@@ -52,12 +52,12 @@ def command_pages():
             if any(b.lang in RUN for b in docblocks.blocks(page))]
 
 
-def environment() -> dict:
+def environment(domain: int) -> dict:
     """Return the environment of a shell with the package's environment active."""
     env = dict(os.environ)
     env['PATH'] = f'{BIN}{os.pathsep}{env.get("PATH", "")}'
     env['VIRTUAL_ENV'] = str(BIN.parent)
-    env['ROS_DOMAIN_ID'] = str(random.randint(1, 100))
+    env['ROS_DOMAIN_ID'] = str(domain)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['MPLBACKEND'] = 'Agg'
     env['PYTHONUNBUFFERED'] = '1'
@@ -222,12 +222,12 @@ def lanes(pages: list, count: int) -> list:
     return found
 
 
-def run_lane(pages: list, work: pathlib.Path) -> dict:
+def run_lane(pages: list, work: pathlib.Path, domain: int) -> dict:
     """Run pages one after the other in work; return each page's failure (None if none)."""
     for name in SHARED:
         (work / name).symlink_to(ROOT / name)
     (work / '.venv').symlink_to(BIN.parent)
-    env, done, failures = environment(), set(), {}
+    env, done, failures = environment(domain), set(), {}
     for page in pages:
         try:
             run_page(page, work, env, done)
@@ -242,8 +242,10 @@ def outcomes(tmp_path_factory):
     """Every page's failure (None if none), the pages run in two lanes side by side."""
     split = lanes(command_pages(), LANES)
     folders = [tmp_path_factory.mktemp(f'lane{k}') for k in range(len(split))]
+    first = random.randint(1, 101 - len(split))      # a DDS domain of its own per lane
+    domains = range(first, first + len(split))
     with concurrent.futures.ThreadPoolExecutor(len(split)) as pool:
-        results = list(pool.map(run_lane, split, folders))
+        results = list(pool.map(run_lane, split, folders, domains))
     return {page: failure for result in results for page, failure in result.items()}
 
 

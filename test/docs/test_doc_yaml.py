@@ -9,7 +9,8 @@ by ``cfem-sim run`` for a short time; a whole sweep (``scenario`` and
 lies, and a few of its runs are done, each of which must succeed. An excerpt
 (a key or two to add to a scenario) is merged into the scenario its
 ``doc-test: extends`` comment names and run the same way. The SPEC's
-excerpts are classified below, since the contract carries no test comments.
+excerpts are classified below, since the contract carries no test comments;
+an excerpt that cannot run is still read as YAML.
 """
 
 import copy
@@ -97,12 +98,13 @@ def resolve(block, document):
         if rule is None:
             return [block.text]
         if rule.startswith('not run'):
-            pytest.skip(f'{block.where}: {rule}')
+            return []       # read as YAML above; nothing to run
         if rule.startswith('the format'):
             return format_variants(document)
         return [deep_merge(variant, document) for variant in format_variants(spec_section_one())]
     if block.verb == 'skip':
-        pytest.skip(f'{block.where}: {block.argument}')
+        assert len(block.argument) > 10, f'{block.where}: a block not run says why'
+        return []
     if block.verb == 'extends':
         base = ROOT / block.argument
         assert base.is_file(), f'{block.where}: extends {block.argument}, which does not exist'
