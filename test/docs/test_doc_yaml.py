@@ -10,15 +10,14 @@ lies, and a few of its runs are done, each of which must succeed. An excerpt
 (a key or two to add to a scenario) is merged into the scenario its
 ``doc-test: extends`` comment names and run the same way. The SPEC's
 excerpts are classified below, since the contract carries no test comments;
-an excerpt that cannot run is still read as YAML.
+an excerpt that cannot run is still read as YAML. Scenarios run for 0.3 s
+(or their duration) with the Simulator ``cfem-sim run`` uses.
 """
 
 import copy
 import math
 import pathlib
 import re
-import subprocess
-import sys
 
 from cfem_ros.core.scenario import load_yaml
 import docblocks
@@ -27,7 +26,6 @@ import yaml
 
 ROOT = docblocks.ROOT
 SPEC = ROOT / 'docs' / 'SPEC.md'
-BIN = pathlib.Path(sys.executable).parent
 
 #: The SPEC's excerpts (by the number of their section): the section 1
 #: scenario they are added to, or why they cannot run as a scenario.
@@ -147,17 +145,20 @@ def test_yaml_example_runs(block, tmp_path):
 
 
 def _run_scenario(block, text, tmp_path):
+    from cfem_ros import load_scenario, Simulator
+    from cfem_ros.core.errors import ScenarioError
+
     path = tmp_path / 'scenario.yaml'
     path.write_text(text, encoding='utf-8')
-    document = load_yaml(text)
-    duration = min(float(document.get('duration', 10.0)), 0.3)
-    done = subprocess.run(
-        [str(BIN / 'cfem-sim'), 'run', str(path), '-o', str(tmp_path / 'run.mcap'),
-         '--duration', str(duration)],
-        capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, f'{block.where}: cfem-sim run exits {done.returncode}:\n' \
-                                 f'{done.stdout}{done.stderr}'
-    assert (tmp_path / 'run.mcap').stat().st_size > 0
+    try:
+        model = load_scenario(str(path))
+    except ScenarioError as err:
+        raise AssertionError(f'{block.where}: refused: {err}') from None
+    sim = Simulator(model)
+    end = min(model.duration, 0.3)
+    assert sim.advance_to(end) is not False and sim.status != 'failed', \
+        f'{block.where}: the run failed: {sim.message}'
+    assert sim.t == pytest.approx(end)
 
 
 def _run_sweep(block, text, tmp_path):

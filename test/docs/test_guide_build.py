@@ -63,18 +63,38 @@ def test_links_between_pages_become_links(built):
     assert any(figures.glob('body_store*.png')), 'the verification figures are not copied'
 
 
+def small_guide(folder: pathlib.Path, pages: dict) -> pathlib.Path:
+    """Write a guide with this configuration, an index listing a.md and an optional page."""
+    source = folder / 'docs'
+    (source / 'guide').mkdir(parents=True)
+    shutil.copy(DOCS / 'conf.py', source / 'conf.py')
+    (source / 'index.rst').write_text('Root\n====\n\n.. toctree::\n\n   guide/index\n')
+    (source / 'guide' / 'index.md').write_text(
+        '# Guide\n\n```{toctree}\n:glob:\n\na\noptional-pag[e]\n```\n\n![figure](a.png)\n')
+    (source / 'guide' / 'a.png').write_bytes(b'')
+    for name, text in pages.items():
+        (source / 'guide' / name).write_text(text, encoding='utf-8')
+    return source
+
+
+def test_an_optional_page_is_listed_once_present(tmp_path):
+    source = small_guide(tmp_path, {'a.md': '# A\n\n## Part\n\n[self](a.md#part)\n'})
+    done = sphinx(source, tmp_path / 'absent')
+    assert done.returncode == 0, done.stderr
+    assert 'a.png' in (tmp_path / 'absent' / 'guide' / 'index.html').read_text()
+    (source / 'guide' / 'optional-page.md').write_text('# Optional\n')
+    done = sphinx(source, tmp_path / 'present')
+    assert done.returncode == 0, done.stderr
+    assert 'optional-page.html' in (tmp_path / 'present' / 'guide' / 'index.html').read_text()
+
+
 def test_a_broken_link_or_an_orphan_page_fails_the_build(tmp_path):
-    source = tmp_path / 'docs'
-    shutil.copytree(DOCS, source, ignore=shutil.ignore_patterns('_build', 'figures'))
-    (source / 'guide' / 'verification.md').write_text('# Verification\n', encoding='utf-8')
-    page = source / 'guide' / 'studies.md'
-    page.write_text(page.read_text(encoding='utf-8')
-                    + '\n[gone](node.md#no-such-heading) and [lost](nowhere.md)\n',
-                    encoding='utf-8')
-    (source / 'guide' / 'orphan.md').write_text('# Orphan\n', encoding='utf-8')
+    source = small_guide(tmp_path, {
+        'a.md': '# A\n\n[gone](a.md#no-such-heading) and [lost](nowhere.md)\n',
+        'orphan.md': '# Orphan\n'})
     done = sphinx(source, tmp_path / 'html')
     assert done.returncode != 0
-    assert "local id not found in doc 'guide/node': 'no-such-heading'" in done.stderr
+    assert "local id not found in doc 'guide/a': 'no-such-heading'" in done.stderr
     assert 'nowhere.md' in done.stderr
     assert "orphan.md: WARNING: document isn't included in any toctree" in done.stderr
 
