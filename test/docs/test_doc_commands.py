@@ -38,6 +38,7 @@ SHARED = ('config', 'examples', 'benchmarks')
 #: waited for, may take.
 BLOCK_TIMEOUT = 300.0
 STOP_TIMEOUT = 60.0
+STARTUP_TIMEOUT = 60.0
 WAIT_TIMEOUT = 180.0
 #: The blocks that run: commands, and Python examples (each as a script).
 RUN = ('bash', 'python')
@@ -109,6 +110,17 @@ class Shell:
                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                 start_new_session=True)
 
+    def first_output(self, timeout: float) -> bool:
+        """Wait until the block has printed something; return False if it never does."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.log.stat().st_size > 0:
+                return True
+            if self.process.poll() is not None:
+                return self.log.stat().st_size > 0
+            time.sleep(0.05)
+        return False
+
     def signal(self, number: int):
         """Send a signal to the block's processes, as a terminal's Ctrl-C does."""
         try:
@@ -164,8 +176,12 @@ def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
                 assert background, f'{block.where}: nothing runs in the background'
                 stop(background, None, WAIT_TIMEOUT)
             if block.verb == 'background':
-                background.append(Shell(block, work, env))
+                shell = Shell(block, work, env)
+                background.append(shell)
                 ran += 1
+                # the user turns to the second terminal once the first shows something
+                assert shell.first_output(STARTUP_TIMEOUT), shell.report(
+                    f'printed nothing in {STARTUP_TIMEOUT:g} s')
                 continue
             if block.verb == 'interrupt-after':
                 shell = Shell(block, work, env)
