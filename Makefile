@@ -8,7 +8,7 @@ STAMP := $(VENV)/.cfem-installed
 TOOLS := $(VENV)/.cfem-test-tools
 CORE := cfem_ros/core/cpp
 
-.PHONY: demo test venv bench figures clean
+.PHONY: demo test venv bench figures docs clean
 
 venv: $(STAMP)
 
@@ -28,7 +28,7 @@ $(STAMP): setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp
 
 # the test and study tools, for make test only
 $(TOOLS): $(STAMP)
-	$(BIN)/python -m pip install -q -e '.[ros,test,study]'
+	$(BIN)/python -m pip install -q -e '.[ros,test,study,docs]'
 	@touch $(TOOLS)
 
 demo: $(STAMP)
@@ -47,7 +47,7 @@ bench: $(TOOLS)
 	$(BIN)/python benchmarks/bench_node.py
 	$(BIN)/python benchmarks/bench_startup.py
 
-# The paper's figures in docs/verification.md, regenerated.
+# The paper's figures in docs/guide/verification.md, regenerated.
 figures: $(STAMP)
 	@mkdir -p runs
 	for s in fixed_joint_spin double_pendulum store_separation; do \
@@ -55,5 +55,10 @@ figures: $(STAMP)
 	  rm -rf docs/figures/$$s && $(BIN)/cfem-sim plot runs/$$s.mcap -o docs/figures/$$s || exit 1; \
 	done
 
+# The user guide as HTML in docs/_build/html (open docs/_build/html/index.html);
+# warnings are errors, as in the test that builds it
+docs: $(TOOLS)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) build install log runs *.egg-info
+	rm -rf $(VENV) build install log runs *.egg-info docs/_build

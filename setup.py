@@ -105,6 +105,8 @@ setup(
         'bench': ['mujoco'],
         # separation studies (cfem-sim sweep / summarize, cfem_ros.study)
         'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14'],
+        # the user guide (make docs; rosdoc2 reads the same docs/conf.py)
+        'docs': ['sphinx>=7', 'myst-parser>=2'],
         'test': [
             'pybind11>=2.10',   # colcon build runs setup.py without build isolation
             'pytest',

@@ -9,7 +9,7 @@ flying at 250 m/s and pitching up at g / V (its lift is twice its weight),
 in the world frame of ``config/store_release_from_pullup.yaml`` (x forward,
 z down); and the release command of the joint ``hook`` (``/cfem/release``)
 at 0.5 s. Replay it with ``cfem-sim run ... --inputs`` or ``cfem-sim play``
-(see the README, "Replaying a flight test").
+(see docs/guide/carriers-and-replays.md, "Replaying a flight test").
 """
 
 import argparse

@@ -196,8 +196,24 @@ _Constructor.add_constructor(BaseResolver.DEFAULT_MAPPING_TAG,
                              _Constructor.construct_unique_mapping)
 
 
+class _Resolver(Resolver):
+    """
+    PyYAML's resolver, reading YAML 1.2 floats too.
+
+    PyYAML follows YAML 1.1, where an exponent needs a dot and a sign
+    (``5.0e+4``): ``5.0e4``, ``1e-3`` and ``2E5`` would be strings. YAML 1.2
+    (the core schema) reads them as numbers, as users write them.
+    """
+
+
+_Resolver.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)$'),
+    list('-+.0123456789'))
+
+
 class PythonLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
-                   _BoundedComposer, _Constructor, Resolver):
+                   _BoundedComposer, _Constructor, _Resolver):
     """The bounded safe loader over PyYAML's pure Python parser."""
 
     def __init__(self, stream):
@@ -206,18 +222,18 @@ class PythonLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
         yaml.parser.Parser.__init__(self)
         _BoundedComposer.__init__(self)
         _Constructor.__init__(self)
-        Resolver.__init__(self)
+        _Resolver.__init__(self)
 
 
 if CParser is not None:
-    class CLoader(_BoundedComposer, CParser, _Constructor, Resolver):
+    class CLoader(_BoundedComposer, CParser, _Constructor, _Resolver):
         """The bounded safe loader over libyaml's parser: the same results, faster."""
 
         def __init__(self, stream):
             CParser.__init__(self, stream)
             _BoundedComposer.__init__(self)
             _Constructor.__init__(self)
-            Resolver.__init__(self)
+            _Resolver.__init__(self)
 
     #: The loaders available, the one ``load_yaml`` uses by default first.
     LOADERS = (CLoader, PythonLoader)

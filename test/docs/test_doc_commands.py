@@ -1,0 +1,278 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Every command block (```bash) and Python example of the README and the guide runs as written.
+
+The pages' blocks run in order (the README first) in one fresh folder that
+holds the repository's ``config/``, ``examples/`` and ``benchmarks/`` and
+the environment (``.venv``), with that environment's ``bin`` first on PATH
+as ``. .venv/bin/activate`` makes it; nothing is written into the
+repository. Each command of a block runs in ``bash -e -o pipefail`` and
+fails the page when it exits non-zero. Pages share what earlier commands
+wrote (``runs/...``): a command already run as written, with success, is
+not run again while the files it names are as it left them (unless a live
+run is under way), so the first run that several pages show costs once. Two-terminal
+walk-throughs run their first terminal in the background, DDS kept to this
+machine and to a domain of its own; every wait has a deadline. The comments
+that say how a block runs are described in ``docblocks.py``; a page of the
+guide joins by itself.
+"""
+
+import concurrent.futures
+import os
+import pathlib
+import random
+import signal
+import subprocess
+import sys
+import time
+from typing import Optional
+
+import docblocks
+import pytest
+
+ROOT = docblocks.ROOT
+BIN = pathlib.Path(sys.executable).parent
+SHARED = ('config', 'examples', 'benchmarks')
+#: Seconds a foreground block, and a background block after Ctrl-C or when
+#: waited for, may take.
+BLOCK_TIMEOUT = 300.0
+STOP_TIMEOUT = 60.0
+STARTUP_TIMEOUT = 60.0
+WAIT_TIMEOUT = 180.0
+#: The blocks that run: commands, and Python examples (each as a script).
+RUN = ('bash', 'python')
+#: Pages run side by side (the machine's two cores), each lane in its own folder.
+LANES = 2
+VERBS = {'', 'skip', 'background', 'interrupt', 'wait', 'interrupt-after'}
+
+
+def command_pages():
+    """Return the pages that have command blocks."""
+    return [page for page in docblocks.pages()
+            if any(b.lang in RUN for b in docblocks.blocks(page))]
+
+
+def environment(domain: int) -> dict:
+    """Return the environment of a shell with the package's environment active."""
+    env = dict(os.environ)
+    env['PATH'] = f'{BIN}{os.pathsep}{env.get("PATH", "")}'
+    env['VIRTUAL_ENV'] = str(BIN.parent)
+    env['ROS_DOMAIN_ID'] = str(domain)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env['MPLBACKEND'] = 'Agg'
+    env['PYTHONUNBUFFERED'] = '1'
+    env.pop('PYTHONPATH', None)
+    return env
+
+
+def python_script(text: str) -> str:
+    """Return the shell command that runs a Python block as a script."""
+    return f"python - <<'CFEM_DOC_PYTHON'\n{text}CFEM_DOC_PYTHON\n"
+
+
+def commands(text: str) -> list:
+    """Return a block's commands: its lines, continuations joined, comments left out."""
+    found, current = [], ''
+    for line in text.split('\n'):
+        current += line
+        if current.endswith('\\'):
+            current = current[:-1] + ' '
+            continue
+        if current.strip() and not current.strip().startswith('#'):
+            found.append(current.strip())
+        current = ''
+    return found
+
+
+def files_named(command: str, work: pathlib.Path) -> tuple:
+    """Return the size and time of each file a command names (what it read or wrote)."""
+    state = []
+    for word in command.replace('=', ' ').split():
+        path = work / word.strip('\'"')
+        if word[:1] not in '-|>' and path.is_file() and not path.is_symlink():
+            info = path.stat()
+            state.append((word, info.st_size, info.st_mtime_ns))
+    return tuple(state)
+
+
+class Shell:
+    """A block, or one command of it, run by bash in its own process group."""
+
+    def __init__(self, block, work: pathlib.Path, env: dict, text: Optional[str] = None):
+        self.block = block
+        self.text = block.text if text is None else text
+        self.log = work / '.logs' / f'{time.monotonic_ns()}.log'
+        self.log.parent.mkdir(exist_ok=True)
+        with open(self.log, 'wb') as out:
+            self.process = subprocess.Popen(
+                ['bash', '-e', '-o', 'pipefail', '-c', self.text], cwd=work, env=env,
+                stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                start_new_session=True)
+
+    def first_output(self, timeout: float) -> bool:
+        """Wait until the block has printed something; return False if it never does."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.log.stat().st_size > 0:
+                return True
+            if self.process.poll() is not None:
+                return self.log.stat().st_size > 0
+            time.sleep(0.05)
+        return False
+
+    def signal(self, number: int):
+        """Send a signal to the block's processes, as a terminal's Ctrl-C does."""
+        try:
+            os.killpg(self.process.pid, number)
+        except ProcessLookupError:
+            pass
+
+    def wait(self, timeout: float):
+        """Return the exit status, or None (and kill it) when it takes longer."""
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.signal(signal.SIGKILL)
+            self.process.wait()
+            return None
+
+    def report(self, what: str) -> str:
+        """Return what happened and the end of the block's output."""
+        output = self.log.read_text(errors='replace')[-4000:]
+        return f'{self.block.where}: {what}\n--- ran:\n{self.text}\n--- output:\n{output}'
+
+
+def stop(shells, how: int, timeout: float):
+    """Signal background shells (None: wait for them) and check how they end."""
+    for shell in shells:
+        if how is not None:
+            shell.signal(how)
+    for shell in shells:
+        status = shell.wait(timeout)
+        expected = (0,) if how is None else (0, 130)
+        assert status in expected, shell.report(
+            f'the background block ended with status {status} (expected {expected})'
+            if status is not None else f'the background block did not end in {timeout:g} s')
+    shells.clear()
+
+
+def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
+    """Run a page's command blocks in work; raise AssertionError on the first failure."""
+    background = []
+    ran = 0
+    try:
+        for block in docblocks.blocks(page):
+            if block.lang not in RUN:
+                continue
+            assert block.verb in VERBS, f'{block.where}: unknown doc-test comment'
+            if block.verb == 'skip':
+                assert len(block.argument) > 10, f'{block.where}: a skipped block says why'
+                continue
+            if block.verb == 'interrupt':
+                assert background, f'{block.where}: nothing runs in the background'
+                stop(background, signal.SIGINT, STOP_TIMEOUT)
+            elif block.verb == 'wait':
+                assert background, f'{block.where}: nothing runs in the background'
+                stop(background, None, WAIT_TIMEOUT)
+            if block.verb == 'background':
+                shell = Shell(block, work, env)
+                background.append(shell)
+                ran += 1
+                # the user turns to the second terminal once the first shows something
+                assert shell.first_output(STARTUP_TIMEOUT), shell.report(
+                    f'printed nothing in {STARTUP_TIMEOUT:g} s')
+                continue
+            if block.verb == 'interrupt-after':
+                shell = Shell(block, work, env)
+                ran += 1
+                seconds = float(block.argument)
+                time.sleep(seconds)
+                assert shell.process.poll() is None, shell.report(
+                    f'ended within {seconds:g} s, before the Ctrl-C it shows')
+                shell.signal(signal.SIGINT)
+                status = shell.wait(STOP_TIMEOUT)
+                assert status == 130, shell.report(f'exit status {status} after Ctrl-C')
+                continue
+            if block.lang == 'python':
+                ran += 1
+                shell = Shell(block, work, env, python_script(block.text))
+                status = shell.wait(BLOCK_TIMEOUT)
+                assert status == 0, shell.report(f'exit status {status}')
+                continue
+            for command in commands(block.text):
+                ran += 1
+                named = files_named(command, work)
+                # a command that acts on a live run, or names no file it read or
+                # wrote, runs every time
+                if named and not background and (command, named) in done:
+                    continue
+                shell = Shell(block, work, env, command)
+                status = shell.wait(BLOCK_TIMEOUT)
+                assert status == 0, shell.report(f'exit status {status}')
+                done.add((command, files_named(command, work)))
+        assert not background, f'{page.name}: a background block is never stopped or waited for'
+    finally:
+        for shell in background:
+            shell.signal(signal.SIGKILL)
+            shell.process.wait()
+    assert ran, f'{page.name}: no command block ran'
+
+
+def lanes(pages: list, count: int) -> list:
+    """
+    Split the pages into lanes that run side by side, each in its own folder.
+
+    A page joins the lane that ends up with the fewest distinct commands (a
+    command that a lane's earlier pages show runs there once); the README
+    comes first.
+    """
+    found = [[] for _ in range(count)]
+    shown = [set() for _ in range(count)]
+    for page in pages:
+        mine = {c for b in docblocks.blocks(page) if b.lang == 'bash' and b.verb != 'skip'
+                for c in commands(b.text)}
+        lane = min(range(count), key=lambda k: len(shown[k] | mine))
+        found[lane].append(page)
+        shown[lane] |= mine
+    return found
+
+
+def run_lane(pages: list, work: pathlib.Path, domain: int) -> dict:
+    """Run pages one after the other in work; return each page's failure (None if none)."""
+    for name in SHARED:
+        (work / name).symlink_to(ROOT / name)
+    (work / '.venv').symlink_to(BIN.parent)
+    env, done, failures = environment(domain), set(), {}
+    for page in pages:
+        try:
+            run_page(page, work, env, done)
+            failures[page] = None
+        except AssertionError as err:
+            failures[page] = str(err)
+    return failures
+
+
+@pytest.fixture(scope='module')
+def outcomes(tmp_path_factory):
+    """Every page's failure (None if none), the pages run in two lanes side by side."""
+    split = lanes(command_pages(), LANES)
+    folders = [tmp_path_factory.mktemp(f'lane{k}') for k in range(len(split))]
+    first = random.randint(1, 101 - len(split))      # a DDS domain of its own per lane
+    domains = range(first, first + len(split))
+    with concurrent.futures.ThreadPoolExecutor(len(split)) as pool:
+        results = list(pool.map(run_lane, split, folders, domains))
+    return {page: failure for result in results for page, failure in result.items()}
+
+
+@pytest.mark.parametrize('page', command_pages(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_commands_run(page, outcomes):
+    failure = outcomes[page]
+    assert failure is None, failure
+
+
+def test_lanes_keep_every_page_once():
+    pages = command_pages()
+    split = lanes(pages, LANES)
+    assert sorted(p for lane in split for p in lane) == sorted(pages)
+    assert split[0][0].name == 'README.md'
