@@ -455,12 +455,124 @@ def _close(client, cluster):
         cluster.close()
 
 
-def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
+def cmd_plan(plan: str) -> int:
+    """Print how many runs without a failure show P(success) >= P at confidence C."""
+    from cfem_ros.study.confidence import runs_needed
+    try:
+        success, level = (float(v) for v in plan.split(','))
+        n = runs_needed(success, level)
+    except ValueError:
+        return _error(f'--plan {plan!r}; expected P,C: a success probability and a '
+                      'confidence, each between 0 and 1 (0.95,0.95)')
+    print(f'{n} runs without a failure show P(success) >= {success:g} at {100 * level:g} % '
+          f'confidence (P(fail) <= {1 - success:.3g}); with failures, more runs are needed')
+    return EXIT_OK
+
+
+def _print_fractions(spec, table):
+    """Print the failure fraction of each criterion and of any, with exact intervals."""
+    from cfem_ros.study.confidence import fractions
+    for fraction in fractions(table, spec.criteria, spec.confidence):
+        print(fraction.sentence())
+
+
+def cmd_study(sweep_file: str, outdir: str, method: str, design: Optional[str],
+              workers: Optional[int], scheduler: Optional[str], runs: Optional[int],
+              record: str, target_cov: float) -> int:
+    """Run a rare-event method or a sensitivity design (SPEC section 9); exit 0 or 2."""
+    if not (math.isfinite(target_cov) and 0 < target_cov < 1):
+        return _error(f'--cov is {target_cov!r}; expected a coefficient of variation '
+                      'between 0 and 1 (0.1)')
+    try:
+        study = _study_imports()
+        spec = study.load_sweep(sweep_file, runs=runs)
+        from cfem_ros.study import methods
+        if design is None:
+            from cfem_ros.study.reliability import distribution
+            if not spec.criteria:
+                return _error(f'{sweep_file}: criteria: missing; --method {method} estimates '
+                              'P(a criterion fails): expected criteria as in SPEC section 9')
+            distribution(spec)   # refuses what it cannot map, before any run
+        else:
+            from cfem_ros.study.sensitivity import problem
+            problem(spec, design)
+    except CfemError as err:
+        return _error(str(err))
+    except ImportError as err:
+        return _error(f'--{"design" if design else "method"} needs {err.name}, which is not '
+                      "installed; install the study extra: pip install -e '.[study]'")
+    outdir = os.path.abspath(outdir)
+    started = time.monotonic()
+    client = cluster = None
+    previous = [signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)]
+    try:
+        client, cluster = _dask_client(workers, scheduler)
+        found = methods.run_study(spec, outdir, method=method, design=design, client=client,
+                                  target_cov=target_cov, record=record,
+                                  log=lambda line: print(f'{design or method}: {line}',
+                                                         file=sys.stderr, flush=True))
+    except Interrupted as stop:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, exit_now)
+        _close(client, cluster)
+        client = cluster = None
+        print(f'\ninterrupted by {stop}: the runs done are saved in {outdir}; run the same '
+              'command again to resume', file=sys.stderr)
+        return stop.exit_status
+    except CfemError as err:
+        return _error(str(err))
+    except OSError as err:
+        return _error(f'{scheduler or "local cluster"}: {err}')
+    finally:
+        _close(client, cluster)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    table = found['table']
+    failed = int((table['status'] != 'ok').sum())
+    print(f'{os.path.join(outdir, "results.parquet")}: {len(table)} runs, {failed} did not '
+          f'finish, {time.monotonic() - started:.3g} s')
+    if design is None:
+        print(found['estimate'].sentence())
+        print(os.path.join(outdir, methods.ESTIMATE))
+    else:
+        _print_indices(found['indices'], design)
+        print(os.path.join(outdir, methods.SENSITIVITY))
+    return EXIT_OK
+
+
+def _print_indices(indices, design: str):
+    """Print each metric's parameters, most influential first."""
+    key = 'mu_star' if design == 'morris' else 'ST'
+    for metric, rows in indices.groupby('metric', sort=False):
+        print(f'{metric}:')
+        for _, row in rows.sort_values(key, ascending=False).iterrows():
+            if design == 'morris':
+                print(f'  {row["parameter"]}: mu* {row["mu_star"]:.4g} '
+                      f'[{row["mu_star_low"]:.4g}, {row["mu_star_high"]:.4g}], '
+                      f'sigma {row["sigma"]:.4g}')
+            else:
+                print(f'  {row["parameter"]}: S1 {row["S1"]:.3f} [{row["S1_low"]:.3f}, '
+                      f'{row["S1_high"]:.3f}], ST {row["ST"]:.3f} [{row["ST_low"]:.3f}, '
+                      f'{row["ST_high"]:.3f}]')
+
+
+def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optional[int] = None,
               scheduler: Optional[str] = None, runs: Optional[int] = None,
-              record: str = 'none', csv: bool = False) -> int:
+              record: str = 'none', csv: bool = False, method: str = 'mc',
+              design: Optional[str] = None, plan: Optional[str] = None,
+              target_cov: float = 0.1) -> int:
     """Run a sweep on Dask into outdir (resuming it); exit 0, 1 (failed runs) or 2."""
+    if plan is not None:
+        return cmd_plan(plan)
+    if sweep_file is None or outdir is None:
+        return _error('cfem-sim sweep: expected SWEEP.yaml -o OUTDIR (or --plan P,C)')
     if workers is not None and workers < 1:
         return _error(f'--workers: is {workers}; expected a number of workers >= 1')
+    if design is not None and method != 'mc':
+        return _error(f'--method {method} and --design {design}: expected one of them')
+    if design is not None or method != 'mc':
+        return cmd_study(sweep_file, outdir, method, design, workers, scheduler, runs,
+                         record, target_cov)
     try:
         study = _study_imports()
         sweep = study.Sweep.from_file(sweep_file, runs=runs)
@@ -503,6 +615,10 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
           f'{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
+    if sweep.spec.criteria:
+        from cfem_ros.study import methods
+        _print_fractions(sweep.spec, table)
+        methods.write_estimate(outdir, methods.mc_estimate(sweep.spec, table))
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -620,8 +736,8 @@ def build_parser() -> argparse.ArgumentParser:
                            description='Run the runs of a sweep file (SPEC section 6) on a '
                            'Dask cluster and write OUTDIR/results.parquet, one row per run. '
                            'Run again with the same OUTDIR to resume.')
-    sweep.add_argument('sweep', metavar='SWEEP.yaml', help='sweep file')
-    sweep.add_argument('-o', '--output', required=True, metavar='OUTDIR',
+    sweep.add_argument('sweep', metavar='SWEEP.yaml', nargs='?', help='sweep file')
+    sweep.add_argument('-o', '--output', metavar='OUTDIR',
                        help='sweep folder (results.parquet, parts/, runs/)')
     where = sweep.add_mutually_exclusive_group()
     where.add_argument('--workers', type=int, metavar='N',
@@ -632,6 +748,18 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument('--record', choices=('none', 'failed', 'all'), default='none',
                        help='write OUTDIR/runs/run_<k>.mcap for these runs (default none)')
     sweep.add_argument('--csv', action='store_true', help='also write results.csv')
+    sweep.add_argument('--method', choices=('mc', 'subset', 'nais', 'form'), default='mc',
+                       help='mc: the runs of the file (default); subset, nais, form: estimate '
+                       'P(a criterion fails) with OpenTURNS, runs points per level/step/batch')
+    sweep.add_argument('--design', choices=('morris', 'sobol'),
+                       help='sensitivity indices with SALib: runs Morris trajectories, or '
+                       "Sobol's base sample")
+    sweep.add_argument('--cov', type=float, default=0.1, metavar='COV',
+                       help='--method form: sample until this coefficient of variation '
+                       '(default 0.1)')
+    sweep.add_argument('--plan', metavar='P,C',
+                       help='print how many runs without failure show P(success) >= P at '
+                       'confidence C (0.95,0.95 -> 59), and exit')
     summ = sub.add_parser('summarize', help="a sweep file's metrics over recordings",
                           description='Compute the metrics of a sweep file over recordings, '
                           'one row per file, in parallel on Dask.')
@@ -695,7 +823,8 @@ def main(argv=None) -> int:
         if args.command == 'sweep':
             return cmd_sweep(args.sweep, args.output, workers=args.workers,
                              scheduler=args.scheduler, runs=args.runs, record=args.record,
-                             csv=args.csv)
+                             csv=args.csv, method=args.method, design=args.design,
+                             plan=args.plan, target_cov=args.cov)
         if args.command == 'summarize':
             return cmd_summarize(args.recordings, args.metrics, args.output,
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv)

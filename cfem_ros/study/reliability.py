@@ -24,9 +24,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 import math
 
-from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
-from cfem_ros.study.evaluate import random_variables, table_values
+from cfem_ros.study.evaluate import random_variables
 from cfem_ros.study.spec import _blocks, SweepError, SweepSpec
 import numpy as np
 
@@ -97,17 +96,6 @@ def distribution(spec: SweepSpec):
     return ot.JointDistribution(marginals, copula)
 
 
-def monte_carlo(spec: SweepSpec, evaluate, criteria) -> Estimate:
-    """Return the failure fraction of the sweep's own draws with its exact interval."""
-    table = evaluate(table_values(spec))
-    failed = int((margins(table, criteria) < 0).sum())
-    n = len(table)
-    p = failed / n
-    low, high = clopper_pearson(failed, n, spec.confidence)
-    cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf
-    return Estimate(p, cov, low, high, n, 'mc', spec.confidence)
-
-
 def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float = 0.1,
              runs: int = 1000) -> Estimate:
     """
@@ -117,7 +105,7 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     ----------
     spec : SweepSpec
     method : str
-        'subset', 'nais' or 'form' ('mc': ``monte_carlo``).
+        'subset', 'nais', 'form', or 'mc' (the sweep's own draws).
     evaluate : callable
         points (n, d) -> table rows (an ``Evaluator``).
     criteria : list of Criterion
@@ -129,7 +117,10 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     """
     import openturns as ot
     if method == 'mc':
-        return monte_carlo(spec, evaluate, criteria)
+        from cfem_ros.study.criteria import judge
+        from cfem_ros.study.evaluate import table_values
+        from cfem_ros.study.methods import mc_estimate
+        return mc_estimate(spec, judge(evaluate(table_values(spec)), criteria))
     if not criteria:
         raise SweepError(spec.path, 'criteria', f'is empty: --method {method} estimates the '
                          'probability that a criterion fails', 'at least one rule')
