@@ -654,6 +654,65 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
     return EXIT_FAILED if len(failed) else EXIT_OK
 
 
+def cmd_report(outdir: str, output: str) -> int:
+    """Write a study folder's self-contained HTML report; exit 0 or 2."""
+    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+        return _error(f'{outdir}: no results.parquet; expected a finished sweep folder '
+                      '(cfem-sim sweep ... -o OUTDIR)')
+    import tempfile
+    try:
+        _study_imports()
+        from cfem_ros import study_plots
+        from cfem_ros.study.report import write_report
+        with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
+            figures = study_plots.write_sweep_figures(outdir, tmp, None)
+            first = [p for p in figures if not os.path.basename(p).startswith('hist_')]
+            write_report(outdir, output, first + [p for p in figures if p not in first])
+    except CfemError as err:
+        return _error(str(err))
+    except OSError as err:
+        return _error(f'{output}: cannot write ({err.strerror or err})')
+    print(output)
+    return EXIT_OK
+
+
+def cmd_rerun(outdir: str, run: int, output: str) -> int:
+    """Run one run of a sweep folder again, alone, and record it; exit 0, 1 or 2."""
+    import dataclasses
+    import json
+    try:
+        study = _study_imports()
+        with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
+            manifest = json.load(stream)
+        import pandas as pd
+        table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
+    except OSError as err:
+        return _error(f'{outdir}: {err.strerror or err}; expected a sweep folder '
+                      '(sweep.json, results.parquet)')
+    except CfemError as err:
+        return _error(str(err))
+    rows = table[table['run'] == run]
+    if rows.empty:
+        return _error(f'{outdir}: no run {run}; expected 0 to {len(table) - 1}')
+    try:
+        spec = study.load_sweep(manifest['sweep'], runs=manifest['resolved']['runs'])
+    except CfemError as err:
+        return _error(str(err))
+    if json.loads(spec.describe()) != manifest['resolved']:
+        return _error(f'{manifest["sweep"]}: changed since {outdir} was run; expected the '
+                      'sweep file and scenario the folder was made with')
+    if manifest.get('method', 'mc') != 'mc':   # the method chose the values: the table's
+        spec = dataclasses.replace(spec, values={
+            v.path: {run: float(rows.iloc[0][v.path])} for v in spec.variables})
+    if os.path.exists(output):
+        return _error(f'{output}: exists; expected a new file name')
+    from cfem_ros.study.sweep import run_one
+    row = run_one(spec, run, record=output)
+    print(f'{output}: run {run} of {outdir}, status {row["status"]}'
+          + (f' ({row["message"]})' if row['message'] else ''))
+    return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser of cfem-sim."""
     parser = argparse.ArgumentParser(
@@ -760,6 +819,20 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument('--plan', metavar='P,C',
                        help='print how many runs without failure show P(success) >= P at '
                        'confidence C (0.95,0.95 -> 59), and exit')
+    report = sub.add_parser('report', help='one self-contained HTML page of a study folder',
+                            description='Write the scenario, sweep, criteria with their '
+                            'probabilities, worst runs, sensitivities and figures of a '
+                            'sweep folder as one HTML file (SPEC section 9).')
+    report.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
+    report.add_argument('-o', '--output', required=True, metavar='REPORT.html',
+                        help='page to write')
+    rerun = sub.add_parser('rerun', help='run one run of a sweep folder again and record it',
+                           description='Run run RUN of a sweep folder alone, with its values, '
+                           'and record it to MCAP.')
+    rerun.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
+    rerun.add_argument('run', type=int, metavar='RUN', help='run number (column run)')
+    rerun.add_argument('-o', '--output', required=True, metavar='RUN.mcap',
+                       help='recording to write')
     summ = sub.add_parser('summarize', help="a sweep file's metrics over recordings",
                           description='Compute the metrics of a sweep file over recordings, '
                           'one row per file, in parallel on Dask.')
@@ -825,6 +898,10 @@ def main(argv=None) -> int:
                              scheduler=args.scheduler, runs=args.runs, record=args.record,
                              csv=args.csv, method=args.method, design=args.design,
                              plan=args.plan, target_cov=args.cov)
+        if args.command == 'report':
+            return cmd_report(args.outdir, args.output)
+        if args.command == 'rerun':
+            return cmd_rerun(args.outdir, args.run, args.output)
         if args.command == 'summarize':
             return cmd_summarize(args.recordings, args.metrics, args.output,
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv)
