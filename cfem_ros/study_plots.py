@@ -101,7 +101,7 @@ def family_scale(table, column: str, document=None) -> float:
     size = 0.0
     for name in table.columns:
         if name in FIXED_COLUMNS or table[name].dtype.kind != 'f' \
-                or unit(name, document) != own or parse_path(name):
+                or unit(name, document) != own or is_key_path(name):
             continue
         if kind is not None and name.split('_at_')[0] != kind:
             continue
@@ -112,9 +112,9 @@ def family_scale(table, column: str, document=None) -> float:
     return size
 
 
-def parse_path(name: str) -> bool:
-    """Return whether a column is a varied key path (it has a dot or brackets)."""
-    return '.' in name or '[' in name or name == 'dt'
+def is_key_path(name: str) -> bool:
+    """Return whether a column is a varied key path, not a metric (a state at a time)."""
+    return name == 'dt' or (('.' in name or '[' in name) and '_at_' not in name)
 
 
 def histogram_figure(table, column: str, criteria=(), document=None):
