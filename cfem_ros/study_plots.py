@@ -253,6 +253,7 @@ def fractions_figure(table, criteria, level: float):
     ax.set_xlim(0, min(1.0, 1.6 * max(f.interval[1] for f in found)) or 1.0)
     ax.set_xlabel(f'P(fail) [-]: failure fraction (dot), exact {100 * level:g} % interval '
                   '(bar)')
+    ax.set_title(f'failures per criterion over {found[0].runs} runs', fontsize=10, loc='left')
     ax.grid(True, axis='x', alpha=0.3)
     fig.tight_layout()
     return fig

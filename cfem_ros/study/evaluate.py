@@ -25,7 +25,7 @@ from typing import Callable, Optional
 
 from cfem_ros.study.spec import RANDOM_NUMBERS, SweepError, SweepSpec
 from cfem_ros.study.sweep import (
-    _part_of, columns, frame, groups, MANIFEST, numeric, RESULTS, run_task, write_atomic)
+    _part_of, columns, decide, frame, groups, MANIFEST, numeric, RESULTS, run_task, write_atomic)
 import numpy as np
 
 METHODS = ('mc', 'subset', 'nais', 'form')
@@ -208,12 +208,10 @@ class Evaluator:
                 future.cancel()
         return paths
 
-    def assemble(self, criteria=()):
+    def assemble(self):
         """Write every run asked for to ``results.parquet`` (judged) and return the table."""
-        from cfem_ros.study.criteria import judge
-        table = frame([self.saved[k] for k in range(self.count)], self.names)
-        if criteria:
-            table = judge(table, criteria)
+        table = decide(self.spec, self.outdir,
+                       frame([self.saved[k] for k in range(self.count)], self.names))
         write_atomic(table, os.path.join(self.outdir, RESULTS))
         return table
 

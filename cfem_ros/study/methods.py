@@ -86,9 +86,9 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
         found, _ = run_design(spec, design, evaluate)
         found.insert(2, 'design', design)
         write_atomic(found, os.path.join(outdir, SENSITIVITY))
-        return {'table': evaluate.assemble(spec.criteria), 'indices': found}
+        return {'table': evaluate.assemble(), 'indices': found}
     from cfem_ros.study.reliability import estimate
     result = estimate(spec, method, evaluate, spec.criteria, target_cov=target_cov,
                       runs=spec.runs)
     write_estimate(outdir, result)
-    return {'table': evaluate.assemble(spec.criteria), 'estimate': result}
+    return {'table': evaluate.assemble(), 'estimate': result}
