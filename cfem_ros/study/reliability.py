@@ -125,13 +125,29 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
         raise SweepError(spec.path, 'criteria', f'is empty: --method {method} estimates the '
                          'probability that a criterion fails', 'at least one rule')
     joint = distribution(spec)
+    ot.Log.Show(ot.Log.ERROR)   # its warnings are not the user's to act on
     ot.RandomGenerator.SetSeed(spec.seed)
-    dimension = joint.getDimension()
+    raised = []
 
     def limit_state(points):
-        table = evaluate(np.array(points))
+        try:
+            table = evaluate(np.array(points))
+        except BaseException as err:   # OpenTURNS wraps it: kept to raise it as it is
+            raised.append(err)
+            raise
         return margins(table, criteria).reshape(-1, 1)
 
+    try:
+        return _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs)
+    except Exception:   # noqa: B902 (what the limit state raised, rather than its wrapping)
+        if raised:
+            raise raised[0] from None
+        raise
+
+
+def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Estimate:
+    """Run one OpenTURNS method on the limit state and return its estimate."""
+    dimension = joint.getDimension()
     function = ot.MemoizeFunction(ot.PythonFunction(dimension, 1, func_sample=limit_state))
     output = ot.CompositeRandomVector(function, ot.RandomVector(joint))
     event = ot.ThresholdEvent(output, ot.Less(), 0.0)
@@ -149,9 +165,16 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     elif method == 'form':
         optimizer = ot.AbdoRackwitz()
         optimizer.setMaximumCallsNumber(50 * (dimension + 1))
-        form = ot.FORM(optimizer, event, joint.getMean())
+        optimizer.setStartingPoint(joint.getMean())   # physical space
+        form = ot.FORM(optimizer, event)
         form.run()
-        algorithm = ot.PostAnalyticalImportanceSampling(form.getResult())
+        found = form.getResult()
+        point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(
+            spec.variables, found.getPhysicalSpaceDesignPoint()))
+        evaluate.log(f'design point {point}; reliability index '
+                     f'{found.getHasoferReliabilityIndex():.4g}, P(fail) by FORM '
+                     f'{found.getEventProbability():.4g}; importance sampling around it')
+        algorithm = ot.PostAnalyticalImportanceSampling(found)
         algorithm.setBlockSize(runs)
         algorithm.setMaximumOuterSampling(MAX_BATCHES)
         algorithm.setMaximumCoefficientOfVariation(target_cov)
