@@ -58,7 +58,7 @@ def _names(document: Optional[dict]) -> tuple:
 
 
 def unit(column: str, document: Optional[dict] = None) -> str:
-    """Return a column's unit ('' if none or unknown)."""
+    """Return the unit of a column ('' if none or unknown)."""
     match = re.search(r'\[([^\]]*)\]$', label(column, document))
     return match.group(1) if match else ''
 

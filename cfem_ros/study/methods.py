@@ -52,6 +52,7 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
     Parameters
     ----------
     spec : SweepSpec
+        The sweep: distributions, criteria, runs (the method's budget), seed.
     outdir : str
         The study folder: a folder holds one study (resumed when run again).
     method : str

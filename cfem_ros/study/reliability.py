@@ -104,11 +104,13 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     Parameters
     ----------
     spec : SweepSpec
+        The sweep: its distributions, correlations, seed and confidence.
     method : str
         'subset', 'nais', 'form', or 'mc' (the sweep's own draws).
     evaluate : callable
         points (n, d) -> table rows (an ``Evaluator``).
     criteria : list of Criterion
+        The rules; the event is "the least margin is below 0".
     target_cov : float
         FORM's importance sampling stops at this coefficient of variation.
     runs : int

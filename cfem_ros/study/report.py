@@ -25,7 +25,7 @@ import numpy as np
 
 #: Runs listed as the worst.
 WORST = 10
-STYLE = '''
+STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
@@ -34,7 +34,7 @@ th { background: #f0f0f0; } td.num { text-align: right; font-family: monospace; 
 code { background: #f4f4f4; padding: 1px 4px; font-size: 0.85em; }
 .fail { color: #b00; font-weight: bold; } .pass { color: #060; font-weight: bold; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
-'''
+"""
 
 
 def _e(value) -> str:
@@ -160,11 +160,13 @@ def build(outdir: str, figures=()) -> str:
                               is not None else 'inf',
                               f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]', est['runs']]]))
     worst = worst_runs(table, criteria)
-    parts.append('<h2>Worst runs</h2><p>' + ('The runs with the least margin to a criterion '
-                                            '(margin in units of the threshold, below 0: '
-                                            'fails).' if criteria else 'The runs that did '
-                                            'not finish first.') +
-                 ' Each command runs one again, alone, and records it.</p>')
+    if criteria:
+        why = ('The runs with the least margin to a criterion (margin in units of the '
+               'threshold, below 0: fails).')
+    else:
+        why = 'The runs that did not finish first.'
+    parts.append(f'<h2>Worst runs</h2><p>{why} Each command runs one again, alone, and '
+                 'records it.</p>')
     varied = [v[0] for v in resolved.get('vary', []) if v[0] in table]
     least = margins(worst, criteria) if criteria else [np.nan] * len(worst)
     rows = []

@@ -31,7 +31,7 @@ MEAN, SIGMA = 10.0, 1.0
 
 
 def _linear_sweep(folder, probability, runs, seed=5):
-    """A sweep whose clearance is 0.1 - 0.01 (angle - 10): it fails beyond a quantile."""
+    """Return a sweep whose clearance 0.1 - 0.01 (angle - 10) fails beyond a quantile."""
     threshold = float(0.1 - 0.01 * SIGMA * norm.isf(probability))
     path = write_sweep(folder, runs=runs, seed=seed,
                        vary={ANGLE: {'normal': [MEAN, SIGMA]},

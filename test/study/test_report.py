@@ -2,7 +2,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The study report: one self-contained page, and the worst runs' commands that reproduce them."""
 
-import os
 import re
 
 from cfem_ros import cli
