@@ -24,6 +24,7 @@ from cfem_ros import plots
 from cfem_ros.core import rotations
 from cfem_ros.recording.analysis import open_run
 from cfem_ros.study.labels import label, unit
+from cfem_ros.study.rounding import at_rounding_level, family_scale
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -69,52 +70,6 @@ def drawn_values(table, column: str) -> np.ndarray:
         scale = np.fmax(np.abs(values), np.abs(table.loc[ok, force].to_numpy(dtype=float)))
         values = np.where(np.abs(values) <= plots.ROUNDING * scale, 0.0, values)
     return values[np.isfinite(values)]
-
-
-def at_rounding_level(values: np.ndarray, scale: float = 0.0) -> bool:
-    """
-    Return whether values spread by no more than ROUNDING x their size.
-
-    Their size is their largest magnitude, or scale if larger: the size of
-    the quantity they belong to (``family_scale``), so that values that
-    are all rounding around zero (a lateral offset of 1e-17 m when the
-    store falls 0.4 m) are one value too.
-    """
-    if not len(values):
-        return False
-    size = max(float(np.abs(values).max()), abs(scale))
-    return float(values.max() - values.min()) <= plots.ROUNDING * size
-
-
-def family_scale(table, column: str, document=None) -> float:
-    """
-    Return the largest magnitude over the metrics of the same unit and kind as column.
-
-    The states at a time share one scale per unit (m, deg), the other
-    metrics one per unit: what a component zero by symmetry is rounding of.
-    """
-    own = unit(column, document)
-    if not own:
-        return 0.0
-    kind = column.split('_at_')[0] if '_at_' in column else None
-    ok = (table['status'] == 'ok').to_numpy()
-    size = 0.0
-    for name in table.columns:
-        if name in FIXED_COLUMNS or table[name].dtype.kind != 'f' \
-                or unit(name, document) != own or is_key_path(name):
-            continue
-        if kind is not None and name.split('_at_')[0] != kind:
-            continue
-        values = np.abs(table.loc[ok, name].to_numpy(dtype=float))
-        values = values[np.isfinite(values)]
-        if len(values):
-            size = max(size, float(values.max()))
-    return size
-
-
-def is_key_path(name: str) -> bool:
-    """Return whether a column is a varied key path, not a metric (a state at a time)."""
-    return name == 'dt' or (('.' in name or '[' in name) and '_at_' not in name)
 
 
 def histogram_figure(table, column: str, criteria=(), document=None):

@@ -76,14 +76,21 @@ def design_points(spec: SweepSpec, design: str) -> tuple:
 
 
 def metrics_to_rank(table, spec: SweepSpec) -> list:
-    """Return the metric columns with a number in every run that vary (what gets indices)."""
+    """
+    Return the metric columns that get indices.
+
+    Those with a number in every run that vary by more than rounding
+    (``rounding.rounding_only``).
+    """
+    from cfem_ros.study.rounding import rounding_only
     out = []
     for name in spec.metrics.columns() + [c.column for c in spec.criteria]:
         if name in out or name not in table or name.endswith(('_cause', '_point_a',
                                                               '_point_b')):
             continue
         values = table[name].to_numpy(dtype=float)
-        if np.isfinite(values).all() and np.ptp(values) > 0:
+        if np.isfinite(values).all() and np.ptp(values) > 0 \
+                and not rounding_only(table, name, spec.document):
             out.append(name)
     return out
 

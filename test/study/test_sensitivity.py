@@ -39,6 +39,9 @@ def _rows(spec, runs):
         row = dict.fromkeys(names, float('nan'))
         row.update(run=k, status='ok', message='', **values)
         row['clearance_store_pylon_min'] = _ishigami(*(values[p] for p in PATHS[:3]))
+        # a hinge's moment about its free axis: rounding beside its force, nothing to rank
+        row['peak_force_pivot'] = 8000.0 + values[PATHS[0]]
+        row['peak_moment_pivot'] = 1e-13 * (k % 3)
         out.append(row)
     return out
 
@@ -69,7 +72,9 @@ def test_morris_ranks_ishigami_and_gives_the_dummy_nothing(tmp_path):
     out = str(tmp_path / 'morris')
     found = run_study(spec, out, design='morris', rows=_rows, log=lambda line: None)
     assert len(found['table']) == 40 * (len(PATHS) + 1)
+    assert set(found['indices']['metric']) == {'clearance_store_pylon_min', 'peak_force_pivot'}
     rows = found['indices'].set_index('parameter')
+    rows = rows[rows['metric'] == 'clearance_store_pylon_min']
     assert rows.loc[PATHS[3], 'mu_star'] == 0.0 and rows.loc[PATHS[3], 'sigma'] == 0.0
     for name in PATHS[:3]:
         assert rows.loc[name, 'mu_star'] > 1.0   # each of x1, x2, x3 matters
