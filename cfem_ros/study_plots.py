@@ -28,6 +28,7 @@ from cfem_ros.study.rounding import at_rounding_level, family_scale
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
+from matplotlib.ticker import MaxNLocator  # noqa: E402, I100
 import numpy as np  # noqa: E402, I100
 
 DPI = 110
@@ -183,6 +184,7 @@ def scatter_figure(table, metric: str, parameters, criteria=(), document=None):
         if i == 0 and (np.any(bad) or np.any(~ok)):
             ax.legend(fontsize=7)
         ax.set_xlabel(label(name, document), fontsize=9)
+        ax.xaxis.set_major_locator(MaxNLocator(5))   # long tick labels do not overlap
         ax.grid(True, alpha=0.3)
         if i % columns == 0:
             ax.set_ylabel(label(metric, document), fontsize=9)
