@@ -23,6 +23,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 import math
+import signal
+import threading
 
 from cfem_ros.study.criteria import margins
 from cfem_ros.study.evaluate import random_variables
@@ -130,8 +132,15 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     ot.Log.Show(ot.Log.ERROR)   # its warnings are not the user's to act on
     ot.RandomGenerator.SetSeed(spec.seed)
     raised = []
+    handlers = _handlers()
 
     def limit_state(points):
+        for signum, handler in handlers.items():
+            # OpenTURNS puts its own SIGINT handler around each call of a Python function,
+            # and that one crashes the process when it fires; the caller's handler rules
+            signal.signal(signum, handler)
+        if raised:   # an optimizer may go on after a failed call: every call fails at once
+            raise raised[0]
         try:
             table = evaluate(np.array(points))
         except BaseException as err:   # OpenTURNS wraps it: kept to raise it as it is
@@ -140,11 +149,22 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
         return margins(table, criteria).reshape(-1, 1)
 
     try:
-        return _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs)
+        found = _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs)
     except Exception:   # noqa: B902 (what the limit state raised, rather than its wrapping)
         if raised:
             raise raised[0] from None
         raise
+    if raised:   # swallowed by the method: not an estimate
+        raise raised[0]
+    return found
+
+
+def _handlers() -> dict:
+    """Return the Python handlers of SIGINT and SIGTERM (none off the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    found = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    return {s: h for s, h in found.items() if h is not None}
 
 
 def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Estimate:
