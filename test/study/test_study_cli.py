@@ -58,3 +58,34 @@ def test_a_design_runs_its_points_on_the_dask_cluster(tmp_path, capsys):
     assert 'release_pivot_time:' in printed
     with open(os.path.join(out, 'sweep.json')) as stream:
         assert json.load(stream)['method'] == 'morris'
+
+
+def test_ctrl_c_stops_a_rare_event_study_and_keeps_its_runs(tmp_path):
+    """OpenTURNS' own SIGINT handler crashed the process inside a call: exit 130 instead."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    path = write_sweep(tmp_path, runs=20, scenario=dict(STORE, duration=0.4),
+                       vary={MASS: {'normal': [907.1848, 10.0]}, ANGLE: {'normal': [10, 0.5]}},
+                       metrics={'at': []}, criteria={'late': 'release_pivot_time <= 0.31'})
+    out = str(tmp_path / 'form')
+    command = os.path.join(os.path.dirname(sys.executable), 'cfem-sim')
+    process = subprocess.Popen([command, 'sweep', path, '-o', out, '--method', 'form',
+                                '--workers', '1'],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        parts = os.path.join(out, 'parts')
+        while not (os.path.isdir(parts) and os.listdir(parts)):   # a batch is saved
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline
+            time.sleep(0.2)
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130, err
+    assert 'interrupted by SIGINT: the runs done are saved in' in err
+    assert os.listdir(os.path.join(out, 'parts'))
