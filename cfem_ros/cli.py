@@ -803,7 +803,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help='local worker processes (default: the CPU count)')
     where.add_argument('--scheduler', metavar='ADDRESS',
                        help='use a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
-    sweep.add_argument('--runs', type=int, metavar='K', help='random draws, overriding runs')
+    sweep.add_argument('--runs', type=int, metavar='K',
+                       help="overrides the file's runs: random draws (mc), points per level, "
+                       'step or batch (subset, nais, form), trajectories (morris), base '
+                       'sample (sobol)')
     sweep.add_argument('--record', choices=('none', 'failed', 'all'), default='none',
                        help='write OUTDIR/runs/run_<k>.mcap for these runs (default none)')
     sweep.add_argument('--csv', action='store_true', help='also write results.csv')

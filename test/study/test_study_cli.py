@@ -61,7 +61,7 @@ def test_a_design_runs_its_points_on_the_dask_cluster(tmp_path, capsys):
 
 
 def test_ctrl_c_stops_a_rare_event_study_and_keeps_its_runs(tmp_path):
-    """OpenTURNS' own SIGINT handler crashed the process inside a call: exit 130 instead."""
+    """Exit 130 on Ctrl-C: OpenTURNS' own SIGINT handler crashed the process in a call."""
     import signal
     import subprocess
     import sys
