@@ -135,16 +135,17 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     handlers = _handlers()
 
     def limit_state(points):
-        for signum, handler in handlers.items():
-            # OpenTURNS puts its own SIGINT handler around each call of a Python function,
-            # and that one crashes the process when it fires; the caller's handler rules
-            signal.signal(signum, handler)
-        if raised:   # an optimizer may go on after a failed call: every call fails at once
-            raise raised[0]
         try:
+            for signum, handler in handlers.items():
+                # OpenTURNS puts its own SIGINT handler around each call of a Python
+                # function, and that one crashes the process when it fires: the caller's rule
+                signal.signal(signum, handler)
+            if raised:   # an optimizer may go on after a failed call: every call fails now
+                raise raised[0]
             table = evaluate(np.array(points))
         except BaseException as err:   # OpenTURNS wraps it: kept to raise it as it is
-            raised.append(err)
+            if not raised:
+                raised.append(err)
             raise
         return margins(table, criteria).reshape(-1, 1)
 
