@@ -193,8 +193,26 @@ def scatter_figure(table, metric: str, parameters, criteria=(), document=None):
     return fig
 
 
-def fractions_figure(table, criteria, level: float):
-    """Draw each criterion's failure fraction (and any's) with its exact interval."""
+def _print_estimate(outdir: str, method: str):
+    path = os.path.join(outdir, 'estimate.json')
+    print(f'the runs of --{"method" if method in ("subset", "nais", "form") else "design"} '
+          f'{method} are not drawn from the inputs: their failure fractions are not P(fail)')
+    if os.path.exists(path):
+        from cfem_ros.study.reliability import Estimate
+        with open(path, encoding='utf-8') as stream:
+            held = json.load(stream)
+        held['cov'] = float('inf') if held['cov'] is None else held['cov']
+        print(Estimate(**held).sentence())
+
+
+def fractions_figure(table, criteria, level: float, sampled: bool = True):
+    """
+    Draw each criterion's failure fraction (and any's) with its exact interval.
+
+    sampled: the runs are drawn from the inputs (a Monte Carlo sweep); if
+    not (a rare-event method or a design chose them), the title says that
+    the fractions are not P(fail).
+    """
     from cfem_ros.study.confidence import fractions
     found = fractions(table, criteria, level)
     fig, ax = plt.subplots(figsize=(7, 1.0 + 0.5 * len(found)))
@@ -210,7 +228,10 @@ def fractions_figure(table, criteria, level: float):
     ax.set_xlim(0, min(1.0, 1.6 * max(f.interval[1] for f in found)) or 1.0)
     ax.set_xlabel(f'P(fail) [-]: failure fraction (dot), exact {100 * level:g} % interval '
                   '(bar)')
-    ax.set_title(f'failures per criterion over {found[0].runs} runs', fontsize=10, loc='left')
+    title = f'failures per criterion over {found[0].runs} runs'
+    if not sampled:
+        title += ' chosen by the method (not P(fail): see estimate.json)'
+    ax.set_title(title, fontsize=10, loc='left')
     ax.grid(True, axis='x', alpha=0.3)
     fig.tight_layout()
     return fig
@@ -397,11 +418,15 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
     if metric is not None and varied:
         paths.append(_save(scatter_figure(table, metric, varied, criteria, document),
                            os.path.join(directory, f'scatter_{metric}.png')))
+    sampled = manifest.get('method', 'mc') == 'mc'
     if criteria and 'pass' in table:
         from cfem_ros.study.confidence import fractions
-        for fraction in fractions(table, criteria, level):
-            print(fraction.sentence())
-        paths.append(_save(fractions_figure(table, criteria, level),
+        if sampled:
+            for fraction in fractions(table, criteria, level):
+                print(fraction.sentence())
+        else:   # the method chose the points: their fractions are not P(fail)
+            _print_estimate(outdir, manifest.get('method'))
+        paths.append(_save(fractions_figure(table, criteria, level, sampled),
                            os.path.join(directory, 'criteria.png')))
     sensitivity = os.path.join(outdir, 'sensitivity.parquet')
     if os.path.exists(sensitivity):

@@ -129,3 +129,16 @@ def test_form_on_the_store_scenario_finds_the_release_angle_s_tail(tmp_path):
     beyond = table[ANGLE].to_numpy() > MEAN + sigma * tail
     release = table['release_pivot_time'].to_numpy()
     np.testing.assert_array_equal(release > edge, beyond)
+
+
+def test_plot_of_a_study_prints_its_estimate_not_the_fractions_of_its_runs(tmp_path, capsys):
+    from cfem_ros import study_plots
+    spec = _linear_sweep(tmp_path, 1e-3, 200)
+    out = str(tmp_path / 'nais')
+    found = run_study(spec, out, method='nais', rows=_linear_rows, log=lambda line: None)
+    capsys.readouterr()
+    paths = study_plots.write_sweep_figures(out, str(tmp_path / 'figures'))
+    printed = capsys.readouterr().out.splitlines()
+    assert printed == ['the runs of --method nais are not drawn from the inputs: their failure '
+                       'fractions are not P(fail)', found['estimate'].sentence()]
+    assert any(p.endswith('criteria.png') for p in paths)
