@@ -31,6 +31,8 @@ from cfem_ros.study.evaluate import random_variables
 from cfem_ros.study.spec import _blocks, SweepError, SweepSpec
 import numpy as np
 
+#: Runs FORM's search for the design point may take, per parameter (+ 1).
+FORM_CALLS = 150
 #: Batches importance sampling may run after FORM, at most.
 MAX_BATCHES = 100
 #: Conditional probability of each subset level; quantile level of NAIS.
@@ -187,10 +189,18 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Es
         algorithm.setMaximumOuterSampling(1)
     elif method == 'form':
         optimizer = ot.AbdoRackwitz()
-        optimizer.setMaximumCallsNumber(50 * (dimension + 1))
+        optimizer.setMaximumCallsNumber(FORM_CALLS * (dimension + 1))
         optimizer.setStartingPoint(joint.getMean())   # physical space
         form = ot.FORM(optimizer, event)
-        form.run()
+        try:
+            form.run()
+        except RuntimeError as err:   # no design point within the budget
+            if 'maximum calls' not in str(err):
+                raise
+            raise SweepError(spec.path, '--method form', f'found no design point in '
+                             f'{FORM_CALLS * (dimension + 1)} runs (the search did not '
+                             'converge)', 'a failure region FORM can reach, or --method nais '
+                             'or subset') from None
         found = form.getResult()
         point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(
             spec.variables, found.getPhysicalSpaceDesignPoint()))
