@@ -103,8 +103,10 @@ setup(
         ],
         # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros
         'bench': ['mujoco'],
-        # separation studies (cfem-sim sweep / summarize, cfem_ros.study)
-        'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14'],
+        # separation studies (cfem-sim sweep / summarize / report, cfem_ros.study):
+        # rare events with OpenTURNS, sensitivities with SALib
+        'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14',
+                  'openturns>=1.22', 'SALib>=1.4.7'],
         # the user guide (make docs; rosdoc2 reads the same docs/conf.py)
         'docs': ['sphinx>=7', 'myst-parser>=2'],
         'test': [

@@ -489,12 +489,124 @@ def _close(client, cluster):
         cluster.close()
 
 
-def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
+def cmd_plan(plan: str) -> int:
+    """Print how many runs without a failure show P(success) >= P at confidence C."""
+    from cfem_ros.study.confidence import runs_needed
+    try:
+        success, level = (float(v) for v in plan.split(','))
+        n = runs_needed(success, level)
+    except ValueError:
+        return _error(f'--plan {plan!r}; expected P,C: a success probability and a '
+                      'confidence, each between 0 and 1 (0.95,0.95)')
+    print(f'{n} runs without a failure show P(success) >= {success:g} at {100 * level:g} % '
+          f'confidence (P(fail) <= {1 - success:.3g}); with failures, more runs are needed')
+    return EXIT_OK
+
+
+def _print_fractions(spec, table):
+    """Print the failure fraction of each criterion and of any, with exact intervals."""
+    from cfem_ros.study.confidence import fractions
+    for fraction in fractions(table, spec.criteria, spec.confidence):
+        print(fraction.sentence())
+
+
+def cmd_study(sweep_file: str, outdir: str, method: str, design: Optional[str],
+              workers: Optional[int], scheduler: Optional[str], runs: Optional[int],
+              record: str, target_cov: float) -> int:
+    """Run a rare-event method or a sensitivity design (SPEC section 9); exit 0 or 2."""
+    if not (math.isfinite(target_cov) and 0 < target_cov < 1):
+        return _error(f'--cov is {target_cov!r}; expected a coefficient of variation '
+                      'between 0 and 1 (0.1)')
+    try:
+        study = _study_imports()
+        spec = study.load_sweep(sweep_file, runs=runs)
+        from cfem_ros.study import methods
+        if design is None:
+            from cfem_ros.study.reliability import distribution
+            if not spec.criteria:
+                return _error(f'{sweep_file}: criteria: missing; --method {method} estimates '
+                              'P(a criterion fails): expected criteria as in SPEC section 9')
+            distribution(spec)   # refuses what it cannot map, before any run
+        else:
+            from cfem_ros.study.sensitivity import problem
+            problem(spec, design)
+    except CfemError as err:
+        return _error(str(err))
+    except ImportError as err:
+        return _error(f'--{"design" if design else "method"} needs {err.name}, which is not '
+                      "installed; install the study extra: pip install -e '.[study]'")
+    outdir = os.path.abspath(outdir)
+    started = time.monotonic()
+    client = cluster = None
+    previous = [signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)]
+    try:
+        client, cluster = _dask_client(workers, scheduler)
+        found = methods.run_study(spec, outdir, method=method, design=design, client=client,
+                                  target_cov=target_cov, record=record,
+                                  log=lambda line: print(f'{design or method}: {line}',
+                                                         file=sys.stderr, flush=True))
+    except Interrupted as stop:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, exit_now)
+        _close(client, cluster)
+        client = cluster = None
+        print(f'\ninterrupted by {stop}: the runs done are saved in {outdir}; run the same '
+              'command again to resume', file=sys.stderr)
+        return stop.exit_status
+    except CfemError as err:
+        return _error(str(err))
+    except OSError as err:
+        return _error(f'{scheduler or "local cluster"}: {err}')
+    finally:
+        _close(client, cluster)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    table = found['table']
+    failed = int((table['status'] != 'ok').sum())
+    print(f'{os.path.join(outdir, "results.parquet")}: {len(table)} runs, {failed} did not '
+          f'finish, {time.monotonic() - started:.3g} s')
+    if design is None:
+        print(found['estimate'].sentence())
+        print(os.path.join(outdir, methods.ESTIMATE))
+    else:
+        _print_indices(found['indices'], design)
+        print(os.path.join(outdir, methods.SENSITIVITY))
+    return EXIT_OK
+
+
+def _print_indices(indices, design: str):
+    """Print each metric's parameters, most influential first."""
+    key = 'mu_star' if design == 'morris' else 'ST'
+    for metric, rows in indices.groupby('metric', sort=False):
+        print(f'{metric}:')
+        for _, row in rows.sort_values(key, ascending=False).iterrows():
+            if design == 'morris':
+                print(f'  {row["parameter"]}: mu* {row["mu_star"]:.4g} '
+                      f'[{row["mu_star_low"]:.4g}, {row["mu_star_high"]:.4g}], '
+                      f'sigma {row["sigma"]:.4g}')
+            else:
+                print(f'  {row["parameter"]}: S1 {row["S1"]:.3f} [{row["S1_low"]:.3f}, '
+                      f'{row["S1_high"]:.3f}], ST {row["ST"]:.3f} [{row["ST_low"]:.3f}, '
+                      f'{row["ST_high"]:.3f}]')
+
+
+def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optional[int] = None,
               scheduler: Optional[str] = None, runs: Optional[int] = None,
-              record: str = 'none', csv: bool = False) -> int:
+              record: str = 'none', csv: bool = False, method: str = 'mc',
+              design: Optional[str] = None, plan: Optional[str] = None,
+              target_cov: float = 0.1) -> int:
     """Run a sweep on Dask into outdir (resuming it); exit 0, 1 (failed runs) or 2."""
+    if plan is not None:
+        return cmd_plan(plan)
+    if sweep_file is None or outdir is None:
+        return _error('cfem-sim sweep: expected SWEEP.yaml -o OUTDIR (or --plan P,C)')
     if workers is not None and workers < 1:
         return _error(f'--workers: is {workers}; expected a number of workers >= 1')
+    if design is not None and method != 'mc':
+        return _error(f'--method {method} and --design {design}: expected one of them')
+    if design is not None or method != 'mc':
+        return cmd_study(sweep_file, outdir, method, design, workers, scheduler, runs,
+                         record, target_cov)
     try:
         study = _study_imports()
         sweep = study.Sweep.from_file(sweep_file, runs=runs)
@@ -539,6 +651,10 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
           f'{contact}{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
+    if sweep.spec.criteria:
+        from cfem_ros.study import methods
+        _print_fractions(sweep.spec, table)
+        methods.write_estimate(outdir, methods.mc_estimate(sweep.spec, table))
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -577,6 +693,65 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
         print(f'  {row["message"]}', file=sys.stderr)
     print(f'{output}: {len(table)} recordings, {len(failed)} unreadable')
     return EXIT_FAILED if len(failed) else EXIT_OK
+
+
+def cmd_report(outdir: str, output: str) -> int:
+    """Write a study folder's self-contained HTML report; exit 0 or 2."""
+    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+        return _error(f'{outdir}: no results.parquet; expected a finished sweep folder '
+                      '(cfem-sim sweep ... -o OUTDIR)')
+    import tempfile
+    try:
+        _study_imports()
+        from cfem_ros import study_plots
+        from cfem_ros.study.report import write_report
+        with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
+            figures = study_plots.write_sweep_figures(outdir, tmp, None)
+            first = [p for p in figures if not os.path.basename(p).startswith('hist_')]
+            write_report(outdir, output, first + [p for p in figures if p not in first])
+    except CfemError as err:
+        return _error(str(err))
+    except OSError as err:
+        return _error(f'{output}: cannot write ({err.strerror or err})')
+    print(output)
+    return EXIT_OK
+
+
+def cmd_rerun(outdir: str, run: int, output: str) -> int:
+    """Run one run of a sweep folder again, alone, and record it; exit 0, 1 or 2."""
+    import dataclasses
+    import json
+    try:
+        study = _study_imports()
+        with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
+            manifest = json.load(stream)
+        import pandas as pd
+        table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
+    except OSError as err:
+        return _error(f'{outdir}: {err.strerror or err}; expected a sweep folder '
+                      '(sweep.json, results.parquet)')
+    except CfemError as err:
+        return _error(str(err))
+    rows = table[table['run'] == run]
+    if rows.empty:
+        return _error(f'{outdir}: no run {run}; expected 0 to {len(table) - 1}')
+    try:
+        spec = study.load_sweep(manifest['sweep'], runs=manifest['resolved']['runs'])
+    except CfemError as err:
+        return _error(str(err))
+    if json.loads(spec.describe()) != manifest['resolved']:
+        return _error(f'{manifest["sweep"]}: changed since {outdir} was run; expected the '
+                      'sweep file and scenario the folder was made with')
+    if manifest.get('method', 'mc') != 'mc':   # the method chose the values: the table's
+        spec = dataclasses.replace(spec, values={
+            v.path: {run: float(rows.iloc[0][v.path])} for v in spec.variables})
+    if os.path.exists(output):
+        return _error(f'{output}: exists; expected a new file name')
+    from cfem_ros.study.sweep import run_one
+    row = run_one(spec, run, record=output)
+    print(f'{output}: run {run} of {outdir}, status {row["status"]}'
+          + (f' ({row["message"]})' if row['message'] else ''))
+    return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -661,18 +836,47 @@ def build_parser() -> argparse.ArgumentParser:
                            description='Run the runs of a sweep file (SPEC section 6) on a '
                            'Dask cluster and write OUTDIR/results.parquet, one row per run. '
                            'Run again with the same OUTDIR to resume.')
-    sweep.add_argument('sweep', metavar='SWEEP.yaml', help='sweep file')
-    sweep.add_argument('-o', '--output', required=True, metavar='OUTDIR',
+    sweep.add_argument('sweep', metavar='SWEEP.yaml', nargs='?', help='sweep file')
+    sweep.add_argument('-o', '--output', metavar='OUTDIR',
                        help='sweep folder (results.parquet, parts/, runs/)')
     where = sweep.add_mutually_exclusive_group()
     where.add_argument('--workers', type=int, metavar='N',
                        help='local worker processes (default: the CPU count)')
     where.add_argument('--scheduler', metavar='ADDRESS',
                        help='use a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
-    sweep.add_argument('--runs', type=int, metavar='K', help='random draws, overriding runs')
+    sweep.add_argument('--runs', type=int, metavar='K',
+                       help="overrides the file's runs: random draws (mc), points per level, "
+                       'step or batch (subset, nais, form), trajectories (morris), base '
+                       'sample (sobol)')
     sweep.add_argument('--record', choices=('none', 'failed', 'all'), default='none',
                        help='write OUTDIR/runs/run_<k>.mcap for these runs (default none)')
     sweep.add_argument('--csv', action='store_true', help='also write results.csv')
+    sweep.add_argument('--method', choices=('mc', 'subset', 'nais', 'form'), default='mc',
+                       help='mc: the runs of the file (default); subset, nais, form: estimate '
+                       'P(a criterion fails) with OpenTURNS, runs points per level/step/batch')
+    sweep.add_argument('--design', choices=('morris', 'sobol'),
+                       help='sensitivity indices with SALib: runs Morris trajectories, or '
+                       "Sobol's base sample")
+    sweep.add_argument('--cov', type=float, default=0.1, metavar='COV',
+                       help='--method form: sample until this coefficient of variation '
+                       '(default 0.1)')
+    sweep.add_argument('--plan', metavar='P,C',
+                       help='print how many runs without failure show P(success) >= P at '
+                       'confidence C (0.95,0.95 -> 59), and exit')
+    report = sub.add_parser('report', help='one self-contained HTML page of a study folder',
+                            description='Write the scenario, sweep, criteria with their '
+                            'probabilities, worst runs, sensitivities and figures of a '
+                            'sweep folder as one HTML file (SPEC section 9).')
+    report.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
+    report.add_argument('-o', '--output', required=True, metavar='REPORT.html',
+                        help='page to write')
+    rerun = sub.add_parser('rerun', help='run one run of a sweep folder again and record it',
+                           description='Run run RUN of a sweep folder alone, with its values, '
+                           'and record it to MCAP.')
+    rerun.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
+    rerun.add_argument('run', type=int, metavar='RUN', help='run number (column run)')
+    rerun.add_argument('-o', '--output', required=True, metavar='RUN.mcap',
+                       help='recording to write')
     summ = sub.add_parser('summarize', help="a sweep file's metrics over recordings",
                           description='Compute the metrics of a sweep file over recordings, '
                           'one row per file, in parallel on Dask.')
@@ -738,7 +942,12 @@ def main(argv=None) -> int:
         if args.command == 'sweep':
             return cmd_sweep(args.sweep, args.output, workers=args.workers,
                              scheduler=args.scheduler, runs=args.runs, record=args.record,
-                             csv=args.csv)
+                             csv=args.csv, method=args.method, design=args.design,
+                             plan=args.plan, target_cov=args.cov)
+        if args.command == 'report':
+            return cmd_report(args.outdir, args.output)
+        if args.command == 'rerun':
+            return cmd_rerun(args.outdir, args.run, args.output)
         if args.command == 'summarize':
             return cmd_summarize(args.recordings, args.metrics, args.output,
                                  workers=args.workers, scheduler=args.scheduler, csv=args.csv,

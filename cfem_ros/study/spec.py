@@ -30,7 +30,8 @@ from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
 from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
 import numpy as np
 
-TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics')
+TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics', 'criteria',
+            'confidence')
 METRIC_KEYS = ('clearance', 'at', 'distance')
 CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to')
 AT_KEYS = ('time', 'body', 'relative_to')
@@ -248,6 +249,10 @@ class SweepSpec:
         Each varied key path's value for every run (run k is index k).
     correlations : list of (str, str, float)
         The ``correlate`` pairs (key path, key path, rho), each pair once.
+    criteria : list of criteria.Criterion
+        The ``criteria`` rules, in file order (SPEC section 9).
+    confidence : float
+        The level of the intervals (``confidence``, default 0.95).
 
     """
 
@@ -261,6 +266,8 @@ class SweepSpec:
     metrics: Metrics
     values: dict
     correlations: list = field(default_factory=list)
+    criteria: list = field(default_factory=list)
+    confidence: float = 0.95
 
     @property
     def total(self) -> int:
@@ -374,11 +381,46 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     correlate = document.get('correlate')
     correlations = _parse_correlate(fail, [] if correlate is None else correlate, variables)
     metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate, model)
+    criteria, confidence = _parse_decision(fail, document, variables, metrics)
     values = draw(variables, count, seed, correlations)
     _check_new_keys(fail, base, variables, values, scenario)
     return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
                      rate_hz=rate, variables=variables, metrics=metrics, values=values,
-                     correlations=correlations)
+                     correlations=correlations, criteria=criteria, confidence=confidence)
+
+
+def _parse_decision(fail, document, variables, metrics) -> tuple:
+    """
+    Check ``criteria`` and ``confidence`` (SPEC section 9); return (criteria, level).
+
+    A rule may name any number column of the table: a metric or a varied
+    key path drawn as numbers.
+    """
+    from cfem_ros.study.criteria import parse_rule, RULE
+    level = document.get('confidence', 0.95)
+    if isinstance(level, bool) or not isinstance(level, (int, float)) \
+            or not 0 < level < 1:
+        fail('confidence', f'is {_show(level)}', 'a confidence level 0 < c < 1 (0.95)')
+    rules = document.get('criteria') or {}
+    if not isinstance(rules, dict):
+        fail('criteria', f'is {_show(rules)}', 'a mapping of name -> rule ' + RULE)
+    allowed = [c for c in metrics.columns() if not c.endswith('_cause')] + [
+        v.path for v in variables if v.kind in RANDOM_NUMBERS
+        or all(isinstance(p, (int, float)) and not isinstance(p, bool) for p in v.params)]
+    criteria = []
+    for name, text in rules.items():
+        key = f'criteria.{name}'
+        if not isinstance(name, str) or not re.fullmatch(r'[A-Za-z_][\w-]*', name):
+            fail(key, f'{_show(name)} is not a name', 'letters, digits, _ or -')
+        try:
+            criterion = parse_rule(name, text)
+        except ValueError as err:
+            fail(key, str(err), RULE)
+        if criterion.column not in allowed:
+            fail(key, f'{criterion.column!r} is not a number column of the table',
+                 'one of ' + ', '.join(allowed))
+        criteria.append(criterion)
+    return criteria, float(level)
 
 
 def _check_new_keys(fail, base, variables, values, scenario):

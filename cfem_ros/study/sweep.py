@@ -41,6 +41,8 @@ RECORD = ('none', 'failed', 'all')
 TASKS_PER_WORKER = 8
 MANIFEST = 'sweep.json'
 RESULTS = 'results.parquet'
+#: The criteria a folder's table was judged by (SPEC section 9).
+CRITERIA = 'criteria.json'
 
 
 def _missing_study_packages(err: ImportError) -> SweepError:
@@ -392,10 +394,36 @@ def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
     missing = sorted(set(range(spec.total)) - set(table['run'].tolist()))
     if missing:
         raise RuntimeError(f'{outdir}: runs {missing[:10]} are missing from the parts')
+    table = decide(spec, outdir, table)
     write_atomic(table, os.path.join(outdir, RESULTS))
     if csv:
         write_atomic(table, os.path.join(outdir, 'results.csv'))
     return table
+
+
+def decide(spec: SweepSpec, outdir: str, table):
+    """
+    Judge the table by the sweep's criteria and write them to ``criteria.json``.
+
+    Returns the table with ``pass`` and ``failed_criterion`` when the sweep
+    has criteria (SPEC section 9), as it is otherwise. The criteria do not
+    change the runs: a folder resumed with other criteria is judged again.
+    """
+    from cfem_ros.study.criteria import judge
+    path = os.path.join(outdir, CRITERIA)
+    if not spec.criteria:
+        if os.path.exists(path):
+            os.remove(path)
+        return table
+    tmp = f'{path}.tmp-{os.getpid()}'
+    with open(tmp, 'w', encoding='utf-8') as stream:
+        json.dump({'confidence': spec.confidence,
+                   'criteria': [{'name': c.name, 'rule': c.text, 'column': c.column,
+                                 'op': c.op, 'threshold': c.threshold,
+                                 'absolute': c.absolute} for c in spec.criteria]},
+                  stream, indent=1)
+    os.replace(tmp, path)
+    return judge(table, spec.criteria)
 
 
 def groups(runs, workers: int) -> list:

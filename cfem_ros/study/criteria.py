@@ -1,0 +1,159 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Pass/fail criteria on a sweep table (SPEC section 9): parse, judge, measure the margin.
+
+A rule is ``<column> <op> <number>`` or ``abs(<column>) <op> <number>``
+with op one of ``<, <=, >, >=``. A NaN value fails its rule; a run whose
+status is not 'ok' (failed, contact) fails every rule. The table gains
+``pass`` (bool) and ``failed_criterion``: the name of the first rule a
+run fails, in file order, or for a run whose status is not 'ok' that
+status ('failed', 'contact'), its reason being in ``message``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+import operator
+import re
+
+import numpy as np
+
+#: Operator text -> numpy comparison.
+OPERATORS = {'<': operator.lt, '<=': operator.le, '>': operator.gt, '>=': operator.ge}
+RULE = ('"<column> <op> <number>" or "abs(<column>) <op> <number>", op one of '
+        '<, <=, >, >= (e.g. "clearance_store_pylon_min >= 0.0254")')
+#: The margin of a run that did not finish (or whose value is NaN), in thresholds.
+FAILED_MARGIN = -1.0
+
+_RULE = re.compile(r'^\s*(?:(abs)\(\s*([A-Za-z_][\w.\[\]]*)\s*\)|([A-Za-z_][\w.\[\]]*))'
+                   r'\s*(<=|>=|<|>)\s*(\S+)\s*$')
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """
+    One named rule on one column of the table.
+
+    Attributes
+    ----------
+    name : str
+    column : str
+    op : str
+        One of ``OPERATORS``.
+    threshold : float
+        In the column's unit.
+    absolute : bool
+        The rule is on ``abs(column)``.
+
+    """
+
+    name: str
+    column: str
+    op: str
+    threshold: float
+    absolute: bool = False
+
+    @property
+    def text(self) -> str:
+        """Return the rule as written in a sweep file."""
+        what = f'abs({self.column})' if self.absolute else self.column
+        return f'{what} {self.op} {self.threshold:g}'
+
+    def value(self, column_values) -> np.ndarray:
+        """Return what the rule compares: the column's values or their magnitudes."""
+        values = np.asarray(column_values, dtype=float)
+        return np.abs(values) if self.absolute else values
+
+    def passes(self, column_values) -> np.ndarray:
+        """Return, per value, whether it meets the rule (NaN does not)."""
+        values = self.value(column_values)
+        with np.errstate(invalid='ignore'):
+            return OPERATORS[self.op](values, self.threshold) & np.isfinite(values)
+
+    def margin(self, column_values) -> np.ndarray:
+        """
+        Return how far each value is inside the rule, in units of the threshold.
+
+        Positive inside, negative outside: ``(value - threshold) / scale``
+        for ``>``/``>=``, ``(threshold - value) / scale`` for ``<``/``<=``,
+        scale ``|threshold|`` (1 when the threshold is 0). NaN gives
+        ``FAILED_MARGIN``. What the rare-event methods follow to the failure
+        region: the rule fails where the margin is below 0.
+        """
+        values = self.value(column_values)
+        scale = abs(self.threshold) or 1.0
+        signed = (values - self.threshold) if self.op in ('>', '>=') \
+            else (self.threshold - values)
+        return np.where(np.isfinite(values), signed / scale, FAILED_MARGIN)
+
+
+def parse_rule(name: str, text) -> Criterion:
+    """
+    Return the criterion of a rule's text.
+
+    Raises
+    ------
+    ValueError
+        If the text is not a rule (the message says what a rule is).
+
+    """
+    match = _RULE.match(text) if isinstance(text, str) else None
+    if match is None:
+        raise ValueError(f'{text!r} is not a rule')
+    absolute, inner, plain, op, number = match.groups()
+    try:
+        threshold = float(number)
+    except ValueError:
+        raise ValueError(f'{number!r} in {text!r} is not a number') from None
+    if not math.isfinite(threshold):
+        raise ValueError(f'{number!r} in {text!r} is not a finite number')
+    return Criterion(name=name, column=inner if absolute else plain, op=op,
+                     threshold=threshold, absolute=bool(absolute))
+
+
+def failures(table, criteria) -> dict:
+    """
+    Return, per criterion name, a bool array: the runs that fail it.
+
+    A run whose ``status`` is not 'ok' fails every criterion.
+    """
+    finished = (table['status'] == 'ok').to_numpy()
+    return {c.name: ~(c.passes(table[c.column].to_numpy(dtype=float)) & finished)
+            for c in criteria}
+
+
+def judge(table, criteria):
+    """
+    Return the table with ``pass`` and ``failed_criterion`` (after the metrics).
+
+    ``failed_criterion`` is '' for a run that passes, the status for a run
+    whose status is not 'ok', otherwise the first criterion it fails.
+    """
+    table = table.drop(columns=[c for c in ('pass', 'failed_criterion') if c in table])
+    failed = failures(table, criteria)
+    status = table['status'].to_numpy(dtype=object)
+    first = np.full(len(table), '', dtype=object)
+    for c in reversed(criteria):
+        first = np.where(failed[c.name], c.name, first)
+    first = np.where(status != 'ok', status, first)
+    table = table.copy()
+    table['pass'] = first == ''
+    table['failed_criterion'] = first.astype(str)
+    return table
+
+
+def margins(table, criteria) -> np.ndarray:
+    """
+    Return, per run, the least margin over the criteria (``Criterion.margin``).
+
+    Below 0 where any criterion fails: the limit-state function of the
+    rare-event methods. A run whose status is not 'ok' has ``FAILED_MARGIN``
+    (or less, if a criterion's margin already is).
+    """
+    finished = (table['status'] == 'ok').to_numpy()
+    least = np.full(len(table), np.inf)
+    for c in criteria:
+        least = np.minimum(least, c.margin(table[c.column].to_numpy(dtype=float)))
+    return np.where(finished, least, np.minimum(least, FAILED_MARGIN))

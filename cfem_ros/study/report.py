@@ -1,0 +1,205 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+One self-contained HTML page of a study folder (``cfem-sim report OUTDIR -o REPORT.html``).
+
+The scenario and the sweep, the criteria with their failure fractions and
+exact intervals, the rare-event estimate, the worst runs (each with the
+command that runs it again alone), the sensitivity indices, and the
+figures (``cfem-sim plot``'s, given as PNG files) embedded as data URIs:
+the page needs no other file.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+import shlex
+import time
+
+from cfem_ros.study.criteria import margins
+from cfem_ros.study.labels import label
+import numpy as np
+
+#: Runs listed as the worst.
+WORST = 10
+STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.2em; border-bottom: 1px solid #ccc; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
+th { background: #f0f0f0; } td.num { text-align: right; font-family: monospace; }
+code { background: #f4f4f4; padding: 1px 4px; font-size: 0.85em; }
+.fail { color: #b00; font-weight: bold; } .pass { color: #060; font-weight: bold; }
+img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
+"""
+
+
+def _e(value) -> str:
+    return html.escape(str(value))
+
+
+def _num(value, fmt='{:.6g}') -> str:
+    try:
+        return fmt.format(float(value))
+    except (TypeError, ValueError):
+        return _e(value)
+
+
+def _table(header, rows) -> str:
+    out = ['<table><tr>' + ''.join(f'<th>{_e(h)}</th>' for h in header) + '</tr>']
+    for row in rows:
+        cells = []
+        for cell in row:
+            if isinstance(cell, tuple):   # (html, class)
+                cells.append(f'<td class="{cell[1]}">{cell[0]}</td>')
+            elif isinstance(cell, (int, float, np.floating, np.integer)) \
+                    and not isinstance(cell, bool):
+                cells.append(f'<td class="num">{_num(cell)}</td>')
+            else:
+                cells.append(f'<td>{_e(cell)}</td>')
+        out.append('<tr>' + ''.join(cells) + '</tr>')
+    return '\n'.join(out) + '</table>'
+
+
+def _image(path: str) -> str:
+    with open(path, 'rb') as stream:
+        data = base64.b64encode(stream.read()).decode('ascii')
+    name = os.path.basename(path)
+    return f'<figure><img alt="{_e(name)}" src="data:image/png;base64,{data}"></figure>'
+
+
+def rerun_command(outdir: str, run: int) -> str:
+    """Return the command that runs one run of a study folder again, alone, recorded."""
+    return (f'cfem-sim rerun {shlex.quote(os.path.abspath(outdir))} {int(run)} '
+            f'-o run_{int(run)}.mcap')
+
+
+def worst_runs(table, criteria, count: int = WORST):
+    """Return the runs with the least criterion margin (the failed first), or by status."""
+    if criteria:
+        order = np.argsort(margins(table, criteria), kind='stable')
+    else:
+        order = np.argsort((table['status'] == 'ok').to_numpy(), kind='stable')
+    return table.iloc[order[:count]]
+
+
+def build(outdir: str, figures=()) -> str:
+    """Return the report of a study folder as HTML text."""
+    import pandas as pd
+    from cfem_ros.study.confidence import fractions
+    table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
+    with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
+        manifest = json.load(stream)
+    resolved = manifest.get('resolved', {})
+    document = resolved.get('document', {})
+    from cfem_ros.study.criteria import Criterion
+    criteria, level = [], 0.95
+    path = os.path.join(outdir, 'criteria.json')
+    if os.path.exists(path):
+        with open(path, encoding='utf-8') as stream:
+            held = json.load(stream)
+        criteria = [Criterion(c['name'], c['column'], c['op'], c['threshold'], c['absolute'])
+                    for c in held['criteria']]
+        level = held['confidence']
+    method = manifest.get('method', 'mc')
+    ok = int((table['status'] == 'ok').sum())
+    parts = [f'<h1>Separation study: {_e(document.get("name", ""))}</h1>',
+             f'<p>Generated {_e(time.strftime("%Y-%m-%d %H:%M:%S %Z"))} from '
+             f'<code>{_e(os.path.abspath(outdir))}</code>.</p>',
+             '<h2>Scenario and sweep</h2>',
+             _table(['item', 'value'], [
+                 ['sweep file', manifest.get('sweep', '')],
+                 ['scenario', resolved.get('scenario', '')],
+                 ['method', {'mc': 'Monte Carlo (the runs of the file)', 'subset':
+                             'subset sampling (OpenTURNS)', 'nais': 'non-parametric adaptive '
+                             'importance sampling (OpenTURNS)', 'form': 'FORM, then importance'
+                             ' sampling at its design point (OpenTURNS)', 'morris':
+                             'Morris screening (SALib)', 'sobol': 'Sobol indices (SALib)'}.get(
+                                 method, method)],
+                 ['runs', f'{len(table)} ({ok} finished, {len(table) - ok} did not)'],
+                 ['seed', resolved.get('seed', '')],
+                 ['bodies', ', '.join(document.get('bodies') or {})],
+                 ['joints', ', '.join(document.get('joints') or {}) or 'none'],
+                 ['duration, step', f'{document.get("duration", "")} s, '
+                                    f'{document.get("dt", "")} s']]),
+             '<h3>Varied parameters</h3>',
+             _table(['parameter', 'key path', 'distribution'],
+                    [[label(v[0], document), v[0], f'{v[1]} {v[2]}']
+                     for v in resolved.get('vary', [])])]
+    if resolved.get('correlate'):
+        parts.append(_table(['key path', 'key path', 'rho'], resolved['correlate']))
+    if criteria:
+        parts.append(f'<h2>Criteria and failure probabilities ({100 * level:g} % '
+                     'confidence)</h2>')
+        rows = []
+        by_name = {c.name: c for c in criteria}
+        for f in fractions(table, criteria, level):
+            low, high = f.interval
+            rule = by_name[f.name].text if f.name in by_name else 'any criterion fails'
+            verdict = ('<span class="pass">none failed</span>' if f.failures == 0
+                       else f'<span class="fail">{f.failures} failed</span>')
+            rows.append([f.name, rule, (verdict, ''), f.runs, f.fraction,
+                         f'[{low:.3g}, {high:.3g}]', f'P(fail) <= {f.bound:.3g}'])
+        parts.append(_table(['criterion', 'rule', 'failures', 'runs', 'fraction',
+                             f'exact {100 * level:g} % interval', 'one-sided bound'], rows))
+        if method != 'mc':
+            parts.append('<p>The runs of a rare-event method are not drawn from the input '
+                         'distributions: their failure fractions are not P(fail). The '
+                         'estimate below is.</p>')
+    estimate = os.path.join(outdir, 'estimate.json')
+    if os.path.exists(estimate):
+        with open(estimate, encoding='utf-8') as stream:
+            est = json.load(stream)
+        parts.append('<h2>Estimate of P(any criterion fails)</h2>')
+        parts.append(_table(['method', 'probability', 'coefficient of variation',
+                             f'{100 * est.get("level", level):g} % interval', 'runs'],
+                            [[est['method'], est['probability'], est['cov'] if est['cov']
+                              is not None else 'inf',
+                              f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]', est['runs']]]))
+    worst = worst_runs(table, criteria)
+    if criteria:
+        why = ('The runs with the least margin to a criterion (margin in units of the '
+               'threshold, below 0: fails).')
+    else:
+        why = 'The runs that did not finish first.'
+    parts.append(f'<h2>Worst runs</h2><p>{why} Each command runs one again, alone, and '
+                 'records it.</p>')
+    varied = [v[0] for v in resolved.get('vary', []) if v[0] in table]
+    least = margins(worst, criteria) if criteria else [np.nan] * len(worst)
+    rows = []
+    for (_, row), margin in zip(worst.iterrows(), least):
+        failed = row.get('failed_criterion', '') if criteria else ''
+        rows.append([int(row['run']), row['status'], failed or '-', float(margin),
+                     '; '.join(f'{label(v, document)} = {_num(row[v])}' for v in varied),
+                     row['message'] or '-',
+                     (f'<code>{_e(rerun_command(outdir, row["run"]))}</code>', '')])
+    parts.append(_table(['run', 'status', 'failed criterion', 'margin', 'values', 'message',
+                         'reproduce'], rows))
+    sensitivity = os.path.join(outdir, 'sensitivity.parquet')
+    if os.path.exists(sensitivity):
+        indices = pd.read_parquet(sensitivity)
+        parts.append('<h2>Sensitivities</h2>')
+        names = [c for c in indices.columns if c not in ('metric', 'parameter', 'design')]
+        parts.append(_table(['metric', 'parameter'] + names, [
+            [label(r['metric'], document), label(r['parameter'], document)]
+            + [float(r[n]) for n in names] for _, r in indices.iterrows()]))
+    if figures:
+        parts.append('<h2>Figures</h2>')
+        parts.extend(_image(p) for p in figures)
+    return ('<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f'<title>Separation study {_e(document.get("name", ""))}</title>'
+            f'<style>{STYLE}</style></head><body>\n' + '\n'.join(parts)
+            + '\n</body></html>\n')
+
+
+def write_report(outdir: str, output: str, figures=()) -> str:
+    """Write the report to output (through a temporary file); return its path."""
+    text = build(outdir, figures)
+    tmp = f'{output}.tmp-{os.getpid()}'
+    with open(tmp, 'w', encoding='utf-8') as stream:
+        stream.write(text)
+    os.replace(tmp, output)
+    return output
