@@ -11,30 +11,15 @@ resumable), and writes ``estimate.json`` or ``sensitivity.parquet``.
 
 from __future__ import annotations
 
-import math
 import os
 from typing import Callable, Optional
 
-from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.evaluate import DESIGNS, Evaluator, METHODS, write_json
+from cfem_ros.study.reliability import mc_estimate  # noqa: F401 - for cfem-sim sweep
 from cfem_ros.study.spec import SweepSpec
 
 ESTIMATE = 'estimate.json'
 SENSITIVITY = 'sensitivity.parquet'
-
-
-def mc_estimate(spec: SweepSpec, table):
-    """Return the estimate of a judged Monte Carlo table: fraction, exact interval."""
-    from cfem_ros.study.criteria import judge
-    from cfem_ros.study.reliability import Estimate
-    if 'pass' not in table:
-        table = judge(table, spec.criteria)
-    failed = int((~table['pass'].to_numpy(dtype=bool)).sum())
-    n = len(table)
-    p = failed / n
-    low, high = clopper_pearson(failed, n, spec.confidence)
-    cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf
-    return Estimate(p, cov, low, high, n, 'mc', spec.confidence)
 
 
 def write_estimate(outdir: str, estimate):

@@ -26,6 +26,7 @@ import math
 import signal
 import threading
 
+from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
 from cfem_ros.study.evaluate import random_variables
 from cfem_ros.study.spec import _blocks, SweepError, SweepSpec
@@ -125,7 +126,6 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     if method == 'mc':
         from cfem_ros.study.criteria import judge
         from cfem_ros.study.evaluate import table_values
-        from cfem_ros.study.methods import mc_estimate
         return mc_estimate(spec, judge(evaluate(table_values(spec)), criteria))
     if not criteria:
         raise SweepError(spec.path, 'criteria', f'is empty: --method {method} estimates the '
@@ -224,3 +224,16 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Es
         low, high = interval.getLowerBound()[0], interval.getUpperBound()[0]
     return Estimate(p, cov, max(0.0, low), min(1.0, high), evaluate.count, method,
                     spec.confidence)
+
+
+def mc_estimate(spec: SweepSpec, table):
+    """Return the estimate of a judged Monte Carlo table: fraction, exact interval."""
+    from cfem_ros.study.criteria import judge
+    if 'pass' not in table:
+        table = judge(table, spec.criteria)
+    failed = int((~table['pass'].to_numpy(dtype=bool)).sum())
+    n = len(table)
+    p = failed / n
+    low, high = clopper_pearson(failed, n, spec.confidence)
+    cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf
+    return Estimate(p, cov, low, high, n, 'mc', spec.confidence)
