@@ -19,6 +19,7 @@ from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.recording import offline
+from cfem_ros.recording.errors import OutputError
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 import numpy as np
 
@@ -136,6 +137,12 @@ def _same_file(a: str, b: str) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
+def _output_refused(path: str, overwrite: bool) -> Optional[str]:
+    """Return why -o path cannot receive a recording (None if it can), before anything runs."""
+    from cfem_ros.recording.outputs import output_problem
+    return output_problem(path, exists_ok=overwrite)
+
+
 def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
     """Return why a run is too large to record (None if it is not)."""
     samples = offline.expected_samples(rate, model.duration)
@@ -169,6 +176,9 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     low, high = offline.RATE_RANGE
     if not (math.isfinite(rate) and low <= rate <= high):
         return _error(f'--rate: is {rate:g}; expected a sample rate from {low:g} to {high:g} Hz')
+    refused = _output_refused(output, overwrite=True)
+    if refused:
+        return _error(refused)
     if _same_file(output, scenario):
         return _error(f'-o {output}: is the scenario file itself; choose another output')
     if inputs and _same_file(output, inputs):
@@ -231,6 +241,11 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
                                  interpolate_odometry=interpolate)
             except Interrupted:
                 pass   # the recording is finished (and moved onto output) on the way out
+    except OutputError as err:   # a full disk: the run stopped there, nothing half-written
+        samples = state.samples if state is not None else 0
+        print(f'ERROR: the recording failed at t = {sim.t:.9g} s ({samples} samples '
+              f'taken): {err}', file=sys.stderr)
+        return EXIT_FAILED
     except CfemError as err:
         return _error(str(err))
     finally:
@@ -295,21 +310,33 @@ def cmd_info(recording: str) -> int:
 
 
 def cmd_recover(broken: str, fixed: str) -> int:
-    """Copy the complete messages of a cut recording into a new one; exit 0 or 2."""
+    """Copy the verifiably intact messages of a cut or damaged recording; exit 0, 1 or 2."""
     if _same_file(broken, fixed):
         return _error(f'-o {fixed}: is the broken file itself; choose another output')
+    refused = _output_refused(fixed, overwrite=False)
+    if refused:
+        return _error(refused)
     try:
         from cfem_ros.recording.recover import recover
         report = recover(broken, fixed)
+    except OutputError as err:
+        print(f'ERROR: {err}', file=sys.stderr)
+        return EXIT_FAILED
     except CfemError as err:
         return _error(str(err))
     if report.complete:
-        where = 'the file was complete (footer found)'
+        where = 'the file was complete (data end found)'
     else:
         where = (f'the file was cut at byte {report.cut_at} of {report.size} '
                  f'({report.note})')
+    unverified = (f', {report.unverified} of them from the cut last chunk (no CRC to check; '
+                  'they decode)' if report.unverified else '')
     print(f'{fixed}: {report.messages} messages recovered from {report.chunks} complete '
-          f'chunks, up to log time {report.end_ns} ns; {where}')
+          f'chunks{unverified}, up to log time {report.end_ns} ns; {where}')
+    if report.skipped or report.bad_chunks or report.damage:
+        print(f'  skipped: {report.skipped} message(s), {report.bad_chunks} damaged chunk(s)')
+        for place in report.damage:
+            print(f'  damage at {place}')
     return EXIT_OK
 
 

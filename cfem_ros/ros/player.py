@@ -18,8 +18,7 @@ import time
 from typing import Callable, Optional
 
 from cfem_ros.recording.errors import RecordingError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
+from cfem_ros.recording.reader import open_mcap
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -120,26 +119,20 @@ def read_log(path: str, topics=None) -> tuple:
         If the file is missing or not a readable MCAP file.
 
     """
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream)
-            summary = reader.get_summary()
-            if summary is None:
-                raise RecordingError(f'{path}: MCAP file without a summary section; '
-                                     'expected a finished recording')
-            channels = {}
-            for cid, channel in summary.channels.items():
-                schema = summary.schemas.get(channel.schema_id)
-                channels[cid] = (channel.topic, schema.name if schema else '',
-                                 channel.metadata.get('offered_qos_profiles', ''))
-            wanted = None if not topics else list(topics)
-            messages = [(message.log_time, channel.id, bytes(message.data))
-                        for _, channel, message in reader.iter_messages(
-                            topics=wanted, log_time_order=True)]
-    except OSError as err:
-        raise RecordingError(f'{path}: cannot read ({err.strerror})') from err
-    except (McapError, ValueError, KeyError, EOFError) as err:
-        raise RecordingError(f'{path}: not a readable MCAP recording ({err})') from err
+    with open_mcap(path) as reader:
+        summary = reader.get_summary()
+        if summary is None:
+            raise RecordingError(f'{path}: MCAP file without a summary section; '
+                                 'expected a finished recording')
+        channels = {}
+        for cid, channel in summary.channels.items():
+            schema = summary.schemas.get(channel.schema_id)
+            channels[cid] = (channel.topic, schema.name if schema else '',
+                             channel.metadata.get('offered_qos_profiles', ''))
+        wanted = None if not topics else list(topics)
+        messages = [(message.log_time, channel.id, bytes(message.data))
+                    for _, channel, message in reader.iter_messages(
+                        topics=wanted, log_time_order=True)]
     return channels, messages
 
 

@@ -1,0 +1,159 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The one reading layer for recordings: every failure becomes one ``RecordingError``.
+
+``info``, ``plot``, ``compare``, ``summarize``, ``play``, ``recover`` and
+``run --inputs`` open recordings through ``open_recording`` (a regular file
+only: a FIFO, device, socket or directory is refused from its ``stat``
+before it is opened, and it is opened non-blocking, so nothing ever waits
+on a pipe) and read them inside ``reading``, which turns whatever the file
+system, the ``mcap`` library, a decompressor or the CDR decoder raises on a
+damaged file (``EndOfFile``, ``struct.error``, ``OverflowError``,
+``MemoryError`` for a record declaring gigabytes, ``ZstdError``, a schema
+whose name does not parse, ...) into a ``RecordingError`` naming the
+file, what was wrong and what to do.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import stat
+import struct
+from typing import BinaryIO, Iterator
+
+from cfem_ros.recording.errors import RecordingError
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap_ros2._vendor.rosidl_adapter.parser import InvalidSpecification, InvalidValue
+
+try:   # the decompressors mcap uses, when installed
+    from zstandard import ZstdError
+except ImportError:  # pragma: no cover - mcap then refuses zstd chunks itself
+    ZstdError = McapError
+
+__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_mcap', 'describe_failure', 'file_kind',
+           'open_mcap', 'open_recording', 'reading']
+
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+
+#: What reading a damaged file can raise, from the file system, mcap (and the
+#: decompressors under it: lz4 raises RuntimeError) and the CDR decoder.
+READ_ERRORS = (McapError, OSError, EOFError, ValueError, KeyError, IndexError, TypeError,
+               AttributeError, struct.error, OverflowError, MemoryError, UnicodeError,
+               RuntimeError, ZstdError, InvalidSpecification, InvalidValue)
+
+#: Longest reason quoted from a lower error, characters.
+REASON_LENGTH = 160
+
+
+def file_kind(mode: int) -> str:
+    """Name the kind of a file that is not a regular one (from its ``st_mode``)."""
+    if stat.S_ISDIR(mode):
+        return 'a directory'
+    if stat.S_ISFIFO(mode):
+        return 'a named pipe (FIFO)'
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return 'a device'
+    if stat.S_ISSOCK(mode):
+        return 'a socket'
+    return 'not a regular file'
+
+
+def _clip(text: str, limit: int = REASON_LENGTH) -> str:
+    text = ' '.join(str(text).split())
+    text = ''.join(c if c.isprintable() else '?' for c in text)
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def describe_failure(path: str, err: BaseException) -> str:
+    """Return the one-line message for a failure while reading path."""
+    if isinstance(err, OSError) and not isinstance(err, McapError):
+        return f'{path}: cannot read ({err.strerror or _clip(err) or type(err).__name__})'
+    if isinstance(err, MemoryError):
+        what = 'a record declares a size larger than memory'
+    else:
+        reason = _clip(err)
+        what = f'{type(err).__name__}: {reason}' if reason else type(err).__name__
+    return (f'{path}: damaged recording ({what}); `cfem-sim recover {path} -o FIXED.mcap` '
+            'keeps its intact chunks')
+
+
+@contextlib.contextmanager
+def reading(path: str) -> Iterator[None]:
+    """Turn any failure of reading path inside the block into a RecordingError."""
+    try:
+        yield
+    except RecordingError:
+        raise
+    except READ_ERRORS as err:
+        raise RecordingError(describe_failure(path, err)) from err
+
+
+def open_recording(path: str) -> BinaryIO:
+    """
+    Open a recording for reading: a regular file only, never blocking.
+
+    Raises
+    ------
+    RecordingError
+        If path is missing, unreadable, or a FIFO, device, socket or
+        directory (refused from its ``stat``, before it is opened).
+
+    """
+    expected = 'an MCAP recording (a regular file)'
+    try:
+        mode = os.stat(path).st_mode
+        if not stat.S_ISREG(mode):
+            raise RecordingError(f'{path}: is {file_kind(mode)}; expected {expected}')
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except (OSError, ValueError) as err:
+        raise RecordingError(f'{path}: cannot read '
+                             f'({getattr(err, "strerror", None) or err})') from err
+    try:
+        info = os.fstat(fd)   # the file opened, not the one stat saw
+        if not stat.S_ISREG(info.st_mode):
+            raise RecordingError(f'{path}: is {file_kind(info.st_mode)}; expected {expected}')
+        fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+        return os.fdopen(fd, 'rb')
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def check_mcap(path: str) -> None:
+    """
+    Raise RecordingError unless path is a complete MCAP file.
+
+    The message says what is wrong: missing, not a regular file, not MCAP,
+    or truncated (no footer: the writer did not finish, e.g. it was killed).
+    """
+    with open_recording(path) as stream, reading(path):
+        size = os.fstat(stream.fileno()).st_size
+        head = stream.read(len(MCAP_MAGIC))
+        stream.seek(max(0, size - len(MCAP_MAGIC)))
+        tail = stream.read(len(MCAP_MAGIC))
+    if head != MCAP_MAGIC:
+        raise RecordingError(f'{path}: not an MCAP file (it does not start with the MCAP '
+                             'magic bytes); expected a recording from cfem-sim, cfem_node or '
+                             'ros2 bag record -s mcap')
+    if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
+        raise RecordingError(
+            f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
+            'finish it (killed?). Its complete messages can be recovered with '
+            f'`cfem-sim recover {path} -o FIXED.mcap`')
+
+
+@contextlib.contextmanager
+def open_mcap(path: str, decoder_factories=()) -> Iterator:
+    """
+    Check path (``check_mcap``) and yield an mcap reader of it, failures as RecordingError.
+
+    Everything done with the reader inside the block (summary, iterating
+    and decoding messages) is covered by ``reading``.
+    """
+    check_mcap(path)
+    with open_recording(path) as stream, reading(path):
+        yield make_reader(stream, decoder_factories=list(decoder_factories))
