@@ -24,8 +24,7 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
-from cfem_ros.recording.reader import check_mcap, open_mcap, reading
-from mcap_ros2.decoder import DecoderFactory
+from cfem_ros.recording.reader import check_mcap, decoded_messages, open_mcap, reading
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -293,7 +292,7 @@ def open_run(path: str, namespace: Optional[str] = None,
         ``bodies/<body>/pose`` topic.
 
     """
-    with open_mcap(path, [DecoderFactory()]) as reader:
+    with open_mcap(path) as reader:
         summary = reader.get_summary()
         if summary is None:
             raise RecordingError(f'{path}: MCAP file without a summary section; '
@@ -314,7 +313,7 @@ def open_run(path: str, namespace: Optional[str] = None,
         for record in reader.iter_metadata():
             if record.name == 'cfem_ros':
                 metadata = dict(record.metadata)
-        raw = _read_messages(reader, ns, renamed)
+        raw = _read_messages(decoded_messages(reader, path), ns, renamed)
     with reading(path):
         return _assemble(path, ns, topics, metadata, raw)
 
@@ -327,10 +326,10 @@ def _renamed(channel, renamed: dict):
     return _replace(channel, topic=renamed[channel.topic])
 
 
-def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
+def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
     raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
            'relative_pose': {}, 'relative_twist': {}, 'reference': {}}
-    for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+    for channel, _, decoded in messages:
         topic = (renamed or {}).get(channel.topic, channel.topic)
         relative = RELATIVE_TOPIC.match(topic)
         if relative and relative['ns'] == ns:

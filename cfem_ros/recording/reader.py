@@ -27,6 +27,7 @@ from typing import BinaryIO, Iterator
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 from mcap_ros2._vendor.rosidl_adapter.parser import InvalidSpecification, InvalidValue
 
 try:   # the decompressors mcap uses, when installed
@@ -34,8 +35,8 @@ try:   # the decompressors mcap uses, when installed
 except ImportError:  # pragma: no cover - mcap then refuses zstd chunks itself
     ZstdError = McapError
 
-__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_mcap', 'describe_failure', 'file_kind',
-           'open_mcap', 'open_recording', 'reading']
+__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_mcap', 'decoded_messages', 'describe_failure',
+           'file_kind', 'open_mcap', 'open_recording', 'reading']
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 
@@ -157,3 +158,33 @@ def open_mcap(path: str, decoder_factories=()) -> Iterator:
     check_mcap(path)
     with open_recording(path) as stream, reading(path):
         yield make_reader(stream, decoder_factories=list(decoder_factories))
+
+
+def decoded_messages(reader, path: str, topics=None, log_time_order: bool = True) -> Iterator:
+    """
+    Yield (channel, message, decoded) of a reader's CDR messages, each decoded once.
+
+    A schema that does not parse or a payload that does not decode raises
+    a RecordingError naming the topic and the message's log time; messages
+    of other encodings are skipped.
+    """
+    factory = DecoderFactory()
+    for schema, channel, message in reader.iter_messages(topics=topics,
+                                                         log_time_order=log_time_order):
+        try:
+            decoder = factory.decoder_for(channel.message_encoding, schema)
+        except READ_ERRORS as err:
+            raise RecordingError(
+                f'{path}: the schema {_clip(getattr(schema, "name", "?"), 80)!r} of '
+                f'{_clip(channel.topic, 80)} does not parse ({type(err).__name__}: '
+                f'{_clip(err, 80)}); expected ROS 2 message definitions (ros2msg)') from err
+        if decoder is None:
+            continue
+        try:
+            decoded = decoder(bytes(message.data))
+        except READ_ERRORS as err:
+            raise RecordingError(
+                f'{path}: a message cannot be decoded ({_clip(channel.topic, 80)} at log time '
+                f'{message.log_time} ns: {type(err).__name__}: {_clip(err, 80)}); expected '
+                'well-formed ROS 2 CDR payloads') from err
+        yield channel, message, decoded

@@ -10,8 +10,8 @@ from typing import Optional
 from cfem_ros.core.errors import InputError
 from cfem_ros.core.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
                                   RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
-from cfem_ros.recording.reader import open_mcap
-from mcap_ros2.decoder import DecoderFactory
+from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.reader import decoded_messages, open_mcap
 
 
 def read_inputs(path: str) -> list:
@@ -25,17 +25,31 @@ def read_inputs(path: str) -> list:
 
     Raises
     ------
-    RecordingError
-        If the file is missing, not a regular file, not MCAP, damaged, or
-        a message's payload does not decode.
     InputError
-        If it holds no input topic.
+        If the file is missing, not a regular file, not MCAP, damaged,
+        holds no input topic, or a message's payload does not decode.
 
     """
-    with open_mcap(path, [DecoderFactory()]) as reader:
+    try:
+        found, start_ns = _read(path)
+    except RecordingError as err:   # run --inputs: an input error, as every other one
+        raise InputError(str(err)) from err
+    if not found:
+        raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench, '
+                         '.../bodies/<body>/odom or .../release); nothing to replay')
+    if start_ns is None:
+        start_ns = min(f[0] for f in found)
+    found.sort(key=lambda f: f[0])
+    return [replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9))
+            for stamp_ns, item in found]
+
+
+def _read(path: str) -> tuple:
+    """Return the (log time, input) of a log's input messages, and its start stamp or None."""
+    with open_mcap(path) as reader:
         start_ns = _start_ns(reader)
         found = []
-        for _, channel, message, decoded in reader.iter_decoded_messages():
+        for channel, message, decoded in decoded_messages(reader, path):
             wrench = WRENCH_TOPIC.match(channel.topic)
             if wrench:
                 w = decoded.wrench
@@ -49,14 +63,7 @@ def read_inputs(path: str) -> list:
             elif ODOM_TOPIC.match(channel.topic):
                 found.append((message.log_time, _odometry(
                     ODOM_TOPIC.match(channel.topic)['body'], decoded)))
-    if not found:
-        raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench, '
-                         '.../bodies/<body>/odom or .../release); nothing to replay')
-    if start_ns is None:
-        start_ns = min(f[0] for f in found)
-    found.sort(key=lambda f: f[0])
-    return [replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9))
-            for stamp_ns, item in found]
+    return found, start_ns
 
 
 def recorded_interpolation(path: str) -> Optional[bool]:
