@@ -55,16 +55,23 @@ def _describe_release(joint) -> str:
 
 def cmd_check(scenario: str) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
+    from cfem_ros.core.startcheck import start_problems
     try:
         model = load_scenario(scenario)
         with np.errstate(all='raise', under='ignore'):
             sim = Simulator(model)
+        errors, warnings = start_problems(sim)
     except CfemError as err:
         return _error(str(err))
     except (ArithmeticError, np.linalg.LinAlgError) as err:
         why = ' '.join(str(err).split())[:120]
         return _error(f'{scenario}: the joints cannot be analysed at t = 0 '
                       f'({type(err).__name__}: {why}); expected a regular configuration')
+    if errors:
+        more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
+        return _error(f'{scenario}: cannot start: {errors[0]}{more}')
+    for text in warnings:
+        print(f'WARNING: {scenario}: {text}', file=sys.stderr)
     print(f'{scenario}: valid scenario {model.name!r}')
     print(f'  world frame {model.frame_id!r}, gravity {_vec(model.gravity)} m/s^2, '
           f'dt {model.dt:g} s, duration {model.duration:g} s, '
@@ -121,12 +128,19 @@ def _print_state(sim):
     print(f'final state at t = {sim.t:.9g} s:')
     position, quat = sim.position, sim.orientation
     velocity, rates = sim.velocity, np.degrees(sim.rates)
-    rpy = rotations.to_rpy_deg(quat)
+    with np.errstate(all='ignore'):
+        norms = np.linalg.norm(quat, axis=1)
+    # a failed run's state may hold overflowing numbers: such an attitude has no angles
+    rotation = np.isfinite(norms) & (norms > 0.0) & np.isfinite(quat).all(axis=1)
+    rpy = np.full((len(quat), 3), np.nan)
+    if rotation.any():
+        rpy[rotation] = rotations.to_rpy_deg(quat[rotation] / norms[rotation, None])
     for i, body in enumerate(sim.model.bodies):
         if body.fixed:
             continue
-        print(f'  {body.name}: CG {_vec(position[i])} m, roll/pitch/yaw '
-              f'{_vec(rpy[i])} deg, velocity {_vec(velocity[i])} m/s (world), '
+        attitude = f'{_vec(rpy[i])} deg' if rotation[i] else 'undefined (no finite attitude)'
+        print(f'  {body.name}: CG {_vec(position[i])} m, roll/pitch/yaw {attitude}, '
+              f'velocity {_vec(velocity[i])} m/s (world), '
               f'rates {_vec(rates[i])} deg/s (body)')
 
 
