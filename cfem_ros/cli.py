@@ -488,12 +488,35 @@ def _raise_interrupted(signum, frame):
     raise Interrupted(signum)
 
 
-def _close(client, cluster):
-    """Close a Dask client and its local cluster (either may be None)."""
-    if client is not None:
-        client.close()
-    if cluster is not None:
-        cluster.close()
+def _close(client, cluster, hold: bool = True):
+    """
+    Close a Dask client and its local cluster (either may be None), whatever comes meanwhile.
+
+    A SIGINT or SIGTERM during the closing is held until it is done (an
+    exception raised inside Dask's shutdown would leave its comms half
+    closed and their tracebacks on stderr); Dask's own logs of connections
+    closing under it are not shown. Return the signal held, or None.
+    """
+    held = []
+    previous = [signal.signal(s, (lambda signum, frame: held.append(signum)) if hold
+                              else signal.getsignal(s))
+                for s in (signal.SIGINT, signal.SIGTERM)]
+    quiet = logging.getLogger('distributed')
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)
+    try:
+        for thing in (client, cluster):
+            if thing is None:
+                continue
+            try:
+                thing.close()
+            except Exception:  # noqa: B902 - a comm already closed: nothing left to close
+                pass
+    finally:
+        quiet.setLevel(level)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    return held[0] if held else None
 
 
 def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
@@ -514,7 +537,7 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
     print(f'{sweep_file}: {total} runs, {total - len(todo)} already in {outdir}',
           file=sys.stderr)
     started = time.monotonic()
-    client = cluster = None
+    client = cluster = late = None
     # SIGINT and SIGTERM stop the waiting here, so that the cluster is closed (no leaked
     # worker processes or semaphores) and the user is told what is kept
     previous = [signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)]
@@ -526,7 +549,7 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
     except Interrupted as stop:
         for s in (signal.SIGINT, signal.SIGTERM):   # a second one ends at once
             signal.signal(s, exit_now)
-        _close(client, cluster)
+        _close(client, cluster, hold=False)
         client = cluster = None
         from cfem_ros.study.sweep import saved_runs
         print(f'\ninterrupted by {stop}: {saved_runs(outdir)} of {total} runs are saved in '
@@ -535,15 +558,20 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
     except OSError as err:
         return _error(f'{scheduler or "local cluster"}: {err}')
     finally:
-        _close(client, cluster)
+        late = _close(client, cluster)
         signal.signal(signal.SIGINT, previous[0])
         signal.signal(signal.SIGTERM, previous[1])
+    if late is not None:
+        print(f'{signal.Signals(late).name} while the cluster was closing: the sweep had '
+              f'finished, its table is complete in {outdir}', file=sys.stderr)
     failed = int((table['status'] == 'failed').sum())
     wall = time.monotonic() - started
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
           f'{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
+    if late is not None:
+        return 128 + late
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -561,10 +589,7 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
             client, cluster = _dask_client(workers, scheduler)
         table = study.summarize(recordings, spec.metrics, client)
     finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        _close(client, cluster)
     from cfem_ros.study.sweep import write_atomic
     try:
         write_atomic(table, output)
