@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import io
 import os
 import stat
 import struct
@@ -153,11 +154,13 @@ def open_mcap(path: str, decoder_factories=()) -> Iterator:
     Check path (``check_mcap``) and yield an mcap reader of it, failures as RecordingError.
 
     Everything done with the reader inside the block (summary, iterating
-    and decoding messages) is covered by ``reading``.
+    and decoding messages) is covered by ``reading``. Chunk CRCs are
+    checked: a flipped byte in a chunk is an error, not a wrong number.
     """
     check_mcap(path)
     with open_recording(path) as stream, reading(path):
-        yield make_reader(stream, decoder_factories=list(decoder_factories))
+        yield make_reader(stream, validate_crcs=True,
+                          decoder_factories=list(decoder_factories))
 
 
 def decoded_messages(reader, path: str, topics=None, log_time_order: bool = True) -> Iterator:
@@ -172,7 +175,8 @@ def decoded_messages(reader, path: str, topics=None, log_time_order: bool = True
     for schema, channel, message in reader.iter_messages(topics=topics,
                                                          log_time_order=log_time_order):
         try:
-            decoder = factory.decoder_for(channel.message_encoding, schema)
+            with contextlib.redirect_stderr(io.StringIO()):   # the parser prints its errors
+                decoder = factory.decoder_for(channel.message_encoding, schema)
         except READ_ERRORS as err:
             raise RecordingError(
                 f'{path}: the schema {_clip(getattr(schema, "name", "?"), 80)!r} of '

@@ -28,6 +28,7 @@ message decoded before ``recover`` returns; a failure removes it.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 import io
 import mmap
@@ -39,6 +40,7 @@ from cfem_ros.recording.chunks import signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.reader import open_recording, READ_ERRORS, reading
 from mcap.data_stream import ReadDataStream
+from mcap.exceptions import EndOfFile
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
 from mcap.records import (Channel, Chunk, Footer, Header, Message, MessageIndex, Metadata,
@@ -112,8 +114,18 @@ class _Damaged(Exception):
     """A record that does not check out (its message says why)."""
 
 
+class _ExactStream(ReadDataStream):
+    """mcap's record stream, refusing a short read (a length field beyond the record)."""
+
+    def read(self, length: int) -> bytes:
+        data = super().read(length)
+        if len(data) != length:
+            raise EndOfFile()
+        return data
+
+
 def _stream(data) -> ReadDataStream:
-    return ReadDataStream(io.BytesIO(bytes(data)))
+    return _ExactStream(io.BytesIO(bytes(data)))
 
 
 def _parse_exact(kind, body):
@@ -226,7 +238,8 @@ class _Keeper:
                 return None
         if old_id not in self.decoders:
             try:
-                decoder = self.factory.decoder_for(channel.message_encoding, schema)
+                with contextlib.redirect_stderr(io.StringIO()):   # the parser prints errors
+                    decoder = self.factory.decoder_for(channel.message_encoding, schema)
             except Exception:  # noqa: B902 - a schema that does not parse is damage
                 decoder = False
             self.decoders[old_id] = decoder
