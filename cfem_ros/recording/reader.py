@@ -24,6 +24,7 @@ import os
 import stat
 import struct
 from typing import BinaryIO, Iterator
+import zlib
 
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
@@ -36,7 +37,7 @@ try:   # the decompressors mcap uses, when installed
 except ImportError:  # pragma: no cover - mcap then refuses zstd chunks itself
     ZstdError = McapError
 
-__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_mcap', 'decoded_messages', 'describe_failure',
+__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_data_crc', 'check_mcap', 'decoded_messages', 'describe_failure',
            'file_kind', 'open_mcap', 'open_recording', 'reading']
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
@@ -125,40 +126,96 @@ def open_recording(path: str) -> BinaryIO:
         raise
 
 
+_FOOTER = struct.Struct('<BQQQI')    # opcode, length, summary start, offsets start, crc
+_DATA_END = struct.Struct('<BQI')     # opcode, length, data section crc
+
+
+def _damaged(path: str, what: str) -> RecordingError:
+    return RecordingError(f'{path}: damaged recording ({what}); `cfem-sim recover {path} '
+                          '-o FIXED.mcap` keeps its intact chunks')
+
+
 def check_mcap(path: str) -> None:
     """
-    Raise RecordingError unless path is a complete MCAP file.
+    Raise RecordingError unless path is a complete MCAP file whose summary CRC holds.
 
     The message says what is wrong: missing, not a regular file, not MCAP,
-    or truncated (no footer: the writer did not finish, e.g. it was killed).
+    truncated (no footer: the writer did not finish, e.g. it was killed),
+    or a summary section (schemas, channels, statistics, indexes) whose
+    bytes no longer match the footer's CRC.
     """
     with open_recording(path) as stream, reading(path):
         size = os.fstat(stream.fileno()).st_size
         head = stream.read(len(MCAP_MAGIC))
         stream.seek(max(0, size - len(MCAP_MAGIC)))
         tail = stream.read(len(MCAP_MAGIC))
-    if head != MCAP_MAGIC:
-        raise RecordingError(f'{path}: not an MCAP file (it does not start with the MCAP '
-                             'magic bytes); expected a recording from cfem-sim, cfem_node or '
-                             'ros2 bag record -s mcap')
-    if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
-        raise RecordingError(
-            f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
-            'finish it (killed?). Its complete messages can be recovered with '
-            f'`cfem-sim recover {path} -o FIXED.mcap`')
+        if head != MCAP_MAGIC:
+            raise RecordingError(f'{path}: not an MCAP file (it does not start with the MCAP '
+                                 'magic bytes); expected a recording from cfem-sim, cfem_node '
+                                 'or ros2 bag record -s mcap')
+        if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
+            raise RecordingError(
+                f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
+                'finish it (killed?). Its complete messages can be recovered with '
+                f'`cfem-sim recover {path} -o FIXED.mcap`')
+        footer_at = size - len(MCAP_MAGIC) - _FOOTER.size
+        if footer_at < len(MCAP_MAGIC):
+            raise _damaged(path, 'too short for a footer')
+        stream.seek(footer_at)
+        opcode, length, start, _, crc = _FOOTER.unpack(stream.read(_FOOTER.size))
+        if opcode != 0x02 or length != 20 or not (start == 0 or 8 < start <= footer_at):
+            raise _damaged(path, 'its footer is not an MCAP footer')
+        if start and crc:
+            stream.seek(start)
+            summary = stream.read(footer_at + _FOOTER.size - 4 - start)
+            if zlib.crc32(summary) != crc:
+                raise _damaged(path, 'the summary section does not match its CRC')
+
+
+def check_data_crc(stream, path: str):
+    """Raise RecordingError if the data section's CRC (when the file has one) does not hold."""
+    size = os.fstat(stream.fileno()).st_size
+    footer_at = size - len(MCAP_MAGIC) - _FOOTER.size
+    stream.seek(footer_at)
+    start = _FOOTER.unpack(stream.read(_FOOTER.size))[2]
+    data_end = (start or footer_at) - _DATA_END.size
+    if data_end < len(MCAP_MAGIC):
+        raise _damaged(path, 'no data end record')
+    stream.seek(data_end)
+    opcode, length, crc = _DATA_END.unpack(stream.read(_DATA_END.size))
+    if opcode != 0x0F or length != 4:
+        raise _damaged(path, 'no data end record before the summary')
+    if not crc:
+        return
+    stream.seek(0)
+    value, left = 0, data_end
+    while left:
+        block = stream.read(min(left, 1 << 20))
+        if not block:
+            raise _damaged(path, 'the data section ends early')
+        value = zlib.crc32(block, value)
+        left -= len(block)
+    if value != crc:
+        raise _damaged(path, 'the data section does not match its CRC')
+    stream.seek(0)
 
 
 @contextlib.contextmanager
-def open_mcap(path: str, decoder_factories=()) -> Iterator:
+def open_mcap(path: str, decoder_factories=(), whole: bool = True) -> Iterator:
     """
     Check path (``check_mcap``) and yield an mcap reader of it, failures as RecordingError.
 
     Everything done with the reader inside the block (summary, iterating
-    and decoding messages) is covered by ``reading``. Chunk CRCs are
-    checked: a flipped byte in a chunk is an error, not a wrong number.
+    and decoding messages) is covered by ``reading``. The summary's CRC and
+    every chunk's CRC are checked (a flipped byte is an error, not a wrong
+    number), and, with ``whole`` (readers that read every message anyway),
+    the data section's CRC, which also covers the metadata records.
     """
     check_mcap(path)
     with open_recording(path) as stream, reading(path):
+        if whole:
+            check_data_crc(stream, path)
+            stream.seek(0)
         yield make_reader(stream, validate_crcs=True,
                           decoder_factories=list(decoder_factories))
 

@@ -73,7 +73,7 @@ def recorded_interpolation(path: str) -> Optional[bool]:
     From the ``interpolate_odometry`` of its ``cfem_ros`` metadata; the
     file was read by ``read_inputs`` already, so errors are not expected.
     """
-    with open_mcap(path) as reader:
+    with open_mcap(path, whole=False) as reader:
         for record in reader.iter_metadata():
             if record.name == 'cfem_ros' and 'interpolate_odometry' in record.metadata:
                 return record.metadata['interpolate_odometry'] == 'true'

@@ -62,7 +62,7 @@ def read_summary(path: str) -> Summary:
         ``cfem-sim recover``) or has no summary.
 
     """
-    with open_mcap(path) as reader:
+    with open_mcap(path, whole=False) as reader:   # seconds for a file of any size
         summary = reader.get_summary()
         if summary is None or summary.statistics is None:
             raise RecordingError(

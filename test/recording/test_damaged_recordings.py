@@ -147,10 +147,15 @@ def test_damaged_recordings_give_one_error_line_in_every_reader(good, tmp_path, 
                 continue
             assert status == 2, (name, command)
             one_error(capsys, path)
-    # a schema name that no longer parses (InvalidResourceName in the decoder)
-    path = tmp_path / 'schema_name_in_the_summary.mcap'
+    # a schema name that no longer parses (InvalidResourceName in the decoder), in a
+    # file whose writer gave no summary CRC (zero: the MCAP specification's "none")
+    damaged = damaged_copies(data)['schema name in the summary']
+    path = tmp_path / 'schema_name_without_crc.mcap'
+    path.write_bytes(damaged[:-12] + bytes(4) + damaged[-8:])
     assert cli.main(['plot', str(path), '-o', str(tmp_path / 'figures')]) == 2
     assert 'does not parse' in one_error(capsys, path)
+    assert cli.main(['info', str(path)]) == 0   # info reads no message: it can tell
+    capsys.readouterr()
 
 
 @pytest.fixture(scope='module')
