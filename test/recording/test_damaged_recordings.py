@@ -235,7 +235,8 @@ def test_recover_keeps_only_intact_chunks_and_goes_on(good, tmp_path, capsys):
         assert set(kept) <= set(original), name    # nothing made up, bit for bit
         _, summary, decoded = read_mcap(fixed)     # every message decodes
         assert summary.statistics.message_count == len(decoded) == len(kept)
-        assert len(read_rosbags(fixed)[0]) == len(kept)
+        if name == 'chunk crc':   # an independent reader too (once: it is slow)
+            assert len(read_rosbags(fixed)[0]) == len(kept)
         assert f'{len(kept)} messages recovered' in out, out
         if name in ('chunk record byte', 'chunk crc', 'second chunk records length'):
             assert 'damaged chunk' in out and 'damage at byte' in out, out
