@@ -211,17 +211,18 @@ class Yaml11Number(str):
 
 _INT_TAG, _FLOAT_TAG = 'tag:yaml.org,2002:int', 'tag:yaml.org,2002:float'
 _YAML11_TAG = 'tag:cfem_ros,2026:yaml11-number'
-_YAML11_NUMBER = re.compile(r'''^(?:[-+]?0b[0-1_]+
+_YAML11_NUMBER = re.compile(r"""^(?:[-+]?0b[0-1_]+
     |[-+]?0[0-7_]+
     |[-+]?0x[0-9a-fA-F_]+
-    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?)$''', re.X)
+    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?)$""", re.X)
 _DECIMAL_INT = re.compile(r'^[-+]?(?:0|[1-9][0-9_]*)$')
 #: Decimal floats, also without a dot or an exponent sign (1e5, 2.5E-3: YAML 1.2, which
 #: PyYAML's YAML 1.1 reads as strings), infinities and NaN (refused later as not finite).
-_DECIMAL_FLOAT = re.compile(r'''^(?:[-+]?[0-9][0-9_]*(?:\.[0-9_]*(?:[eE][-+]?[0-9]+)?|[eE][-+]?[0-9]+)
+_DECIMAL_FLOAT = re.compile(r"""^(?:[-+]?[0-9][0-9_]*(?:\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                                            |[eE][-+]?[0-9]+)
     |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
     |[-+]?\.(?:inf|Inf|INF)
-    |\.(?:nan|NaN|NAN))$''', re.X)
+    |\.(?:nan|NaN|NAN))$""", re.X)
 
 
 class _Resolver(Resolver):

@@ -56,8 +56,8 @@ def _farthest_anchor(model):
             size = _size(body)
             ratio = distance / size
             if ratio > worst[0]:
-                worst = (ratio, f"joint {joint.name!r}: its anchor is {distance:.3g} m from "
-                                f"{body.name}'s CG, {ratio:.3g} times {body.name}'s size "
+                worst = (ratio, f'joint {joint.name!r}: its anchor is {distance:.3g} m from '
+                                f'the CG of {body.name}, {ratio:.3g} times its size '
                                 f'(radius of gyration {size:.3g} m)')
     return worst
 
@@ -109,9 +109,9 @@ def _aero_products(model) -> tuple:
         elif not (math.isfinite(kick) and np.isfinite(spin).all()
                   and all(np.isfinite(np.asarray(x)).all() for x in after)):
             errors.append(f'aero.{body.name}: the aerodynamic loads overflow within the first '
-                          f'{FIRST_STEPS} steps of dt {model.dt:g} s ({how}: the speed and rates they give '
-                          'make loads beyond double precision); expected realistic '
-                          'coefficients')
+                          f'{FIRST_STEPS} steps of dt {model.dt:g} s ({how}: the speed and '
+                          'rates they give make loads beyond double precision); expected '
+                          'realistic coefficients')
         else:
             decay = float((per_rate * damping / inertia).max(initial=0.0))
             if decay * model.dt > RK4_STABILITY:

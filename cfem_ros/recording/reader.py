@@ -29,16 +29,16 @@ import zlib
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
 from mcap_ros2._vendor.rosidl_adapter.parser import InvalidSpecification, InvalidValue
+from mcap_ros2.decoder import DecoderFactory
 
 try:   # the decompressors mcap uses, when installed
     from zstandard import ZstdError
 except ImportError:  # pragma: no cover - mcap then refuses zstd chunks itself
     ZstdError = McapError
 
-__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_data_crc', 'check_mcap', 'decoded_messages', 'describe_failure',
-           'file_kind', 'open_mcap', 'open_recording', 'reading']
+__all__ = ['MCAP_MAGIC', 'READ_ERRORS', 'check_data_crc', 'check_mcap', 'decoded_messages',
+           'describe_failure', 'file_kind', 'open_mcap', 'open_recording', 'reading']
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 

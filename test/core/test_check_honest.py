@@ -88,8 +88,8 @@ def test_the_realistic_cases_pass_and_what_only_the_run_can_tell_is_a_warning(tm
 
 @pytest.mark.parametrize('text, reading', [
     ('1:30', '90'), ('0x10', '16'), ('010', '8'), ('0b11', '3'), ('1:30.5', '90.5')])
-def test_yaml_1_1_numbers_are_refused_with_the_value_as_written(tmp_path, capsys, text,
-                                                                 reading):
+def test_yaml_1_1_numbers_are_refused_with_the_value_as_written(
+        tmp_path, capsys, text, reading):
     path = tmp_path / 'odd.yaml'
     path.write_text(yaml.safe_dump(PLANAR).replace('mass: 2.0', f'mass: {text}'))
     assert cli.main(['check', str(path)]) == 2

@@ -32,7 +32,7 @@ SCENARIO = CONFIG / 'store_separation.yaml'
 
 @pytest.fixture(scope='module')
 def good(tmp_path_factory):
-    """A complete recording of three chunks or more (about 2,000 messages)."""
+    """Record a complete recording of three chunks or more (about 2,000 messages)."""
     out = tmp_path_factory.mktemp('damaged') / 'good.mcap'
     assert cli.main(['run', str(SCENARIO), '-o', str(out), '--rate', '1000',
                      '--duration', '0.4']) == 0
@@ -43,7 +43,7 @@ def good(tmp_path_factory):
 
 @pytest.fixture(scope='module')
 def zstd(good, tmp_path_factory):
-    """The same messages in zstd-compressed chunks, as rosbag2 and Foxglove write them."""
+    """Copy the messages into zstd-compressed chunks, as rosbag2 and Foxglove write them."""
     out = tmp_path_factory.mktemp('zstd') / 'zstd.mcap'
     with open(good, 'rb') as source, open(out, 'wb') as target:
         reader = make_reader(source)
@@ -94,7 +94,7 @@ def one_error(capsys, path) -> str:
 
 
 def reading_commands(path, good, tmp_path):
-    """The commands that read a recording, with path in the place of a recording."""
+    """Return the commands that read a recording, with path in the place of a recording."""
     return {
         'info': ['info', str(path)],
         'plot': ['plot', str(path), '-o', str(tmp_path / 'figures')],
@@ -252,7 +252,8 @@ def test_fifos_are_refused_by_every_reading_command(good, metrics, tmp_path, cap
     import sys
     fifo = tmp_path / 'pipe.mcap'
     os.mkfifo(fifo)
-    faulthandler.dump_traceback_later(60, exit=True, file=sys.__stderr__)   # a blocked open would hang the suite
+    # a blocked open would hang the suite: end it instead
+    faulthandler.dump_traceback_later(60, exit=True, file=sys.__stderr__)
     try:
         commands = reading_commands(fifo, good, tmp_path)
         commands['recover'] = ['recover', str(fifo), '-o', str(tmp_path / 'fixed.mcap')]

@@ -38,7 +38,7 @@ EXAMPLES = 400 if LONG else 10
 
 @pytest.fixture(scope='module')
 def original(tmp_path_factory):
-    """A small real recording (about 450 messages), its bytes and messages."""
+    """Record a small real recording (about 450 messages); return its bytes and messages."""
     path = tmp_path_factory.mktemp('fuzz') / 'run.mcap'
     assert cli.main(['run', str(SCENARIO), '-o', str(path), '--rate', '250',
                      '--duration', '0.3']) == 0
@@ -51,7 +51,7 @@ def original(tmp_path_factory):
 
 
 def records(data: bytes):
-    """Return (start, end) of the top-level records (a damaged length ends the walk)."""
+    """Walk the top-level records: (start, end) of each (a damaged length ends the walk)."""
     out, position = [], 8
     while position + 9 <= len(data):
         length = struct.unpack_from('<Q', data, position + 1)[0]
