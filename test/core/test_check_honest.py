@@ -55,7 +55,7 @@ def changed(document, where, value):
 
 @pytest.mark.parametrize('base, where, value, words', [
     (PLANAR, ('joints', 'surface', 'anchor'), [1e8, 0, -0.05], "joint 'surface': its anchor"),
-    (PLANAR, ('bodies', 'puck', 'position'), [-1e9, -1e9, -1e9], 'from puck'),
+    (PLANAR, ('bodies', 'puck', 'position'), [-1e9, -1e9, -1e9], 'from the CG of puck'),
     (AERO, ('aero', 'store', 'CX'), 1e300, 'aerodynamic loads overflow'),
     (AERO, ('aero', 'store', 'density'), 1e300, 'aerodynamic loads overflow'),
     (AERO, ('aero', 'store', 'Cmq'), -1e300, 'aerodynamic loads overflow'),
