@@ -604,9 +604,19 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
     return EXIT_FAILED if len(failed) else EXIT_OK
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors are one ERROR line (exit 2), as every other."""
+
+    def error(self, message: str):
+        """Print one ``ERROR:`` line naming the command and where to look; exit 2."""
+        text = ' '.join(message.split())
+        print(f'ERROR: {self.prog}: {text}; see {self.prog} --help', file=sys.stderr)
+        sys.exit(EXIT_BAD_INPUT)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser of cfem-sim."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog='cfem-sim',
         description='Simulate rigid bodies joined by releasable joints (CFEM), no ROS needed.')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
