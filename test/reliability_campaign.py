@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / 'test'))
 
 from cfem_ros import cli  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
-from mcap.writer import CompressionType, Writer  # noqa: E402
+from recordings import read_mcap, rewrite_zstd, top_records  # noqa: E402
 import yaml  # noqa: E402
 
 CONFIG = ROOT / 'config'
@@ -107,7 +107,6 @@ def messages_of(path):
 
 
 def readable(path) -> bool:
-    from recordings import read_mcap
     try:
         read_mcap(path)
     except Exception:  # noqa: B902 - any failure is an unreadable output
@@ -123,34 +122,8 @@ def make_recordings(folder: pathlib.Path) -> dict:
         assert cli.main(['run', str(CONFIG / 'store_separation.yaml'), '-o', str(cfem),
                          '--rate', '500', '--duration', '0.5']) == 0
     zstd = folder / 'zstd.mcap'
-    with open(cfem, 'rb') as source, open(zstd, 'wb') as target:
-        reader = make_reader(source)
-        writer = Writer(target, chunk_size=16 * 1024, compression=CompressionType.ZSTD)
-        writer.start('ros2', 'campaign')
-        summary = reader.get_summary()
-        schemas = {i: writer.register_schema(s.name, s.encoding, s.data)
-                   for i, s in summary.schemas.items()}
-        channels = {i: writer.register_channel(c.topic, c.message_encoding, schemas[c.schema_id],
-                                               dict(c.metadata))
-                    for i, c in summary.channels.items()}
-        for record in reader.iter_metadata():
-            writer.add_metadata(record.name, dict(record.metadata))
-        for _, channel, message in reader.iter_messages():
-            writer.add_message(channels[channel.id], message.log_time, message.data,
-                               message.publish_time, message.sequence)
-        writer.finish()
+    rewrite_zstd(cfem, zstd, chunk_size=16 * 1024)
     return {'cfem': cfem, 'zstd': zstd}
-
-
-def top_records(data):
-    out, position = [], 8
-    while position + 9 <= len(data):
-        length = struct.unpack_from('<Q', data, position + 1)[0]
-        if position + 9 + length > len(data):
-            break
-        out.append((position, position + 9 + length))
-        position += 9 + length
-    return out
 
 
 def mutate(data: bytes, rng: random.Random) -> tuple:

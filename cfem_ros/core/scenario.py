@@ -341,7 +341,7 @@ def _display(path) -> str:
     return text if text.isprintable() else repr(text)
 
 
-def _file_kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
     if stat.S_ISDIR(mode):
         return 'a directory'
     if stat.S_ISFIFO(mode):
@@ -375,7 +375,7 @@ def read_text(path, source: Optional[str] = None) -> str:
     try:
         mode = os.stat(path).st_mode
         if not stat.S_ISREG(mode):
-            refuse(f'is {_file_kind(mode)}')
+            refuse(f'is {file_kind(mode)}')
         fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0))
     except (OSError, ValueError) as err:
         refuse(f'cannot read the file ({getattr(err, "strerror", None) or err})')
@@ -383,7 +383,7 @@ def read_text(path, source: Optional[str] = None) -> str:
         try:
             info = os.fstat(stream.fileno())    # the file opened, not the one stat saw
             if not stat.S_ISREG(info.st_mode):
-                refuse(f'is {_file_kind(info.st_mode)}')
+                refuse(f'is {file_kind(info.st_mode)}')
             if info.st_size > MAX_FILE_BYTES:
                 refuse(f'is {info.st_size:,} bytes', limit)
             data = stream.read(MAX_FILE_BYTES + 1)

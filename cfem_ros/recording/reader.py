@@ -26,6 +26,7 @@ import struct
 from typing import BinaryIO, Iterator
 import zlib
 
+from cfem_ros.core.scenario import file_kind
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
@@ -50,19 +51,6 @@ READ_ERRORS = (McapError, OSError, EOFError, ValueError, KeyError, IndexError, T
 
 #: Longest reason quoted from a lower error, characters.
 REASON_LENGTH = 160
-
-
-def file_kind(mode: int) -> str:
-    """Name the kind of a file that is not a regular one (from its ``st_mode``)."""
-    if stat.S_ISDIR(mode):
-        return 'a directory'
-    if stat.S_ISFIFO(mode):
-        return 'a named pipe (FIFO)'
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return 'a device'
-    if stat.S_ISSOCK(mode):
-        return 'a socket'
-    return 'not a regular file'
 
 
 def _clip(text: str, limit: int = REASON_LENGTH) -> str:

@@ -22,9 +22,8 @@ from cfem_ros.recording.recorder import POSE, Recorder
 from cfem_ros.recording.recover import recover
 from cfem_ros.study.summarize import summarize_file
 from mcap.reader import make_reader
-from mcap.writer import CompressionType, Writer
 import pytest
-from recordings import read_mcap, read_rosbags
+from recordings import read_mcap, read_rosbags, rewrite_zstd
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 SCENARIO = CONFIG / 'store_separation.yaml'
@@ -45,22 +44,7 @@ def good(tmp_path_factory):
 def zstd(good, tmp_path_factory):
     """Copy the messages into zstd-compressed chunks, as rosbag2 and Foxglove write them."""
     out = tmp_path_factory.mktemp('zstd') / 'zstd.mcap'
-    with open(good, 'rb') as source, open(out, 'wb') as target:
-        reader = make_reader(source)
-        writer = Writer(target, chunk_size=32 * 1024, compression=CompressionType.ZSTD)
-        writer.start('ros2', 'test')
-        summary = reader.get_summary()
-        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data)
-                   for sid, s in summary.schemas.items()}
-        channels = {cid: writer.register_channel(c.topic, c.message_encoding,
-                                                 schemas[c.schema_id], dict(c.metadata))
-                    for cid, c in summary.channels.items()}
-        for record in reader.iter_metadata():
-            writer.add_metadata(record.name, dict(record.metadata))
-        for _, channel, message in reader.iter_messages():
-            writer.add_message(channels[channel.id], message.log_time, message.data,
-                               message.publish_time, message.sequence)
-        writer.finish()
+    rewrite_zstd(good, out)
     return out
 
 

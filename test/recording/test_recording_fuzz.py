@@ -28,7 +28,7 @@ from cfem_ros import cli
 from hypothesis import given, HealthCheck, settings, strategies as st
 from mcap.reader import make_reader
 import pytest
-from recordings import read_mcap
+from recordings import read_mcap, top_records
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 SCENARIO = CONFIG / 'store_separation.yaml'
@@ -50,19 +50,6 @@ def original(tmp_path_factory):
     return path, data, messages, summary.statistics.message_count
 
 
-def records(data: bytes):
-    """Walk the top-level records: (start, end) of each (a damaged length ends the walk)."""
-    out, position = [], 8
-    while position + 9 <= len(data):
-        length = struct.unpack_from('<Q', data, position + 1)[0]
-        end = position + 9 + length
-        if end > len(data):
-            break
-        out.append((position, end))
-        position = end
-    return out
-
-
 @st.composite
 def mutations(draw, data: bytes):
     """Draw one mutation of data, byte-level or record-level."""
@@ -80,7 +67,7 @@ def mutations(draw, data: bytes):
     if kind == 'insert':
         at = draw(st.integers(0, size))
         return kind, data[:at] + draw(st.binary(min_size=1, max_size=16)) + data[at:]
-    spans = records(data)
+    spans = top_records(data)
     k = draw(st.integers(0, len(spans) - 2))
     (start, end), (_, after) = spans[k], spans[k + 1]
     if kind == 'delete record':
