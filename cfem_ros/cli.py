@@ -151,10 +151,10 @@ def _same_file(a: str, b: str) -> bool:
         return os.path.realpath(a) == os.path.realpath(b)
 
 
-def _output_refused(path: str, overwrite: bool) -> Optional[str]:
+def _output_refused(path: str, overwrite: bool, what: str = 'a recording') -> Optional[str]:
     """Return why -o path cannot receive a recording (None if it can), before anything runs."""
     from cfem_ros.recording.outputs import output_problem
-    return output_problem(path, exists_ok=overwrite)
+    return output_problem(path, exists_ok=overwrite, what=what)
 
 
 def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
@@ -525,6 +525,9 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
     """Run a sweep on Dask into outdir (resuming it); exit 0, 1 (failed runs) or 2."""
     if workers is not None and workers < 1:
         return _error(f'--workers: is {workers}; expected a number of workers >= 1')
+    if os.path.exists(outdir) and not os.path.isdir(outdir):
+        return _error(f'-o {outdir}: is not a folder; expected the sweep folder (new, or one '
+                      'to resume)')
     try:
         study = _study_imports()
         sweep = study.Sweep.from_file(sweep_file, runs=runs)
@@ -578,6 +581,11 @@ def cmd_sweep(sweep_file: str, outdir: str, workers: Optional[int] = None,
 def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[int] = None,
                   scheduler: Optional[str] = None, csv: bool = False) -> int:
     """Compute a sweep file's metrics over recordings into a table; exit 0, 1 or 2."""
+    tables = [output] + ([os.path.splitext(output)[0] + '.csv'] if csv else [])
+    for table in tables:   # a device or folder is never replaced by the table
+        refused = _output_refused(table, overwrite=True, what='a table')
+        if refused:
+            return _error(refused)
     try:
         study = _study_imports()
         spec = study.load_sweep(metrics_file, runs=1)

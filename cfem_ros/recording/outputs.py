@@ -21,7 +21,8 @@ def _nearest_existing(directory: str) -> str:
     return directory or '.'
 
 
-def output_problem(path: str, *, exists_ok: bool = True, option: str = '-o') -> Optional[str]:
+def output_problem(path: str, *, exists_ok: bool = True, option: str = '-o',
+                   what: str = 'a recording') -> Optional[str]:
     """
     Return why path cannot receive a recording (None if it can).
 
@@ -31,7 +32,8 @@ def output_problem(path: str, *, exists_ok: bool = True, option: str = '-o') -> 
     there would block, or replace the device or folder with a file), as is
     a path under a regular file.
     """
-    expected = 'a regular file or a new path, e.g. runs/out.mcap'
+    example = 'runs/out.mcap' if what == 'a recording' else 'runs/table.parquet'
+    expected = f'a regular file or a new path, e.g. {example}'
     if not path:
         return f"{option} '': is empty; expected {expected}"
     if path.endswith(os.sep):
@@ -45,7 +47,7 @@ def output_problem(path: str, *, exists_ok: bool = True, option: str = '-o') -> 
     except OSError as err:
         return f'{option} {path}: cannot be examined ({err.strerror}); expected {expected}'
     if mode is not None and not stat.S_ISREG(mode):
-        return (f'{option} {path}: is {file_kind(mode)}; a recording is written only to '
+        return (f'{option} {path}: is {file_kind(mode)}; {what} is written only to '
                 f'{expected} (not even with --overwrite)')
     if mode is not None and not exists_ok:
         return f'{option} {path}: already exists; choose another name'

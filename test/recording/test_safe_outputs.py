@@ -56,6 +56,19 @@ def test_devices_fifos_folders_and_empty_names_are_refused_before_anything_runs(
     assert not list(folder.iterdir()) and regular.read_bytes() == b'old'
 
 
+def test_tables_and_sweep_folders_never_replace_a_device_or_file(tmp_path, capsys):
+    fifo = tmp_path / 'table.parquet'
+    os.mkfifo(fifo)
+    sweep = CONFIG / 'sweeps' / 'store_separation_sweep.yaml'
+    assert cli.main(['summarize', str(SCENARIO), '--metrics', str(sweep), '-o', str(fifo)]) == 2
+    assert 'is a named pipe (FIFO); a table is written only to' in one_error(capsys)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    regular = tmp_path / 'file'
+    regular.write_bytes(b'old')
+    assert cli.main(['sweep', str(sweep), '-o', str(regular)]) == 2
+    assert 'is not a folder' in one_error(capsys) and regular.read_bytes() == b'old'
+
+
 def test_missing_folders_are_made_also_through_dotdot(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert cli.main(['run', str(SCENARIO), '-o', 'sub/../out.mcap', '--duration', '0.05']) == 0
