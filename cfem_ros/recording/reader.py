@@ -59,15 +59,18 @@ def _clip(text: str, limit: int = REASON_LENGTH) -> str:
     return text if len(text) <= limit else text[:limit - 3] + '...'
 
 
+def _why(err: BaseException, limit: int = REASON_LENGTH) -> str:
+    """Return 'Type: reason' of an error (the type alone if it gives no reason)."""
+    reason = _clip(err, limit)
+    return f'{type(err).__name__}: {reason}' if reason else type(err).__name__
+
+
 def describe_failure(path: str, err: BaseException) -> str:
     """Return the one-line message for a failure while reading path."""
     if isinstance(err, OSError) and not isinstance(err, McapError):
         return f'{path}: cannot read ({err.strerror or _clip(err) or type(err).__name__})'
-    if isinstance(err, MemoryError):
-        what = 'a record declares a size larger than memory'
-    else:
-        reason = _clip(err)
-        what = f'{type(err).__name__}: {reason}' if reason else type(err).__name__
+    what = ('a record declares a size larger than memory' if isinstance(err, MemoryError)
+            else _why(err))
     return (f'{path}: damaged recording ({what}); `cfem-sim recover {path} -o FIXED.mcap` '
             'keeps its intact chunks')
 
@@ -225,8 +228,8 @@ def decoded_messages(reader, path: str, topics=None, log_time_order: bool = True
         except READ_ERRORS as err:
             raise RecordingError(
                 f'{path}: the schema {_clip(getattr(schema, "name", "?"), 80)!r} of '
-                f'{_clip(channel.topic, 80)} does not parse ({type(err).__name__}: '
-                f'{_clip(err, 80)}); expected ROS 2 message definitions (ros2msg)') from err
+                f'{_clip(channel.topic, 80)} does not parse ({_why(err, 80)}); expected ROS 2 '
+                'message definitions (ros2msg)') from err
         if decoder is None:
             continue
         try:
@@ -234,6 +237,6 @@ def decoded_messages(reader, path: str, topics=None, log_time_order: bool = True
         except READ_ERRORS as err:
             raise RecordingError(
                 f'{path}: a message cannot be decoded ({_clip(channel.topic, 80)} at log time '
-                f'{message.log_time} ns: {type(err).__name__}: {_clip(err, 80)}); expected '
-                'well-formed ROS 2 CDR payloads') from err
+                f'{message.log_time} ns: {_why(err, 80)}); expected well-formed ROS 2 CDR '
+                'payloads') from err
         yield channel, message, decoded
