@@ -18,6 +18,7 @@ file, what was wrong and what to do.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import io
 import os
@@ -67,8 +68,10 @@ def _why(err: BaseException, limit: int = REASON_LENGTH) -> str:
 
 def describe_failure(path: str, err: BaseException) -> str:
     """Return the one-line message for a failure while reading path."""
-    if isinstance(err, OSError) and not isinstance(err, McapError):
+    if isinstance(err, OSError) and not isinstance(err, McapError) \
+            and err.errno not in (errno.EINVAL, errno.EOVERFLOW, errno.EFBIG):
         return f'{path}: cannot read ({err.strerror or _clip(err) or type(err).__name__})'
+    # an offset or size out of range came from the file: damage, not the file system
     what = ('a record declares a size larger than memory' if isinstance(err, MemoryError)
             else _why(err))
     return (f'{path}: damaged recording ({what}); `cfem-sim recover {path} -o FIXED.mcap` '
