@@ -495,7 +495,8 @@ def interrupts(folder, rng, count, sweeps):
 
         def check(status, stdout, err, out=out, sig=sig, existing=existing):
             if sig == signal.SIGKILL:
-                partial = [p for p in folder.iterdir() if p.name.startswith(f'.{out.name}.partial')]
+                partial = [p for p in folder.iterdir()
+                           if p.name.startswith(f'.{out.name}.partial')]
                 if existing and out.read_bytes() != b'previous' and not readable(out):
                     return 'the existing output was damaged by a kill'
                 for p in partial:
