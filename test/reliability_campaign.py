@@ -241,8 +241,9 @@ def scenarios(folder, count, rng):
             paths = [p for p in leaves(document) if p]
             if paths:
                 set_at(document, rng.choice(paths), copy.deepcopy(rng.choice(NASTY)))
-        document['duration'] = min(float(document.get('duration', 1.0)), 0.2) \
-            if isinstance(document.get('duration', 1.0), (int, float)) else document['duration']
+        duration = document.get('duration', 1.0)
+        if type(duration) in (int, float) and abs(duration) < 1e300:
+            document['duration'] = min(float(duration), 0.2)   # short runs
         path = folder / f'scenario_{k}.yaml'
         path.write_text(dump(document))
         status, _, err = call('scenarios', ['check', path])
@@ -561,8 +562,17 @@ def main() -> int:
             if args.only and name not in args.only:
                 continue
             begun = time.monotonic()
-            run()
-            print(f'[{name}: {time.monotonic() - begun:.0f} s]', file=sys.stderr, flush=True)
+            try:
+                run()
+            except Exception:  # noqa: B902 - the campaign's own mistake: say so, go on
+                print(f'[{name}: the campaign script failed]\n{traceback.format_exc()}',
+                      file=sys.stderr, flush=True)
+            print(f'[{name}: {time.monotonic() - begun:.0f} s; commands so far '
+                  f'{sum(TOTALS.values())}, defects {sum(map(len, DEFECTS.values()))}]',
+                  file=sys.stderr, flush=True)
+            for family in sorted(TOTALS):
+                print(f'  {family}: {TOTALS[family]} commands, '
+                      f'{len(DEFECTS.get(family, []))} defects', file=sys.stderr, flush=True)
     print(f'reliability campaign, seed {args.seed}, {time.monotonic() - started:.0f} s')
     print(f'{"family":<45} {"commands":>9} {"defects":>8}')
     for family in sorted(TOTALS):
