@@ -423,6 +423,14 @@ def _check_draws(fail, variables, runs: int):
              f'at most {MAX_RUNS:,} runs in a sweep')
 
 
+def _check_at_time(fail, key: str, t: float, rate: float):
+    """Refuse an ``at`` time whose sample number overflows (beyond any run's samples)."""
+    from cfem_ros.recording import offline
+    if t * rate > offline.MAX_SAMPLES:
+        fail(key, f'is {t:g} s, sample {t * rate:.4g} at rate_hz {rate:g}',
+             f'a time within a run (at most {offline.MAX_SAMPLES:.4g} samples)')
+
+
 def _check_unique_at(fail, metrics):
     """Refuse an ``at`` entry given twice (its columns would be duplicates)."""
     seen = {}
@@ -673,6 +681,7 @@ def _parse_metrics(fail, metrics, base, rate) -> Metrics:
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) \
                 or t < 0:
             fail(f'{key}.time', f'is {_show(t)}', 'a time >= 0 s')
+        _check_at_time(fail, f'{key}.time', t, rate)
         if abs(t * rate - round(t * rate)) > ON_GRID * max(1.0, t * rate):
             fail(f'{key}.time', f'is {t!r} s, between two samples at rate_hz {rate:g}',
                  f'a multiple of 1/rate_hz = {1 / rate:g} s')
