@@ -32,6 +32,8 @@ AT = {'at': [{'time': 0.1, 'body': 'store'}]}
     ({'metrics': {'at': [{'time': 0.1, 'body': 'store'}, {'time': 0.1, 'body': 'store'}]}},
      [], 'metrics.at[1]: is the same as metrics.at[0]'),
     ({'vary': {'bodies.store.' + 'x' * 500: {'uniform': [1.0, 2.0]}}}, [], 'bodies.store.x'),
+    ({'metrics': {'at': [{'time': 1e308, 'body': 'store'}]}}, [],
+     'metrics.at[0].time: is 1e+308 s, sample inf'),
 ])
 def test_sweep_limits_are_refused_before_anything_runs(tmp_path, capsys, settings, argv, words):
     settings = dict(settings)
