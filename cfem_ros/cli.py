@@ -21,6 +21,7 @@ from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
+from cfem_ros.recording.errors import OutputError
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 import numpy as np
 
@@ -58,16 +59,23 @@ def _describe_release(joint) -> str:
 
 def cmd_check(scenario: str) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
+    from cfem_ros.core.startcheck import start_problems
     try:
         model = load_scenario(scenario)
         with np.errstate(all='raise', under='ignore'):
             sim = Simulator(model)
+        errors, warnings = start_problems(sim)
     except CfemError as err:
         return _error(str(err))
     except (ArithmeticError, np.linalg.LinAlgError) as err:
         why = ' '.join(str(err).split())[:120]
         return _error(f'{scenario}: the joints cannot be analysed at t = 0 '
                       f'({type(err).__name__}: {why}); expected a regular configuration')
+    if errors:
+        more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
+        return _error(f'{scenario}: cannot start: {errors[0]}{more}')
+    for text in warnings:
+        print(f'WARNING: {scenario}: {text}', file=sys.stderr)
     print(f'{scenario}: valid scenario {model.name!r}')
     print(f'  world frame {model.frame_id!r}, gravity {_vec(model.gravity)} m/s^2, '
           f'dt {model.dt:g} s, duration {model.duration:g} s, '
@@ -143,12 +151,19 @@ def _print_state(sim):
     print(f'final state at t = {sim.t:.9g} s:')
     position, quat = sim.position, sim.orientation
     velocity, rates = sim.velocity, np.degrees(sim.rates)
-    rpy = rotations.to_rpy_deg(quat)
+    with np.errstate(all='ignore'):
+        norms = np.linalg.norm(quat, axis=1)
+    # a failed run's state may hold overflowing numbers: such an attitude has no angles
+    rotation = np.isfinite(norms) & (norms > 0.0) & np.isfinite(quat).all(axis=1)
+    rpy = np.full((len(quat), 3), np.nan)
+    if rotation.any():
+        rpy[rotation] = rotations.to_rpy_deg(quat[rotation] / norms[rotation, None])
     for i, body in enumerate(sim.model.bodies):
         if body.fixed:
             continue
-        print(f'  {body.name}: CG {_vec(position[i])} m, roll/pitch/yaw '
-              f'{_vec(rpy[i])} deg, velocity {_vec(velocity[i])} m/s (world), '
+        attitude = f'{_vec(rpy[i])} deg' if rotation[i] else 'undefined (no finite attitude)'
+        print(f'  {body.name}: CG {_vec(position[i])} m, roll/pitch/yaw {attitude}, '
+              f'velocity {_vec(velocity[i])} m/s (world), '
               f'rates {_vec(rates[i])} deg/s (body)')
 
 
@@ -157,6 +172,12 @@ def _same_file(a: str, b: str) -> bool:
         return os.path.samefile(a, b)
     except OSError:
         return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _output_refused(path: str, overwrite: bool, what: str = 'a recording') -> Optional[str]:
+    """Return why -o path cannot receive a recording (None if it can), before anything runs."""
+    from cfem_ros.recording.outputs import output_problem
+    return output_problem(path, exists_ok=overwrite, what=what)
 
 
 def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
@@ -192,6 +213,9 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
     low, high = offline.RATE_RANGE
     if not (math.isfinite(rate) and low <= rate <= high):
         return _error(f'--rate: is {rate:g}; expected a sample rate from {low:g} to {high:g} Hz')
+    refused = _output_refused(output, overwrite=True)
+    if refused:
+        return _error(refused)
     if _same_file(output, scenario):
         return _error(f'-o {output}: is the scenario file itself; choose another output')
     if inputs and _same_file(output, inputs):
@@ -248,6 +272,11 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
                                  interpolate_odometry=interpolate)
             except Interrupted:
                 pass   # the recording is finished (and moved onto output) on the way out
+    except OutputError as err:   # a full disk: the run stopped there, nothing half-written
+        samples = state.samples if state is not None else 0
+        print(f'ERROR: the recording failed at t = {sim.t:.9g} s ({samples} samples '
+              f'taken): {err}', file=sys.stderr)
+        return EXIT_FAILED
     except CfemError as err:
         return _error(str(err))
     finally:
@@ -329,21 +358,33 @@ def cmd_info(recording: str) -> int:
 
 
 def cmd_recover(broken: str, fixed: str) -> int:
-    """Copy the complete messages of a cut recording into a new one; exit 0 or 2."""
+    """Copy the verifiably intact messages of a cut or damaged recording; exit 0, 1 or 2."""
     if _same_file(broken, fixed):
         return _error(f'-o {fixed}: is the broken file itself; choose another output')
+    refused = _output_refused(fixed, overwrite=False)
+    if refused:
+        return _error(refused)
     try:
         from cfem_ros.recording.recover import recover
         report = recover(broken, fixed)
+    except OutputError as err:
+        print(f'ERROR: {err}', file=sys.stderr)
+        return EXIT_FAILED
     except CfemError as err:
         return _error(str(err))
     if report.complete:
-        where = 'the file was complete (footer found)'
+        where = 'the file was complete (data end found)'
     else:
         where = (f'the file was cut at byte {report.cut_at} of {report.size} '
                  f'({report.note})')
+    unverified = (f', {report.unverified} of them from the cut last chunk (no CRC to check; '
+                  'they decode)' if report.unverified else '')
     print(f'{fixed}: {report.messages} messages recovered from {report.chunks} complete '
-          f'chunks, up to log time {report.end_ns} ns; {where}')
+          f'chunks{unverified}, up to log time {report.end_ns} ns; {where}')
+    if report.skipped or report.bad_chunks or report.damage:
+        print(f'  skipped: {report.skipped} message(s), {report.bad_chunks} damaged chunk(s)')
+        for place in report.damage:
+            print(f'  damage at {place}')
     return EXIT_OK
 
 
@@ -481,12 +522,35 @@ def _raise_interrupted(signum, frame):
     raise Interrupted(signum)
 
 
-def _close(client, cluster):
-    """Close a Dask client and its local cluster (either may be None)."""
-    if client is not None:
-        client.close()
-    if cluster is not None:
-        cluster.close()
+def _close(client, cluster, hold: bool = True):
+    """
+    Close a Dask client and its local cluster (either may be None), whatever comes meanwhile.
+
+    A SIGINT or SIGTERM during the closing is held until it is done (an
+    exception raised inside Dask's shutdown would leave its comms half
+    closed and their tracebacks on stderr); Dask's own logs of connections
+    closing under it are not shown. Return the signal held, or None.
+    """
+    held = []
+    previous = [signal.signal(s, (lambda signum, frame: held.append(signum)) if hold
+                              else signal.getsignal(s))
+                for s in (signal.SIGINT, signal.SIGTERM)]
+    quiet = logging.getLogger('distributed')
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)
+    try:
+        for thing in (client, cluster):
+            if thing is None:
+                continue
+            try:
+                thing.close()
+            except Exception:  # noqa: B902 - a comm already closed: nothing left to close
+                pass
+    finally:
+        quiet.setLevel(level)
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    return held[0] if held else None
 
 
 def cmd_plan(plan: str) -> int:
@@ -604,6 +668,9 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
         return _error(f'--workers: is {workers}; expected a number of workers >= 1')
     if design is not None and method != 'mc':
         return _error(f'--method {method} and --design {design}: expected one of them')
+    if os.path.exists(outdir) and not os.path.isdir(outdir):
+        return _error(f'-o {outdir}: is not a folder; expected the sweep folder (new, or one '
+                      'to resume)')
     if design is not None or method != 'mc':
         return cmd_study(sweep_file, outdir, method, design, workers, scheduler, runs,
                          record, target_cov)
@@ -619,7 +686,7 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
     print(f'{sweep_file}: {total} runs, {total - len(todo)} already in {outdir}',
           file=sys.stderr)
     started = time.monotonic()
-    client = cluster = None
+    client = cluster = late = None
     # SIGINT and SIGTERM stop the waiting here, so that the cluster is closed (no leaked
     # worker processes or semaphores) and the user is told what is kept
     previous = [signal.signal(s, _raise_interrupted) for s in (signal.SIGINT, signal.SIGTERM)]
@@ -631,7 +698,7 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
     except Interrupted as stop:
         for s in (signal.SIGINT, signal.SIGTERM):   # a second one ends at once
             signal.signal(s, exit_now)
-        _close(client, cluster)
+        _close(client, cluster, hold=False)
         client = cluster = None
         from cfem_ros.study.sweep import saved_runs
         print(f'\ninterrupted by {stop}: {saved_runs(outdir)} of {total} runs are saved in '
@@ -640,9 +707,12 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
     except OSError as err:
         return _error(f'{scheduler or "local cluster"}: {err}')
     finally:
-        _close(client, cluster)
+        late = _close(client, cluster)
         signal.signal(signal.SIGINT, previous[0])
         signal.signal(signal.SIGTERM, previous[1])
+    if late is not None:
+        print(f'{signal.Signals(late).name} while the cluster was closing: the sweep had '
+              f'finished, its table is complete in {outdir}', file=sys.stderr)
     failed = int((table['status'] == 'failed').sum())
     wall = time.monotonic() - started
     touched = int((table['status'] == 'contact').sum())
@@ -655,6 +725,8 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
         from cfem_ros.study import methods
         _print_fractions(sweep.spec, table)
         methods.write_estimate(outdir, methods.mc_estimate(sweep.spec, table))
+    if late is not None:
+        return 128 + late
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -663,9 +735,12 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
                   overwrite: bool = False) -> int:
     """Compute a sweep file's metrics over recordings into a table; exit 0, 1 or 2."""
     tables = [output] + ([os.path.splitext(output)[0] + '.csv'] if csv else [])
-    for table in tables:
+    for table in tables:   # a device or folder is never replaced by the table
         if not overwrite and os.path.lexists(table):
             return _error(f'{table}: already exists; pass --overwrite to replace it')
+        refused = _output_refused(table, overwrite=True, what='a table')
+        if refused:
+            return _error(refused)
     try:
         study = _study_imports()
         spec = study.load_sweep(metrics_file, runs=1)
@@ -677,10 +752,7 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
             client, cluster = _dask_client(workers, scheduler)
         table = study.summarize(recordings, spec.metrics, client)
     finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        _close(client, cluster)
     from cfem_ros.study.sweep import write_atomic
     try:
         write_atomic(table, output)
@@ -754,9 +826,19 @@ def cmd_rerun(outdir: str, run: int, output: str) -> int:
     return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors are one ERROR line (exit 2), as every other."""
+
+    def error(self, message: str):
+        """Print one ``ERROR:`` line naming the command and where to look; exit 2."""
+        text = ' '.join(message.split())
+        print(f'ERROR: {self.prog}: {text}; see {self.prog} --help', file=sys.stderr)
+        sys.exit(EXIT_BAD_INPUT)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser of cfem-sim."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog='cfem-sim',
         description='Simulate rigid bodies joined by releasable joints (CFEM), no ROS needed.')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')

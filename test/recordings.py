@@ -91,3 +91,36 @@ def read_checked(path):
         assert topic == topic_b and log_time == time_b == publish_time
         assert list(map(repr, fields(a))) == list(map(repr, fields(b)))
     return header, summary, ours
+
+
+def top_records(data: bytes) -> list:
+    """Walk an MCAP file's top-level records: (start, end) of each (a bad length ends it)."""
+    out, position = [], 8
+    while position + 9 <= len(data):
+        length = int.from_bytes(data[position + 1:position + 9], 'little')
+        if position + 9 + length > len(data):
+            break
+        out.append((position, position + 9 + length))
+        position += 9 + length
+    return out
+
+
+def rewrite_zstd(source, target, chunk_size: int = 32 * 1024):
+    """Write source's schemas, channels, metadata and messages again in zstd chunks."""
+    from mcap.writer import CompressionType, Writer
+    with open(source, 'rb') as stream, open(target, 'wb') as out:
+        reader = make_reader(stream)
+        writer = Writer(out, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        writer.start('ros2', 'test')
+        summary = reader.get_summary()
+        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data)
+                   for sid, s in summary.schemas.items()}
+        channels = {cid: writer.register_channel(c.topic, c.message_encoding,
+                                                 schemas[c.schema_id], dict(c.metadata))
+                    for cid, c in summary.channels.items()}
+        for record in reader.iter_metadata():
+            writer.add_metadata(record.name, dict(record.metadata))
+        for _, channel, message in reader.iter_messages():
+            writer.add_message(channels[channel.id], message.log_time, message.data,
+                               message.publish_time, message.sequence)
+        writer.finish()

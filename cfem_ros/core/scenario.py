@@ -196,20 +196,69 @@ _Constructor.add_constructor(BaseResolver.DEFAULT_MAPPING_TAG,
                              _Constructor.construct_unique_mapping)
 
 
+class Yaml11Number(str):
+    """
+    A YAML 1.1 number in a notation a reader rarely means: sexagesimal, hexadecimal, octal, binary.
+
+    YAML 1.1 (PyYAML) reads ``1:30`` as 90, ``0x10`` as 16 and ``010`` as 8.
+    The scenario loader keeps such a value as written (a string, fine where
+    text is meant) and ``_Checker.number`` refuses it where a number is
+    meant, naming both readings.
+    """
+
+    kind: str = ''
+    reading: Any = None
+
+
+_INT_TAG, _FLOAT_TAG = 'tag:yaml.org,2002:int', 'tag:yaml.org,2002:float'
+_YAML11_TAG = 'tag:cfem_ros,2026:yaml11-number'
+_YAML11_NUMBER = re.compile(r"""^(?:[-+]?0b[0-1_]+
+    |[-+]?0[0-7_]+
+    |[-+]?0x[0-9a-fA-F_]+
+    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?)$""", re.X)
+_DECIMAL_INT = re.compile(r'^[-+]?(?:0|[1-9][0-9_]*)$')
+#: Decimal floats, also without a dot or an exponent sign (1e5, 2.5E-3: YAML 1.2, which
+#: PyYAML's YAML 1.1 reads as strings), infinities and NaN (refused later as not finite).
+_DECIMAL_FLOAT = re.compile(r"""^(?:[-+]?[0-9][0-9_]*(?:\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                                            |[eE][-+]?[0-9]+)
+    |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X)
+
+
 class _Resolver(Resolver):
-    """
-    PyYAML's resolver, reading YAML 1.2 floats too.
+    """YAML 1.1's implicit types, with decimal numbers only (see ``Yaml11Number``)."""
 
-    PyYAML follows YAML 1.1, where an exponent needs a dot and a sign
-    (``5.0e+4``): ``5.0e4``, ``1e-3`` and ``2E5`` would be strings. YAML 1.2
-    (the core schema) reads them as numbers, as users write them.
-    """
+    yaml_implicit_resolvers = {
+        first: [(tag, regexp) for tag, regexp in resolvers if tag not in (_INT_TAG, _FLOAT_TAG)]
+        for first, resolvers in Resolver.yaml_implicit_resolvers.items()}
 
 
-_Resolver.add_implicit_resolver(
-    'tag:yaml.org,2002:float',
-    re.compile(r'^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)$'),
-    list('-+.0123456789'))
+for _tag, _pattern, _first in ((_YAML11_TAG, _YAML11_NUMBER, '-+0123456789'),
+                               (_INT_TAG, _DECIMAL_INT, '-+0123456789'),
+                               (_FLOAT_TAG, _DECIMAL_FLOAT, '-+0123456789.')):
+    for _char in _first:   # first: checked before the timestamp's resolver
+        _Resolver.yaml_implicit_resolvers.setdefault(_char, [])
+    _Resolver.add_implicit_resolver(_tag, _pattern, list(_first))
+for _char, _resolvers in _Resolver.yaml_implicit_resolvers.items():   # numbers first
+    _resolvers.sort(key=lambda item: item[0] not in (_YAML11_TAG, _INT_TAG, _FLOAT_TAG))
+
+
+def _construct_yaml11(constructor, node) -> Yaml11Number:
+    text = constructor.construct_scalar(node)
+    value = Yaml11Number(text)
+    plain = text.lstrip('+-').lower()
+    value.kind = ('sexagesimal (base 60)' if ':' in plain else 'hexadecimal' if 'x' in plain
+                  else 'binary' if 'b' in plain else 'octal')
+    try:
+        value.reading = (SafeConstructor.construct_yaml_float(constructor, node) if '.' in text
+                         else SafeConstructor.construct_yaml_int(constructor, node))
+    except (ValueError, OverflowError):
+        value.reading = None
+    return value
+
+
+_Constructor.add_constructor(_YAML11_TAG, _construct_yaml11)
 
 
 class PythonLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
@@ -296,7 +345,7 @@ def _display(path) -> str:
     return text if text.isprintable() else repr(text)
 
 
-def _file_kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
     if stat.S_ISDIR(mode):
         return 'a directory'
     if stat.S_ISFIFO(mode):
@@ -330,7 +379,7 @@ def read_text(path, source: Optional[str] = None) -> str:
     try:
         mode = os.stat(path).st_mode
         if not stat.S_ISREG(mode):
-            refuse(f'is {_file_kind(mode)}')
+            refuse(f'is {file_kind(mode)}')
         fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0))
     except (OSError, ValueError) as err:
         refuse(f'cannot read the file ({getattr(err, "strerror", None) or err})')
@@ -338,7 +387,7 @@ def read_text(path, source: Optional[str] = None) -> str:
         try:
             info = os.fstat(stream.fileno())    # the file opened, not the one stat saw
             if not stat.S_ISREG(info.st_mode):
-                refuse(f'is {_file_kind(info.st_mode)}')
+                refuse(f'is {file_kind(info.st_mode)}')
             if info.st_size > MAX_FILE_BYTES:
                 refuse(f'is {info.st_size:,} bytes', limit)
             data = stream.read(MAX_FILE_BYTES + 1)
@@ -432,6 +481,10 @@ class _Checker:
 
     def number(self, value, key: str, *, minimum=None, positive=False,
                limit: Optional[float] = None) -> float:
+        if isinstance(value, Yaml11Number):
+            reading = '' if value.reading is None else f' ({value.reading!r})'
+            self.fail(key, f'is {value} as written, a YAML 1.1 {value.kind} number{reading}',
+                      'a decimal number (write what you mean, e.g. 90 or 16.0)')
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f'is {_show(value)}', 'a number')
         try:
@@ -824,10 +877,10 @@ def _parse_motion_table(check: _Checker, value, key: str):
         check.fail(key, f'has {len(rows)} row(s)', 'at least 2 rows')
     times = rows[:, 0]
     steps = np.diff(times)
-    if not (steps > 0).all():
-        k = int(np.flatnonzero(steps <= 0)[0]) + 1
-        check.fail(f'{key}[{k}]', f'has time {times[k]:g} s after {times[k - 1]:g} s',
-                   'strictly increasing times')
+    if not (steps >= MIN_DT).all():
+        k = int(np.flatnonzero(~(steps >= MIN_DT))[0]) + 1
+        check.fail(f'{key}[{k}]', f'has time {times[k]!r} s after {times[k - 1]!r} s',
+                   f'strictly increasing times, at least {MIN_DT:g} s apart')
     if times[0] > 0.0:
         check.fail(f'{key}[0]', f'starts at {times[0]:g} s', 'a table that starts at or '
                    'before t = 0')
@@ -848,6 +901,7 @@ def _read_motion_csv(check: _Checker, name: str, key: str) -> np.ndarray:
         text = read_text(path, path)
     except ScenarioError as err:
         check.fail(key, f'{_show(name)} cannot be read ({err})', 'a readable CSV file')
+    text = text.removeprefix('\ufeff')   # a byte order mark, as a scenario file may have
     lines = [line for line in text.splitlines() if line.strip() and not line.startswith('#')]
     order = list(range(8))
     if lines and not _numeric(lines[0].split(',')[0]):
@@ -869,6 +923,10 @@ def _read_motion_csv(check: _Checker, name: str, key: str) -> np.ndarray:
         if not np.isfinite(values).all():
             check.fail(f'{key}[{k}]', f'{path}: row {_show(line)} is not finite',
                        'finite numbers')
+        if max(abs(v) for v in values) > MAX_MAGNITUDE:
+            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)} holds a magnitude beyond '
+                       f'{MAX_MAGNITUDE:g}', f'times (s) and positions (m) of magnitude at most '
+                       f'{MAX_MAGNITUDE:g}, as everywhere in a scenario')
         rows[k] = values
     return rows
 

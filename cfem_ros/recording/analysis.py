@@ -19,22 +19,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 import json
-import os
 import re
 from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
+from cfem_ros.recording.reader import check_mcap, decoded_messages, open_mcap, reading
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 __all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_deg',
            'check_mcap', 'compare_runs', 'euler_continuous', 'open_run']
 
-MCAP_MAGIC = b'\x89MCAP0\r\n'
 BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
@@ -284,32 +280,6 @@ def euler_continuous(euler_deg: np.ndarray) -> np.ndarray:
     return out
 
 
-def check_mcap(path: str) -> None:
-    """
-    Raise RecordingError unless path is a complete MCAP file.
-
-    The message says what is wrong: missing, not MCAP, or truncated (no
-    footer: the writer did not finish, e.g. it was killed).
-    """
-    try:
-        size = os.path.getsize(path)
-        with open(path, 'rb') as stream:
-            head = stream.read(len(MCAP_MAGIC))
-            stream.seek(max(0, size - len(MCAP_MAGIC)))
-            tail = stream.read(len(MCAP_MAGIC))
-    except OSError as err:
-        raise RecordingError(f'{path}: cannot read ({err.strerror})') from err
-    if head != MCAP_MAGIC:
-        raise RecordingError(f'{path}: not an MCAP file (it does not start with the MCAP '
-                             'magic bytes); expected a recording from cfem-sim, cfem_node or '
-                             'ros2 bag record -s mcap')
-    if size < 2 * len(MCAP_MAGIC) or tail != MCAP_MAGIC:
-        raise RecordingError(
-            f'{path}: truncated MCAP file ({size} bytes, no footer): the writer did not '
-            'finish it (killed?). Its complete messages can be recovered with '
-            f'`cfem-sim recover {path} -o FIXED.mcap`')
-
-
 def _choose_namespace(path, found: set, namespace: Optional[str]) -> str:
     if namespace is not None:
         namespace = namespace.rstrip('/')
@@ -351,37 +321,30 @@ def open_run(path: str, namespace: Optional[str] = None,
         ``bodies/<body>/pose`` topic.
 
     """
-    check_mcap(path)
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            summary = reader.get_summary()
-            if summary is None:
-                raise RecordingError(f'{path}: MCAP file without a summary section; '
-                                     'expected a finished recording')
-            schemas = summary.schemas
-            topics = {}
-            renamed = dict(topic_map or {})
-            for channel in summary.channels.values():
-                channel = _renamed(channel, renamed)
-                count = (summary.statistics.channel_message_counts.get(channel.id, 0)
-                         if summary.statistics else 0)
-                schema = schemas.get(channel.schema_id)
-                topics[channel.topic] = (schema.name if schema else '?', count)
-            spaces = {m['ns'] for t in topics
-                      for m in [BODY_TOPIC.match(t)] if m and m['kind'] == 'pose'}
-            ns = _choose_namespace(path, spaces, namespace)
-            metadata = {}
-            for record in reader.iter_metadata():
-                if record.name == 'cfem_ros':
-                    metadata = dict(record.metadata)
-            raw = _read_messages(reader, ns, renamed)
-    except RecordingError:
-        raise
-    except (McapError, ValueError, KeyError, AttributeError, EOFError) as err:
-        raise RecordingError(f'{path}: cannot decode ({type(err).__name__}: {err}); '
-                             'expected CDR messages with ros2msg schemas') from err
-    return _assemble(path, ns, topics, metadata, raw)
+    with open_mcap(path) as reader:
+        summary = reader.get_summary()
+        if summary is None:
+            raise RecordingError(f'{path}: MCAP file without a summary section; '
+                                 'expected a finished recording')
+        schemas = summary.schemas
+        topics = {}
+        renamed = dict(topic_map or {})
+        for channel in summary.channels.values():
+            channel = _renamed(channel, renamed)
+            count = (summary.statistics.channel_message_counts.get(channel.id, 0)
+                     if summary.statistics else 0)
+            schema = schemas.get(channel.schema_id)
+            topics[channel.topic] = (schema.name if schema else '?', count)
+        spaces = {m['ns'] for t in topics
+                  for m in [BODY_TOPIC.match(t)] if m and m['kind'] == 'pose'}
+        ns = _choose_namespace(path, spaces, namespace)
+        metadata = {}
+        for record in reader.iter_metadata():
+            if record.name == 'cfem_ros':
+                metadata = dict(record.metadata)
+        raw = _read_messages(decoded_messages(reader, path), ns, renamed)
+    with reading(path):
+        return _assemble(path, ns, topics, metadata, raw)
 
 
 def _renamed(channel, renamed: dict):
@@ -392,11 +355,11 @@ def _renamed(channel, renamed: dict):
     return _replace(channel, topic=renamed[channel.topic])
 
 
-def _read_messages(reader, ns: str, renamed: Optional[dict] = None) -> dict:
+def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
     raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
            'relative_pose': {}, 'relative_twist': {}, 'reference': {},
            'joint_in': {}, 'applied_in': {}, 'world': set()}   # *_in: loads, frame_id
-    for _, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+    for channel, _, decoded in messages:
         topic = (renamed or {}).get(channel.topic, channel.topic)
         relative = RELATIVE_TOPIC.match(topic)
         if relative and relative['ns'] == ns:
@@ -474,6 +437,19 @@ def _world_axes_loads(raw: dict):
                 raw[kind][name] = [r[:2] for r in rows]
 
 
+def _check_attitudes(path: str, topic: str, since_ns: np.ndarray, quat: np.ndarray):
+    """Refuse poses whose quaternion is not a rotation (zero or non-finite norm)."""
+    norms = np.linalg.norm(quat, axis=1) if len(quat) else np.zeros(0)
+    bad = ~(np.isfinite(norms) & (norms > 1e-6))
+    if bad.any():
+        k = int(np.argmax(bad))
+        shown = ', '.join(f'{v:g}' for v in quat[k])
+        raise RecordingError(
+            f'{path}: {topic} at t = {since_ns[k] / 1e9:.9g} s has the quaternion '
+            f'[{shown}], which is not a rotation ({int(bad.sum())} such pose(s)); '
+            'expected unit quaternions (x, y, z, w)')
+
+
 def _assemble(path, ns, topics, metadata, raw) -> Run:
     _world_axes_loads(raw)
     poses = raw['pose']
@@ -487,6 +463,7 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
         stamps = np.array([r[0] for r in rows], dtype=np.int64)
         values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)
         quat = values[:, 3:7]
+        _check_attitudes(path, f'{ns}/bodies/{name}/pose', stamps - start_ns, quat)
         twist = np.full((len(rows), 6), np.nan)
         index = {s: i for i, s in enumerate(stamps.tolist())}
         for when, v in raw['twist'].get(name, []):
@@ -515,6 +492,8 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
         rows.sort(key=lambda r: r[0])
         stamps = np.array([r[0] for r in rows], dtype=np.int64)
         values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)
+        _check_attitudes(path, f'{ns}/bodies/{name}/relative_pose', stamps - start_ns,
+                         values[:, 3:])
         twist = np.full((len(rows), 6), np.nan)
         index = {s: i for i, s in enumerate(stamps.tolist())}
         for when, v in raw['relative_twist'].get(name, []):

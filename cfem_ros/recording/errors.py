@@ -9,3 +9,7 @@ from cfem_ros.core.errors import CfemError
 
 class RecordingError(CfemError):
     """A recording that cannot be written or read."""
+
+
+class OutputError(RecordingError):
+    """A recording that could not be written to the end (a full disk, a file size limit)."""

@@ -23,8 +23,9 @@ from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.recording import visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
-from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.msgdefs import DEFINITIONS
+from cfem_ros.recording.outputs import output_problem
 import mcap
 from mcap.opcode import Opcode
 from mcap_ros2._dynamic import serialize_dynamic
@@ -168,7 +169,11 @@ class Recorder:
         self.overwrite = overwrite
         #: Where the messages go until ``finish`` (path itself unless atomic).
         self.writing_path = partial_path(path) if atomic else path
-        directory = os.path.dirname(os.path.abspath(path))
+        refused = output_problem(path, option='recording')
+        if refused:
+            raise RecordingError(refused)
+        # the folder as written ('sub/..' needs sub), not normalised
+        directory = os.path.dirname(path) or os.curdir
         try:
             os.makedirs(directory, exist_ok=True)
             if atomic and not overwrite and os.path.lexists(path):
@@ -326,8 +331,7 @@ class Recorder:
                 self._flush_samples()
                 self._writer.finish()
             except OSError as err:
-                raise RecordingError(
-                    f'{self.writing_path}: cannot write ({err.strerror})') from err
+                raise self._abandon(err) from err
             finally:
                 self._stream.close()
             if self.writing_path != self.path:
@@ -355,7 +359,36 @@ class Recorder:
     def __enter__(self) -> 'Recorder':
         return self
 
-    def __exit__(self, *exc_info):
+    def _abandon(self, err: OSError) -> OutputError:
+        """
+        Give up a recording that cannot be written (a full disk): return the error to raise.
+
+        An atomic recording's partial file is removed (an existing file at
+        path is untouched); a direct one is left as it is, cut, for
+        ``cfem-sim recover``.
+        """
+        self._finished = True
+        try:
+            self._stream.close()
+        except OSError:
+            pass
+        where = f'after {self.message_count} messages'
+        if self.writing_path != self.path:
+            try:
+                os.unlink(self.writing_path)
+            except OSError:
+                pass
+            kept = (f'the partial recording {self.writing_path} was removed'
+                    + ('' if not os.path.lexists(self.path) else f'; {self.path} is untouched'))
+        else:
+            kept = (f'{self.path} is left cut; `cfem-sim recover {self.path} -o FIXED.mcap` '
+                    'keeps its complete chunks')
+        return OutputError(f'{self.writing_path}: cannot write ({err.strerror or err}) '
+                           f'{where}; {kept}')
+
+    def __exit__(self, exc_type, exc, traceback):
+        if isinstance(exc, OSError) and not self._finished:   # a write failed (disk full)
+            raise self._abandon(exc) from exc
         self.finish()
 
 

@@ -5,17 +5,13 @@
 from __future__ import annotations
 
 from dataclasses import replace
-import struct
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
 from cfem_ros.core.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
                                   RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
-from cfem_ros.recording.analysis import check_mcap
 from cfem_ros.recording.errors import RecordingError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
-from mcap_ros2.decoder import DecoderFactory
+from cfem_ros.recording.reader import decoded_messages, open_mcap
 
 
 def read_inputs(path: str) -> list:
@@ -30,41 +26,14 @@ def read_inputs(path: str) -> list:
     Raises
     ------
     InputError
-        If the file is missing, not MCAP, holds no input topic, or a
-        message's payload does not decode.
+        If the file is missing, not a regular file, not MCAP, damaged,
+        holds no input topic, or a message's payload does not decode.
 
     """
     try:
-        check_mcap(path)   # the same words as info and plot for a foreign or cut file
-    except RecordingError as err:
+        found, start_ns = _read(path)
+    except RecordingError as err:   # run --inputs: an input error, as every other one
         raise InputError(str(err)) from err
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            start_ns = _start_ns(reader)
-            found = []
-            for _, channel, message, decoded in reader.iter_decoded_messages():
-                wrench = WRENCH_TOPIC.match(channel.topic)
-                if wrench:
-                    w = decoded.wrench
-                    header = decoded.header
-                    found.append((message.log_time, wrench_input(
-                        wrench['body'], [w.force.x, w.force.y, w.force.z],
-                        [w.torque.x, w.torque.y, w.torque.z], header.frame_id,
-                        header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
-                elif RELEASE_TOPIC.match(channel.topic):
-                    found.append((message.log_time, release_input(decoded.data.strip())))
-                elif ODOM_TOPIC.match(channel.topic):
-                    found.append((message.log_time, _odometry(
-                        ODOM_TOPIC.match(channel.topic)['body'], decoded)))
-    except OSError as err:
-        raise InputError(f'{path}: cannot read ({err.strerror})') from err
-    except (McapError, ValueError, KeyError, AttributeError) as err:
-        raise InputError(f'{path}: not a readable ROS 2 MCAP recording ({err})') from err
-    except (struct.error, IndexError, EOFError) as err:
-        # a message whose payload does not decode as its schema (truncated, corrupt)
-        raise InputError(f'{path}: a message cannot be decoded ({type(err).__name__}: {err}); '
-                         'expected well-formed ROS 2 CDR payloads') from err
     if not found:
         raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench, '
                          '.../bodies/<body>/odom or .../release); nothing to replay')
@@ -75,6 +44,28 @@ def read_inputs(path: str) -> list:
             for stamp_ns, item in found]
 
 
+def _read(path: str) -> tuple:
+    """Return the (log time, input) of a log's input messages, and its start stamp or None."""
+    with open_mcap(path) as reader:
+        start_ns = _start_ns(reader)
+        found = []
+        for channel, message, decoded in decoded_messages(reader, path):
+            wrench = WRENCH_TOPIC.match(channel.topic)
+            if wrench:
+                w = decoded.wrench
+                header = decoded.header
+                found.append((message.log_time, wrench_input(
+                    wrench['body'], [w.force.x, w.force.y, w.force.z],
+                    [w.torque.x, w.torque.y, w.torque.z], header.frame_id,
+                    header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
+            elif RELEASE_TOPIC.match(channel.topic):
+                found.append((message.log_time, release_input(decoded.data.strip())))
+            elif ODOM_TOPIC.match(channel.topic):
+                found.append((message.log_time, _odometry(
+                    ODOM_TOPIC.match(channel.topic)['body'], decoded)))
+    return found, start_ns
+
+
 def recorded_interpolation(path: str) -> Optional[bool]:
     """
     Tell whether the node that recorded path interpolated odometry (None: it does not say).
@@ -82,8 +73,8 @@ def recorded_interpolation(path: str) -> Optional[bool]:
     From the ``interpolate_odometry`` of its ``cfem_ros`` metadata; the
     file was read by ``read_inputs`` already, so errors are not expected.
     """
-    with open(path, 'rb') as stream:
-        for record in make_reader(stream).iter_metadata():
+    with open_mcap(path, whole=False) as reader:
+        for record in reader.iter_metadata():
             if record.name == 'cfem_ros' and 'interpolate_odometry' in record.metadata:
                 return record.metadata['interpolate_odometry'] == 'true'
     return None

@@ -15,10 +15,8 @@ from dataclasses import dataclass, field
 import json
 import re
 
-from cfem_ros.recording.analysis import check_mcap
 from cfem_ros.recording.errors import RecordingError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
+from cfem_ros.recording.reader import open_mcap
 
 EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
 
@@ -64,34 +62,25 @@ def read_summary(path: str) -> Summary:
         ``cfem-sim recover``) or has no summary.
 
     """
-    check_mcap(path)
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream)
-            summary = reader.get_summary()
-            if summary is None or summary.statistics is None:
-                raise RecordingError(
-                    f'{path}: MCAP file without a summary or statistics; expected a finished '
-                    f'recording (`cfem-sim recover {path} -o FIXED.mcap` writes one)')
-            stats = summary.statistics
-            topics = {}
-            for channel in summary.channels.values():
-                schema = summary.schemas.get(channel.schema_id)
-                topics[channel.topic] = (schema.name if schema else '?',
-                                         stats.channel_message_counts.get(channel.id, 0))
-            metadata = {record.name: dict(record.metadata)
-                        for record in reader.iter_metadata()}
-            events = []
-            wanted = [t for t in topics if EVENTS_TOPIC.match(t)]
-            if wanted:
-                for _, _, message in reader.iter_messages(topics=wanted, log_time_order=True):
-                    events.append(_event(message.data))
-    except RecordingError:
-        raise
-    except (McapError, ValueError, KeyError, EOFError) as err:
-        raise RecordingError(f'{path}: cannot read its summary ({type(err).__name__}: '
-                             f'{err}); `cfem-sim recover {path} -o FIXED.mcap` may '
-                             'salvage it') from err
+    with open_mcap(path, whole=False) as reader:   # seconds for a file of any size
+        summary = reader.get_summary()
+        if summary is None or summary.statistics is None:
+            raise RecordingError(
+                f'{path}: MCAP file without a summary or statistics; expected a finished '
+                f'recording (`cfem-sim recover {path} -o FIXED.mcap` writes one)')
+        stats = summary.statistics
+        topics = {}
+        for channel in summary.channels.values():
+            schema = summary.schemas.get(channel.schema_id)
+            topics[channel.topic] = (schema.name if schema else '?',
+                                     stats.channel_message_counts.get(channel.id, 0))
+        metadata = {record.name: dict(record.metadata)
+                    for record in reader.iter_metadata()}
+        events = []
+        wanted = [t for t in topics if EVENTS_TOPIC.match(t)]
+        if wanted:
+            for _, _, message in reader.iter_messages(topics=wanted, log_time_order=True):
+                events.append(_event(message.data))
     return Summary(path=path, topics=topics, message_count=stats.message_count,
                    chunk_count=stats.chunk_count, start_ns=stats.message_start_time,
                    end_ns=stats.message_end_time, metadata=metadata, events=events)

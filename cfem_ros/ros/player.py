@@ -18,11 +18,14 @@ import time
 from typing import Callable, Optional
 
 from cfem_ros.recording.errors import RecordingError
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
+from cfem_ros.recording.reader import open_mcap
 import rclpy
+from rclpy.exceptions import NameValidationException
+from rclpy.expand_topic_name import expand_topic_name
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.validate_full_topic_name import validate_full_topic_name
+from rclpy.validate_topic_name import validate_topic_name
 from rosgraph_msgs.msg import Clock
 import yaml
 
@@ -88,8 +91,18 @@ def message_class(type_name: str):
         return None
     try:
         return getattr(importlib.import_module(f'{parts[0]}.{parts[1]}'), parts[2])
-    except (ImportError, AttributeError):
+    except Exception:  # noqa: B902 - a message library that fails to load in any way
         return None
+
+
+def topic_name_problem(name: str) -> Optional[str]:
+    """Return why name is not a valid ROS 2 topic name (None if it is)."""
+    try:
+        validate_topic_name(name)
+        validate_full_topic_name(expand_topic_name(name, 'cfem_player', '/'))
+    except (NameValidationException, ValueError, RuntimeError) as err:
+        return ' '.join(str(err).split())[:160]
+    return None
 
 
 def parse_remaps(remaps) -> dict:
@@ -99,6 +112,10 @@ def parse_remaps(remaps) -> dict:
         source, sep, target = item.partition(':=')
         if not sep or not source or not target:
             raise ValueError(f'--remap {item!r}; expected FROM:=TO (topic names)')
+        problem = topic_name_problem(target)
+        if problem:
+            raise ValueError(f'--remap {item!r}: {target!r} is not a valid ROS 2 topic name '
+                             f'({problem}); expected e.g. /flight/store/pose')
         out[source] = target
     return out
 
@@ -120,26 +137,20 @@ def read_log(path: str, topics=None) -> tuple:
         If the file is missing or not a readable MCAP file.
 
     """
-    try:
-        with open(path, 'rb') as stream:
-            reader = make_reader(stream)
-            summary = reader.get_summary()
-            if summary is None:
-                raise RecordingError(f'{path}: MCAP file without a summary section; '
-                                     'expected a finished recording')
-            channels = {}
-            for cid, channel in summary.channels.items():
-                schema = summary.schemas.get(channel.schema_id)
-                channels[cid] = (channel.topic, schema.name if schema else '',
-                                 channel.metadata.get('offered_qos_profiles', ''))
-            wanted = None if not topics else list(topics)
-            messages = [(message.log_time, channel.id, bytes(message.data))
-                        for _, channel, message in reader.iter_messages(
-                            topics=wanted, log_time_order=True)]
-    except OSError as err:
-        raise RecordingError(f'{path}: cannot read ({err.strerror})') from err
-    except (McapError, ValueError, KeyError, EOFError) as err:
-        raise RecordingError(f'{path}: not a readable MCAP recording ({err})') from err
+    with open_mcap(path) as reader:
+        summary = reader.get_summary()
+        if summary is None:
+            raise RecordingError(f'{path}: MCAP file without a summary section; '
+                                 'expected a finished recording')
+        channels = {}
+        for cid, channel in summary.channels.items():
+            schema = summary.schemas.get(channel.schema_id)
+            channels[cid] = (channel.topic, schema.name if schema else '',
+                             channel.metadata.get('offered_qos_profiles', ''))
+        wanted = None if not topics else list(topics)
+        messages = [(message.log_time, channel.id, bytes(message.data))
+                    for _, channel, message in reader.iter_messages(
+                        topics=wanted, log_time_order=True)]
     return channels, messages
 
 
@@ -204,7 +215,20 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             target = remaps.get(topic, topic)
             key = (target, type_name)
             if key not in by_topic:
-                by_topic[key] = node.create_publisher(cls, target, parse_qos(qos))
+                problem = topic_name_problem(target)
+                if problem:
+                    skipped.add(cid)
+                    log(f'{path}: topic {target!r} is not a valid ROS 2 topic name '
+                        f'({problem}); not played (--remap it to a valid name)')
+                    continue
+                try:
+                    by_topic[key] = node.create_publisher(cls, target, parse_qos(qos))
+                except Exception as err:  # noqa: B902 - type support that does not load
+                    skipped.add(cid)
+                    log(f'{path}: {target}: no publisher of type {type_name!r} here '
+                        f'({type(err).__name__}: {" ".join(str(err).split())[:120]}); '
+                        'not played')
+                    continue
             publishers[cid] = by_topic[key]
             if 'header' not in cls.get_fields_and_field_types():
                 unstamped.add(cid)

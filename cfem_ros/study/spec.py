@@ -53,6 +53,8 @@ CORRELATE_ENTRY = ('[key path, key path, rho] with -1 <= rho <= 1 (quote a key p
                    "with brackets: ['wrenches[0].force[2]', 'wrenches[1].force[2]', 0.9])")
 #: A sample time within this many samples of the grid is on it.
 ON_GRID = 1e-9
+#: Most runs in a sweep (draws times grid points): each is a task and a row.
+MAX_RUNS = 1_000_000
 
 _TOKEN = re.compile(r'\.?([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]')
 
@@ -351,7 +353,7 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     document = _load_yaml(path, 'sweep file as in SPEC section 6')
 
     def fail(key, problem, expected=''):
-        raise SweepError(path, key, problem, expected)
+        raise SweepError(path, _clip(key, 120), _clip(problem, 240), _clip(expected, 240))
 
     if not isinstance(document, dict):
         fail('', f'is {_show(document)}', 'a mapping with scenario, runs, seed, vary, metrics')
@@ -365,10 +367,10 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     scenario = os.path.join(os.path.dirname(os.path.abspath(path)), document['scenario'])
     base = _load_yaml(scenario, 'scenario file (SPEC section 1)')
     model = parse_scenario(base, source=scenario)   # the base scenario must be valid
+    for key, count in (('runs', document.get('runs', 1)), ('--runs', runs)):
+        if key == 'runs' or count is not None:   # the file's runs too, even when overridden
+            _check_runs(fail, key, count)
     count = document.get('runs', 1) if runs is None else runs
-    key = 'runs' if runs is None else '--runs'
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        fail(key, f'is {_show(count)}', 'a whole number of runs >= 1')
     seed = document.get('seed', 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         fail('seed', f'is {_show(seed)}', 'a whole number >= 0')
@@ -377,10 +379,13 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
             or not math.isfinite(rate) or rate <= 0:
         fail('rate_hz', f'is {_show(rate)}', 'a sample rate > 0 Hz')
     rate = float(rate)
+    _check_rate(fail, rate, model)
     variables = _parse_vary(fail, document.get('vary') or {}, base)
+    _check_draws(fail, variables, count)
     correlate = document.get('correlate')
     correlations = _parse_correlate(fail, [] if correlate is None else correlate, variables)
     metrics = _parse_metrics(fail, document.get('metrics') or {}, base, rate, model)
+    _check_unique_at(fail, metrics)
     criteria, confidence = _parse_decision(fail, document, variables, metrics)
     values = draw(variables, count, seed, correlations)
     _check_new_keys(fail, base, variables, values, scenario)
@@ -421,6 +426,80 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
                  'one of ' + ', '.join(allowed))
         criteria.append(criterion)
     return criteria, float(level)
+
+
+def _clip(text, limit: int) -> str:
+    """Return text on one line and at most limit characters (a key path may be long)."""
+    text = ' '.join(str(text).split())
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def _check_runs(fail, key: str, count):
+    """Refuse a ``runs`` (or ``--runs``) that is not a whole number from 1 to ``MAX_RUNS``."""
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        fail(key, f'is {_show(count)}', 'a whole number of runs >= 1')
+    if count > MAX_RUNS:
+        fail(key, f'is {count:,}', f'at most {MAX_RUNS:,} runs (each run is a row of the '
+             'table and a task; split a larger study into several sweeps)')
+
+
+def _check_rate(fail, rate: float, model):
+    """Refuse a ``rate_hz`` outside ``cfem-sim run``'s range or giving runs too large."""
+    from cfem_ros.recording import offline
+    low, high = offline.RATE_RANGE
+    if not low <= rate <= high:
+        fail('rate_hz', f'is {rate:g}', f'a sample rate from {low:g} to {high:g} Hz, as '
+             'cfem-sim run --rate')
+    samples = offline.expected_samples(rate, model.duration)
+    size = offline.estimate_bytes(model, samples)
+    if samples > offline.MAX_SAMPLES or size > offline.MAX_GB * 1e9:
+        fail('rate_hz', f'is {rate:g} Hz over {model.duration:g} s: {samples:.4g} samples '
+             f'(about {size / 1e9:.3g} GB) in each run', f'at most {offline.MAX_SAMPLES:.4g} '
+             f'samples and {offline.MAX_GB:g} GB a run, as cfem-sim run; lower rate_hz')
+
+
+def _check_draws(fail, variables, runs: int):
+    """Refuse draws whose arithmetic overflows, and sweeps of more than ``MAX_RUNS`` runs."""
+    total = runs
+    for variable in variables:
+        p = variable.params
+        where = f'vary.{variable.path}.{variable.kind}'
+        with np.errstate(all='ignore'):
+            if variable.kind == 'uniform':
+                spans = [p[1] - p[0]]
+            elif variable.kind == 'normal':
+                spans = [p[0] + 40.0 * p[1], p[0] - 40.0 * p[1]]
+            elif variable.kind == 'truncnormal':
+                spans = [(p[2] - p[0]) / p[1], (p[3] - p[0]) / p[1], p[3] - p[2]]
+            else:
+                spans = []
+        if not all(math.isfinite(x) for x in spans):
+            fail(where, f'is {_show(p)}: its draws overflow (beyond double precision)',
+                 'bounds and spreads whose differences are finite numbers')
+        if variable.kind == 'grid':
+            total *= len(p)
+    if total > MAX_RUNS:
+        fail('runs', f'{runs:,} draws times the grids give {total:,} runs',
+             f'at most {MAX_RUNS:,} runs in a sweep')
+
+
+def _check_at_time(fail, key: str, t: float, rate: float):
+    """Refuse an ``at`` time whose sample number overflows (beyond any run's samples)."""
+    from cfem_ros.recording import offline
+    if t * rate > offline.MAX_SAMPLES:
+        fail(key, f'is {t:g} s, sample {t * rate:.4g} at rate_hz {rate:g}',
+             f'a time within a run (at most {offline.MAX_SAMPLES:.4g} samples)')
+
+
+def _check_unique_at(fail, metrics):
+    """Refuse an ``at`` entry given twice (its columns would be duplicates)."""
+    seen = {}
+    for i, entry in enumerate(metrics.at):
+        point = (entry.time, entry.body, entry.relative_to)
+        if point in seen:
+            fail(f'metrics.at[{i}]', f'is the same as metrics.at[{seen[point]}] (time '
+                 f'{entry.time:g} s, body {entry.body})', 'each entry once')
+        seen[point] = i
 
 
 def _check_new_keys(fail, base, variables, values, scenario):
@@ -677,6 +756,7 @@ def _parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) \
                 or t < 0:
             fail(f'{key}.time', f'is {_show(t)}', 'a time >= 0 s')
+        _check_at_time(fail, f'{key}.time', t, rate)
         if abs(t * rate - round(t * rate)) > ON_GRID * max(1.0, t * rate):
             fail(f'{key}.time', f'is {t!r} s, between two samples at rate_hz {rate:g}',
                  f'a multiple of 1/rate_hz = {1 / rate:g} s')

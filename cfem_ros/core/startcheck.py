@@ -1,0 +1,165 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+What ``cfem-sim check`` tells before a run: can it start, and will RK4 hold.
+
+``start_problems`` runs the computations of a run's first sample (the
+state derivative and the joint loads at t = 0) and estimates the products
+that overflow (dynamic pressure times area times a coefficient), so that a
+scenario the run cannot start is refused with its physical reason (an
+anchor far beyond the bodies it joins, aerodynamic loads beyond double
+precision) instead of the run failing at t = 0. What only the run can tell
+(an explicit step too long for a spin rate or an aerodynamic damping) is
+returned as a warning.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cfem_ros.core.sampling import NumericalFailure
+import numpy as np
+
+__all__ = ['RK4_STABILITY', 'start_problems']
+
+#: Explicit RK4 on y' = -k y is stable for k dt up to about 2.785; beyond it
+#: the run diverges. A spin of w rad/s asks for w dt well under 1 rad.
+RK4_STABILITY = 2.785
+#: Turn per step beyond which a spin is resolved too coarsely by RK4, rad.
+MAX_TURN_PER_STEP = 1.0
+#: An anchor this many body sizes from a body's CG, or more, is named as the
+#: likely reason of a singular joint-load solve.
+FAR_ANCHOR = 1e4
+#: Steps over which the aerodynamic loads' feedback on speed and rates is followed.
+FIRST_STEPS = 5
+
+
+def _size(body) -> float:
+    """Return a body's size, m: its largest radius of gyration (1 m if it has none)."""
+    if not body.dynamic or not body.mass > 0.0:
+        return 1.0
+    with np.errstate(all='ignore'):
+        radius = math.sqrt(max(float(np.linalg.eigvalsh(body.inertia).max()), 0.0) / body.mass)
+    return radius if math.isfinite(radius) and radius > 0.0 else 1.0
+
+
+def _farthest_anchor(model):
+    """Return (ratio, text) of the joint anchor farthest from a body it joins, in body sizes."""
+    worst = (0.0, '')
+    for joint in model.joints:
+        for index in (joint.child, joint.parent):
+            body = model.bodies[index]
+            if not body.dynamic:
+                continue
+            with np.errstate(all='ignore'):
+                distance = float(np.linalg.norm(np.asarray(joint.anchor) - body.position))
+            size = _size(body)
+            ratio = distance / size
+            if ratio > worst[0]:
+                worst = (ratio, f'joint {joint.name!r}: its anchor is {distance:.3g} m from '
+                                f'the CG of {body.name}, {ratio:.3g} times its size '
+                                f'(radius of gyration {size:.3g} m)')
+    return worst
+
+
+def _aero_products(model) -> tuple:
+    """
+    Return (errors, warnings) of the aerodynamic loads' magnitudes.
+
+    The products are taken at t = 0 and after one step (the speed and rates
+    the t = 0 loads give over dt): one beyond double precision is an error;
+    a damping that RK4 cannot integrate with dt is a warning (a run whose
+    rates stay zero never meets it).
+    """
+    errors, warnings = [], []
+    for aero in model.aero:
+        body = model.bodies[aero.body]
+        if not body.dynamic:
+            continue
+        with np.errstate(all='ignore'):
+            speed = float(np.linalg.norm(aero.freestream) + np.linalg.norm(body.velocity_world))
+            table = np.abs(aero.coefficients)
+            inertia = np.diag(body.inertia).astype(float)
+            damping = np.abs(aero.damping).astype(float)
+            moment_max = float(table[..., 3:].max(initial=0.0))
+            force_max = float(table[..., :3].max(initial=0.0))
+
+            def loads(v, rates):
+                pressure = 0.5 * aero.density * v * v * aero.area
+                force = pressure * force_max
+                per_rate = pressure * aero.length * aero.length / (2.0 * v) if v > 0 else 0.0
+                moment = pressure * aero.length * moment_max + per_rate * damping * rates
+                return pressure, force, moment, per_rate
+
+            pressure, force, moment, per_rate = loads(speed, np.abs(body.rates_body))
+            v, rates, after = speed, np.abs(body.rates_body), (force, moment)
+            for _ in range(FIRST_STEPS):   # magnitudes only: how the loads feed back
+                v = v + after[0] / body.mass * model.dt
+                rates = rates + np.abs(after[1]) / inertia * model.dt
+                after = loads(v, rates)[1:3]
+            kick, spin = v, rates
+        how = (f'density {aero.density:.3g} kg/m^3, air speed {speed:.3g} m/s, area '
+               f'{aero.area:.3g} m^2, length {aero.length:.3g} m, max |CX, CY, CZ| '
+               f'{force_max:.3g}, max |Cl, Cm, Cn| {moment_max:.3g}, max |Clp, Cmq, Cnr| '
+               f'{float(damping.max(initial=0.0)):.3g}')
+        if not (math.isfinite(pressure) and math.isfinite(force) and np.isfinite(moment).all()):
+            errors.append(f'aero.{body.name}: the aerodynamic loads at t = 0 overflow ({how}: '
+                          'beyond double precision); expected realistic density, speed and '
+                          'coefficients')
+        elif not (math.isfinite(kick) and np.isfinite(spin).all()
+                  and all(np.isfinite(np.asarray(x)).all() for x in after)):
+            errors.append(f'aero.{body.name}: the aerodynamic loads overflow within the first '
+                          f'{FIRST_STEPS} steps of dt {model.dt:g} s ({how}: the speed and '
+                          'rates they give make loads beyond double precision); expected '
+                          'realistic coefficients')
+        else:
+            decay = float((per_rate * damping / inertia).max(initial=0.0))
+            if decay * model.dt > RK4_STABILITY:
+                warnings.append(
+                    f'aero.{body.name}: the damping coefficients (Clp, Cmq, Cnr) damp the '
+                    f'rates at up to {decay:.3g} 1/s; RK4 with dt {model.dt:g} s is unstable '
+                    f'beyond {RK4_STABILITY / model.dt:.3g} 1/s, so any rate will grow and '
+                    f'the run diverge (expected dt below {RK4_STABILITY / decay:.3g} s)')
+    return errors, warnings
+
+
+def _spin_warnings(model) -> list:
+    warnings = []
+    for body in model.bodies:
+        if not body.dynamic:
+            continue
+        rate = float(np.linalg.norm(body.rates_body))
+        if rate * model.dt > MAX_TURN_PER_STEP:
+            warnings.append(
+                f'bodies.{body.name}: spins at {rate:.3g} rad/s, {rate * model.dt:.3g} rad per '
+                f'RK4 step of dt {model.dt:g} s; the run will likely diverge (expected dt '
+                f'below {MAX_TURN_PER_STEP / rate:.3g} s)')
+    return warnings
+
+
+def start_problems(sim) -> tuple:
+    """
+    Return (errors, warnings) for a simulator about to start: lists of one-line reasons.
+
+    An error means the run cannot start (or diverges at its first step);
+    a warning names what only the run can tell.
+    """
+    model = sim.model
+    errors, warnings = _aero_products(model)
+    warnings += _spin_warnings(model)
+    try:
+        with np.errstate(all='ignore'):
+            derivative = sim.derivative(sim.y)
+            force, moment = sim.joint_wrenches()
+    except NumericalFailure as err:
+        ratio, where = _farthest_anchor(model)
+        reason = (where + '; the joint rows then span more than double precision can solve; '
+                  'expected anchors near the bodies they join' if ratio >= FAR_ANCHOR
+                  else 'joint axes parallel or degenerate?')
+        errors.append(f'the joints cannot be solved at t = 0 ({err}): {reason}')
+        return errors, warnings
+    if not (np.isfinite(derivative).all() and np.isfinite(force).all()
+            and np.isfinite(moment).all()):
+        errors.append('the accelerations or joint loads at t = 0 are not finite: masses, '
+                      'inertias or loads whose products are beyond double precision')
+    return errors, warnings
