@@ -109,8 +109,10 @@ def damaged_copies(data: bytes) -> dict:
     out['chunk length'] = flipped(first_start + 8, 0x7F)   # the high byte: petabytes
     out['chunk crc'] = flipped(first_start + 9 + 24)
     out['second chunk records length'] = flipped(second_start + 9 + 32 + 4)
+    # schemas are written once, in the first chunk that uses them (and in the summary)
     schema = data.index(b'geometry_msgs/msg/PoseStamped')
-    out['schema record before the chunks'] = flipped(schema + 3)
+    assert first_start < schema < first_end, 'a schema record outside the chunks'
+    out['schema record in its chunk'] = flipped(schema + 3)
     summary_schema = data.rindex(b'geometry_msgs/msg/PoseStamped')
     out['schema name in the summary'] = (data[:summary_schema + 13] + b'!'
                                          + data[summary_schema + 14:])
@@ -222,11 +224,11 @@ def test_recover_keeps_only_intact_chunks_and_goes_on(good, tmp_path, capsys):
         if name == 'chunk crc':   # an independent reader too (once: it is slow)
             assert len(read_rosbags(fixed)[0]) == len(kept)
         assert f'{len(kept)} messages recovered' in out, out
-        if name in ('chunk record byte', 'chunk crc', 'second chunk records length'):
+        if name in ('chunk record byte', 'chunk crc', 'second chunk records length',
+                    'schema record in its chunk'):
             assert 'damaged chunk' in out and 'damage at byte' in out, out
             assert len(kept) > len(original) // 3, name   # the later chunks are kept
-        if name in ('schema record before the chunks', 'summary byte', 'footer',
-                    'schema name in the summary', 'magic flipped'):
+        if name in ('summary byte', 'footer', 'schema name in the summary', 'magic flipped'):
             assert kept == original, name   # the chunks' own schemas and channels
 
 
