@@ -736,11 +736,11 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
     """Compute a sweep file's metrics over recordings into a table; exit 0, 1 or 2."""
     tables = [output] + ([os.path.splitext(output)[0] + '.csv'] if csv else [])
     for table in tables:   # a device or folder is never replaced by the table
-        if not overwrite and os.path.lexists(table):
-            return _error(f'{table}: already exists; pass --overwrite to replace it')
         refused = _output_refused(table, overwrite=True, what='a table')
         if refused:
             return _error(refused)
+        if not overwrite and os.path.lexists(table):
+            return _error(f'{table}: already exists; pass --overwrite to replace it')
     try:
         study = _study_imports()
         spec = study.load_sweep(metrics_file, runs=1)
