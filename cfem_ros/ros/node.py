@@ -226,7 +226,7 @@ def _fill(msg, values: dict):
     for name, value in values.items():
         if isinstance(value, dict):
             _fill(getattr(msg, name), value)
-        elif name == 'points':   # a triangle list's vertices
+        elif name == 'points':   # a triangle list's vertices, an arrow's ends
             setattr(msg, name, [_fill(Point(), p) for p in value])
         else:
             setattr(msg, name, value)
@@ -337,8 +337,7 @@ class _Publishers:
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
         array = visuals.load_arrows(self.sim.model, stamp, self.namespace, loads)
         self.arrow_publisher.publish(MarkerArray(markers=[
-            _fill(Marker(), {**m, 'points': [_fill(Point(), p) for p in m.get('points', [])]})
-            for m in array['markers']]))
+            _fill(Marker(), m) for m in array['markers']]))
 
     def sample(self):
         sim = self.sim
