@@ -539,6 +539,7 @@ class CfemNode(Node):
         self._clock_limit: Optional[float] = None   # simulated time /clock last gave
         self.start_ns: Optional[int] = None
         self._early = []
+        self._odometry_seen = 0   # odometry messages come so far (the first two matter)
         self._last_lag_warning = -math.inf
         self._timer = None
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -657,7 +658,11 @@ class CfemNode(Node):
         for item in self._early:
             self._submit(*item)
         self._early.clear()
-        self.session.start()
+        if not self.sim_time:
+            self.session.start()
+        # following /clock, the session starts on its first advance, once a carrier's
+        # first odometry has come (``_held``): odometry stamped at t = 0 is applied before
+        # the t = 0 sample, as in the offline replay
 
     def _start_timer(self):
         if self._timer is not None:
@@ -721,6 +726,12 @@ class CfemNode(Node):
         within ``ODOMETRY_HORIZON`` of it; beyond that, on (extrapolated,
         with the engine's warning).
         """
+        # the t = 0 sample waits for a carrier's first odometry and, when interpolating,
+        # the one after it (the motion from t = 0 is the cubic between the two)
+        first = 2 if self.interpolate_odometry else 1
+        if (self.sim_time and not self.session.started and self.sim.kinematic
+                and self._odometry_seen < first and limit < ODOMETRY_HORIZON):
+            return -math.inf
         if not self.interpolate_odometry:
             return limit
         held = limit
@@ -784,6 +795,7 @@ class CfemNode(Node):
                                          bounded(msg.header.frame_id), header_ns=header_ns))
 
     def _on_odometry(self, body: str, msg: Odometry):
+        self._odometry_seen += 1
         stamp = msg.header.stamp
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
