@@ -12,9 +12,8 @@ CORE := cfem_ros/core/cpp
 
 venv: $(STAMP)
 
-# what a user needs (the ROS extra), the compiled core built by pip (C++, seconds);
-# again when the C++ sources change
-$(STAMP): setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp $(CORE)/*.hpp)
+# A Python 3.10+ venv at .venv (python3-venv installed with apt-get when missing).
+define make-venv
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "cfem_ros needs Python 3.10 or newer; set PYTHON=python3.x")'
 	@$(PYTHON) -m venv $(VENV) 2>/dev/null || { \
 	  echo "python3 -m venv failed: installing the venv module (python3-venv) with apt-get"; \
@@ -22,21 +21,33 @@ $(STAMP): setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp
 	  $$SUDO apt-get update -q && $$SUDO apt-get install -y -q python3-venv && \
 	  rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(BIN)/python -m pip install -q --upgrade pip
+endef
+
+SOURCES := setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp $(CORE)/*.hpp)
+
+# what a user needs (the ROS extra), the compiled core built by pip (C++, seconds);
+# again when the C++ sources change
+$(STAMP): $(SOURCES)
+	$(make-venv)
 	$(BIN)/python -m pip install -q -e '.[ros]'
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP)
 
-# the test and study tools, for make test only
-$(TOOLS): $(STAMP)
+# the same with the test, study and guide tools, for make test only (one build of the core)
+$(TOOLS): $(SOURCES)
+	$(make-venv)
 	$(BIN)/python -m pip install -q -e '.[ros,test,study,docs]'
-	@touch $(TOOLS)
+	$(BIN)/python -m compileall -q cfem_ros
+	@touch $(STAMP) $(TOOLS)
 
 demo: $(STAMP)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
+# two test processes (pytest-xdist), a test file's tests in one of them, the long files
+# first (test/conftest.py)
 test: $(TOOLS)
-	$(BIN)/python -m pytest -q test
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder test
 
 # MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
 # changes

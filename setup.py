@@ -112,6 +112,7 @@ setup(
         'test': [
             'pybind11>=2.10',   # colcon build runs setup.py without build isolation
             'pytest',
+            'pytest-xdist',   # make test runs the suite in two processes
             'hypothesis',
             'rosbags>=0.10',
             # the reference for the shape distances (test/core/test_shape_distance.py)

@@ -910,10 +910,10 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
     play.add_argument('--remap', action='append', default=[], metavar='FROM:=TO',
                       help='publish topic FROM on TO (repeatable)')
-    play.add_argument('--wait', type=float, default=2.0, metavar='S',
-                      help='wait up to S s for every topic to have a subscriber (default 2)')
-    play.add_argument('--delay', type=float, default=1.0, metavar='S',
-                      help='then wait S s more before the first message (default 1)')
+    play.add_argument('--wait', type=float, default=5.0, metavar='S',
+                      help='wait up to S s for every topic to have a subscriber (default 5)')
+    play.add_argument('--delay', type=float, default=2.0, metavar='S',
+                      help='then wait S s more before the first message (default 2)')
     sweep = sub.add_parser('sweep', help='run a separation study (many runs) on Dask',
                            description='Run the runs of a sweep file (SPEC section 6) on a '
                            'Dask cluster and write OUTDIR/results.parquet, one row per run. '

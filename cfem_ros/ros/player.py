@@ -156,7 +156,7 @@ def read_log(path: str, topics=None) -> tuple:
 
 def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, remaps=None,
          node: Optional[Node] = None, log: Callable[[str], None] = print,
-         wait: float = 2.0, delay: float = 1.0, settle: float = 0.02) -> int:
+         wait: float = 5.0, delay: float = 2.0, settle: float = 0.02) -> int:
     """
     Publish a recording's messages; return how many were published.
 

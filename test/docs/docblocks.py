@@ -7,8 +7,9 @@ A block may be preceded by an HTML comment that says how the test suite runs
 it (the comment is invisible on GitHub and in the HTML guide)::
 
     <!-- doc-test: skip REASON -->        not run, for the reason given
-    <!-- doc-test: background -->         a first terminal: started, not waited for; the
-                                          next block runs once it has printed something
+    <!-- doc-test: background [TEXT] -->  a first terminal: started, not waited for; the
+                                          next block runs once it has printed TEXT (its
+                                          "ready" line), or anything without TEXT
     <!-- doc-test: interrupt -->          Ctrl-C the background blocks (SIGINT) and
                                           wait for them to end, then run this block
     <!-- doc-test: wait -->               wait for the background blocks to end by

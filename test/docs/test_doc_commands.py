@@ -21,7 +21,6 @@ guide joins by itself.
 import concurrent.futures
 import os
 import pathlib
-import random
 import signal
 import subprocess
 import sys
@@ -44,13 +43,15 @@ WAIT_TIMEOUT = 180.0
 RUN = ('bash', 'python')
 #: Pages run side by side (the machine's two cores), each lane in its own folder.
 LANES = 2
+#: A study or a benchmark command's work, in commands (a sweep: seconds, not a fraction).
+HEAVY = 6
 VERBS = {'', 'skip', 'background', 'interrupt', 'wait', 'interrupt-after'}
 
 
 def command_pages():
-    """Return the pages that have command blocks."""
+    """Return the pages that have command blocks that run (not all skipped)."""
     return [page for page in docblocks.pages()
-            if any(b.lang in RUN for b in docblocks.blocks(page))]
+            if any(b.lang in RUN and b.verb != 'skip' for b in docblocks.blocks(page))]
 
 
 def environment(domain: int) -> dict:
@@ -110,14 +111,19 @@ class Shell:
                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                 start_new_session=True)
 
-    def first_output(self, timeout: float) -> bool:
-        """Wait until the block has printed something; return False if it never does."""
+    def shows(self, text: str, timeout: float) -> bool:
+        """
+        Wait until the block has printed text (any output when text is empty).
+
+        Return False if it never does within timeout, or ends without it.
+        """
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if self.log.stat().st_size > 0:
+            ended = self.process.poll() is not None
+            if self.log.stat().st_size > 0 and text in self.log.read_text(errors='replace'):
                 return True
-            if self.process.poll() is not None:
-                return self.log.stat().st_size > 0
+            if ended:
+                return False
             time.sleep(0.05)
         return False
 
@@ -179,9 +185,12 @@ def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
                 shell = Shell(block, work, env)
                 background.append(shell)
                 ran += 1
-                # the user turns to the second terminal once the first shows something
-                assert shell.first_output(STARTUP_TIMEOUT), shell.report(
-                    f'printed nothing in {STARTUP_TIMEOUT:g} s')
+                # the user turns to the second terminal once the first shows it is
+                # ready: the directive's text, or anything without one
+                ready = block.argument
+                assert shell.shows(ready, STARTUP_TIMEOUT), shell.report(
+                    f'did not print {ready!r} in {STARTUP_TIMEOUT:g} s' if ready
+                    else f'printed nothing in {STARTUP_TIMEOUT:g} s')
                 continue
             if block.verb == 'interrupt-after':
                 shell = Shell(block, work, env)
@@ -223,19 +232,30 @@ def lanes(pages: list, count: int) -> list:
     """
     Split the pages into lanes that run side by side, each in its own folder.
 
-    A page joins the lane that ends up with the fewest distinct commands (a
-    command that a lane's earlier pages show runs there once); the README
-    comes first.
+    The README goes first; then, the pages with the most work first, a page
+    joins the lane that ends up with the least work, counted in distinct
+    commands (a command that a lane's other pages show runs there once), a
+    study or a benchmark as several. Each lane runs its pages in the order
+    of ``pages``.
     """
+    def work(shown: set) -> int:
+        return sum(HEAVY if any(w in c.split() for w in ('sweep', 'report'))
+                   or 'benchmarks/' in c else 1 for c in shown)
+
+    def shows(page) -> set:
+        return {c for b in docblocks.blocks(page) if b.lang == 'bash' and b.verb != 'skip'
+                for c in commands(b.text)}
+
     found = [[] for _ in range(count)]
     shown = [set() for _ in range(count)]
-    for page in pages:
-        mine = {c for b in docblocks.blocks(page) if b.lang == 'bash' and b.verb != 'skip'
-                for c in commands(b.text)}
-        lane = min(range(count), key=lambda k: len(shown[k] | mine))
+    readme = [p for p in pages if p.name == 'README.md']
+    rest = sorted((p for p in pages if p not in readme), key=lambda p: -work(shows(p)))
+    for page in readme + rest:
+        mine = shows(page)
+        lane = min(range(count), key=lambda k: work(shown[k] | mine))
         found[lane].append(page)
         shown[lane] |= mine
-    return found
+    return [sorted(lane, key=pages.index) for lane in found]
 
 
 def run_lane(pages: list, work: pathlib.Path, domain: int) -> dict:
@@ -258,11 +278,19 @@ def outcomes(tmp_path_factory):
     """Every page's failure (None if none), the pages run in two lanes side by side."""
     split = lanes(command_pages(), LANES)
     folders = [tmp_path_factory.mktemp(f'lane{k}') for k in range(len(split))]
-    first = random.randint(1, 101 - len(split))      # a DDS domain of its own per lane
+    # a DDS domain of its own per lane: the ones after this process's (conftest.py)
+    first = int(os.environ['ROS_DOMAIN_ID']) + 1
     domains = range(first, first + len(split))
     with concurrent.futures.ThreadPoolExecutor(len(split)) as pool:
         results = list(pool.map(run_lane, split, folders, domains))
     return {page: failure for result in results for page, failure in result.items()}
+
+
+def test_skipped_blocks_say_why():
+    for page in docblocks.pages():
+        for block in docblocks.blocks(page):
+            if block.verb == 'skip':
+                assert len(block.argument) > 10, f'{block.where}: a skipped block says why'
 
 
 @pytest.mark.parametrize('page', command_pages(), ids=lambda p: str(p.relative_to(ROOT)))

@@ -135,6 +135,10 @@ def test_yaml_example_runs(block, tmp_path):
         # a block that runs as written is written as it is; merged ones are dumped
         text = variant if isinstance(variant, str) else yaml.safe_dump(variant, sort_keys=False)
         document = load_yaml(text)
+        if block.verb == 'extends':
+            # the merged file lies beside the files the extended one names (tables, meshes)
+            for entry in (ROOT / block.argument).parent.iterdir():
+                (folder / entry.name).symlink_to(entry)
         if 'vary' in document or 'scenario' in document:
             _run_sweep(block, text, folder)
         else:
@@ -148,7 +152,7 @@ def _run_scenario(block, text, tmp_path):
     from cfem_ros import load_scenario, Simulator
     from cfem_ros.core.errors import ScenarioError
 
-    path = tmp_path / 'scenario.yaml'
+    path = tmp_path / 'cfem_doc_scenario.yaml'
     path.write_text(text, encoding='utf-8')
     try:
         model = load_scenario(str(path))
@@ -172,7 +176,7 @@ def _run_sweep(block, text, tmp_path):
         line = re.compile(r'^scenario:\s*' + re.escape(scenario), re.M)
         assert line.search(text), f'{block.where}: no line "scenario: {scenario}"'
         text = line.sub(f'scenario: {base_scenario(block, scenario)}', text, count=1)
-    path = tmp_path / 'sweep.yaml'
+    path = tmp_path / 'cfem_doc_sweep.yaml'
     path.write_text(text, encoding='utf-8')
     sweep = Sweep.from_file(str(path), runs=1)
     assert sweep.total >= 1

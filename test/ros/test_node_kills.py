@@ -86,7 +86,7 @@ def test_a_killed_node_leaves_a_complete_or_recoverable_recording(tmp_path):
         recording = folder / 'node.mcap'
         node = NodeProcess(folder, CONFIG / 'double_pendulum.yaml', record=recording,
                            real_time_factor=0.0, duration=0.0, rate_hz=1000.0)
-        delay = rng.uniform(0.3, 6.0)
+        delay = rng.uniform(0.3, 6.0 if LONG else 4.0)
         time.sleep(delay)
         figures['mid-run' if recording.exists() else 'start-up'] += 1
         status = node.stop(sig, timeout=60)
