@@ -13,7 +13,7 @@ before the kernel did it.
 
 import math
 
-from cfem_ros.core import kernel
+from cfem_ros.core import kernel, kernelcalls
 from cfem_ros.core.engine import Simulator
 import numpy as np
 
@@ -24,7 +24,7 @@ def step_with_condition(sim, t_end):
 
     The step is then the one ``Simulator._step`` takes next, its loads set to its start.
     """
-    assert sim._run(t_end, math.inf, math.inf) == kernel.CONDITION
+    assert kernelcalls.advance(sim, t_end, math.inf, math.inf) == kernel.CONDITION
     sim._scheduled.set_time(sim.t)
     return min(sim.dt, t_end - sim.t)
 
@@ -46,7 +46,7 @@ def assert_same_location(sim, h):
     ys = sim._rk4(sim.y, cut) if cut < h else None   # the state the step is cut at
     worst = sim._stage_violation
     sim._stage_violation = 0.0
-    y1_k, ys_k, crossing_k, stroke_k = sim._locate(sim.y, h)
+    y1_k, ys_k, crossing_k, stroke_k = kernelcalls.locate(sim, sim.y, h)
     if crossing is not None:   # Python's lists of numpy integers
         crossing = (crossing[0], [int(k) for k in crossing[1]], crossing[2])
     assert crossing_k == crossing

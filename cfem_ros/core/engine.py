@@ -23,59 +23,18 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, sampling
+from cfem_ros.core import kernel, sampling  # noqa: F401 - sampling kept for users
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
 from cfem_ros.core.dynamics import Dynamics, REDUNDANT_WARNING  # noqa: F401 - for sweeps
 from cfem_ros.core.groups import ReleaseGroups, row_weights
+from cfem_ros.core.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
+                                       NOT_FINITE)
 from cfem_ros.core.model import Model
 from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.sampling import NumericalFailure, SampleGrid  # noqa: F401 - kept for users
 from cfem_ros.core.strokes import stroke_end_event
 from cfem_ros.core.topology import JointTables, Topology
 import numpy as np
-
-#: Constraint violation (m, or rad for rotation rows) beyond which a run is
-#: declared diverged: a million times what the stabilized integration keeps.
-DIVERGENCE_VIOLATION = 1e-3
-
-#: Why a run failed when its state is no longer finite.
-NOT_FINITE = 'the state is no longer finite (the system diverged)'
-
-#: What ``kernel.advance`` gets for no sample grid.
-_NO_GRID = np.zeros(3)
-_NO_ROWS = np.empty((0, 0))
-
-
-def _diverged(violation: float) -> NumericalFailure:
-    """Return the failure of a constraint violation beyond ``DIVERGENCE_VIOLATION``."""
-    return NumericalFailure(f'constraint violation {violation:.3g} exceeds '
-                            f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)')
-
-
-def _kernel_error(code: int, value: float) -> Optional[Exception]:
-    """
-    Return the error a code of ``kernel.advance`` or ``kernel.locate`` stands for.
-
-    None for a normal end; value is the violation (VIOLATION) or where the
-    in-step search stopped (``kernel.locate``'s codes, those of the Python
-    search: ``roots.brentq``'s errors).
-    """
-    if code == kernel.NOT_FINITE:
-        return NumericalFailure(NOT_FINITE)
-    if code == kernel.VIOLATION:
-        return _diverged(value)
-    if code == kernel.SINGULAR:
-        return NumericalFailure(sampling.SINGULAR)
-    if code == kernel.LOADS_NOT_FINITE:
-        return NumericalFailure(sampling.LOADS_NOT_FINITE)
-    if code == kernel.NAN_VALUE:
-        return ValueError('The function value at x=%f is NaN; solver cannot continue.' % value)
-    if code == kernel.SAME_SIGNS:
-        return ValueError('f(a) and f(b) must have different signs')
-    if code == kernel.NO_CONVERGENCE:
-        return RuntimeError('Failed to converge after %d iterations, value is %f'
-                            % (kernel.CROSSING_MAXITER, value))
-    return None
 
 
 class Simulator(Dynamics):
@@ -248,7 +207,7 @@ class Simulator(Dynamics):
             while self.t < t_target or (samples is not None and self.t >= samples.next_time):
                 due = self._next_time_trigger()
                 due = math.inf if due is None else due
-                result = self._run(t_target, due, limit, samples)
+                result = advance(self, t_target, due, limit, samples)
                 if result == kernel.CONDITION:
                     # a release condition is reached within the next step: locate it
                     goal = t_target if samples is None else min(t_target, samples.next_time)
@@ -280,36 +239,13 @@ class Simulator(Dynamics):
         """Fail if the joints are violated beyond ``DIVERGENCE_VIOLATION`` now."""
         violation = self.constraint_violation()
         if violation > DIVERGENCE_VIOLATION:
-            raise _diverged(violation)
+            raise diverged(violation)
 
     def fail(self, reason: str):
         """Stop the run as failed now (``status``, ``message`` with the time and reason)."""
         if self.status == 'running':
             self.status = 'failed'
             self.message = f'at t = {self.t:.9g} s: {reason}'
-
-    def _run(self, t_target, due, limit, samples=None):
-        """Take steps in the kernel until a target, a release time, limit or a condition."""
-        top = self._topology
-        rel = self.releases
-        info = self._info
-        info[:] = (self.t, 0.0, self.max_violation, kernel.REACHED, DIVERGENCE_VIOLATION, 0.0)
-        grid, rows = (_NO_GRID, _NO_ROWS) if samples is None else (samples.state, samples.rows)
-        try:
-            kernel.advance(self.y, info, t_target, due, limit, self.dt, *top.kernel_args(self),
-                           self.joints.joints_i, self.joints.joints_f, rel.watch,
-                           rel.watch_limits, rel.watch_lines, grid, self._outputs_order, rows)
-        except np.linalg.LinAlgError:
-            info[3] = kernel.SINGULAR
-        finally:
-            self.t = float(info[0])
-            self.steps += int(info[1])
-            self.max_violation = float(info[2])
-        result = int(info[3])
-        error = _kernel_error(result, info[5])
-        if error is not None:
-            raise error
-        return result
 
     def release_due(self) -> list:
         """
@@ -342,7 +278,7 @@ class Simulator(Dynamics):
         self._scheduled.set_time(self.t)
         if self.kinematic:
             kernel.motion_set_time(self._bodies, self.t)   # motion.py
-        y1, ys, crossing, stroke = self._locate(y0, h)
+        y1, ys, crossing, stroke = locate(self, y0, h)
         if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
             # an ejector's stroke ends first (or with a release), or shapes touch
             s, rows = stroke
@@ -384,46 +320,11 @@ class Simulator(Dynamics):
             self.message = (f'at t = {self.t:.9g} s: {names[0]} touches {names[1]} at '
                             f'[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}] (world, m)')
 
-    def _locate(self, y0, h):
-        """
-        Take the step of h from y0 and locate its release conditions and stroke ends.
-
-        One call of ``kernel.locate``, the compiled form of ``Releases.crossing``
-        and ``ScheduledLoads.crossing`` (the same bits). Returns y1 (the step's
-        end), ys (the state at the s the step is cut at, if before h), the
-        release crossing (s, joints, causes) or None and the stroke end
-        (s, wrenches) or None.
-        """
-        rel = self.releases
-        y1, ys = np.empty_like(y0), np.empty_like(y0)
-        info = np.empty(7)
-        info[0] = self._stage_violation
-        joints = np.empty((len(rel.watch), 2), dtype=np.int64)
-        wrenches = np.empty(self._scheduled.count + len(self._scheduled.pairs), dtype=np.int64)
-        try:
-            kernel.locate(y0, float(h), y1, ys, *self._topology.kernel_args(self),
-                          self.joints.joints_i, self.joints.joints_f, rel.watch,
-                          rel.watch_triggers, rel.watch_lines, joints, wrenches, info)
-        except np.linalg.LinAlgError:
-            info[1] = kernel.SINGULAR
-        self._stage_violation = float(info[0])
-        code = int(info[1])
-        if code != kernel.REACHED:
-            raise _kernel_error(code, float(info[2]))
-        crossing = stroke = None
-        if not math.isnan(info[3]):
-            found = joints[:int(info[4])]
-            crossing = (float(info[3]), found[:, 0].tolist(),
-                        [TRIGGER_CAUSES[1 + col] for col in found[:, 1]])
-        if not math.isnan(info[5]):
-            stroke = (float(info[5]), wrenches[:int(info[6])].tolist())
-        return y1, ys, crossing, stroke
-
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():
             raise NumericalFailure(NOT_FINITE)
         if self._stage_violation > DIVERGENCE_VIOLATION:
-            raise _diverged(self._stage_violation)
+            raise diverged(self._stage_violation)
         self.max_violation = max(self.max_violation, self._stage_violation)
         self.y = y1
         self.t = t1

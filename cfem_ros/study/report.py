@@ -156,8 +156,10 @@ def build(outdir: str, figures=()) -> str:
         parts.append('<h2>Estimate of P(any criterion fails)</h2>')
         parts.append(_table(['method', 'probability', 'coefficient of variation',
                              f'{100 * est.get("level", level):g} % interval', 'runs'],
-                            [[est['method'], est['probability'], est['cov'] if est['cov']
-                              is not None else 'inf',
+                            [[est['method'], est['probability'],
+                              # no failure seen: the coefficient of variation is undefined
+                              est['cov'] if est['cov'] is not None and est['probability'] > 0
+                              else 'undefined (no failure)',
                               f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]', est['runs']]]))
     worst = worst_runs(table, criteria)
     if criteria:
