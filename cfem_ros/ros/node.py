@@ -40,13 +40,15 @@ from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.ros import parameters
+from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import InvalidTopicNameException, ParameterException
+from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -89,50 +91,6 @@ REFUSED_STRING_BYTES = 256
 #: Environment variable: seconds to sleep at the end of set-up (tests use it
 #: to prove that the start stamp is taken after set-up).
 SETUP_DELAY_ENV = 'CFEM_NODE_SETUP_DELAY'
-#: Parameters rclpy itself reads: never reported as unknown.
-_ROS_PARAMETERS = ('use_sim_time', 'start_type_description_service')
-
-
-class StartupError(CfemError):
-    """A parameter or scenario the node cannot start with."""
-
-
-def _double(description: str, low: float, high: float, read_only: bool = True):
-    return ParameterDescriptor(
-        description=description, read_only=read_only,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)])
-
-
-#: name -> (default, descriptor, what a right value is)
-PARAMETERS = {
-    'scenario': ('', ParameterDescriptor(
-        description='path of the scenario file (YAML, SPEC section 1)', read_only=True),
-        'the path of a scenario file, e.g. -p scenario:=config/store_separation.yaml'),
-    'rate_hz': (100.0, _double(
-        'samples published per simulated second (stamps 1/rate_hz apart)', 0.01, 1e5),
-        'a rate in Hz written as a double, 0.01 to 1e5, e.g. -p rate_hz:=100.0'),
-    'real_time_factor': (1.0, _double(
-        'simulated seconds per wall second; 0 runs as fast as possible; '
-        'ignored with use_sim_time', 0.0, 1e4, read_only=False),
-        'a double from 0 (as fast as possible) to 1e4, e.g. -p real_time_factor:=1.0'),
-    'duration': (-1.0, _double(
-        "simulated seconds to run, then finish and exit; < 0: the scenario's duration; "
-        '0: until shut down', -1.0, 1e9),
-        "a double: < 0 for the scenario's duration, 0 to run until shut down, "
-        'else seconds'),
-    'record': ('', ParameterDescriptor(
-        description='MCAP file to record this run to (SPEC section 4); empty records nothing',
-        read_only=True), 'a file path ending in .mcap, or empty'),
-    'overwrite': (False, ParameterDescriptor(
-        description='replace the record file if it exists', read_only=True),
-        'true or false'),
-    'interpolate_odometry': (True, ParameterDescriptor(
-        description='a kinematic body following bodies/<body>/odom moves on the cubic between '
-        'its messages: the simulation waits for the next message (at most the 0.1 s '
-        'horizon of clock time), so it runs up to one odometry period behind the clock; '
-        'false: extrapolated from the latest message, never behind', read_only=True),
-        'true or false'),
-}
 
 
 class _RosLogHandler(logging.Handler):
@@ -456,6 +414,46 @@ class _Publishers:
         """Leave inputs alone: they are not published back."""
 
 
+def _topic_name_error(node, model, err) -> str:
+    """One line for a body or joint whose name makes a topic ROS 2 refuses."""
+    reason = str(err).split('\n', 1)[0].removeprefix('Invalid topic name: ').rstrip(':')
+    for kind, items in (('bodies', model.bodies), ('joints', model.joints)):
+        for item in items:
+            topic = f'{kind}/{item.name}/wrench' if kind == 'joints' else (
+                f'bodies/{item.name}/pose')
+            try:
+                validate_full_topic_name(node.resolve_topic_name(topic))
+            except Exception:  # noqa: B902 - rclpy raises several kinds; any is this name
+                return (f'{node.scenario_path}: {kind}.{bounded(item.name, 64)!r}: the name '
+                        f'makes an invalid ROS 2 topic ({reason}); expected a name of '
+                        'letters, digits and underscores that keeps topic names within '
+                        '247 characters')
+    return f'{node.scenario_path}: a name makes an invalid ROS 2 topic ({reason})'
+
+
+def warm_up(model, publishers):
+    """
+    Take a step and a sample on a spare simulator, before time starts.
+
+    Every first call (lazy imports, caches) is paid here, and the first
+    sample's messages are filled once, so that the start stamp, taken after
+    this, is not behind the samples.
+    """
+    quiet = logging.getLogger(f'cfem_ros.node.warm_up.{id(publishers)}')
+    quiet.propagate = False
+    quiet.addHandler(logging.NullHandler())
+    spare = Simulator(model, logger=quiet)
+    spare.outputs()
+    spare.velocity_body()
+    spare.joint_wrenches()
+    spare.advance_to(spare.dt)
+    spare.outputs()
+    publishers.prepare()
+    delay = os.environ.get(SETUP_DELAY_ENV, '')
+    if delay:
+        time.sleep(float(delay))
+
+
 class CfemNode(Node):
     """
     The cfem_sim node: steps a scenario, takes wrenches and releases, publishes.
@@ -476,8 +474,8 @@ class CfemNode(Node):
     def __init__(self, *, context=None):
         super().__init__('cfem_sim', namespace='cfem', context=context)
         self.exit_code: Optional[int] = None
-        values = self._declare_parameters()
-        self._warn_unknown_parameters()
+        values = parameters.declare(self)
+        parameters.warn_unknown(self)
         try:
             model = load_scenario(values['scenario'])
         except CfemError as err:
@@ -514,7 +512,7 @@ class CfemNode(Node):
                         Odometry, f'bodies/{body.name}/odom',
                         lambda msg, name=body.name: self._on_odometry(name, msg), TOPIC_QOS)
         except InvalidTopicNameException as err:
-            raise StartupError(self._topic_name_error(model, err)) from None
+            raise StartupError(_topic_name_error(self, model, err)) from None
         self._release_sub = self.create_subscription(String, 'release', self._on_release,
                                                      TOPIC_QOS)
 
@@ -552,73 +550,14 @@ class CfemNode(Node):
             f'{len(model.joints)} joints, {self.sim.dof} degrees of freedom; dt {model.dt:g} s, '
             f'publishing at {self.rate_hz:g} Hz {mode}'
             + (f'; recording to {record}' if record else ''))
-        self._warm_up()
+        warm_up(model, self._publishers_sink)
         if self.sim_time:
             self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
             self.get_logger().info('waiting for /clock (use_sim_time is true)')
         else:
             self._begin(None)
 
-    def _topic_name_error(self, model, err) -> str:
-        """One line for a body or joint whose name makes a topic ROS 2 refuses."""
-        reason = str(err).split('\n', 1)[0].removeprefix('Invalid topic name: ').rstrip(':')
-        for kind, items in (('bodies', model.bodies), ('joints', model.joints)):
-            for item in items:
-                topic = f'{kind}/{item.name}/wrench' if kind == 'joints' else (
-                    f'bodies/{item.name}/pose')
-                try:
-                    validate_full_topic_name(self.resolve_topic_name(topic))
-                except Exception:  # noqa: B902 - rclpy raises several kinds; any is this name
-                    return (f'{self.scenario_path}: {kind}.{bounded(item.name, 64)!r}: the name '
-                            f'makes an invalid ROS 2 topic ({reason}); expected a name of '
-                            'letters, digits and underscores that keeps topic names within '
-                            '247 characters')
-        return f'{self.scenario_path}: a name makes an invalid ROS 2 topic ({reason})'
-
-    def _warm_up(self):
-        """
-        Compile or load every kernel the run uses, on a spare simulator, before time starts.
-
-        The first sample's messages are filled once too, so that the start
-        stamp, taken after this, is not behind the samples.
-        """
-        quiet = logging.getLogger(f'cfem_ros.node.warm_up.{id(self)}')
-        quiet.propagate = False
-        quiet.addHandler(logging.NullHandler())
-        spare = Simulator(self.sim.model, logger=quiet)
-        spare.outputs()
-        spare.velocity_body()
-        spare.joint_wrenches()
-        spare.advance_to(spare.dt)
-        spare.outputs()
-        self._publishers_sink.prepare()
-        delay = os.environ.get(SETUP_DELAY_ENV, '')
-        if delay:
-            time.sleep(float(delay))
-
     # ------------------------------------------------------------ parameters
-
-    def _declare_parameters(self) -> dict:
-        values = {}
-        for name, (default, descriptor, expected) in PARAMETERS.items():
-            try:
-                values[name] = self.declare_parameter(name, default, descriptor).value
-            except ParameterException as err:
-                raise StartupError(f'parameter {name}: {err}; expected {expected}') from None
-        if not values['scenario']:
-            raise StartupError('parameter scenario: not set; expected '
-                               + PARAMETERS['scenario'][2])
-        return values
-
-    def _warn_unknown_parameters(self):
-        """Warn about each parameter given (-p, --params-file) that the node does not have."""
-        given = getattr(self, '_parameter_overrides', {})
-        for name in sorted(given):
-            if name in PARAMETERS or name in _ROS_PARAMETERS or name.startswith('qos_overrides.'):
-                continue
-            self.get_logger().warning(
-                f'parameter {name!r} is not a parameter of cfem_node; ignored (its parameters: '
-                f"{', '.join(list(PARAMETERS) + ['use_sim_time'])})")
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
