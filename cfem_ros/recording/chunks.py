@@ -28,6 +28,7 @@ signal handler runs only between chunks, never inside a half-written one.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import signal
 import struct
 from typing import BinaryIO, Dict, List
@@ -131,6 +132,8 @@ class ChunkedWriter:
             channel_message_counts={})
         self._write_data(MCAP0_MAGIC)
         self._write_data(_serialize(Header(profile=profile, library=library)))
+        self._kept = {}    # what the file holds complete (``_mark``, ``finish_complete``)
+        self._mark(chunk=True)
 
     # --------------------------------------------------------------- records
 
@@ -160,6 +163,7 @@ class ChunkedWriter:
             MetadataIndex(offset=self._offset, length=len(record), name=name))
         self.statistics.metadata_count += 1
         self._write_data(record)
+        self._mark(chunk=False)
 
     def add_message(self, channel: int, log_time: int, data: bytes, sequence: int,
                     publish_time: int):
@@ -261,6 +265,55 @@ class ChunkedWriter:
         self._chunk, self._chunk_bytes, self._chunk_times = [], 0, None
         self._parts = []
         self._stream.flush()   # a closed chunk survives a hard kill
+        self._mark(chunk=True)
+
+    def _mark(self, chunk: bool):
+        """
+        Note that the file is complete up to here (after a closed chunk, a metadata record).
+
+        With chunk, also the statistics and the records written in chunks,
+        which the chunk in progress changes before it is written.
+        """
+        kept = self._kept
+        kept.update(offset=self._offset, crc=self._data_crc,
+                    metadata=len(self._metadata_indexes))
+        if chunk:
+            stats = self.statistics
+            kept.update(chunks=len(self._chunk_indexes), schemas=set(self._chunked_schemas),
+                        channels=set(self._chunked_channels), statistics=dataclasses.replace(
+                            stats, channel_message_counts=dict(stats.channel_message_counts)))
+
+    @property
+    def complete_offset(self) -> int:
+        """Return the file's size up to its last complete record (chunk or metadata)."""
+        return self._kept['offset']
+
+    @property
+    def complete_statistics(self):
+        """Return the statistics of the messages in the file's complete chunks."""
+        return self._kept['statistics']
+
+    def finish_complete(self, stream: BinaryIO):
+        """
+        Finish the file as it was at its last complete record, on stream (after a failed write).
+
+        The chunk in progress is dropped; stream holds the file cut at
+        ``complete_offset`` and is positioned there. The summary and footer
+        then describe the complete chunks only.
+        """
+        kept = self._kept
+        self._stream = stream
+        self._offset, self._data_crc = kept['offset'], kept['crc']
+        del self._chunk_indexes[kept['chunks']:]
+        del self._metadata_indexes[kept['metadata']:]
+        self._chunked_schemas, self._chunked_channels = set(kept['schemas']), set(
+            kept['channels'])
+        self.statistics = dataclasses.replace(
+            kept['statistics'], metadata_count=kept['metadata'],
+            channel_message_counts=dict(kept['statistics'].channel_message_counts))
+        self._chunk, self._chunk_bytes, self._chunk_times, self._parts = [], 0, None, []
+        with signals_held():
+            self._finish()
 
     def _index_entries(self):
         """Yield (channel, (log time, offset) entries as uint64 (k, 2)) of the chunk."""
