@@ -9,8 +9,9 @@ a write past it fails with EFBIG as one on a full disk fails with
 ENOSPC). It must end by itself with exit status 1 and one ``[ERROR]``
 line (the file, why, how far the run got), no traceback; the file it
 leaves is a finished recording (summary, statistics, indexes; both
-readers agree) of the run's first samples, every 1 ms one from t = 0,
-with as many messages as the error line says it keeps.
+readers agree; nothing ``mcap doctor`` would report) of the run's first
+samples, every 1 ms one from t = 0, with as many messages as the error
+line says it keeps.
 """
 
 import pathlib
@@ -18,6 +19,7 @@ import re
 import resource
 import signal
 
+from doctor import diagnose
 from mcap.reader import make_reader
 from rosbags.rosbag2.storage_mcap import McapReader
 from rosharness import NodeProcess
@@ -73,6 +75,7 @@ def test_a_full_disk_ends_a_recording_node_with_exit_1_and_a_complete_file(tmp_p
         assert sum(1 for _ in bag.messages(bag.connections)) == kept
     finally:
         bag.close()
+    assert diagnose(recording) == []
     assert len(stamps) > 10
     assert {b - a for a, b in zip(stamps, stamps[1:])} == {1_000_000}   # every sample kept
     assert abs((stamps[-1] - stamps[0]) / 1e9 - ends_at) < 1e-6
