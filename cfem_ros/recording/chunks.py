@@ -31,7 +31,7 @@ import contextlib
 import dataclasses
 import signal
 import struct
-from typing import BinaryIO, Dict, List
+from typing import BinaryIO, Dict, List, Optional
 import zlib
 
 from mcap.data_stream import RecordBuilder
@@ -132,8 +132,9 @@ class ChunkedWriter:
             channel_message_counts={})
         self._write_data(MCAP0_MAGIC)
         self._write_data(_serialize(Header(profile=profile, library=library)))
-        self._kept = {}    # what the file holds complete (``_mark``, ``finish_complete``)
-        self._mark(chunk=True)
+        # where the file is whole (``_mark``): the last such place, the last one flushed
+        self._latest, self._flushed = {}, None
+        self._mark(chunk=True, flushed=False)
 
     # --------------------------------------------------------------- records
 
@@ -163,7 +164,7 @@ class ChunkedWriter:
             MetadataIndex(offset=self._offset, length=len(record), name=name))
         self.statistics.metadata_count += 1
         self._write_data(record)
-        self._mark(chunk=False)
+        self._mark(chunk=False, flushed=False)
 
     def add_message(self, channel: int, log_time: int, data: bytes, sequence: int,
                     publish_time: int):
@@ -265,52 +266,58 @@ class ChunkedWriter:
         self._chunk, self._chunk_bytes, self._chunk_times = [], 0, None
         self._parts = []
         self._stream.flush()   # a closed chunk survives a hard kill
-        self._mark(chunk=True)
+        self._mark(chunk=True, flushed=True)
 
-    def _mark(self, chunk: bool):
+    def _mark(self, chunk: bool, flushed: bool):
         """
-        Note that the file is complete up to here (after a closed chunk, a metadata record).
+        Note that the file is whole up to here: after a closed chunk, a metadata record.
 
         With chunk, also the statistics and the records written in chunks,
-        which the chunk in progress changes before it is written.
+        which the chunk in progress changes before it is written. A mark
+        is on disk once flushed (a closed chunk, and what came before it).
         """
-        kept = self._kept
-        kept.update(offset=self._offset, crc=self._data_crc,
+        mark = dict(self._latest)
+        mark.update(offset=self._offset, crc=self._data_crc,
                     metadata=len(self._metadata_indexes))
         if chunk:
             stats = self.statistics
-            kept.update(chunks=len(self._chunk_indexes), schemas=set(self._chunked_schemas),
+            mark.update(chunks=len(self._chunk_indexes), schemas=set(self._chunked_schemas),
                         channels=set(self._chunked_channels), statistics=dataclasses.replace(
                             stats, channel_message_counts=dict(stats.channel_message_counts)))
+        self._latest = mark
+        if flushed:
+            self._flushed = mark
 
-    @property
-    def complete_offset(self) -> int:
-        """Return the file's size up to its last complete record (chunk or metadata)."""
-        return self._kept['offset']
-
-    @property
-    def complete_statistics(self):
-        """Return the statistics of the messages in the file's complete chunks."""
-        return self._kept['statistics']
-
-    def finish_complete(self, stream: BinaryIO):
+    def whole_part(self, size: int) -> Optional[dict]:
         """
-        Finish the file as it was at its last complete record, on stream (after a failed write).
+        Return the last mark of a file that holds size bytes (after a failed write), or None.
 
-        The chunk in progress is dropped; stream holds the file cut at
-        ``complete_offset`` and is positioned there. The summary and footer
-        then describe the complete chunks only.
+        The mark's ``offset`` is where the file's whole records end (a
+        closed chunk, a metadata record; at most size), its ``statistics``
+        those of the messages before it. None: not even the header is whole.
         """
-        kept = self._kept
+        for mark in (self._latest, self._flushed):
+            if mark is not None and mark['offset'] <= size:
+                return mark
+        return None
+
+    def finish_complete(self, stream: BinaryIO, mark: dict):
+        """
+        Finish the file as it was at a mark of ``whole_part``, on stream (after a failed write).
+
+        What came after the mark is dropped; stream holds the file cut at
+        the mark's offset and is positioned there. The summary and footer
+        then describe the chunks before it only.
+        """
         self._stream = stream
-        self._offset, self._data_crc = kept['offset'], kept['crc']
-        del self._chunk_indexes[kept['chunks']:]
-        del self._metadata_indexes[kept['metadata']:]
-        self._chunked_schemas, self._chunked_channels = set(kept['schemas']), set(
-            kept['channels'])
+        self._offset, self._data_crc = mark['offset'], mark['crc']
+        del self._chunk_indexes[mark['chunks']:]
+        del self._metadata_indexes[mark['metadata']:]
+        self._chunked_schemas, self._chunked_channels = set(mark['schemas']), set(
+            mark['channels'])
         self.statistics = dataclasses.replace(
-            kept['statistics'], metadata_count=kept['metadata'],
-            channel_message_counts=dict(kept['statistics'].channel_message_counts))
+            mark['statistics'], metadata_count=mark['metadata'],
+            channel_message_counts=dict(mark['statistics'].channel_message_counts))
         self._chunk, self._chunk_bytes, self._chunk_times, self._parts = [], 0, None, []
         with signals_held():
             self._finish()

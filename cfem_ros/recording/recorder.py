@@ -364,9 +364,10 @@ class Recorder:
         Give up a recording that cannot be written (a full disk): return the error to raise.
 
         An atomic recording's partial file is removed (an existing file at
-        path is untouched); a direct one is cut back to its last complete
-        chunk and finished there (``_keep_complete``), or, if even that
-        cannot be written, left cut there for ``cfem-sim recover``.
+        path is untouched); a direct one is cut back to its last whole chunk
+        and finished there (``_keep_complete``), or, if even the summary
+        cannot be written, left cut there for ``cfem-sim recover``; removed
+        if no whole chunk reached the disk.
         """
         self._finished = True
         try:
@@ -385,18 +386,23 @@ class Recorder:
         return self._keep_complete(failure)
 
     def _keep_complete(self, failure: str) -> OutputError:
-        """Cut the file back to its last complete chunk and finish it there; say what is kept."""
-        writer = self._writer
-        offset, statistics = writer.complete_offset, writer.complete_statistics
-        error = OutputError(failure, kept_messages=statistics.message_count,
-                            kept_until_ns=statistics.message_end_time
-                            if statistics.message_count else None)
+        """Cut the file back to its last whole chunk and finish it there; say what is kept."""
         try:
+            mark = self._writer.whole_part(os.path.getsize(self.path))
+            if mark is None or not mark['statistics'].message_count:
+                os.unlink(self.path)   # nothing to keep
+                return OutputError(f'{failure} after {self.message_count} messages; no '
+                                   f'whole chunk of them reached the disk: {self.path} '
+                                   'was removed')
+            offset, statistics = mark['offset'], mark['statistics']
+            error = OutputError(failure, kept_messages=statistics.message_count,
+                                kept_until_ns=statistics.message_end_time
+                                if statistics.message_count else None)
             stream = open(self.path, 'r+b')
             try:
                 stream.truncate(offset)
                 stream.seek(offset)
-                writer.finish_complete(stream)   # flushed at its end
+                self._writer.finish_complete(stream, mark)   # flushed at its end
                 stream.close()
                 error.complete = True
             except OSError:
@@ -406,10 +412,9 @@ class Recorder:
                     pass   # the summary that did not fit
                 os.truncate(self.path, offset)   # as a hard kill between two chunks leaves it
         except OSError as again:
-            error.args = (f'{failure}; the file {self.path} could not be cut back to its '
-                          f'complete chunks either ({again.strerror or again}): '
-                          f'`cfem-sim recover {self.path} -o FIXED.mcap` keeps them',)
-            return error
+            return OutputError(f'{failure}; the file {self.path} could not be cut back to its '
+                               f'whole chunks either ({again.strerror or again}): '
+                               f'`cfem-sim recover {self.path} -o FIXED.mcap` keeps them')
         kept = f'{statistics.message_count} of {self.message_count} messages'
         if error.complete:
             error.args = (f'{failure}; {self.path} is kept complete up to its last whole '

@@ -29,23 +29,29 @@ LIMIT = 400_000   # bytes: a few chunks of the double pendulum's samples
 POSE = '/cfem/bodies/B/pose'
 
 
-def _limit_file_size():
-    resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT, LIMIT))
-    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+def _limit_file_size(limit=LIMIT):
+    def limit_it():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    return limit_it
+
+
+def _error_line(output):
+    assert 'Traceback' not in output, output
+    errors = [line for line in output.splitlines() if '[ERROR]' in line]
+    assert len(errors) == 1, output
+    return errors[0]
 
 
 def test_a_full_disk_ends_a_recording_node_with_exit_1_and_a_complete_file(tmp_path):
     recording = tmp_path / 'node.mcap'
     node = NodeProcess(tmp_path, CONFIG / 'double_pendulum.yaml', record=recording,
                        real_time_factor=0.0, rate_hz=1000.0, duration=60.0,
-                       preexec_fn=_limit_file_size)
+                       preexec_fn=_limit_file_size())
     status = node.wait(timeout=60.0)
     output = node.output
     assert status == 1, output
-    assert 'Traceback' not in output, output
-    errors = [line for line in output.splitlines() if '[ERROR]' in line]
-    assert len(errors) == 1, output
-    error = errors[0]
+    error = _error_line(output)
     assert str(recording) in error and 'File too large' in error, error
     found = re.search(r'recording failed at simulated t = ([0-9.e+-]+) s \((\d+) samples, '
                       r'(\d+) messages written\).* is kept complete up to its last whole '
@@ -80,3 +86,4 @@ def test_a_full_disk_ends_a_recording_node_with_exit_1_and_a_complete_file(tmp_p
     assert {b - a for a, b in zip(stamps, stamps[1:])} == {1_000_000}   # every sample kept
     assert abs((stamps[-1] - stamps[0]) / 1e9 - ends_at) < 1e-6
     assert sorted(p.name for p in tmp_path.iterdir()) == ['node.log', 'node.mcap']
+
