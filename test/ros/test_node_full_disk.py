@@ -86,4 +86,3 @@ def test_a_full_disk_ends_a_recording_node_with_exit_1_and_a_complete_file(tmp_p
     assert {b - a for a, b in zip(stamps, stamps[1:])} == {1_000_000}   # every sample kept
     assert abs((stamps[-1] - stamps[0]) / 1e9 - ends_at) < 1e-6
     assert sorted(p.name for p in tmp_path.iterdir()) == ['node.log', 'node.mcap']
-
