@@ -48,11 +48,12 @@ class NodeProcess:
     A cfem_node process; its stdout and stderr go to a file under directory.
 
     Parameters go after ``--params-file`` (which they override) as ``-p``
-    arguments; booleans are written as ROS expects them.
+    arguments; booleans are written as ROS expects them. ``preexec_fn`` runs
+    in the child before the node starts (a file size limit, say).
     """
 
     def __init__(self, directory, scenario, executable=None, env=None, params_file=None,
-                 **parameters):
+                 preexec_fn=None, **parameters):
         self.log_path = pathlib.Path(directory) / 'node.log'
         args = [str(executable or BIN / 'cfem_node'), '--ros-args']
         if params_file is not None:
@@ -65,7 +66,7 @@ class NodeProcess:
             args += ['-p', f'{name}:={value}']
         self._log = open(self.log_path, 'w')
         self.process = subprocess.Popen(args, stdout=self._log, stderr=subprocess.STDOUT,
-                                        env=env)
+                                        env=env, preexec_fn=preexec_fn)
 
     @property
     def output(self) -> str:

@@ -28,9 +28,10 @@ signal handler runs only between chunks, never inside a half-written one.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import signal
 import struct
-from typing import BinaryIO, Dict, List
+from typing import BinaryIO, Dict, List, Optional
 import zlib
 
 from mcap.data_stream import RecordBuilder
@@ -131,6 +132,9 @@ class ChunkedWriter:
             channel_message_counts={})
         self._write_data(MCAP0_MAGIC)
         self._write_data(_serialize(Header(profile=profile, library=library)))
+        # where the file is whole (``_mark``): the last such place, the last one flushed
+        self._latest, self._flushed = {}, None
+        self._mark(chunk=True, flushed=False)
 
     # --------------------------------------------------------------- records
 
@@ -160,6 +164,7 @@ class ChunkedWriter:
             MetadataIndex(offset=self._offset, length=len(record), name=name))
         self.statistics.metadata_count += 1
         self._write_data(record)
+        self._mark(chunk=False, flushed=False)
 
     def add_message(self, channel: int, log_time: int, data: bytes, sequence: int,
                     publish_time: int):
@@ -261,6 +266,61 @@ class ChunkedWriter:
         self._chunk, self._chunk_bytes, self._chunk_times = [], 0, None
         self._parts = []
         self._stream.flush()   # a closed chunk survives a hard kill
+        self._mark(chunk=True, flushed=True)
+
+    def _mark(self, chunk: bool, flushed: bool):
+        """
+        Note that the file is whole up to here: after a closed chunk, a metadata record.
+
+        With chunk, also the statistics and the records written in chunks,
+        which the chunk in progress changes before it is written. A mark
+        is on disk once flushed (a closed chunk, and what came before it).
+        """
+        mark = dict(self._latest)
+        mark.update(offset=self._offset, crc=self._data_crc,
+                    metadata=len(self._metadata_indexes))
+        if chunk:
+            stats = self.statistics
+            mark.update(chunks=len(self._chunk_indexes), schemas=set(self._chunked_schemas),
+                        channels=set(self._chunked_channels), statistics=dataclasses.replace(
+                            stats, channel_message_counts=dict(stats.channel_message_counts)))
+        self._latest = mark
+        if flushed:
+            self._flushed = mark
+
+    def whole_part(self, size: int) -> Optional[dict]:
+        """
+        Return the last mark of a file that holds size bytes (after a failed write), or None.
+
+        The mark's ``offset`` is where the file's whole records end (a
+        closed chunk, a metadata record; at most size), its ``statistics``
+        those of the messages before it. None: not even the header is whole.
+        """
+        for mark in (self._latest, self._flushed):
+            if mark is not None and mark['offset'] <= size:
+                return mark
+        return None
+
+    def finish_complete(self, stream: BinaryIO, mark: dict):
+        """
+        Finish the file as it was at a mark of ``whole_part``, on stream (after a failed write).
+
+        What came after the mark is dropped; stream holds the file cut at
+        the mark's offset and is positioned there. The summary and footer
+        then describe the chunks before it only.
+        """
+        self._stream = stream
+        self._offset, self._data_crc = mark['offset'], mark['crc']
+        del self._chunk_indexes[mark['chunks']:]
+        del self._metadata_indexes[mark['metadata']:]
+        self._chunked_schemas, self._chunked_channels = set(mark['schemas']), set(
+            mark['channels'])
+        self.statistics = dataclasses.replace(
+            mark['statistics'], metadata_count=mark['metadata'],
+            channel_message_counts=dict(mark['statistics'].channel_message_counts))
+        self._chunk, self._chunk_bytes, self._chunk_times, self._parts = [], 0, None, []
+        with signals_held():
+            self._finish()
 
     def _index_entries(self):
         """Yield (channel, (log time, offset) entries as uint64 (k, 2)) of the chunk."""

@@ -39,6 +39,7 @@ from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
+from cfem_ros.recording.errors import OutputError
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from cfem_ros.ros import parameters
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
@@ -723,6 +724,32 @@ class CfemNode(Node):
                                    f'{self.recorder.message_count} messages')
             self.recorder = None
 
+    def recording_failed(self, err):
+        """
+        End the run after a write of the recording failed (a full disk, a file size limit).
+
+        err: the OSError of the write, or the ``OutputError`` the recorder
+        gave for it. The recorder keeps what is complete (``Recorder.abandon``);
+        one error line says where the run got to and what the file holds,
+        and the node ends with ``EXIT_FAILED``: a recording node whose
+        recording failed does not go on publishing a run no file will hold.
+        """
+        recorder, self.recorder = self.recorder, None
+        if isinstance(err, OSError):
+            err = recorder.abandon(err)
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        samples = self.state_recorder.samples
+        kept = ''
+        if err.kept_until_ns is not None and self.start_ns is not None:
+            kept = (f'; the file ends at simulated t = '
+                    f'{(err.kept_until_ns - self.start_ns) / 1e9:.9g} s')
+        self.get_logger().error(
+            f'recording failed at simulated t = {self.sim.t:.9g} s ({samples} samples, '
+            f'{recorder.message_count} messages written): {err}{kept}; the run ends')
+        self.exit_code = EXIT_FAILED
+
     # ---------------------------------------------------------------- inputs
 
     def _on_wrench(self, body: str, msg: WrenchStamped):
@@ -816,11 +843,20 @@ def main(args=None) -> int:
             return EXIT_BAD_INPUT
         executor.add_node(node)
         while not stop and node.exit_code is None and rclpy.ok():
-            executor.spin_once(timeout_sec=0.05)
+            try:
+                executor.spin_once(timeout_sec=0.05)
+            except (OSError, OutputError) as err:   # from a callback's write
+                if node.recorder is None:
+                    raise
+                node.recording_failed(err)
         if stop:
             node.get_logger().info(
                 f'{signal.Signals(stop[0]).name} received at simulated t = {node.sim.t:.9g} s;'
                 ' shutting down')
+        try:
+            node.close()
+        except OutputError as err:   # the last chunk and the summary did not fit
+            node.recording_failed(err)
         return EXIT_OK if node.exit_code is None else node.exit_code
     finally:
         if node is not None:
