@@ -40,9 +40,9 @@ from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.errors import OutputError
-from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 from cfem_ros.ros import parameters
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
+from cfem_ros.ros.recording import NodeRecording
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -517,20 +517,9 @@ class CfemNode(Node):
         self._release_sub = self.create_subscription(String, 'release', self._on_release,
                                                      TOPIC_QOS)
 
-        self.recorder = self.state_recorder = None
-        record = values['record']
-        if record:
-            if os.path.lexists(record) and not values['overwrite']:
-                raise StartupError(f'parameter record: {record}: already exists; pass '
-                                   '-p overwrite:=true to replace it')
-            try:
-                self.recorder = Recorder(record, overwrite=values['overwrite'])
-            except CfemError as err:
-                message = str(err).replace('--overwrite', '-p overwrite:=true')
-                raise StartupError(f'parameter record: {message}') from None
-            self.state_recorder = StateRecorder(self.recorder, self.sim,
-                                                namespace=self.get_namespace())
-        outputs = [self._publishers_sink] + ([self.state_recorder] if self.state_recorder else [])
+        self.recording = (NodeRecording(self, self.sim, values['record'], values['overwrite'])
+                          if values['record'] else None)
+        outputs = [self._publishers_sink] + ([self.recording.state] if self.recording else [])
         self.interpolate_odometry = bool(values['interpolate_odometry'])
         self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
                                outputs=outputs, warn=self._refusals.warning,
@@ -550,7 +539,7 @@ class CfemNode(Node):
             f'scenario {model.name!r} from {self.scenario_path}: {len(model.bodies)} bodies, '
             f'{len(model.joints)} joints, {self.sim.dof} degrees of freedom; dt {model.dt:g} s, '
             f'publishing at {self.rate_hz:g} Hz {mode}'
-            + (f'; recording to {record}' if record else ''))
+            + (f"; recording to {values['record']}" if values['record'] else ''))
         warm_up(model, self._publishers_sink)
         if self.sim_time:
             self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
@@ -589,12 +578,10 @@ class CfemNode(Node):
         if self.sim_time:
             self._clock_limit = 0.0
         self._publishers_sink.start_ns = self.start_ns
-        if self.state_recorder is not None:
-            self.state_recorder.start_ns = self.start_ns
-            self.recorder.add_metadata(run_metadata(
-                self.sim.model, self.scenario_path, self.rate_hz, self.start_ns,
-                node=self.get_fully_qualified_name(), use_sim_time=str(self.sim_time).lower(),
-                interpolate_odometry=str(self.interpolate_odometry).lower()))
+        if self.recording is not None:
+            self.recording.begin(self.start_ns, self.scenario_path, self.rate_hz,
+                                 use_sim_time=str(self.sim_time).lower(),
+                                 interpolate_odometry=str(self.interpolate_odometry).lower())
         for item in self._early:
             self._submit(*item)
         self._early.clear()
@@ -700,8 +687,8 @@ class CfemNode(Node):
             self.get_logger().error(f'the run failed {self.sim.message}')
             self._publishers_sink.event_publisher.publish(String(data=json.dumps(
                 {'event': 'error', 'time': self.sim.t, 'message': self.sim.message})))
-            if self.state_recorder is not None:
-                self.state_recorder.failed()
+            if self.recording is not None:
+                self.recording.state.failed()
             self.exit_code = EXIT_FAILED
         else:
             self.get_logger().info(f'run complete at t = {self.sim.t:.9g} s')
@@ -718,36 +705,23 @@ class CfemNode(Node):
             self.get_logger().info('messages refused: ' + ', '.join(
                 f'{count} on {topic}' for topic, count in sorted(self._refused.items())))
             self._refused = {}
-        if self.recorder is not None:
-            self.recorder.finish()
-            self.get_logger().info(f'recording {self.recorder.path}: '
-                                   f'{self.recorder.message_count} messages')
-            self.recorder = None
+        if self.recording is not None:
+            recording, self.recording = self.recording, None
+            recording.finish()
 
     def recording_failed(self, err):
         """
         End the run after a write of the recording failed (a full disk, a file size limit).
 
-        err: the OSError of the write, or the ``OutputError`` the recorder
-        gave for it. The recorder keeps what is complete (``Recorder.abandon``);
-        one error line says where the run got to and what the file holds,
-        and the node ends with ``EXIT_FAILED``: a recording node whose
-        recording failed does not go on publishing a run no file will hold.
+        The recording keeps what is complete and says so (``NodeRecording.failed``);
+        the node ends with ``EXIT_FAILED``: a recording node whose recording
+        failed does not go on publishing a run no file will hold.
         """
-        recorder, self.recorder = self.recorder, None
-        if isinstance(err, OSError):
-            err = recorder.abandon(err)
+        recording, self.recording = self.recording, None
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
-        samples = self.state_recorder.samples
-        kept = ''
-        if err.kept_until_ns is not None and self.start_ns is not None:
-            kept = (f'; the file ends at simulated t = '
-                    f'{(err.kept_until_ns - self.start_ns) / 1e9:.9g} s')
-        self.get_logger().error(
-            f'recording failed at simulated t = {self.sim.t:.9g} s ({samples} samples, '
-            f'{recorder.message_count} messages written): {err}{kept}; the run ends')
+        recording.failed(err, self.start_ns)
         self.exit_code = EXIT_FAILED
 
     # ---------------------------------------------------------------- inputs
@@ -846,7 +820,7 @@ def main(args=None) -> int:
             try:
                 executor.spin_once(timeout_sec=0.05)
             except (OSError, OutputError) as err:   # from a callback's write
-                if node.recorder is None:
+                if node.recording is None:
                     raise
                 node.recording_failed(err)
         if stop:
