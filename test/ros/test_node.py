@@ -277,7 +277,11 @@ def test_real_time_release_bad_messages_recording_and_replay(tmp_path, peer_fact
     # the wrench in the joint's frame (the store's axes) is the world one turned
     store = {stamp_ns(m.header): m.pose.orientation for m in peer.received['bodies/store/pose']}
     in_world = {stamp_ns(m.header): m for m in peer.received['joints/pivot/wrench_world']}
-    for message in peer.received['joints/pivot/wrench']:
+    # (a subscriber under load may miss a message of one topic: the samples seen on all three)
+    both = [m for m in peer.received['joints/pivot/wrench']
+            if stamp_ns(m.header) in in_world and stamp_ns(m.header) in store]
+    assert len(both) >= len(peer.received['joints/pivot/wrench']) // 2 > 0
+    for message in both:
         stamp = stamp_ns(message.header)
         world, q = in_world[stamp], store[stamp]
         assert (message.header.frame_id, world.header.frame_id) == ('pivot', 'world')
