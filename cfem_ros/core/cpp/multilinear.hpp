@@ -86,18 +86,18 @@ inline void multilinear(int axes, const int* sizes, const P& p, long grids, long
   long node[1 << kMaxAxes];
   weight[0] = 1.0;
   node[0] = 0;
-  long stride = 1;
-  for (int d = axes - 1; d >= 0; --d) stride *= sizes[d];
+  long stride[kMaxAxes];   // nodes from one to the next along axis d
+  stride[axes - 1] = 1;
+  for (int d = axes - 1; d > 0; --d) stride[d - 1] = stride[d] * sizes[d];
   long grid = grids;
   for (int d = 0; d < axes; ++d) {
     int base;
     double frac;
     bracket(p, grid, sizes[d], x[d], base, frac);
     grid += sizes[d];
-    stride /= sizes[d];
     // an axis with one node adds nothing from its upper side (weights are finite, >= 0)
     const double upper = sizes[d] < 2 ? 0.0 : frac, lower = 1.0 - frac;
-    const long below = base * stride, above = below + stride;
+    const long below = base * stride[d], above = below + stride[d];
     const int half = 1 << d;
     for (int c = 0; c < half; ++c) {
       weight[c + half] = weight[c] * upper;
