@@ -58,8 +58,12 @@ A_BODY, A_CARRIER, A_FIRST = 0, 1, 12
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
 AERO_ROW = WIDTH - 1
 #: Contact rows: the bodies, the first rows of their packed shapes, GJK's warm start (3),
-#: the shapes' bounding radii about their CGs (m).
+#: the shapes' bounding radii about their CGs (m), the distance GJK last found at a step
+#: end (m, 0 none) and body A's pose in B's axes then (CG (3), quaternion (4)): the kernel
+#: bounds the next step ends' distances from below with them and skips GJK while they are
+#: surely apart (``surely_apart`` in cpp/loads.cpp).
 C_A, C_B, C_SHAPE_A, C_SHAPE_B, C_GUESS, C_RADIUS_A, C_RADIUS_B = 0, 1, 4, 5, 6, 9, 10
+C_SEEN, C_POSE = 11, 12
 #: Shapes this close touch, m (``CONTACT_GAP`` of cpp/loads.hpp).
 CONTACT_GAP = 1e-10
 

@@ -104,6 +104,21 @@ def test_a_tumbling_box_hits_the_plate_when_dop853_says():
     assert 0.4 < t_ref < 1.0   # it tumbled a while first
 
 
+def test_a_bar_spinning_in_place_hits_the_box_when_its_tip_comes_down():
+    # its CG never moves: only the bound's turn term (skipping GJK while the distance last
+    # found exceeds what the shape can have moved) lets the kernel see the tip come down
+    scenario = drop({'box': [2.0, 0.1, 0.1]}, [0.3, 0.2, 0.6], rates=[0, 2.0, 0])
+    scenario['gravity'] = [0, 0, 0]
+    sim = Simulator(parse_scenario(scenario))
+    assert not sim.advance_to(2.0) and sim.status == 'contact'
+    event, = sim.events
+    # turned by 2 t about y, the lowest corner (1, y, -0.05) is at
+    # 0.6 - sin(2 t) - 0.05 cos(2 t): the top face (0.1) when sin(2 t + atan(0.05)) = 0.5 / |.|
+    angle = math.asin(0.5 / math.hypot(1.0, 0.05)) - math.atan(0.05)
+    assert abs(event['time'] - angle / 2.0) < TIME_TOLERANCE
+    assert event['point'][2] == pytest.approx(0.1, abs=1e-9)
+
+
 def test_continue_goes_through_and_records_the_contact_once():
     sim = Simulator(parse_scenario(drop({'sphere': 0.25}, [0.3, 0.2, 1.0],
                                         on_contact='continue')))

@@ -96,6 +96,57 @@ void aero_wrench(const double* y, const double* rot, const Mat& loads, idx row, 
                y + 3 * n + 3 * b, rb, y + 10 * n + 3 * b, y + 3 * c, rot + 9 * c, out);
 }
 
+// Body a's pose in body b's axes at y into pose: its CG (3) and quaternion (4, x y z w).
+void relative_pose(const double* y, idx n, idx a, idx b, double* pose) {
+  const double* qa = y + 6 * n + 4 * a;
+  const double* qb = y + 6 * n + 4 * b;
+  Products pb = products(qb[0], qb[1], qb[2], qb[3]);
+  V3 r = unit_turn(pb, y[3 * a] - y[3 * b], y[3 * a + 1] - y[3 * b + 1],
+                   y[3 * a + 2] - y[3 * b + 2], true);
+  pose[0] = r.x;
+  pose[1] = r.y;
+  pose[2] = r.z;
+  // conj(qb) qa
+  double x = qb[0], yb = qb[1], z = qb[2], w = qb[3];
+  pose[3] = w * qa[0] - x * qa[3] - yb * qa[2] + z * qa[1];
+  pose[4] = w * qa[1] - yb * qa[3] - z * qa[0] + x * qa[2];
+  pose[5] = w * qa[2] - z * qa[3] - x * qa[1] + yb * qa[0];
+  pose[6] = w * qa[3] + x * qa[0] + yb * qa[1] + z * qa[2];
+}
+
+// True if the shapes of contact row `row` are surely more than CONTACT_GAP apart at y,
+// without GJK: farther apart than the bounding spheres, or than the distance GJK last found
+// (C_SEEN, at the pose C_POSE) less the most any point of shape a can have moved since in
+// b's axes: its CG's move plus its radius times |R - R_seen| <= 2 |q - q_seen| (either
+// sign of q). Else false, and GJK decides (its distance and pose kept for the next time).
+bool surely_apart(const double* y, const Mat& loads, idx row, idx n) {
+  idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
+  double d0 = y[3 * a] - y[3 * b], d1 = y[3 * a + 1] - y[3 * b + 1];
+  double d2 = y[3 * a + 2] - y[3 * b + 2];
+  double radius_a = loads(row, C_RADIUS_A);
+  if (std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - radius_a - loads(row, C_RADIUS_B) > CONTACT_GAP)
+    return true;
+  double pose[7];
+  relative_pose(y, n, a, b, pose);
+  const double* seen = loads.row(row) + C_POSE;
+  double seen_gap = loads(row, C_SEEN);
+  if (seen_gap > 0.0) {
+    double moved2 = 0.0, minus2 = 0.0, plus2 = 0.0;
+    for (int k = 0; k < 3; ++k) moved2 += (pose[k] - seen[k]) * (pose[k] - seen[k]);
+    for (int k = 3; k < 7; ++k) {
+      minus2 += (pose[k] - seen[k]) * (pose[k] - seen[k]);
+      plus2 += (pose[k] + seen[k]) * (pose[k] + seen[k]);
+    }
+    double moved = std::sqrt(moved2) + 2.0 * radius_a * std::sqrt(std::min(minus2, plus2));
+    // the margin covers GJK's tolerance (1e-12 m) and the rounding of the bound
+    if (seen_gap - moved > CONTACT_GAP + 1e-9 * (1.0 + seen_gap)) return true;
+  }
+  double gap = contact_gap(y, loads, row, n, nullptr);
+  loads(row, C_SEEN) = gap > 0.0 ? gap : 0.0;
+  for (int k = 0; k < 7; ++k) loads(row, C_POSE + k) = pose[k];
+  return gap > CONTACT_GAP;
+}
+
 }  // namespace
 
 double point_and_stroke(const double* y, const Mat& loads, idx row, idx n, double* point) {
@@ -191,13 +242,7 @@ bool stroke_reached(const double* y, const Mat& loads, idx n) {
       if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
     }
     if (kind == KIND_CONTACT) {
-      // the bounding spheres first: shapes far apart need no GJK
-      idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
-      double d0 = y[3 * a] - y[3 * b], d1 = y[3 * a + 1] - y[3 * b + 1];
-      double d2 = y[3 * a + 2] - y[3 * b + 2];
-      bool apart = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - loads(row, C_RADIUS_A)
-                       - loads(row, C_RADIUS_B) > CONTACT_GAP
-                   || contact_gap(y, loads, row, n, nullptr) > CONTACT_GAP;
+      bool apart = surely_apart(y, loads, row, n);
       if (loads(row, S_ON) > 0.0 && !apart) return true;
       if (apart) loads(row, S_ON) = 1.0;   // apart again: watched again
     }

@@ -28,9 +28,12 @@ constexpr double KIND_SCHEDULED = 1.0, KIND_TABLE = 2.0, KIND_AERO = 3.0, KIND_S
 // Contact rows (KIND_CONTACT): the two bodies, armed (S_ON: 1.0 while the shapes are apart),
 // the first rows of their packed shapes (distance.hpp, 23 numbers a row), GJK's last
 // direction (3, its warm start), each shape's bounding radius about its body's CG (m).
+// C_SEEN: the distance GJK found at the step end it last ran (m; 0 none yet), and C_POSE:
+// body A's pose in body B's axes then (CG (3), quaternion (4)), from which a later step end
+// bounds the distance from below without GJK (stroke_reached).
 constexpr double KIND_CONTACT = 5.0;
 constexpr int C_A = 0, C_B = 1, C_SHAPE_A = 4, C_SHAPE_B = 5, C_GUESS = 6, C_RADIUS_A = 9,
-              C_RADIUS_B = 10;
+              C_RADIUS_B = 10, C_SEEN = 11, C_POSE = 12;
 // A contact is reached when the shapes are this close, m (GJK's own tolerance, 1e-12 m, is
 // below it: the time it costs is this over the approach speed).
 constexpr double CONTACT_GAP = 1e-10;

@@ -28,11 +28,17 @@ struct Flat {
 };
 constexpr long kRowWidth = 24, kRowData = 23;
 struct Rows {
+  static_assert(kRowWidth == kRowData + 1, "one kind column a row");
   const double* data;
-  double operator[](long k) const { return data[(k / kRowData) * kRowWidth + k % kRowData]; }
+  // row k / kRowData, column k % kRowData: k plus the kind columns of the rows before
+  double operator[](long k) const { return data[k + k / kRowData]; }
   void read(long k, int count, double* out) const {
-    long row = k / kRowData, column = k % kRowData;
-    const double* at = data + row * kRowWidth + column;
+    long column = k % kRowData;
+    const double* at = data + k + k / kRowData;
+    if (column + count <= kRowData) {   // all in one row
+      for (int i = 0; i < count; ++i) out[i] = at[i];
+      return;
+    }
     for (int i = 0; i < count; ++i) {
       if (column == kRowData) {   // on to the next row, past its kind column
         column = 0;
@@ -74,39 +80,38 @@ inline void bracket(const P& grid, long at, int count, double x, int& i, double&
 template <class P>
 inline void multilinear(int axes, const int* sizes, const P& p, long grids, long values,
                         int width, const double* x, double* out) {
-  int base[kMaxAxes];
-  double frac[kMaxAxes];
-  long stride[kMaxAxes];
+  // the cell once: each corner's weight (the axes' factors multiplied in axis order) and
+  // node, built axis by axis over the 2^axes corners (corner bit d: upper side of axis d)
+  double weight[1 << kMaxAxes];
+  long node[1 << kMaxAxes];
+  weight[0] = 1.0;
+  node[0] = 0;
+  long stride[kMaxAxes];   // nodes from one to the next along axis d
+  stride[axes - 1] = 1;
+  for (int d = axes - 1; d > 0; --d) stride[d - 1] = stride[d] * sizes[d];
   long grid = grids;
   for (int d = 0; d < axes; ++d) {
-    bracket(p, grid, sizes[d], x[d], base[d], frac[d]);
+    int base;
+    double frac;
+    bracket(p, grid, sizes[d], x[d], base, frac);
     grid += sizes[d];
-  }
-  long s = 1;
-  for (int d = axes - 1; d >= 0; --d) {
-    stride[d] = s;
-    s *= sizes[d];
-  }
-  long origin = 0;
-  for (int d = 0; d < axes; ++d) origin += base[d] * stride[d];
-  for (int k = 0; k < width; ++k) out[k] = 0.0;
-  // the 2^axes corners; an axis with one node or u = 0 adds nothing from its upper side
-  for (int corner = 0; corner < (1 << axes); ++corner) {
-    double weight = 1.0;
-    long at = origin;
-    for (int d = 0; d < axes; ++d) {
-      if (corner & (1 << d)) {
-        if (sizes[d] < 2) { weight = 0.0; break; }
-        weight *= frac[d];
-        at += stride[d];
-      } else {
-        weight *= 1.0 - frac[d];
-      }
+    // an axis with one node adds nothing from its upper side (weights are finite, >= 0)
+    const double upper = sizes[d] < 2 ? 0.0 : frac, lower = 1.0 - frac;
+    const long below = base * stride[d], above = below + stride[d];
+    const int half = 1 << d;
+    for (int c = 0; c < half; ++c) {
+      weight[c + half] = weight[c] * upper;
+      node[c + half] = node[c] + above;
+      weight[c] *= lower;
+      node[c] += below;
     }
-    if (weight == 0.0) continue;
-    double node[kMaxWidth];
-    p.read(values + at * width, width, node);
-    for (int k = 0; k < width; ++k) out[k] += weight * node[k];
+  }
+  for (int k = 0; k < width; ++k) out[k] = 0.0;
+  for (int corner = 0; corner < (1 << axes); ++corner) {
+    if (weight[corner] == 0.0) continue;
+    double numbers[kMaxWidth];
+    p.read(values + node[corner] * width, width, numbers);
+    for (int k = 0; k < width; ++k) out[k] += weight[corner] * numbers[k];
   }
 }
 
