@@ -119,6 +119,21 @@ def test_a_bar_spinning_in_place_hits_the_box_when_its_tip_comes_down():
     assert event['point'][2] == pytest.approx(0.1, abs=1e-9)
 
 
+def test_the_spinning_bar_as_the_pair_s_second_body_hits_at_the_same_time():
+    # the pair named the other way round: the bound now sees the fixed box's pose in the
+    # turning bar's axes, so its turn term is the second body's
+    scenario = drop({'box': [2.0, 0.1, 0.1]}, [0.3, 0.2, 0.6], rates=[0, 2.0, 0])
+    scenario['gravity'] = [0, 0, 0]
+    scenario['contacts'] = [{'bodies': ['floor', 'body'], 'on_contact': 'stop'}]
+    sim = Simulator(parse_scenario(scenario))
+    assert not sim.advance_to(2.0) and sim.status == 'contact'
+    event, = sim.events
+    angle = math.asin(0.5 / math.hypot(1.0, 0.05)) - math.atan(0.05)
+    assert event['bodies'] == ['floor', 'body']
+    assert abs(event['time'] - angle / 2.0) < TIME_TOLERANCE
+    assert event['point'][2] == pytest.approx(0.1, abs=1e-9)
+
+
 def test_continue_goes_through_and_records_the_contact_once():
     sim = Simulator(parse_scenario(drop({'sphere': 0.25}, [0.3, 0.2, 1.0],
                                         on_contact='continue')))
