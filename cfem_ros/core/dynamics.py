@@ -44,6 +44,12 @@ REDUNDANT_WARNING = ('the joints %s constrain %d direction(s) more than once (re
                      'joints or a closed loop): the motion is exact, the loads of the '
                      'redundant directions are shared in the least-norm sense (weighted '
                      "by the joints' compliance where given)")
+#: The same, as information, when every joint of those rows declares its compliance: the
+#: split is then the one the scenario asked for, not a fault.
+REDUNDANT_NOTE = ('the joints %s constrain %d direction(s) more than once: the loads of the '
+                  "redundant directions are split by the joints' declared compliance")
+#: Both, which a sweep gives once.
+REDUNDANT_MESSAGES = (REDUNDANT_WARNING, REDUNDANT_NOTE)
 
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
@@ -132,11 +138,18 @@ class Dynamics(SampledState):
         """Detect redundant rows; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
         top = self._topology
-        rank = top.rank(self.y, top.kernel_args(self), self.n)
+        null = top.null_space(self.y, top.kernel_args(self), self.n)
+        rank = top.m - null.shape[1]
         if rank < top.m:
             if not getattr(self, '_warned_redundant', False):
-                names = sorted({self.model.joints[k].name for k in top.joint})
-                self.log.warning(REDUNDANT_WARNING, ', '.join(names), top.m - rank)
+                # the joints of the rows that take part in a redundant combination
+                joints = [self.model.joints[k]
+                          for k in sorted(set(top.joint[np.any(np.abs(null) > 1e-6, axis=1)]))]
+                names = ', '.join(sorted(joint.name for joint in joints))
+                if all(joint.compliance is not None for joint in joints):
+                    self.log.info(REDUNDANT_NOTE, names, top.m - rank)
+                else:
+                    self.log.warning(REDUNDANT_WARNING, names, top.m - rank)
                 self._warned_redundant = True
             top.dense = 2
         return free_dof - rank

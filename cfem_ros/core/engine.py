@@ -25,7 +25,8 @@ from typing import Optional
 
 from cfem_ros.core import kernel, sampling  # noqa: F401 - sampling kept for users
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.dynamics import Dynamics, REDUNDANT_WARNING  # noqa: F401 - for sweeps
+from cfem_ros.core.dynamics import (  # noqa: F401 - for sweeps
+    Dynamics, REDUNDANT_MESSAGES, REDUNDANT_WARNING)
 from cfem_ros.core.groups import ReleaseGroups, row_weights
 from cfem_ros.core.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
                                        NOT_FINITE)

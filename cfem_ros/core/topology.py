@@ -188,19 +188,21 @@ class Topology:
         return (sim._bodies, sim.gravity, sim._loads, self.rows_i, self.rows_f, self.plan,
                 self.roots, sim.eta, self.dense, self.work)
 
-    def rank(self, y: np.ndarray, args: tuple, n: int) -> int:
+    def null_space(self, y: np.ndarray, args: tuple, n: int) -> np.ndarray:
         """
-        Return the rank of the active rows at y (``args``: ``kernel_args``).
+        Return (m, k) the combinations of the active rows at y that constrain nothing new.
 
-        A forest's rows are independent; otherwise the rank of the mass-weighted
-        Schur complement J M^-1 J^T, scaled to a unit diagonal.
+        A forest's rows are independent (k = 0); otherwise the null space of the
+        mass-weighted Schur complement J M^-1 J^T scaled to a unit diagonal
+        (eigenvalues below 1e-9).
         """
         if self.m == 0 or not self.dense:
-            return self.m
+            return np.zeros((self.m, 0))
         jac, weighted = self.jacobian(y, args, n)
         schur = weighted @ jac.T
         scale = 1.0 / np.sqrt(np.maximum(np.diag(schur), 1e-300))
-        return int(np.linalg.matrix_rank(schur * scale[:, None] * scale[None, :], tol=1e-9))
+        values, vectors = np.linalg.eigh(schur * scale[:, None] * scale[None, :])
+        return vectors[:, np.abs(values) <= 1e-9]
 
     def jacobian(self, y: np.ndarray, args: tuple, n: int):
         """Return the dense Jacobian J and J M^-1, (m, 6 n), of the active rows at y."""

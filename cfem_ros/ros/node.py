@@ -495,6 +495,7 @@ class CfemNode(Node):
 
         self._python_log = logging.getLogger(f'cfem_ros.node.{id(self)}')
         self._python_log.propagate = False
+        self._python_log.setLevel(logging.INFO)   # the ROS logger filters by its own level
         self._python_log.addHandler(_RosLogHandler(self.get_logger()))
         try:
             self.sim = Simulator(model, logger=self._python_log)

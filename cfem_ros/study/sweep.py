@@ -28,7 +28,7 @@ import time
 from typing import Callable, Optional
 import uuid
 
-from cfem_ros.core.engine import REDUNDANT_WARNING, Simulator
+from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
 from cfem_ros.study.metrics import Collector, compute, empty
@@ -196,12 +196,12 @@ def _set_copying(part: dict, tokens, value):
     container[last] = copy.deepcopy(value)
 
 
-#: The runs' simulators log here: all but the redundant-joint warning, given once
+#: The runs' simulators log here: all but the redundant-joint message, given once
 #: per sweep (``warn_once``) instead of once per run, in every worker's log.
 RUNS_LOG = logging.getLogger('cfem_ros.sweep.runs')
-RUNS_LOG.addFilter(lambda record: record.msg != REDUNDANT_WARNING)
+RUNS_LOG.addFilter(lambda record: record.msg not in REDUNDANT_MESSAGES)
 _ONCE_LOG = logging.getLogger('cfem_ros.sweep')
-_ONCE_LOG.addFilter(lambda record: record.msg == REDUNDANT_WARNING)   # only it
+_ONCE_LOG.addFilter(lambda record: record.msg in REDUNDANT_MESSAGES)   # only it
 
 
 def warn_once(spec: SweepSpec):

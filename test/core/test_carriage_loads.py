@@ -2,6 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Carriage loads on redundant hooks, split by the hooks' compliance (SPEC section 7)."""
 
+import logging
 import math
 
 from cfem_ros.core.engine import Simulator
@@ -151,3 +152,31 @@ def test_bad_compliance_is_refused_with_its_key(value, problem):
     with pytest.raises(ScenarioError) as err:
         two_hooks((value, None))
     assert 'joints.fwd_hook.compliance' in str(err.value) and problem in str(err.value)
+
+
+def test_hooks_with_compliance_are_noted_not_warned(caplog):
+    stiff = [1e-8, 1e-8, 1e-8]
+    with caplog.at_level(logging.INFO, logger='cfem_ros'):
+        Simulator(two_hooks((stiff, stiff)))
+        Simulator(two_hooks((stiff, None)))   # one hook without: the split is partly a guess
+    (noted,), (warned,) = ([r for r in caplog.records if r.levelno == level]
+                           for level in (logging.INFO, logging.WARNING))
+    assert noted.getMessage().startswith('the joints aft_hook, fwd_hook constrain 1 direction')
+    assert 'declared compliance' in noted.getMessage()
+    assert warned.getMessage().startswith('the joints aft_hook, fwd_hook constrain 1 direction')
+
+
+def test_only_the_joints_of_the_redundant_rows_are_named(caplog):
+    doc = {'gravity': [0.0, 0.0, G], 'dt': 0.001,
+           'bodies': {'aircraft': {'fixed': True},
+                      'pylon': {'mass': 50.0, 'inertia': [1.0, 1.0, 1.0]},
+                      'store': {'mass': MASS, 'inertia': INERTIA}},
+           'joints': {'mount': {'type': 'fixed', 'parent': 'aircraft', 'child': 'pylon',
+                                'anchor': [0.0, 0.0, -0.5]}}}
+    for name, anchor in zip(('fwd_hook', 'aft_hook'), HOOKS):
+        doc['joints'][name] = {'type': 'ball', 'parent': 'pylon', 'child': 'store',
+                               'anchor': anchor.tolist()}
+    with caplog.at_level(logging.WARNING, logger='cfem_ros'):
+        Simulator(parse_scenario(doc, source='mounted_hooks.yaml'))
+    (warned,) = caplog.records
+    assert warned.getMessage().startswith('the joints aft_hook, fwd_hook constrain 1 direction')
