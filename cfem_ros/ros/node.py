@@ -31,7 +31,6 @@ import time
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.carrier import ODOMETRY_HORIZON
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
@@ -41,6 +40,7 @@ from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import parameters
+from cfem_ros.ros.pacing import OdometryGate, WallPace
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from cfem_ros.ros.recording import NodeRecording
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
@@ -487,7 +487,7 @@ class CfemNode(Node):
         self.duration = math.inf if duration == 0 else duration
         self.sim_time = bool(self.get_parameter('use_sim_time').value)
         self.rate_hz = values['rate_hz']
-        self.real_time_factor = values['real_time_factor']
+        self.pace = WallPace(values['real_time_factor'])
         self.scenario_path = values['scenario']
         #: Refused inputs: one warning line per topic and reason per second.
         self._refusals = _Throttle(self.get_logger())
@@ -521,21 +521,22 @@ class CfemNode(Node):
         self.recording = (NodeRecording(self, self.sim, values['record'], values['overwrite'])
                           if values['record'] else None)
         outputs = [self._publishers_sink] + ([self.recording.state] if self.recording else [])
-        self.interpolate_odometry = bool(values['interpolate_odometry'])
+        interpolate = bool(values['interpolate_odometry'])
         self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
                                outputs=outputs, warn=self._refusals.warning,
-                               interpolate_odometry=self.interpolate_odometry)
+                               interpolate_odometry=interpolate)
+        self.gate = OdometryGate(self.sim, self.session, interpolate=interpolate,
+                                 following_clock=self.sim_time)
         self._clock_limit: Optional[float] = None   # simulated time /clock last gave
         self.start_ns: Optional[int] = None
         self._early = []
-        self._odometry_seen = 0   # odometry messages come so far (the first two matter)
         self._last_lag_warning = -math.inf
         self._timer = None
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         mode = 'following /clock' if self.sim_time else (
-            'as fast as possible' if self.real_time_factor == 0
-            else f'at {self.real_time_factor:g}x real time')
+            'as fast as possible' if self.pace.factor == 0
+            else f'at {self.pace.factor:g}x real time')
         self.get_logger().info(
             f'scenario {model.name!r} from {self.scenario_path}: {len(model.bodies)} bodies, '
             f'{len(model.joints)} joints, {self.sim.dof} degrees of freedom; dt {model.dt:g} s, '
@@ -573,8 +574,7 @@ class CfemNode(Node):
             # the timer's ticks fall on the sample times: it starts with the clocks
             self._start_timer()
             start_ns = self.get_clock().now().nanoseconds
-            self._wall_ref = time.monotonic()
-            self._sim_ref = 0.0
+            self.pace.start(time.monotonic())
         self.start_ns = int(start_ns)
         if self.sim_time:
             self._clock_limit = 0.0
@@ -582,53 +582,43 @@ class CfemNode(Node):
         if self.recording is not None:
             self.recording.begin(self.start_ns, self.scenario_path, self.rate_hz,
                                  use_sim_time=str(self.sim_time).lower(),
-                                 interpolate_odometry=str(self.interpolate_odometry).lower())
+                                 interpolate_odometry=str(self.gate.interpolate).lower())
         for item in self._early:
             self._submit(*item)
         self._early.clear()
         if not self.sim_time:
             self.session.start()
         # following /clock, the session starts on its first advance, once a carrier's
-        # first odometry has come (``_held``): odometry stamped at t = 0 is applied before
+        # first odometry has come (``OdometryGate``): odometry stamped at t = 0 is applied before
         # the t = 0 sample, as in the offline replay
 
     def _start_timer(self):
         if self._timer is not None:
             self.destroy_timer(self._timer)
-        period = (1.0 / self.rate_hz / self.real_time_factor if self.real_time_factor > 0
-                  else 0.001)
+        period = 1.0 / self.rate_hz / self.pace.factor if self.pace.factor > 0 else 0.001
         self._timer = self.create_timer(period, self._on_tick,
                                         clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    def _wall_target(self, now: float) -> float:
-        if self.real_time_factor == 0:
-            return math.inf
-        return self._sim_ref + (now - self._wall_ref) * self.real_time_factor
-
     def _set_real_time_factor(self, factor: float):
         if self.sim_time or self.start_ns is None:
-            self.real_time_factor = factor
+            self.pace.factor = factor
             return
-        now = time.monotonic()
-        target = self._wall_target(now)
-        self._sim_ref = self.sim.t if math.isinf(target) else target
-        self._wall_ref = now
-        self.real_time_factor = factor
+        self.pace.retime(time.monotonic(), self.sim.t, factor)
         self._start_timer()
         self.get_logger().info(f'real_time_factor set to {factor:g}')
 
     def _on_tick(self):
         now = time.monotonic()
-        target = self._wall_target(now)
+        target = self.pace.target(now)
         self._run_to(target, deadline=now + TICK_BUDGET)
-        lag = self._held(target) - self.sim.t   # waiting for odometry is not falling behind
+        lag = self.gate.held(target) - self.sim.t   # waiting for odometry is not falling behind
         if (math.isfinite(lag) and not self.session.finished
                 and lag > max(2.0 / self.rate_hz, 2 * self.sim.dt)
                 and now - self._last_lag_warning > LAG_WARNING_PERIOD):
             self._last_lag_warning = now
             self.get_logger().warning(
                 f'falling behind real time: simulated time {self.sim.t:.3f} s lags the '
-                f'clock by {lag:.3f} s at real_time_factor {self.real_time_factor:g}; '
+                f'clock by {lag:.3f} s at real_time_factor {self.pace.factor:g}; '
                 'lower real_time_factor or rate_hz')
 
     def _on_clock(self, msg: ClockMsg):
@@ -645,33 +635,10 @@ class CfemNode(Node):
         self._clock_limit = (clock_ns - self.start_ns) / 1e9
         self._run_to(self._clock_limit)
 
-    def _held(self, limit: float) -> float:
-        """
-        Return how far the simulation may go toward limit, waiting for odometry.
-
-        With ``interpolate_odometry``, not past a body's latest odometry
-        message (the motion beyond it needs the next one) while limit is
-        within ``ODOMETRY_HORIZON`` of it; beyond that, on (extrapolated,
-        with the engine's warning).
-        """
-        # the t = 0 sample waits for a carrier's first odometry and, when interpolating,
-        # the one after it (the motion from t = 0 is the cubic between the two)
-        first = 2 if self.interpolate_odometry else 1
-        if (self.sim_time and not self.session.started and self.sim.kinematic
-                and self._odometry_seen < first and limit < ODOMETRY_HORIZON):
-            return -math.inf
-        if not self.interpolate_odometry:
-            return limit
-        held = limit
-        for latest in self.sim.carriers.known().values():
-            if limit <= latest + ODOMETRY_HORIZON:
-                held = min(held, latest)
-        return held
-
     def _run_to(self, limit: float, deadline: float = math.inf):
         """Run the session on to simulated time limit, within a wall deadline."""
         session = self.session
-        limit = self._held(limit)
+        limit = self.gate.held(limit)
         while (not session.finished and session.next_sample_time <= limit
                and time.monotonic() < deadline):
             session.advance(session.next_sample_time)
@@ -736,7 +703,7 @@ class CfemNode(Node):
                                          bounded(msg.header.frame_id), header_ns=header_ns))
 
     def _on_odometry(self, body: str, msg: Odometry):
-        self._odometry_seen += 1
+        self.gate.seen += 1
         stamp = msg.header.stamp
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
@@ -757,9 +724,9 @@ class CfemNode(Node):
         nanoseconds (as the recording logs it, so a replay applies it at the
         same time), never past the end of the run.
         """
-        if self.sim_time or self.real_time_factor == 0:
+        if self.sim_time or self.pace.factor == 0:
             return None
-        target = self._wall_target(time.monotonic())
+        target = self.pace.target(time.monotonic())
         return min(round(target * 1e9) / 1e9, self.duration)
 
     def _submit(self, topic: str, item: Input):
@@ -777,7 +744,7 @@ class CfemNode(Node):
             return
         if self.sim_time:
             # at its stamp if that is still ahead; else at the clock's time, which is
-            # ahead of the simulation while it waits for odometry (``_held``)
+            # ahead of the simulation while it waits for odometry (``OdometryGate``)
             t = self._clock_limit
             if item.kind in ('wrench', 'odom') and item.header_ns:
                 t = (item.header_ns - self.start_ns) / 1e9
@@ -794,7 +761,7 @@ class CfemNode(Node):
         except ValueError as err:
             self._refused[topic] = self._refused.get(topic, 0) + 1
             self._refusals.warning(f'{topic}: message not applied: {err}')
-        if (item.kind == 'odom' and self.interpolate_odometry and self.sim_time
+        if (item.kind == 'odom' and self.gate.interpolate and self.sim_time
                 and self._clock_limit is not None):
             self._run_to(self._clock_limit)   # what waited for this message goes on
         if self.session.finished and self.exit_code is None:
