@@ -14,6 +14,7 @@ from mcap.reader import make_reader
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 import yaml
 
@@ -132,6 +133,35 @@ def test_the_spinning_bar_as_the_pair_s_second_body_hits_at_the_same_time():
     assert event['bodies'] == ['floor', 'body']
     assert abs(event['time'] - angle / 2.0) < TIME_TOLERANCE
     assert event['point'][2] == pytest.approx(0.1, abs=1e-9)
+
+
+def test_a_turning_carrier_moving_on_hits_a_sphere_at_rest_when_brentq_says():
+    # the kinematic bar both translates and turns: the bound must follow the carrier's
+    # motion, not only a free body's; the reference is the box-point distance in the
+    # bar's axes along its known motion, root by brentq
+    speed, rate, radius = 0.5, 2.0, 0.1
+    centre, half = np.array([0.8, 0.0, -0.5]), np.array([1.0, 0.05, 0.05])
+    scenario = {'gravity': [0, 0, 0], 'dt': 0.001,
+                'bodies': {'bar': {'motion': {'velocity': [speed, 0, 0],
+                                              'angular_velocity_deg': [0, math.degrees(rate), 0]},
+                                   'shape': {'box': (2 * half).tolist()}},
+                           'ball': {'mass': 1.0, 'inertia': [0.1, 0.1, 0.1],
+                                    'position': centre.tolist(), 'shape': {'sphere': radius}}},
+                'contacts': [{'bodies': ['bar', 'ball'], 'on_contact': 'stop'}]}
+    sim = Simulator(parse_scenario(scenario))
+    assert not sim.advance_to(2.0) and sim.status == 'contact'
+    event, = sim.events
+
+    def gap(t):
+        turned = Rotation.from_rotvec([0, rate * t, 0]).as_matrix()
+        local = turned.T @ (centre - [speed * t, 0, 0])
+        return np.linalg.norm(np.maximum(np.abs(local) - half, 0.0)) - radius
+
+    times = np.linspace(0, 1.0, 1001)
+    first = np.flatnonzero(np.array([gap(t) for t in times]) <= 0)[0]
+    t_ref = brentq(gap, times[first - 1], times[first], xtol=1e-14)
+    assert 0.2 < t_ref < 1.0
+    assert abs(event['time'] - t_ref) < TIME_TOLERANCE, (event['time'], t_ref)
 
 
 def test_continue_goes_through_and_records_the_contact_once():
