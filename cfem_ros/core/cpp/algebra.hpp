@@ -35,6 +35,14 @@ inline V3 cross(const V3& a, const V3& b) {
 
 inline double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
+// a . b as numba's kernel rounded it where LLVM had put a.y b.y first: LLVM orders the
+// operands of a sum by where their values come from before it fuses, then fuses the
+// product it put first. So a.y b.y is fused into a.x b.x, rounded (kept: GCC would fuse
+// whichever of the two products it computes first), then a.z b.z into that.
+inline double dot_yx(const V3& a, const V3& b) {
+  return a.y * b.y + kept(a.x * b.x) + a.z * b.z;
+}
+
 // m @ (x, y, z), m a row-major 3x3.
 inline V3 rotate(const double* m, double x, double y, double z) {
   return {m[0] * x + m[1] * y + m[2] * z, m[3] * x + m[4] * y + m[5] * z,

@@ -113,10 +113,12 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[6 + k] = e[k];
         jac[9 + k] = rbe[k];
       }
-      v.value[r] = dot(d, e);
-      v.rate[r] = dot(e, d_dot) + dot(d, wa_e);
+      // dot_yx: the products rounded as numba's kernel rounded them (algebra.hpp)
+      v.value[r] = dot_yx(d, e);
+      v.rate[r] = dot_yx(e, d_dot) + dot_yx(d, wa_e);
       // centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
-      v.gamma[r] = 2.0 * dot(wa_e, d_dot) + dot(e, centripetal) + dot(d, cross(wa, wa_e));
+      v.gamma[r] = 2.0 * dot_yx(wa_e, d_dot) + dot_yx(e, centripetal)
+                   + dot_yx(d, cross(wa, wa_e));
     } else {
       V3 f = rotate(v.rot + 9 * b, rf[3], rf[4], rf[5]);
       V3 c = cross(f, e);

@@ -52,8 +52,11 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
     double norm = std::sqrt(y[q] * y[q] + y[q + 1] * y[q + 1] + y[q + 2] * y[q + 2]
                             + y[q + 3] * y[q + 3]);
     Products p = products(y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm);
-    // R^T v with R the body-to-world matrix of the unit quaternion
-    V3 body = unit_turn(p, y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2], true);
+    // R^T v with R the body-to-world matrix of the unit quaternion; its first entry, R's
+    // first column . v, summed as numba's kernel rounded it (dot_yx, algebra.hpp)
+    V3 velocity = {y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2]};
+    V3 body = unit_turn(p, velocity.x, velocity.y, velocity.z, true);
+    body.x = dot_yx({1 - 2 * (p.yy + p.zz), 2 * (p.xy + p.wz), 2 * (p.xz - p.wy)}, velocity);
     for (int c = 0; c < 3; ++c) {
       out[o + c] = y[3 * i + c];
       out[o + 10 + c] = y[10 * n + 3 * i + c];

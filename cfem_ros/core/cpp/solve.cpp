@@ -73,7 +73,10 @@ bool inverse(const double* a, idx sa, int k, double* out, idx so) {
 namespace {
 
 double normalize(double* v) {
-  double norm = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  // kept(): complement() passes a 0 in one entry, which GCC would fold into the sum
+  // (rounding it otherwise than numba's kernel, whose sum takes it as any number)
+  double x = kept(v[0]), y = kept(v[1]), z = kept(v[2]);
+  double norm = std::sqrt(x * x + y * y + z * z);
   double scale = 1.0 / norm;
   for (int k = 0; k < 3; ++k) v[k] *= scale;
   return norm;
