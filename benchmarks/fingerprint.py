@@ -13,6 +13,11 @@ largest difference relative to the size of the quantity (the largest
 magnitude of that state, load or output vector at that time), the place where
 it occurs, and whether it is within --tolerance.
 
+Besides the shipped scenarios, both builds run variants written here for them
+(``VARIANTS``): a scenario whose physics changed on purpose since the
+reference build, rewritten to the physics both builds share, so that the port
+is still compared there.
+
 Usage:
   .venv/bin/python benchmarks/fingerprint.py --reference ../numba-ref/.venv/bin/python \
       --reference-tree ../numba-ref
@@ -36,6 +41,31 @@ def scenarios(root: pathlib.Path) -> list:
     found = sorted((root / 'config').glob('*.yaml')) + sorted(
         (root / 'config' / 'joints').glob('*.yaml'))
     return [p for p in found if not p.name.endswith('.params.yaml')]
+
+
+def fixed_density(text: str) -> str:
+    """The aero store's ISA density held at its reference altitude (the numba build's model)."""
+    from cfem_ros.core.aero import isa_density
+
+    line = next(x for x in text.splitlines() if x.strip().startswith('altitude:'))
+    altitude = float(line.split(':')[1].split('#')[0])
+    indent = line[:len(line) - len(line.lstrip())]
+    return text.replace(line, f'{indent}density: {isa_density(altitude)!r}')
+
+
+#: Variants: (name, shipped scenario, rewrite of its text).
+VARIANTS = [('store_separation_aero@fixed_density', 'store_separation_aero.yaml',
+             fixed_density)]
+
+
+def write_variants(folder: str) -> list:
+    """Write the variants' scenario files into folder; return their paths."""
+    paths = []
+    for name, source, rewrite in VARIANTS:
+        path = pathlib.Path(folder) / f'{name}.yaml'
+        path.write_text(rewrite((ROOT / 'config' / source).read_text()))
+        paths.append(path)
+    return paths
 
 
 def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
@@ -70,10 +100,10 @@ def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
     return out
 
 
-def dump(target: str, duration: float, ulp: bool = False):
-    """Write this build's fingerprints of the shipped scenarios to target (JSON)."""
+def dump(target: str, duration: float, ulp: bool = False, also=()):
+    """Write this build's fingerprints of the shipped scenarios (and also) to target (JSON)."""
     result = {}
-    for path in scenarios(ROOT):
+    for path in scenarios(ROOT) + [pathlib.Path(p) for p in also]:
         try:
             result[path.stem] = fingerprint(path, duration, ulp)
         except Exception as err:   # a scenario this build cannot run: reported, not fatal
@@ -100,13 +130,14 @@ def largest_difference(a: dict, b: dict):
 
 
 def run(python: str, tree: pathlib.Path, duration: float, folder: str, name: str,
-        ulp: bool = False) -> dict:
+        ulp: bool = False, also=()) -> dict:
     """Dump the fingerprints with python in tree (its own checkout); return them."""
     target = os.path.join(folder, f'{name}.json')
     env = dict(os.environ, PYTHONPATH=str(tree))
+    extra = [a for path in also for a in ('--also', str(path))]
     subprocess.run([python, str(pathlib.Path(__file__).resolve()), '--dump', target,
-                    '--duration', str(duration)] + (['--ulp'] if ulp else []), cwd=tree,
-                   env=env, check=True)
+                    '--duration', str(duration)] + (['--ulp'] if ulp else []) + extra,
+                   cwd=tree, env=env, check=True)
     with open(target, encoding='utf-8') as handle:
         return json.load(handle)
 
@@ -121,33 +152,36 @@ def main():
     parser.add_argument('--tolerance', type=float, default=1e-12)
     parser.add_argument('--ulp', action='store_true',
                         help='move one initial CG coordinate by one unit in the last place')
+    parser.add_argument('--also', action='append', default=[],
+                        help='a further scenario file to dump (with --dump)')
     args = parser.parse_args()
     if args.dump:
-        dump(args.dump, args.duration, args.ulp)
+        dump(args.dump, args.duration, args.ulp, args.also)
         return 0
     if not (args.reference and args.reference_tree):
         parser.error('give --dump, or --reference and --reference-tree')
     with tempfile.TemporaryDirectory() as folder:
-        mine = run(sys.executable, ROOT, args.duration, folder, 'this')
+        also = write_variants(folder)
+        mine = run(sys.executable, ROOT, args.duration, folder, 'this', also=also)
         theirs = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'reference')
+                     args.duration, folder, 'reference', also=also)
         # the reference against itself with one initial coordinate moved by one ulp: how
         # far a single rounding difference carries in each scenario
         nudged = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'nudged', ulp=True)
+                     args.duration, folder, 'nudged', ulp=True, also=also)
     failed = 0
-    print(f'{"scenario":<28} {"this vs reference":>18} {"reference, 1 ulp":>17}  where')
+    print(f'{"scenario":<36} {"this vs reference":>18} {"reference, 1 ulp":>17}  where')
     for name in sorted(set(mine) | set(theirs)):
         a, b = mine.get(name), theirs.get(name)
         if a is None or b is None or 'error' in a or 'error' in b:
-            print(f'{name:<28} {"(not in both)":>18}  {a and a.get("error")} / '
+            print(f'{name:<36} {"(not in both)":>18}  {a and a.get("error")} / '
                   f'{b and b.get("error")}')
             continue
         worst, where = largest_difference(a, b)
         own = largest_difference(b, nudged[name])[0] if 'error' not in nudged[name] else math.nan
         ok = worst <= args.tolerance
         failed += not ok
-        print(f'{name:<28} {worst:18.3g} {own:17.3g}  {where}'
+        print(f'{name:<36} {worst:18.3g} {own:17.3g}  {where}'
               f'{"" if ok else "  ABOVE TOLERANCE"}')
     print(f'tolerance {args.tolerance:g}: {"all within" if not failed else f"{failed} above"}')
     return 1 if failed else 0
