@@ -52,6 +52,9 @@ The joint loads are solved in one of two ways (``engine`` says which):
 
 from __future__ import annotations
 
+import functools
+import math
+
 from cfem_ros.core import _kernel
 import numpy as np
 
@@ -114,18 +117,25 @@ def carve(work: np.ndarray, n: int, m: int, nj: int) -> tuple:
     The compiled code cuts the same parts (``cpp/workspace.cpp``), then its own
     scratch after them.
     """
+    return tuple(work[start:stop].reshape(shape) for start, stop, shape in _parts(n, m, nj))
+
+
+@functools.lru_cache(maxsize=256)
+def _parts(n: int, m: int, nj: int) -> tuple:
+    """Return the views of ``carve`` as (start, stop, shape), computed once per size."""
     shapes = [(n, 3, 3), (n, 3), (n, 3, 3), (n, 6, 6), (n, 6), (n, 6), (m, 12), (m, 12),
               (m,), (m,), (m,), (m,), (nj, 6, 3), (nj, 6, 3), (nj, 3, 3), (nj, 3), (nj, 6),
               (nj, 6), (6, 13 * n), (4, 6, 6), (4, 3, 3), (8, 3)]
-    views, o = [], 0
+    parts, o = [], 0
     for shape in shapes:
-        size = int(np.prod(shape))
-        views.append(work[o:o + size].reshape(shape))
+        size = math.prod(shape)
+        parts.append((o, o + size, shape))
         o += size
-    views.append(work[o - 24:o - 18])
-    return tuple(views)
+    parts.append((o - 24, o - 18, (6,)))
+    return tuple(parts)
 
 
 def constraint_values(work: np.ndarray, n: int, m: int, n_j: int) -> np.ndarray:
     """Return the constraint values of the last solve (a view of the workspace)."""
-    return carve(work, n, m, n_j)[10]
+    start, stop, _ = _parts(n, m, n_j)[10]
+    return work[start:stop]
