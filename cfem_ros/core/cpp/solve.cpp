@@ -248,6 +248,30 @@ inline void shift_add(const double* x, const double* z, const double* y, idx c, 
   fp[5] += z5 + r0 * z1 - r1 * z0;
 }
 
+// A child's acceleration ac (in place, its parent's carried to it) with its K free
+// motions': their accelerations D^-1 (q - U^T ac), then ac + s + G of them. K is a
+// constant so that the loops unroll (a hinge's K = 1 is most chains' every joint).
+template <int K>
+inline void descend(const double* g, const double* u, const double* s, const double* d_inv,
+                    const double* q, double* ac) {
+  double t1[K > 0 ? K : 1], vec[K > 0 ? K : 1];
+  for (int col = 0; col < K; ++col) {
+    double total = q[col];
+    for (int k = 0; k < 6; ++k) total -= u[3 * k + col] * ac[k];
+    t1[col] = total;
+  }
+  for (int col = 0; col < K; ++col) {
+    double total = 0.0;
+    for (int k = 0; k < K; ++k) total += d_inv[3 * col + k] * t1[k];
+    vec[col] = total;
+  }
+  for (int k = 0; k < 6; ++k) {
+    double total = ac[k] + s[k];
+    for (int col = 0; col < K; ++col) total += g[3 * k + col] * vec[col];
+    ac[k] = total;
+  }
+}
+
 }  // namespace
 
 bool tree_solve(const double* y, const System& sys, const Work& v) {
@@ -263,7 +287,6 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
   double* free_r = v.three + 9;
   double* gram = v.three + 18;
   double* vec = v.vec;
-  double* t1 = v.vec + 6;
   // leaves first: pass each child's articulated inertia on to its parent
   for (idx j = 0; j < n_j; ++j) {
     idx r0 = plan(j, P_ROW), nt = plan(j, P_NT), nr = plan(j, P_NR);
@@ -416,21 +439,16 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
     } else {
       for (int k = 0; k < 6; ++k) ac[k] = 0.0;
     }
-    for (int col = 0; col < k_free; ++col) {
-      double total = v.projected[3 * j + col];
-      for (int k = 0; k < 6; ++k) total -= u[3 * k + col] * ac[k];
-      t1[col] = total;
-    }
     const double* d_inv = v.chol + 9 * j;
-    for (int col = 0; col < k_free; ++col) {
-      double total = 0.0;
-      for (int k = 0; k < k_free; ++k) total += d_inv[3 * col + k] * t1[k];
-      vec[col] = total;
-    }
-    for (int k = 0; k < 6; ++k) {
-      double total = ac[k] + s[k];
-      for (int col = 0; col < k_free; ++col) total += g[3 * k + col] * vec[col];
-      ac[k] = total;
+    const double* q = v.projected + 3 * j;
+    switch (k_free) {
+      case 0: descend<0>(g, u, s, d_inv, q, ac); break;
+      case 1: descend<1>(g, u, s, d_inv, q, ac); break;
+      case 2: descend<2>(g, u, s, d_inv, q, ac); break;
+      case 3: descend<3>(g, u, s, d_inv, q, ac); break;
+      case 4: descend<4>(g, u, s, d_inv, q, ac); break;
+      case 5: descend<5>(g, u, s, d_inv, q, ac); break;
+      default: descend<6>(g, u, s, d_inv, q, ac); break;
     }
   }
   return true;
