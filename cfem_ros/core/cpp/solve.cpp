@@ -163,9 +163,11 @@ inline bool eliminate_one(const double* mh, const double* f, const double* g, co
   d_inv[0] = inv;
   projected[0] = total_q;
   double a = total_q * inv;
+#pragma GCC unroll 6
   for (int i = 0; i < 6; ++i) {
     double vi = u[3 * i] * inv;
     z[i] -= u[3 * i] * a;
+#pragma GCC unroll 6
     for (int k = i; k < 6; ++k) x[6 * i + k] = x[6 * k + i] = mh[6 * i + k] - vi * u[3 * k];
   }
   return true;
