@@ -14,6 +14,26 @@
 
 namespace cfem {
 
+namespace {
+
+// Four numbers of the state at a time (GCC's vector extension, unaligned): each lane
+// is the one-by-one loop's expression, rounded and fused the same (benchmarks: the
+// stage sums are a tenth of a long chain's step without it).
+typedef double Four __attribute__((vector_size(32), may_alias, aligned(8)));
+
+inline Four load(const double* p) { return *reinterpret_cast<const Four*>(p); }
+
+inline void store(double* p, Four v) { *reinterpret_cast<Four*>(p) = v; }
+
+// out = y + c k, number by number.
+inline void stage_sum(const double* y, double c, const double* k, idx size, double* out) {
+  idx j = 0;
+  for (; j + 4 <= size; j += 4) store(out + j, load(y + j) + c * load(k + j));
+  for (; j < size; ++j) out[j] = y[j] + c * k[j];
+}
+
+}  // namespace
+
 double rk4(const double* y, idx size, double h, double* out, const System& s, const Work& v,
            bool solved) {
   const idx n = s.n();
@@ -31,8 +51,7 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
     if (k == 0) worst = w;
     if (k < 3) {
       double c = k < 2 ? 0.5 * h : h;
-      const double* ks = stages + k * size;
-      for (idx j = 0; j < size; ++j) stage[j] = y[j] + c * ks[j];
+      stage_sum(y, c, stages + k * size, size, stage);
     }
   }
   const double* k1 = stages;
@@ -40,7 +59,12 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
   const double* k3 = stages + 2 * size;
   const double* k4 = stages + 3 * size;
   const double sixth = h / 6.0;
-  for (idx j = 0; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+  idx j = 0;
+  for (; j + 4 <= size; j += 4) {
+    Four sum = load(k1 + j) + 2.0 * load(k2 + j) + 2.0 * load(k3 + j) + load(k4 + j);
+    store(out + j, load(y + j) + sixth * sum);
+  }
+  for (; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
   for (idx i = 0; i < n; ++i) {
     double* q = out + 6 * n + 4 * i;
     double scale = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
