@@ -78,16 +78,18 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
 void row_terms(const double* y, const System& s, const Work& v, bool dense) {
   const idx n = s.n(), m = s.m();
   const bool kinematic = motion::any(s.bodies);
+  const double eta = s.eta;
   V3 rho_b = {0, 0, 0}, t1 = {0, 0, 0}, d = {0, 0, 0}, d_dot = {0, 0, 0}, centripetal = {0, 0, 0};
   for (idx r = 0; r < m; ++r) {
     idx a = s.rows_i(r, 0), b = s.rows_i(r, 1), kind = s.rows_i(r, 2);
     const double* rf = s.rows_f.row(r);
     double* jac = v.jac + 12 * r;
     V3 wa = {v.omega[3 * a], v.omega[3 * a + 1], v.omega[3 * a + 2]};
-    V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
     V3 e = rotate(v.rot + 9 * a, rf[0], rf[1], rf[2]);
+    double value, rate, gamma;
     if (kind) {
       if (kind == 1) {
+        V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
         // the joint point's terms, shared by a joint's translation rows
         V3 rho_a = rotate(v.rot + 9 * a, rf[3], rf[4], rf[5]);
         rho_b = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
@@ -113,11 +115,12 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[6 + k] = e[k];
         jac[9 + k] = rbe[k];
       }
-      v.value[r] = dot(d, e);
-      v.rate[r] = dot(e, d_dot) + dot(d, wa_e);
+      value = dot(d, e);
+      rate = dot(e, d_dot) + dot(d, wa_e);
       // centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
-      v.gamma[r] = 2.0 * dot(wa_e, d_dot) + dot(e, centripetal) + dot(d, cross(wa, wa_e));
+      gamma = 2.0 * dot(wa_e, d_dot) + dot(e, centripetal) + dot(d, cross(wa, wa_e));
     } else {
+      V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
       V3 f = rotate(v.rot + 9 * b, rf[3], rf[4], rf[5]);
       V3 c = cross(f, e);
       V3 rel = {wb.x - wa.x, wb.y - wa.y, wb.z - wa.z};
@@ -127,11 +130,14 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[6 + k] = 0.0;
         jac[9 + k] = c[k];
       }
-      v.value[r] = dot(e, f);
-      v.rate[r] = dot(rel, c);
-      v.gamma[r] = dot(rel, cross(cross(wb, f), e)) + dot(rel, cross(f, cross(wa, e)));
+      value = dot(e, f);
+      rate = dot(rel, c);
+      gamma = dot(rel, cross(cross(wb, f), e)) + dot(rel, cross(f, cross(wa, e)));
     }
-    v.rhs[r] = -v.gamma[r] - 2.0 * s.eta * v.rate[r] - s.eta * s.eta * v.value[r];
+    v.value[r] = value;
+    v.rate[r] = rate;
+    v.gamma[r] = gamma;
+    v.rhs[r] = -gamma - 2.0 * eta * rate - eta * eta * value;
     if (kinematic) v.rhs[r] -= motion::known(jac, s.bodies, a, b);  // known accelerations
     if (dense) {
       double* wt = v.weighted + 12 * r;
