@@ -173,7 +173,8 @@ bool solve(const double* y, const System& s, const Work& v) {
   return tree_solve(y, s, v);
 }
 
-double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved) {
+double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved,
+                  bool largest) {
   const idx n = s.n();
   if (!solved && !solve(y, s, v)) return -1.0;
   const bool kinematic = motion::any(s.bodies);
@@ -197,7 +198,7 @@ double derivative(const double* y, double* dy, const System& s, const Work& v, b
     dy[o + 3] = -0.5 * (y[o + 0] * w0 + y[o + 1] * w1 + y[o + 2] * w2);
   }
   double worst = 0.0;
-  for (idx r = 0; r < s.m(); ++r) {
+  for (idx r = 0; largest && r < s.m(); ++r) {
     double a = std::fabs(v.value[r]);
     if (a > worst) worst = a;
   }

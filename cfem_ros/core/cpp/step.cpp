@@ -49,7 +49,8 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
     double offset = k == 0 ? 0.0 : (k < 3 ? 0.5 * h : h);
     if (scheduled) loads::stage_time(s.loads, n, offset);  // stage time of scheduled wrenches
     if (kinematic) motion::place(k == 0 ? const_cast<double*>(y) : stage, s.bodies, offset);
-    double w = derivative(k == 0 ? y : stage, stages + k * size, s, v, solved && k == 0);
+    // the violation is the step's start's: the other stages' is not needed
+    double w = derivative(k == 0 ? y : stage, stages + k * size, s, v, solved && k == 0, k == 0);
     if (w < 0.0) return -1.0;
     if (k == 0) worst = w;
     if (k < 3) {
