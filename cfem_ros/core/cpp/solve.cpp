@@ -175,7 +175,8 @@ inline bool eliminate_one(const double* mh, const double* f, const double* g, co
 
 // Add Phi^T x Phi to mhat_p and Phi^T z to fhat_p (x symmetric 6x6, Phi from c to p).
 // Inlined: the call's saving and restoring of registers was a tenth of its cost.
-__attribute__((always_inline)) inline void shift_add(const double* x, const double* z, const double* y, idx c, idx p,
+__attribute__((always_inline))
+inline void shift_add(const double* x, const double* z, const double* y, idx c, idx p,
                       double* mp, double* fp) {
   double r0 = y[3 * c] - y[3 * p], r1 = y[3 * c + 1] - y[3 * p + 1],
          r2 = y[3 * c + 2] - y[3 * p + 2];
