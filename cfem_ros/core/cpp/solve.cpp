@@ -291,18 +291,28 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
   double* free_r = v.three + 9;
   double* gram = v.three + 18;
   double* vec = v.vec;
+  // the joint point on joint j's child, relative to the tree child's CG
+  auto joint_point = [&](idx j) {
+    idx c = plan(j, P_CHILD);
+    idx b = plan(j, P_SIGN) > 0 ? c : plan(j, P_PARENT);
+    const double* rf = sys.rows_f.row(plan(j, P_ROW));
+    V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
+    return V3{rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
+              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
+  };
+  // the hinges' free motions and particular accelerations (straight-line code) first:
+  // they need nothing of the recursion, whose chain of dependent steps is then shorter
+  for (idx j = 0; j < n_j; ++j) {
+    if (plan(j, P_NT) == 3 && plan(j, P_NR) == 2)
+      hinge_motion(jac, rhs, plan(j, P_ROW), plan(j, P_SIGN) > 0 ? 6 : 0, joint_point(j),
+                   v.basis + 18 * j, v.particular + 6 * j);
+  }
   // leaves first: pass each child's articulated inertia on to its parent
   for (idx j = 0; j < n_j; ++j) {
     idx r0 = plan(j, P_ROW), nt = plan(j, P_NT), nr = plan(j, P_NR);
     idx c = plan(j, P_CHILD), p = plan(j, P_PARENT);
     double sign = static_cast<double>(plan(j, P_SIGN));
     int off = sign > 0 ? 6 : 0;
-    // the joint point on the joint's child, relative to the tree child's CG
-    idx b = sign > 0 ? c : p;
-    const double* rf = sys.rows_f.row(r0);
-    V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
-    V3 rho = {rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
-              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
     double* mh = v.mhat + 36 * c;
     double* fc = v.fhat + 6 * c;
     double* u = v.weighted_basis + 18 * j;
@@ -311,13 +321,12 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
     double* d_inv = v.chol + 9 * j;
     double* projected = v.projected + 3 * j;
     bool parent_free = sys.roots[p] >= 0;
-    if (nt == 3 && nr == 2) {
-      // a hinge: its free motion and particular acceleration in straight-line code
-      hinge_motion(jac, rhs, r0, off, rho, g, s);
+    if (nt == 3 && nr == 2) {  // a hinge (its g and s above)
       if (!eliminate_one(mh, fc, g, s, u, vec, x, d_inv, projected)) return false;
       if (parent_free) shift_add(x, vec, y, c, p, v.mhat + 36 * p, v.fhat + 6 * p);
       continue;
     }
+    V3 rho = joint_point(j);
     // free motions G of the tree child: translations off the rows, rotations off the
     // rows with the joint point carried along
     complement(jac, r0, nt, sign, off, free_t);
