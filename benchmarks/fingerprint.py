@@ -11,7 +11,10 @@ PYTHON --reference-tree DIR`` dumps them with this build and with another
 (e.g. the numba build's venv and its checkout) and prints, per scenario, the
 largest difference relative to the size of the quantity (the largest
 magnitude of that state, load or output vector at that time), the place where
-it occurs, and whether it is within --tolerance.
+it occurs, and whether it is within --tolerance. ``--chains`` adds the long
+models of ``suite.py`` (hinge chains of 100 bodies, planar and spatial, and the
+tree 4 x 25 + hub; built with MuJoCo, the ``bench`` extra), over 0.2 s: their
+step is the articulated recursion, which the shipped scenarios barely exercise.
 
 Usage:
   .venv/bin/python benchmarks/fingerprint.py --reference ../numba-ref/.venv/bin/python \
@@ -29,6 +32,8 @@ import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TIMES = 8
+#: How long the --chains models are run, s.
+CHAIN_DURATION = 0.2
 
 
 def scenarios(root: pathlib.Path) -> list:
@@ -38,18 +43,35 @@ def scenarios(root: pathlib.Path) -> list:
     return [p for p in found if not p.name.endswith('.params.yaml')]
 
 
-def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
+def chain_scenarios() -> dict:
+    """Return {name: scenario dict} of the --chains models (suite.py's, through MuJoCo)."""
+    sys.path.insert(0, str(ROOT / 'benchmarks'))
+    import models
+
+    found = {}
+    for n, spatial in ((100, False), (100, True)):
+        spec, tilt = models.chain(n, spatial)
+        name = f'{"spatial" if spatial else "planar"} chain N={n}'
+        found[name] = models.scenario(*models.compile_tilted(spec, tilt), name, CHAIN_DURATION)
+    spec, tilt = models.tree(4, 25)
+    found['tree 4 x 25 + hub'] = models.scenario(*models.compile_tilted(spec, tilt), 'tree',
+                                                 CHAIN_DURATION)
+    return found
+
+
+def fingerprint(path, duration: float, ulp: bool = False) -> dict:
     """
     Return {'times', 'state', 'loads', 'outputs'}: lists of 8 vectors each.
 
-    With ulp, the largest CG coordinate of a free body in the initial state is moved
-    by one unit in the last place: how far one rounding carries in this scenario.
+    path is a scenario file or a scenario dict. With ulp, the largest CG coordinate of
+    a free body in the initial state is moved by one unit in the last place: how far
+    one rounding carries in this scenario.
     """
     import numpy as np
 
-    from cfem_ros import load_scenario, Simulator
+    from cfem_ros import load_scenario, parse_scenario, Simulator
 
-    model = load_scenario(str(path))
+    model = parse_scenario(path) if isinstance(path, dict) else load_scenario(str(path))
     end = min(model.duration, duration)
     sim = Simulator(model)
     if ulp:
@@ -70,14 +92,17 @@ def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
     return out
 
 
-def dump(target: str, duration: float, ulp: bool = False):
-    """Write this build's fingerprints of the shipped scenarios to target (JSON)."""
+def dump(target: str, duration: float, ulp: bool = False, chains: bool = False):
+    """Write this build's fingerprints of the shipped scenarios (and chains) to target."""
     result = {}
-    for path in scenarios(ROOT):
+    named = [(path.stem, path) for path in scenarios(ROOT)]
+    if chains:
+        named += list(chain_scenarios().items())
+    for name, path in named:
         try:
-            result[path.stem] = fingerprint(path, duration, ulp)
+            result[name] = fingerprint(path, duration, ulp)
         except Exception as err:   # a scenario this build cannot run: reported, not fatal
-            result[path.stem] = {'error': f'{type(err).__name__}: {err}'}
+            result[name] = {'error': f'{type(err).__name__}: {err}'}
     with open(target, 'w', encoding='utf-8') as handle:
         json.dump(result, handle)
 
@@ -100,13 +125,13 @@ def largest_difference(a: dict, b: dict):
 
 
 def run(python: str, tree: pathlib.Path, duration: float, folder: str, name: str,
-        ulp: bool = False) -> dict:
+        ulp: bool = False, chains: bool = False) -> dict:
     """Dump the fingerprints with python in tree (its own checkout); return them."""
     target = os.path.join(folder, f'{name}.json')
     env = dict(os.environ, PYTHONPATH=str(tree))
     subprocess.run([python, str(pathlib.Path(__file__).resolve()), '--dump', target,
-                    '--duration', str(duration)] + (['--ulp'] if ulp else []), cwd=tree,
-                   env=env, check=True)
+                    '--duration', str(duration)] + (['--ulp'] if ulp else [])
+                   + (['--chains'] if chains else []), cwd=tree, env=env, check=True)
     with open(target, encoding='utf-8') as handle:
         return json.load(handle)
 
@@ -121,20 +146,22 @@ def main():
     parser.add_argument('--tolerance', type=float, default=1e-12)
     parser.add_argument('--ulp', action='store_true',
                         help='move one initial CG coordinate by one unit in the last place')
+    parser.add_argument('--chains', action='store_true',
+                        help="add suite.py's chains of 100 bodies and its tree (needs MuJoCo)")
     args = parser.parse_args()
     if args.dump:
-        dump(args.dump, args.duration, args.ulp)
+        dump(args.dump, args.duration, args.ulp, args.chains)
         return 0
     if not (args.reference and args.reference_tree):
         parser.error('give --dump, or --reference and --reference-tree')
     with tempfile.TemporaryDirectory() as folder:
-        mine = run(sys.executable, ROOT, args.duration, folder, 'this')
+        mine = run(sys.executable, ROOT, args.duration, folder, 'this', chains=args.chains)
         theirs = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'reference')
+                     args.duration, folder, 'reference', chains=args.chains)
         # the reference against itself with one initial coordinate moved by one ulp: how
         # far a single rounding difference carries in each scenario
         nudged = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'nudged', ulp=True)
+                     args.duration, folder, 'nudged', ulp=True, chains=args.chains)
     failed = 0
     print(f'{"scenario":<28} {"this vs reference":>18} {"reference, 1 ulp":>17}  where')
     for name in sorted(set(mine) | set(theirs)):
