@@ -24,13 +24,19 @@ inline double kept(double x) {
   return x;
 }
 
-// Four numbers at a time (GCC's vector extension, unaligned, any alignment): each lane
-// is rounded as the scalar expression is, the same products fused.
-typedef double Four __attribute__((vector_size(32), may_alias, aligned(8)));
+// LANES numbers at a time (GCC's vector extension, any alignment): four with AVX, else
+// two (a wider vector than the instruction set's would pass through memory). Each
+// lane is rounded as the scalar expression is, the same products fused.
+#ifdef __AVX__
+constexpr int LANES = 4;
+#else
+constexpr int LANES = 2;
+#endif
+typedef double Pack __attribute__((vector_size(8 * LANES), may_alias, aligned(8)));
 
-inline Four load(const double* p) { return *reinterpret_cast<const Four*>(p); }
+inline Pack load(const double* p) { return *reinterpret_cast<const Pack*>(p); }
 
-inline void store(double* p, Four v) { *reinterpret_cast<Four*>(p) = v; }
+inline void store(double* p, Pack v) { *reinterpret_cast<Pack*>(p) = v; }
 
 struct V3 {
   double x, y, z;

@@ -49,7 +49,7 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
     const double* body = bodies.row(i);
     if (need_inverse) body_congruence(rot, body + 11, v.inv_inertia + 9 * i, 3);
     double* mh = v.mhat + 36 * i;
-    for (int k = 0; k < 36; k += 4) store(mh + k, Four{0.0, 0.0, 0.0, 0.0});
+    for (int k = 0; k < 36; k += LANES) store(mh + k, Pack{});
     double mass = body[0];
     mh[0] = mh[7] = mh[14] = mass;
     body_congruence(rot, body + 2, mh + 21, 6);

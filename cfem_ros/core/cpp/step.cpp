@@ -17,20 +17,21 @@ namespace cfem {
 
 namespace {
 
-// out = y + c k, number by number (four at a time: each lane rounded as one by one).
+// out = y + c k, number by number (LANES at a time: each lane rounded as one by one).
 inline void stage_sum(const double* y, double c, const double* k, idx size, double* out) {
   idx j = 0;
-  for (; j + 4 <= size; j += 4) store(out + j, load(y + j) + c * load(k + j));
+  for (; j + LANES <= size; j += LANES) store(out + j, load(y + j) + c * load(k + j));
   for (; j < size; ++j) out[j] = y[j] + c * k[j];
 }
 
 // Whether every number is finite: x - x is 0 for a finite x, NaN for an infinite or NaN
 // one, and a sum of them NaN if any is.
 inline bool all_finite(const double* x, idx size) {
-  Four sum = {0.0, 0.0, 0.0, 0.0};
+  Pack sum = {};
   idx j = 0;
-  for (; j + 4 <= size; j += 4) sum += load(x + j) - load(x + j);
-  double total = (sum[0] + sum[1]) + (sum[2] + sum[3]);
+  for (; j + LANES <= size; j += LANES) sum += load(x + j) - load(x + j);
+  double total = 0.0;
+  for (int k = 0; k < LANES; ++k) total += sum[k];
   for (; j < size; ++j) total += x[j] - x[j];
   return total == 0.0;
 }
@@ -64,8 +65,8 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
   const double* k4 = stages + 3 * size;
   const double sixth = h / 6.0;
   idx j = 0;
-  for (; j + 4 <= size; j += 4) {
-    Four sum = load(k1 + j) + 2.0 * load(k2 + j) + 2.0 * load(k3 + j) + load(k4 + j);
+  for (; j + LANES <= size; j += LANES) {
+    Pack sum = load(k1 + j) + 2.0 * load(k2 + j) + 2.0 * load(k3 + j) + load(k4 + j);
     store(out + j, load(y + j) + sixth * sum);
   }
   for (; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
