@@ -11,7 +11,10 @@ PYTHON --reference-tree DIR`` dumps them with this build and with another
 (e.g. the numba build's venv and its checkout) and prints, per scenario, the
 largest difference relative to the size of the quantity (the largest
 magnitude of that state, load or output vector at that time), the place where
-it occurs, and whether it is within --tolerance.
+it occurs, and whether it is within --tolerance. ``--chains`` adds the long
+models of ``suite.py`` (hinge chains of 100 bodies, planar and spatial, and the
+tree 4 x 25 + hub; built with MuJoCo, the ``bench`` extra), over 0.2 s: their
+step is the articulated recursion, which the shipped scenarios barely exercise.
 
 Besides the shipped scenarios, both builds run variants written here for them
 (``VARIANTS``): a scenario whose physics changed on purpose since the
@@ -34,6 +37,8 @@ import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TIMES = 8
+#: How long the --chains models are run, s.
+CHAIN_DURATION = 0.2
 
 
 def scenarios(root: pathlib.Path) -> list:
@@ -68,18 +73,35 @@ def write_variants(folder: str) -> list:
     return paths
 
 
-def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
+def chain_scenarios() -> dict:
+    """Return {name: scenario dict} of the --chains models (suite.py's, through MuJoCo)."""
+    sys.path.insert(0, str(ROOT / 'benchmarks'))
+    import models
+
+    found = {}
+    for n, spatial in ((100, False), (100, True)):
+        spec, tilt = models.chain(n, spatial)
+        name = f'{"spatial" if spatial else "planar"} chain N={n}'
+        found[name] = models.scenario(*models.compile_tilted(spec, tilt), name, CHAIN_DURATION)
+    spec, tilt = models.tree(4, 25)
+    found['tree 4 x 25 + hub'] = models.scenario(*models.compile_tilted(spec, tilt), 'tree',
+                                                 CHAIN_DURATION)
+    return found
+
+
+def fingerprint(path, duration: float, ulp: bool = False) -> dict:
     """
     Return {'times', 'state', 'loads', 'outputs'}: lists of 8 vectors each.
 
-    With ulp, the largest CG coordinate of a free body in the initial state is moved
-    by one unit in the last place: how far one rounding carries in this scenario.
+    path is a scenario file or a scenario dict. With ulp, the largest CG coordinate of
+    a free body in the initial state is moved by one unit in the last place: how far
+    one rounding carries in this scenario.
     """
     import numpy as np
 
-    from cfem_ros import load_scenario, Simulator
+    from cfem_ros import load_scenario, parse_scenario, Simulator
 
-    model = load_scenario(str(path))
+    model = parse_scenario(path) if isinstance(path, dict) else load_scenario(str(path))
     end = min(model.duration, duration)
     sim = Simulator(model)
     if ulp:
@@ -100,14 +122,17 @@ def fingerprint(path: pathlib.Path, duration: float, ulp: bool = False) -> dict:
     return out
 
 
-def dump(target: str, duration: float, ulp: bool = False, also=()):
-    """Write this build's fingerprints of the shipped scenarios (and also) to target (JSON)."""
+def dump(target: str, duration: float, ulp: bool = False, chains: bool = False, also=()):
+    """Write this build's fingerprints of the shipped scenarios (chains, also) to target."""
     result = {}
-    for path in scenarios(ROOT) + [pathlib.Path(p) for p in also]:
+    named = [(path.stem, path) for path in scenarios(ROOT) + [pathlib.Path(p) for p in also]]
+    if chains:
+        named += list(chain_scenarios().items())
+    for name, path in named:
         try:
-            result[path.stem] = fingerprint(path, duration, ulp)
+            result[name] = fingerprint(path, duration, ulp)
         except Exception as err:   # a scenario this build cannot run: reported, not fatal
-            result[path.stem] = {'error': f'{type(err).__name__}: {err}'}
+            result[name] = {'error': f'{type(err).__name__}: {err}'}
     with open(target, 'w', encoding='utf-8') as handle:
         json.dump(result, handle)
 
@@ -130,13 +155,14 @@ def largest_difference(a: dict, b: dict):
 
 
 def run(python: str, tree: pathlib.Path, duration: float, folder: str, name: str,
-        ulp: bool = False, also=()) -> dict:
+        ulp: bool = False, chains: bool = False, also=()) -> dict:
     """Dump the fingerprints with python in tree (its own checkout); return them."""
     target = os.path.join(folder, f'{name}.json')
     env = dict(os.environ, PYTHONPATH=str(tree))
-    extra = [a for path in also for a in ('--also', str(path))]
     subprocess.run([python, str(pathlib.Path(__file__).resolve()), '--dump', target,
-                    '--duration', str(duration)] + (['--ulp'] if ulp else []) + extra,
+                    '--duration', str(duration)] + (['--ulp'] if ulp else [])
+                   + (['--chains'] if chains else [])
+                   + [a for path in also for a in ('--also', str(path))],
                    cwd=tree, env=env, check=True)
     with open(target, encoding='utf-8') as handle:
         return json.load(handle)
@@ -152,23 +178,27 @@ def main():
     parser.add_argument('--tolerance', type=float, default=1e-12)
     parser.add_argument('--ulp', action='store_true',
                         help='move one initial CG coordinate by one unit in the last place')
+    parser.add_argument('--chains', action='store_true',
+                        help="add suite.py's chains of 100 bodies and its tree (needs MuJoCo)")
     parser.add_argument('--also', action='append', default=[],
                         help='a further scenario file to dump (with --dump)')
     args = parser.parse_args()
     if args.dump:
-        dump(args.dump, args.duration, args.ulp, args.also)
+        dump(args.dump, args.duration, args.ulp, args.chains, args.also)
         return 0
     if not (args.reference and args.reference_tree):
         parser.error('give --dump, or --reference and --reference-tree')
     with tempfile.TemporaryDirectory() as folder:
         also = write_variants(folder)
-        mine = run(sys.executable, ROOT, args.duration, folder, 'this', also=also)
+        mine = run(sys.executable, ROOT, args.duration, folder, 'this', chains=args.chains,
+                   also=also)
         theirs = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'reference', also=also)
+                     args.duration, folder, 'reference', chains=args.chains, also=also)
         # the reference against itself with one initial coordinate moved by one ulp: how
         # far a single rounding difference carries in each scenario
         nudged = run(args.reference, pathlib.Path(args.reference_tree).resolve(),
-                     args.duration, folder, 'nudged', ulp=True, also=also)
+                     args.duration, folder, 'nudged', ulp=True, chains=args.chains,
+                     also=also)
     failed = 0
     print(f'{"scenario":<36} {"this vs reference":>18} {"reference, 1 ulp":>17}  where')
     for name in sorted(set(mine) | set(theirs)):

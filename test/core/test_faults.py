@@ -200,6 +200,19 @@ def test_a_huge_input_sends_a_body_to_infinity_and_fails(tmp_path):
     assert len([m for m in messages if m[0].endswith('store/pose')]) == session.samples > 145
 
 
+@pytest.mark.parametrize('value', [math.nan, math.inf])
+def test_a_non_finite_number_anywhere_in_the_state_fails_the_step(value):
+    # two free bodies: 26 numbers, checked four at a time and the last two one by one
+    bodies = {name: {'mass': 1.0, 'inertia': [1, 1, 1], 'position': [x, 0, 0]}
+              for name, x in (('a', 1.0), ('b', 3.0))}
+    model = parse_scenario({'name': 'two', 'duration': 0.01, 'bodies': bodies, 'joints': {}})
+    for k in range(26):
+        sim = Simulator(model)
+        sim.y[k] = value
+        assert not sim.advance_to(0.01)
+        assert sim.message == 'at t = 0 s: the state is no longer finite (the system diverged)', k
+
+
 def test_a_universal_joint_at_parallel_axes_is_reported():
     # the joint keeps its axes perpendicular, so only drift takes them parallel:
     # put the bar there (turned 90 deg about z, its y axis along the cross's x)

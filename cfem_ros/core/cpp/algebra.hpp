@@ -24,6 +24,20 @@ inline double kept(double x) {
   return x;
 }
 
+// LANES numbers at a time (GCC's vector extension, any alignment): four with AVX, else
+// two (a wider vector than the instruction set's would pass through memory). Each
+// lane is rounded as the scalar expression is, the same products fused.
+#ifdef __AVX__
+constexpr int LANES = 4;
+#else
+constexpr int LANES = 2;
+#endif
+typedef double Pack __attribute__((vector_size(8 * LANES), may_alias, aligned(8)));
+
+inline Pack load(const double* p) { return *reinterpret_cast<const Pack*>(p); }
+
+inline void store(double* p, Pack v) { *reinterpret_cast<Pack*>(p) = v; }
+
 struct V3 {
   double x, y, z;
   double operator[](int k) const { return k == 0 ? x : (k == 1 ? y : z); }

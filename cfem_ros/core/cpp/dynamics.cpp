@@ -49,7 +49,7 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
     const double* body = bodies.row(i);
     if (need_inverse) body_congruence(rot, body + 11, v.inv_inertia + 9 * i, 3);
     double* mh = v.mhat + 36 * i;
-    for (int k = 0; k < 36; ++k) mh[k] = 0.0;
+    for (int k = 0; k < 36; k += LANES) store(mh + k, Pack{});
     double mass = body[0];
     mh[0] = mh[7] = mh[14] = mass;
     body_congruence(rot, body + 2, mh + 21, 6);
@@ -75,35 +75,60 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
   if (s.loads.rows > n) loads::add_scheduled(y, v.rot, bodies, s.loads, v.fhat);
 }
 
+namespace {
+
+// The terms of a joint point that the joint's translation rows share: where the point
+// is on b (rho_b) and from a's CG (t1), the separation d, its rate and the centripetal
+// acceleration.
+struct Point {
+  V3 rho_b, t1, d, d_dot, centripetal;
+};
+
+// Not inlined: the point is then kept in memory and read by each of its rows, instead
+// of being held in registers across every row and spilled at each.
+__attribute__((noinline)) void joint_point(const double* y, idx n, const Work& v, idx a, idx b,
+                                           const double* rf, const V3& wa, Point& q) {
+  V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
+  V3 rho_a = rotate(v.rot + 9 * a, rf[3], rf[4], rf[5]);
+  V3 rho_b = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
+  V3 pa = {y[3 * a], y[3 * a + 1], y[3 * a + 2]};
+  V3 t1 = {y[3 * b] + rho_b.x - pa.x, y[3 * b + 1] + rho_b.y - pa.y,
+           y[3 * b + 2] + rho_b.z - pa.z};
+  q.rho_b = rho_b;
+  q.t1 = t1;
+  q.d = {t1.x - rho_a.x, t1.y - rho_a.y, t1.z - rho_a.z};
+  V3 vb = cross(wb, rho_b);
+  V3 va = cross(wa, rho_a);
+  idx o = 3 * n;
+  q.d_dot = {y[o + 3 * b] + vb.x - y[o + 3 * a] - va.x,
+             y[o + 3 * b + 1] + vb.y - y[o + 3 * a + 1] - va.y,
+             y[o + 3 * b + 2] + vb.z - y[o + 3 * a + 2] - va.z};
+  V3 cb = cross(wb, vb), ca = cross(wa, va);
+  q.centripetal = {cb.x - ca.x, cb.y - ca.y, cb.z - ca.z};
+}
+
+}  // namespace
+
 void row_terms(const double* y, const System& s, const Work& v, bool dense) {
   const idx n = s.n(), m = s.m();
   const bool kinematic = motion::any(s.bodies);
-  V3 rho_b = {0, 0, 0}, t1 = {0, 0, 0}, d = {0, 0, 0}, d_dot = {0, 0, 0}, centripetal = {0, 0, 0};
+  const double eta = s.eta;
+  Point point = {};
   for (idx r = 0; r < m; ++r) {
     idx a = s.rows_i(r, 0), b = s.rows_i(r, 1), kind = s.rows_i(r, 2);
     const double* rf = s.rows_f.row(r);
     double* jac = v.jac + 12 * r;
     V3 wa = {v.omega[3 * a], v.omega[3 * a + 1], v.omega[3 * a + 2]};
-    V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
     V3 e = rotate(v.rot + 9 * a, rf[0], rf[1], rf[2]);
+    double value, rate, gamma;
     if (kind) {
-      if (kind == 1) {
-        // the joint point's terms, shared by a joint's translation rows
-        V3 rho_a = rotate(v.rot + 9 * a, rf[3], rf[4], rf[5]);
-        rho_b = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
-        V3 pa = {y[3 * a], y[3 * a + 1], y[3 * a + 2]};
-        t1 = {y[3 * b] + rho_b.x - pa.x, y[3 * b + 1] + rho_b.y - pa.y,
-              y[3 * b + 2] + rho_b.z - pa.z};
-        d = {t1.x - rho_a.x, t1.y - rho_a.y, t1.z - rho_a.z};
-        V3 vb = cross(wb, rho_b);
-        V3 va = cross(wa, rho_a);
-        idx o = 3 * n;
-        d_dot = {y[o + 3 * b] + vb.x - y[o + 3 * a] - va.x,
-                 y[o + 3 * b + 1] + vb.y - y[o + 3 * a + 1] - va.y,
-                 y[o + 3 * b + 2] + vb.z - y[o + 3 * a + 2] - va.z};
-        V3 cb = cross(wb, vb), ca = cross(wa, va);
-        centripetal = {cb.x - ca.x, cb.y - ca.y, cb.z - ca.z};
-      }
+      // the joint point's terms, shared by a joint's translation rows
+      if (kind == 1) joint_point(y, n, v, a, b, rf, wa, point);
+      const V3& rho_b = point.rho_b;
+      const V3& t1 = point.t1;
+      const V3& d = point.d;
+      const V3& d_dot = point.d_dot;
+      const V3& centripetal = point.centripetal;
       V3 wa_e = cross(wa, e);
       V3 t1e = cross(t1, e);
       V3 rbe = cross(rho_b, e);
@@ -114,12 +139,12 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[9 + k] = rbe[k];
       }
       // dot_yx: the products rounded as numba's kernel rounded them (algebra.hpp)
-      v.value[r] = dot_yx(d, e);
-      v.rate[r] = dot_yx(e, d_dot) + dot_yx(d, wa_e);
+      value = dot_yx(d, e);
+      rate = dot_yx(e, d_dot) + dot_yx(d, wa_e);
       // centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)
-      v.gamma[r] = 2.0 * dot_yx(wa_e, d_dot) + dot_yx(e, centripetal)
-                   + dot_yx(d, cross(wa, wa_e));
+      gamma = 2.0 * dot_yx(wa_e, d_dot) + dot_yx(e, centripetal) + dot_yx(d, cross(wa, wa_e));
     } else {
+      V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
       V3 f = rotate(v.rot + 9 * b, rf[3], rf[4], rf[5]);
       V3 c = cross(f, e);
       V3 rel = {wb.x - wa.x, wb.y - wa.y, wb.z - wa.z};
@@ -129,11 +154,14 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[6 + k] = 0.0;
         jac[9 + k] = c[k];
       }
-      v.value[r] = dot(e, f);
-      v.rate[r] = dot(rel, c);
-      v.gamma[r] = dot(rel, cross(cross(wb, f), e)) + dot(rel, cross(f, cross(wa, e)));
+      value = dot(e, f);
+      rate = dot(rel, c);
+      gamma = dot(rel, cross(cross(wb, f), e)) + dot(rel, cross(f, cross(wa, e)));
     }
-    v.rhs[r] = -v.gamma[r] - 2.0 * s.eta * v.rate[r] - s.eta * s.eta * v.value[r];
+    v.value[r] = value;
+    v.rate[r] = rate;
+    v.gamma[r] = gamma;
+    v.rhs[r] = -gamma - 2.0 * eta * rate - eta * eta * value;
     if (kinematic) v.rhs[r] -= motion::known(jac, s.bodies, a, b);  // known accelerations
     if (dense) {
       double* wt = v.weighted + 12 * r;
@@ -169,7 +197,8 @@ bool solve(const double* y, const System& s, const Work& v) {
   return tree_solve(y, s, v);
 }
 
-double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved) {
+double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved,
+                  bool largest) {
   const idx n = s.n();
   if (!solved && !solve(y, s, v)) return -1.0;
   const bool kinematic = motion::any(s.bodies);
@@ -193,7 +222,7 @@ double derivative(const double* y, double* dy, const System& s, const Work& v, b
     dy[o + 3] = -0.5 * (y[o + 0] * w0 + y[o + 1] * w1 + y[o + 2] * w2);
   }
   double worst = 0.0;
-  for (idx r = 0; r < s.m(); ++r) {
+  for (idx r = 0; largest && r < s.m(); ++r) {
     double a = std::fabs(v.value[r]);
     if (a > worst) worst = a;
   }

@@ -20,8 +20,9 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense);
 // Accelerations (v.acc) and joint loads at y; false if singular.
 bool solve(const double* y, const System& s, const Work& v);
 
-// dy/dt at y into dy; the largest |constraint value|, -1 if singular. solved: the
-// workspace already holds the solve at y (with these loads).
-double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved);
+// dy/dt at y into dy; the largest |constraint value| (0 if not largest), -1 if singular.
+// solved: the workspace already holds the solve at y (with these loads).
+double derivative(const double* y, double* dy, const System& s, const Work& v, bool solved,
+                  bool largest = true);
 
 }  // namespace cfem

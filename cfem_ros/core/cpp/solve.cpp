@@ -166,15 +166,19 @@ inline bool eliminate_one(const double* mh, const double* f, const double* g, co
   d_inv[0] = inv;
   projected[0] = total_q;
   double a = total_q * inv;
+#pragma GCC unroll 6
   for (int i = 0; i < 6; ++i) {
     double vi = u[3 * i] * inv;
     z[i] -= u[3 * i] * a;
+#pragma GCC unroll 6
     for (int k = i; k < 6; ++k) x[6 * i + k] = x[6 * k + i] = mh[6 * i + k] - vi * u[3 * k];
   }
   return true;
 }
 
 // Add Phi^T x Phi to mhat_p and Phi^T z to fhat_p (x symmetric 6x6, Phi from c to p).
+// Inlined: the call's saving and restoring of registers was a tenth of its cost.
+__attribute__((always_inline))
 inline void shift_add(const double* x, const double* z, const double* y, idx c, idx p,
                       double* mp, double* fp) {
   double r0 = y[3 * c] - y[3 * p], r1 = y[3 * c + 1] - y[3 * p + 1],
@@ -251,6 +255,30 @@ inline void shift_add(const double* x, const double* z, const double* y, idx c, 
   fp[5] += z5 + r0 * z1 - r1 * z0;
 }
 
+// A child's acceleration ac (in place, its parent's carried to it) with its K free
+// motions': their accelerations D^-1 (q - U^T ac), then ac + s + G of them. K is a
+// constant so that the loops unroll (a hinge's K = 1 is most chains' every joint).
+template <int K>
+inline void descend(const double* g, const double* u, const double* s, const double* d_inv,
+                    const double* q, double* ac) {
+  double t1[K > 0 ? K : 1], vec[K > 0 ? K : 1];
+  for (int col = 0; col < K; ++col) {
+    double total = q[col];
+    for (int k = 0; k < 6; ++k) total -= u[3 * k + col] * ac[k];
+    t1[col] = total;
+  }
+  for (int col = 0; col < K; ++col) {
+    double total = 0.0;
+    for (int k = 0; k < K; ++k) total += d_inv[3 * col + k] * t1[k];
+    vec[col] = total;
+  }
+  for (int k = 0; k < 6; ++k) {
+    double total = ac[k] + s[k];
+    for (int col = 0; col < K; ++col) total += g[3 * k + col] * vec[col];
+    ac[k] = total;
+  }
+}
+
 }  // namespace
 
 bool tree_solve(const double* y, const System& sys, const Work& v) {
@@ -266,19 +294,28 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
   double* free_r = v.three + 9;
   double* gram = v.three + 18;
   double* vec = v.vec;
-  double* t1 = v.vec + 6;
+  // the joint point on joint j's child, relative to the tree child's CG
+  auto joint_point = [&](idx j) {
+    idx c = plan(j, P_CHILD);
+    idx b = plan(j, P_SIGN) > 0 ? c : plan(j, P_PARENT);
+    const double* rf = sys.rows_f.row(plan(j, P_ROW));
+    V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
+    return V3{rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
+              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
+  };
+  // the hinges' free motions and particular accelerations (straight-line code) first:
+  // they need nothing of the recursion, whose chain of dependent steps is then shorter
+  for (idx j = 0; j < n_j; ++j) {
+    if (plan(j, P_NT) == 3 && plan(j, P_NR) == 2)
+      hinge_motion(jac, rhs, plan(j, P_ROW), plan(j, P_SIGN) > 0 ? 6 : 0, joint_point(j),
+                   v.basis + 18 * j, v.particular + 6 * j);
+  }
   // leaves first: pass each child's articulated inertia on to its parent
   for (idx j = 0; j < n_j; ++j) {
     idx r0 = plan(j, P_ROW), nt = plan(j, P_NT), nr = plan(j, P_NR);
     idx c = plan(j, P_CHILD), p = plan(j, P_PARENT);
     double sign = static_cast<double>(plan(j, P_SIGN));
     int off = sign > 0 ? 6 : 0;
-    // the joint point on the joint's child, relative to the tree child's CG
-    idx b = sign > 0 ? c : p;
-    const double* rf = sys.rows_f.row(r0);
-    V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
-    V3 rho = {rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
-              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
     double* mh = v.mhat + 36 * c;
     double* fc = v.fhat + 6 * c;
     double* u = v.weighted_basis + 18 * j;
@@ -287,13 +324,12 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
     double* d_inv = v.chol + 9 * j;
     double* projected = v.projected + 3 * j;
     bool parent_free = sys.roots[p] >= 0;
-    if (nt == 3 && nr == 2) {
-      // a hinge: its free motion and particular acceleration in straight-line code
-      hinge_motion(jac, rhs, r0, off, rho, g, s);
+    if (nt == 3 && nr == 2) {  // a hinge (its g and s above)
       if (!eliminate_one(mh, fc, g, s, u, vec, x, d_inv, projected)) return false;
       if (parent_free) shift_add(x, vec, y, c, p, v.mhat + 36 * p, v.fhat + 6 * p);
       continue;
     }
+    V3 rho = joint_point(j);
     // free motions G of the tree child: translations off the rows, rotations off the
     // rows with the joint point carried along
     complement(jac, r0, nt, sign, off, free_t);
@@ -419,21 +455,16 @@ bool tree_solve(const double* y, const System& sys, const Work& v) {
     } else {
       for (int k = 0; k < 6; ++k) ac[k] = 0.0;
     }
-    for (int col = 0; col < k_free; ++col) {
-      double total = v.projected[3 * j + col];
-      for (int k = 0; k < 6; ++k) total -= u[3 * k + col] * ac[k];
-      t1[col] = total;
-    }
     const double* d_inv = v.chol + 9 * j;
-    for (int col = 0; col < k_free; ++col) {
-      double total = 0.0;
-      for (int k = 0; k < k_free; ++k) total += d_inv[3 * col + k] * t1[k];
-      vec[col] = total;
-    }
-    for (int k = 0; k < 6; ++k) {
-      double total = ac[k] + s[k];
-      for (int col = 0; col < k_free; ++col) total += g[3 * k + col] * vec[col];
-      ac[k] = total;
+    const double* q = v.projected + 3 * j;
+    switch (k_free) {
+      case 0: descend<0>(g, u, s, d_inv, q, ac); break;
+      case 1: descend<1>(g, u, s, d_inv, q, ac); break;
+      case 2: descend<2>(g, u, s, d_inv, q, ac); break;
+      case 3: descend<3>(g, u, s, d_inv, q, ac); break;
+      case 4: descend<4>(g, u, s, d_inv, q, ac); break;
+      case 5: descend<5>(g, u, s, d_inv, q, ac); break;
+      default: descend<6>(g, u, s, d_inv, q, ac); break;
     }
   }
   return true;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "algebra.hpp"
 #include "conditions.hpp"
 #include "dynamics.hpp"
 #include "loads.hpp"
@@ -13,6 +14,29 @@
 #include "sampling.hpp"
 
 namespace cfem {
+
+namespace {
+
+// out = y + c k, number by number (LANES at a time: each lane rounded as one by one).
+inline void stage_sum(const double* y, double c, const double* k, idx size, double* out) {
+  idx j = 0;
+  for (; j + LANES <= size; j += LANES) store(out + j, load(y + j) + c * load(k + j));
+  for (; j < size; ++j) out[j] = y[j] + c * k[j];
+}
+
+// Whether every number is finite: x - x is 0 for a finite x, NaN for an infinite or NaN
+// one, and a sum of them NaN if any is.
+inline bool all_finite(const double* x, idx size) {
+  Pack sum = {};
+  idx j = 0;
+  for (; j + LANES <= size; j += LANES) sum += load(x + j) - load(x + j);
+  double total = 0.0;
+  for (int k = 0; k < LANES; ++k) total += sum[k];
+  for (; j < size; ++j) total += x[j] - x[j];
+  return total == 0.0;
+}
+
+}  // namespace
 
 double rk4(const double* y, idx size, double h, double* out, const System& s, const Work& v,
            bool solved) {
@@ -26,13 +50,13 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
     double offset = k == 0 ? 0.0 : (k < 3 ? 0.5 * h : h);
     if (scheduled) loads::stage_time(s.loads, n, offset);  // stage time of scheduled wrenches
     if (kinematic) motion::place(k == 0 ? const_cast<double*>(y) : stage, s.bodies, offset);
-    double w = derivative(k == 0 ? y : stage, stages + k * size, s, v, solved && k == 0);
+    // the violation is the step's start's: the other stages' is not needed
+    double w = derivative(k == 0 ? y : stage, stages + k * size, s, v, solved && k == 0, k == 0);
     if (w < 0.0) return -1.0;
     if (k == 0) worst = w;
     if (k < 3) {
       double c = k < 2 ? 0.5 * h : h;
-      const double* ks = stages + k * size;
-      for (idx j = 0; j < size; ++j) stage[j] = y[j] + c * ks[j];
+      stage_sum(y, c, stages + k * size, size, stage);
     }
   }
   const double* k1 = stages;
@@ -40,7 +64,12 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
   const double* k3 = stages + 2 * size;
   const double* k4 = stages + 3 * size;
   const double sixth = h / 6.0;
-  for (idx j = 0; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+  idx j = 0;
+  for (; j + LANES <= size; j += LANES) {
+    Pack sum = load(k1 + j) + 2.0 * load(k2 + j) + 2.0 * load(k3 + j) + load(k4 + j);
+    store(out + j, load(y + j) + sixth * sum);
+  }
+  for (; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
   for (idx i = 0; i < n; ++i) {
     double* q = out + 6 * n + 4 * i;
     double scale = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -148,11 +177,9 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
         info[3] = CONDITION;
         return;
       }
-      for (idx j = 0; j < size; ++j) {
-        if (!std::isfinite(out[j])) {
-          info[3] = NOT_FINITE;
-          return;
-        }
+      if (!all_finite(out, size)) {
+        info[3] = NOT_FINITE;
+        return;
       }
       if (worst > info[4]) {
         info[3] = VIOLATION;
@@ -160,7 +187,7 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
         return;
       }
       info[2] = std::max(info[2], worst);
-      for (idx j = 0; j < size; ++j) y[j] = out[j];
+      std::copy(out, out + size, y);
       fresh = need_force;
       t = t_end;
       info[0] = t;
