@@ -22,6 +22,7 @@ from typing import Optional
 from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.recording import visuals
+from cfem_ros.recording.arrows import ArrowEncoder
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.msgdefs import DEFINITIONS
@@ -222,19 +223,28 @@ class Recorder:
         self._channels[topic] = channel
         return channel
 
-    def write(self, topic: str, msgtype: str, message: dict, stamp_ns: int,
+    def write(self, topic: str, msgtype: str, message, stamp_ns: int,
               qos: str = OFFERED_QOS):
-        """Encode and write one message given as a dict; log and publish time = stamp_ns."""
+        """
+        Encode and write one message; log and publish time = stamp_ns.
+
+        message: a dict, or its CDR bytes already encoded.
+        """
         self._flush_samples()
         self._write(topic, msgtype, message, stamp_ns, qos)
 
-    def _write(self, topic: str, msgtype: str, message: dict, stamp_ns: int, qos: str):
-        channel = self.channel(topic, msgtype, qos)
+    def encoder(self, msgtype: str):
+        """Return mcap_ros2's encoder of msgtype (a dict to CDR bytes), made once."""
         encode = self._encoders.get(msgtype)
         if encode is None:
             encode = self._encoders[msgtype] = serialize_dynamic(
                 msgtype, DEFINITIONS[msgtype])[msgtype]
-        self._writer.add_message(channel, int(stamp_ns), encode(message),
+        return encode
+
+    def _write(self, topic: str, msgtype: str, message, stamp_ns: int, qos: str):
+        channel = self.channel(topic, msgtype, qos)
+        data = message if isinstance(message, bytes) else self.encoder(msgtype)(message)
+        self._writer.add_message(channel, int(stamp_ns), data,
                                  sequence=self.message_count, publish_time=int(stamp_ns))
         self.message_count += 1
 
@@ -683,6 +693,7 @@ class StateRecorder:
         self._scene_written = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
+        self._arrow_bytes = ArrowEncoder(recorder.encoder(MARKERS))
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -739,8 +750,9 @@ class StateRecorder:
                 force = row[first + 6 * i:first + 6 * i + 3]
                 loads.append((j, rotations.to_body(row[None, child:child + 4], force[None])[0]))
             when = self.stamp_ns(t)
-            out.append((k + 1, self.topic('load_markers'), MARKERS, visuals.load_arrows(
-                model, stamp(when), self.namespace, loads), when, OFFERED_QOS))
+            out.append((k + 1, self.topic('load_markers'), MARKERS, self._arrow_bytes(
+                visuals.load_arrows(model, stamp(when), self.namespace, loads)), when,
+                OFFERED_QOS))
             self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
         return out
 

@@ -1,0 +1,33 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The joint-load arrows encoded from a template: the bytes of mcap_ros2's encoder."""
+
+import pathlib
+
+from cfem_ros.core.scenario import load_scenario
+from cfem_ros.recording import visuals
+from cfem_ros.recording.arrows import ArrowEncoder
+from cfem_ros.recording.msgdefs import DEFINITIONS
+from cfem_ros.recording.recorder import MARKERS, stamp
+from hypothesis import given, settings, strategies as st
+from mcap_ros2._dynamic import serialize_dynamic
+import numpy as np
+
+CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
+ENCODE = serialize_dynamic(MARKERS, DEFINITIONS[MARKERS])[MARKERS]
+MODEL = load_scenario(str(CONFIG / 'store_release_two_hooks.yaml'))
+FORCE = st.floats(-1e7, 1e7, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(sendings=st.lists(st.tuples(
+    st.integers(0, 2 ** 40), st.lists(st.booleans(), min_size=3, max_size=3),
+    st.lists(st.tuples(FORCE, FORCE, FORCE), min_size=3, max_size=3)), min_size=1, max_size=6),
+    namespace=st.sampled_from(['/cfem', '/a/much/longer/namespace']))
+def test_every_sending_is_the_encoder_s_bytes(sendings, namespace):
+    # one encoder for all the sendings: templates made by one are reused by the next
+    encoder = ArrowEncoder(ENCODE)
+    for stamp_ns, active, forces in sendings:
+        loads = [(k, np.array(f)) for k, (on, f) in enumerate(zip(active, forces)) if on]
+        message = visuals.load_arrows(MODEL, stamp(stamp_ns), namespace, loads)
+        assert encoder(message) == ENCODE(message)
