@@ -49,7 +49,7 @@ def scenarios(root: pathlib.Path) -> list:
 
 
 def fixed_density(text: str) -> str:
-    """The aero store's ISA density held at its reference altitude (the numba build's model)."""
+    """Return the scenario with its aero density held at the reference altitude's ISA value."""
     from cfem_ros.core.aero import isa_density
 
     line = next(x for x in text.splitlines() if x.strip().startswith('altitude:'))
