@@ -22,9 +22,9 @@ from typing import Optional
 from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.recording import visuals
-from cfem_ros.recording.arrows import ArrowEncoder
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
+from cfem_ros.recording.markerbytes import MarkerArrayEncoder
 from cfem_ros.recording.msgdefs import DEFINITIONS
 from cfem_ros.recording.outputs import output_problem
 import mcap
@@ -193,7 +193,6 @@ class Recorder:
             self._stream, profile='ros2', chunk_size=CHUNK_SIZE,
             library=f'cfem_ros {__version__}; mcap {mcap.__version__}')
         self._schemas = {}
-        self._encoders = {}
         self._channels = {}
         self._pending = None    # the layout of the samples waiting in its buffer
         self._between = []   # messages to write among them (``commit_rows``)
@@ -233,17 +232,9 @@ class Recorder:
         self._flush_samples()
         self._write(topic, msgtype, message, stamp_ns, qos)
 
-    def encoder(self, msgtype: str):
-        """Return mcap_ros2's encoder of msgtype (a dict to CDR bytes), made once."""
-        encode = self._encoders.get(msgtype)
-        if encode is None:
-            encode = self._encoders[msgtype] = serialize_dynamic(
-                msgtype, DEFINITIONS[msgtype])[msgtype]
-        return encode
-
     def _write(self, topic: str, msgtype: str, message, stamp_ns: int, qos: str):
         channel = self.channel(topic, msgtype, qos)
-        data = message if isinstance(message, bytes) else self.encoder(msgtype)(message)
+        data = message if isinstance(message, bytes) else encoder(msgtype)(message)
         self._writer.add_message(channel, int(stamp_ns), data,
                                  sequence=self.message_count, publish_time=int(stamp_ns))
         self.message_count += 1
@@ -598,6 +589,12 @@ def _stamped_template(frame_id: str, count: int):
     return data, {'encapsulation': CDR_LE, 'frame': frame}
 
 
+@functools.lru_cache(maxsize=None)
+def encoder(msgtype: str):
+    """Return mcap_ros2's encoder of msgtype (a dict to CDR bytes), made once."""
+    return serialize_dynamic(msgtype, DEFINITIONS[msgtype])[msgtype]
+
+
 def _in_body_axes(block: np.ndarray, turned: InBodyAxes) -> np.ndarray:
     """Return the force and moment of samples (k, columns) in a body's axes, (k, 6)."""
     matrices = rotations.matrices(block[:, turned.quaternion:turned.quaternion + 4])
@@ -693,7 +690,7 @@ class StateRecorder:
         self._scene_written = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
-        self._arrow_bytes = ArrowEncoder(recorder.encoder(MARKERS))
+        self._marker_bytes = MarkerArrayEncoder(encoder(MARKERS))
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -739,30 +736,36 @@ class StateRecorder:
         model = self.sim.model
         if not model.joints:
             return []
-        out = []
-        first = 13 * len(model.bodies)
+        due = []   # the samples that send the arrows
         for k, t in enumerate(times):
-            if _periods(t, visuals.ARROW_PERIOD) < self._arrows_due:
-                continue
-            row, loads = rows[k], []
-            for i, j in enumerate(active):
-                child = 13 * model.joints[j].child + 3
-                force = row[first + 6 * i:first + 6 * i + 3]
-                loads.append((j, rotations.to_body(row[None, child:child + 4], force[None])[0]))
-            when = self.stamp_ns(t)
-            out.append((k + 1, self.topic('load_markers'), MARKERS, self._arrow_bytes(
-                visuals.load_arrows(model, stamp(when), self.namespace, loads)), when,
-                OFFERED_QOS))
-            self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
+            if _periods(t, visuals.ARROW_PERIOD) >= self._arrows_due:
+                due.append(k)
+                self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
+        if not due:
+            return []
+        # every due sample's forces turned into their children's axes at once
+        first = 13 * len(model.bodies)
+        picked = np.asarray(rows)[due]
+        local = np.empty((len(due), len(active), 3))
+        for i, j in enumerate(active):
+            child = 13 * model.joints[j].child + 3
+            local[:, i] = rotations.to_body(picked[:, child:child + 4],
+                                            picked[:, first + 6 * i:first + 6 * i + 3])
+        out = []
+        for k, turned in zip(due, local):
+            when = self.stamp_ns(times[k])
+            out.append((k + 1, self.topic('load_markers'), MARKERS, self._marker_bytes(
+                visuals.load_arrows(model, stamp(when), self.namespace, zip(active, turned))),
+                when, OFFERED_QOS))
         return out
 
-    def _marker_array(self, stamp_ns: int, t: float) -> dict:
-        """Return the MarkerArray at simulated time t (the joints released by then in red)."""
+    def _marker_array(self, stamp_ns: int, t: float) -> bytes:
+        """Return the MarkerArray at simulated time t (the joints released by then in red), CDR."""
         released = {e['joint'] for e in self.sim.events
                     if e.get('event') == 'release' and e['time'] <= t}
         contacts = [e for e in self.sim.events if e.get('event') == 'contact' and e['time'] <= t]
-        return visuals.markers(self.sim.model, stamp(stamp_ns), self.namespace, released,
-                               contacts)
+        return self._marker_bytes(visuals.markers(self.sim.model, stamp(stamp_ns),
+                                                  self.namespace, released, contacts))
 
     def _markers(self, stamp_ns: int):
         t = (stamp_ns - self.start_ns) / 1e9

@@ -268,6 +268,9 @@ def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
     active joint. An arrow lies in its joint's frame (at the joint point, the
     child's axes), from the point along the force, 1 m per the heaviest
     moving body's weight; a first DELETEALL clears the released joints' arrows.
+    Each arrow's text is its joint and the force's size, always as wide
+    (``pivot: 7.603e+03 N``), so that a recording encodes it from one template
+    (``markerbytes``).
     """
     scale = metres_per_newton(model)
     out = [{'header': {'stamp': stamp, 'frame_id': model.frame_id},
@@ -279,5 +282,5 @@ def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
                     'pose': {'orientation': _quat((0, 0, 0, 1))},
                     'points': [_xyz((0, 0, 0)), _xyz(np.asarray(force) * scale)],
                     'scale': _xyz((0.03, 0.06, 0.08)), 'color': _color(ARROW_COLOR),
-                    'text': f'{joint.name}: {float(np.linalg.norm(force)):.4g} N'})
+                    'text': f'{joint.name}: {float(np.linalg.norm(force)):.3e} N'})
     return {'markers': out}

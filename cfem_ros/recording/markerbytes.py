@@ -1,17 +1,18 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The joint-load arrows of a recording, encoded from a template.
+A recording's MarkerArrays (bodies, joint-load arrows), encoded from templates.
 
-``mcap_ros2``'s encoder walks a MarkerArray's definition field by field, about
-1.7 ms for the two arrows of the double pendulum, and a recording holds ten
-sendings of the arrows per simulated second: more than the rest of a 100 Hz
-recording. From one sending to the next only the stamps, the arrows' points
-and the numbers in their texts change; so each kind of sending (its markers'
-frames and ids, the byte lengths of their texts) is encoded once by
-``mcap_ros2`` with marker values in those places, and every sending copies
+``mcap_ros2``'s encoder walks a MarkerArray's definition field by field: about
+1.7 ms for the two arrows of the double pendulum, more for the bodies, and a
+recording holds ten sendings of the arrows and one of the bodies per simulated
+second, more than the rest of a 100 Hz recording. From one sending to the
+next mostly the stamps change, and the arrows' points and the numbers in their
+texts; so each kind of sending (everything else of its markers, the number of
+points and the byte lengths of the texts) is encoded once by ``mcap_ros2``
+with marker values in those places, and every sending of that kind copies
 those bytes and writes its own values where the markers landed. The bytes are
-the encoder's (``test/recording/test_arrows.py`` compares them).
+the encoder's (``test/recording/test_markerbytes.py`` compares them).
 """
 
 import struct
@@ -19,29 +20,32 @@ import struct
 _STAMP = struct.Struct('<iI')
 _POINT = struct.Struct('<3d')
 _TEXT_MARK = 0x7F
+#: Templates by (encoder, kind), shared by the recordings of a process (a sweep's runs
+#: share their kinds); emptied when it holds this many.
+_TEMPLATES = {}
+_MOST = 4096
 
 
-class ArrowEncoder:
+class MarkerArrayEncoder:
     """
-    Encode MarkerArray messages whose markers differ only in stamps, points and texts.
+    Encode MarkerArray messages (dicts) as ``mcap_ros2`` does, from templates.
 
     encode: ``mcap_ros2``'s encoder of a MarkerArray (a dict to bytes).
     """
 
     def __init__(self, encode):
         self.encode = encode
-        self._templates = {}
 
     def __call__(self, message: dict) -> bytes:
         """Return the CDR bytes of message, as ``encode(message)`` would."""
         markers = message['markers']
         texts = [m.get('text', '').encode() for m in markers]
-        key = tuple((m['header']['frame_id'], m.get('ns', ''), m.get('id', 0),
-                     m.get('action', 0), len(m.get('points', ())), len(text))
-                    for m, text in zip(markers, texts))
-        template = self._templates.get(key)
+        key = (self.encode, repr([_kind(m, text) for m, text in zip(markers, texts)]))
+        template = _TEMPLATES.get(key)
         if template is None:
-            template = self._templates[key] = self._template(message, texts)
+            if len(_TEMPLATES) >= _MOST:
+                _TEMPLATES.clear()
+            template = _TEMPLATES[key] = self._template(message, texts)
         data, stamps, points, text_at = template
         out = bytearray(data)
         for marker, at in zip(markers, stamps):
@@ -76,6 +80,13 @@ class ArrowEncoder:
             points.append(places)
             text_at.append(_text_place(data, stamps[-1], len(text)) if text else None)
         return data, stamps, points, text_at
+
+
+def _kind(marker: dict, text: bytes) -> dict:
+    """Return the marker without what a template leaves to each sending."""
+    out = dict(marker, header=dict(marker['header'], stamp=None), text=len(text))
+    out['points'] = len(marker.get('points', ()))
+    return out
 
 
 def _marks(marker: int, point: int) -> tuple:
