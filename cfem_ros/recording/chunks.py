@@ -333,9 +333,11 @@ class ChunkedWriter:
             return
         found: Dict[int, list] = {}
         for channels, log_times, offsets in self._parts:
-            for i, channel in enumerate(channels):
-                found.setdefault(channel, []).append(
-                    np.column_stack((log_times, offsets[:, i])).astype('<u8'))
+            entries = np.empty((len(channels), len(log_times), 2), dtype='<u8')
+            entries[:, :, 0] = log_times
+            entries[:, :, 1] = offsets.T
+            for channel, rows in zip(channels, entries):
+                found.setdefault(channel, []).append(rows)
         for channel, parts in found.items():
             yield channel, np.concatenate(parts)
 

@@ -301,20 +301,42 @@ class Recorder:
                 return
             per = len(layout.channels)
             between, self._between = self._between, []
-            cuts = sorted({k for k, *_ in between if k < layout.count} | {layout.count})
-            start = 0
-            for cut in cuts:
-                first = start
-                while first < cut:   # as many rows as fill the chunk in progress
-                    rows = -(-self._writer.chunk_room() // layout.dtype.itemsize)
-                    stop = min(first + max(1, min(rows, layout.chunk_rows)), cut)
-                    self._writer.add_messages(*layout.records(self.message_count, first, stop))
-                    self.message_count += (stop - first) * per
-                    first = stop
-                for k, *message in between:
-                    if k == cut or (cut == layout.count and k > cut):
+            # the other messages, by the sample they come before (after the last: at the end)
+            before = {}
+            for k, *message in between:
+                before.setdefault(min(k, layout.count), []).append(message)
+            cuts = sorted(before)
+            numbers = layout.numbers()
+            start, j = 0, 0
+            while True:
+                while j < len(cuts) and cuts[j] <= start:
+                    for message in before[cuts[j]]:
                         self._write(*message)
-                start = cut
+                    j += 1
+                if start >= layout.count:
+                    break
+                # as many rows as fill the chunk in progress, encoded at once; then written
+                # in the pieces between the other messages
+                rows = -(-self._writer.chunk_room() // layout.dtype.itemsize)
+                stop = min(start + max(1, min(rows, layout.chunk_rows)), layout.count)
+                inside = [k for k in cuts[j:] if k < stop]
+                shift = np.zeros(stop - start, dtype=np.int64)
+                for k in inside:
+                    shift[k - start:] += len(before[k])
+                records, channels, stamps, offsets = layout.records(
+                    self.message_count, start, stop, numbers, shift)
+                size = layout.dtype.itemsize
+                for a, b in zip([start] + inside, inside + [stop]):
+                    first, last = a - start, b - start
+                    self._writer.add_messages(records[size * first:size * last], channels,
+                                              stamps[first:last],
+                                              offsets[first:last] - size * first)
+                    self.message_count += (b - a) * per
+                    if b < stop:
+                        for message in before[b]:
+                            self._write(*message)
+                        j += 1
+                start = stop
             layout.count = 0
 
     def finish(self):
@@ -500,25 +522,33 @@ class SampleLayout:
         self.count += k
         return self.count == len(self.stamps)
 
-    def records(self, first_sequence: int, start: int = 0, stop: Optional[int] = None):
+    def numbers(self, start: int = 0, stop: Optional[int] = None) -> np.ndarray:
+        """Return the numbers of buffered samples start:stop, turned messages' included."""
+        block = self.values[start:self.count if stop is None else stop]
+        if not self.turned:
+            return block
+        return np.concatenate([block] + [_in_body_axes(block, t) for t in self.turned], axis=1)
+
+    def records(self, first_sequence: int, start: int = 0, stop: Optional[int] = None,
+                numbers: Optional[np.ndarray] = None, shift: Optional[np.ndarray] = None):
         """
         Return buffered samples start:stop (at most ``chunk_rows``) as Message records.
 
+        numbers: ``numbers()`` of all the buffered samples, if already computed;
+        shift: per sample, how many other messages come before it from
+        first_sequence on (its sequence numbers move on by as many).
         Returns the records (bytes), the channels, the samples' log times and
         each message's offset in the records (samples, channels).
         """
         stop = self.count if stop is None else stop
         k, per = stop - start, len(self.channels)
         stamps = self.stamps[start:stop]
-        block = self.values[start:stop]
-        if self.turned:
-            block = np.concatenate([block] + [_in_body_axes(block, t) for t in self.turned],
-                                   axis=1)
+        block = self.numbers(start, stop) if numbers is None else numbers[start:stop]
         records = self._records[:k]
         stamp = np.empty(k, dtype=_STAMP)
         stamp['sec'], stamp['nanosec'] = np.divmod(stamps, 1_000_000_000)
         times = stamps[:, None]
-        sequence = first_sequence + per * np.arange(k)
+        sequence = first_sequence + per * np.arange(k) + (0 if shift is None else shift)
         for i, (part, (seq, log, views)) in enumerate(zip(self.columns, self._fields)):
             seq[:k] = sequence + i
             log[:k] = times
@@ -751,12 +781,15 @@ class StateRecorder:
             child = 13 * model.joints[j].child + 3
             local[:, i] = rotations.to_body(picked[:, child:child + 4],
                                             picked[:, first + 6 * i:first + 6 * i + 3])
+        # what makes one sending's markers differ from another's but their numbers
+        arrows_kind = ('arrows', self.namespace, model.frame_id, visuals.metres_per_newton(model),
+                       tuple((j, model.joints[j].name) for j in active))
         out = []
         for k, turned in zip(due, local):
             when = self.stamp_ns(times[k])
             out.append((k + 1, self.topic('load_markers'), MARKERS, self._marker_bytes(
-                visuals.load_arrows(model, stamp(when), self.namespace, zip(active, turned))),
-                when, OFFERED_QOS))
+                visuals.load_arrows(model, stamp(when), self.namespace, zip(active, turned)),
+                kind=arrows_kind), when, OFFERED_QOS))
         return out
 
     def _marker_array(self, stamp_ns: int, t: float) -> bytes:

@@ -250,6 +250,11 @@ def static_transforms(model, stamp: dict) -> dict:
 ARROW_PERIOD = 0.1
 ARROW, DELETEALL = 0, 3
 ARROW_COLOR = (0.85, 0.1, 0.1, 0.9)
+# the arrows' constant fields, shared by every arrow (the encoders only read them)
+_ARROW_POSE = {'orientation': {'x': 0.0, 'y': 0.0, 'z': 0.0, 'w': 1.0}}
+_ORIGIN = {'x': 0.0, 'y': 0.0, 'z': 0.0}
+_ARROW_SCALE = {'x': 0.03, 'y': 0.06, 'z': 0.08}
+_ARROW_RGBA = dict(zip('rgba', ARROW_COLOR))
 
 
 def metres_per_newton(model) -> float:
@@ -277,10 +282,11 @@ def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
             'ns': f'{namespace}/joint_loads', 'id': 0, 'action': DELETEALL}]
     for k, force in loads:
         joint = model.joints[k]
+        fx, fy, fz = (float(f) for f in force)
         out.append({'header': {'stamp': stamp, 'frame_id': joint.name},
                     'ns': f'{namespace}/joint_loads', 'id': k, 'type': ARROW, 'action': 0,
-                    'pose': {'orientation': _quat((0, 0, 0, 1))},
-                    'points': [_xyz((0, 0, 0)), _xyz(np.asarray(force) * scale)],
-                    'scale': _xyz((0.03, 0.06, 0.08)), 'color': _color(ARROW_COLOR),
-                    'text': f'{joint.name}: {float(np.linalg.norm(force)):.3e} N'})
+                    'pose': _ARROW_POSE, 'points': [_ORIGIN, _xyz((fx * scale, fy * scale,
+                                                                   fz * scale))],
+                    'scale': _ARROW_SCALE, 'color': _ARROW_RGBA,
+                    'text': f'{joint.name}: {math.hypot(fx, fy, fz):.3e} N'})
     return {'markers': out}

@@ -31,6 +31,9 @@ def test_every_sending_is_the_encoder_s_bytes(sendings, namespace):
         loads = [(k, np.array(f)) for k, (on, f) in enumerate(zip(active, forces)) if on]
         message = visuals.load_arrows(MODEL, stamp(stamp_ns), namespace, loads)
         assert encoder(message) == ENCODE(message)
+        # told the kind as the recorder tells it: the joints (their lengths, not the texts)
+        kind = ('arrows', namespace, tuple(k for k, _ in loads))
+        assert encoder(message, kind=kind) == ENCODE(message)
 
 
 def test_the_bodies_markers_follow_releases_and_contacts():
