@@ -301,42 +301,37 @@ class Recorder:
                 return
             per = len(layout.channels)
             between, self._between = self._between, []
-            # the other messages, by the sample they come before (after the last: at the end)
-            before = {}
-            for k, *message in between:
-                before.setdefault(min(k, layout.count), []).append(message)
-            cuts = sorted(before)
+            cuts = sorted({k for k, *_ in between if k < layout.count} | {layout.count})
+            counts = {}   # how many other messages come before sample k
+            for k, *_ in between:
+                counts[k] = counts.get(k, 0) + 1
             numbers = layout.numbers()
-            start, j = 0, 0
-            while True:
-                while j < len(cuts) and cuts[j] <= start:
-                    for message in before[cuts[j]]:
+            size = layout.dtype.itemsize
+            block = None   # (first sample, end, its records): encoded once, written in pieces
+            start = 0
+            for cut in cuts:
+                first = start
+                while first < cut:   # as many rows as fill the chunk in progress
+                    rows = max(1, min(-(-self._writer.chunk_room() // size), layout.chunk_rows))
+                    stop = min(first + rows, cut)
+                    if block is None or not block[0] <= first < stop <= block[1]:
+                        end = min(first + rows, layout.count)   # past the cut: the next pieces
+                        shift = np.zeros(end - first, dtype=np.int64)
+                        for k, count in counts.items():
+                            if first < k < end:
+                                shift[k - first:] += count
+                        block = (first, end, layout.records(self.message_count, first, end,
+                                                            numbers, shift))
+                    records, channels, stamps, offsets = block[2]
+                    a, b = first - block[0], stop - block[0]
+                    self._writer.add_messages(records[size * a:size * b], channels, stamps[a:b],
+                                              offsets[a:b] - size * a)
+                    self.message_count += (stop - first) * per
+                    first = stop
+                for k, *message in between:
+                    if k == cut or (cut == layout.count and k > cut):
                         self._write(*message)
-                    j += 1
-                if start >= layout.count:
-                    break
-                # as many rows as fill the chunk in progress, encoded at once; then written
-                # in the pieces between the other messages
-                rows = -(-self._writer.chunk_room() // layout.dtype.itemsize)
-                stop = min(start + max(1, min(rows, layout.chunk_rows)), layout.count)
-                inside = [k for k in cuts[j:] if k < stop]
-                shift = np.zeros(stop - start, dtype=np.int64)
-                for k in inside:
-                    shift[k - start:] += len(before[k])
-                records, channels, stamps, offsets = layout.records(
-                    self.message_count, start, stop, numbers, shift)
-                size = layout.dtype.itemsize
-                for a, b in zip([start] + inside, inside + [stop]):
-                    first, last = a - start, b - start
-                    self._writer.add_messages(records[size * first:size * last], channels,
-                                              stamps[first:last],
-                                              offsets[first:last] - size * first)
-                    self.message_count += (b - a) * per
-                    if b < stop:
-                        for message in before[b]:
-                            self._write(*message)
-                        j += 1
-                start = stop
+                start = cut
             layout.count = 0
 
     def finish(self):
