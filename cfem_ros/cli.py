@@ -23,6 +23,7 @@ from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.study.resources import ResourceFailure
 import numpy as np
 
 EXIT_OK = 0
@@ -37,6 +38,12 @@ LOG = logging.getLogger('cfem_ros')
 def _error(message: str) -> int:
     print(f'ERROR: {message}', file=sys.stderr)
     return EXIT_BAD_INPUT
+
+
+def _failed(message: str) -> int:
+    """Say what stopped a command that had started working (a full disk); exit 1."""
+    print(f'ERROR: {message}', file=sys.stderr)
+    return EXIT_FAILED
 
 
 def _vec(values, fmt='{:+.6g}') -> str:
@@ -617,6 +624,8 @@ def cmd_study(sweep_file: str, outdir: str, method: str, design: Optional[str],
         print(f'\ninterrupted by {stop}: the runs done are saved in {outdir}; run the same '
               'command again to resume', file=sys.stderr)
         return stop.exit_status
+    except ResourceFailure as err:
+        return _failed(str(err))
     except CfemError as err:
         return _error(str(err))
     except OSError as err:
@@ -704,6 +713,8 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
         print(f'\ninterrupted by {stop}: {saved_runs(outdir)} of {total} runs are saved in '
               f'{outdir}; run the same command again to resume', file=sys.stderr)
         return stop.exit_status
+    except ResourceFailure as err:
+        return _failed(str(err))
     except OSError as err:
         return _error(f'{scheduler or "local cluster"}: {err}')
     finally:
@@ -767,8 +778,13 @@ def cmd_summarize(recordings, metrics_file: str, output: str, workers: Optional[
     return EXIT_FAILED if len(failed) else EXIT_OK
 
 
-def cmd_report(outdir: str, output: str) -> int:
+def cmd_report(outdir: str, output: str, overwrite: bool = False) -> int:
     """Write a study folder's self-contained HTML report; exit 0 or 2."""
+    refused = _output_refused(output, overwrite=True, what='a report')
+    if refused:
+        return _error(refused)
+    if not overwrite and os.path.lexists(output):
+        return _error(f'{output}: already exists; pass --overwrite to replace it')
     if not os.path.exists(os.path.join(outdir, 'results.parquet')):
         return _error(f'{outdir}: no results.parquet; expected a finished sweep folder '
                       '(cfem-sim sweep ... -o OUTDIR)')
@@ -817,10 +833,15 @@ def cmd_rerun(outdir: str, run: int, output: str) -> int:
     if manifest.get('method', 'mc') != 'mc':   # the method chose the values: the table's
         spec = dataclasses.replace(spec, values={
             v.path: {run: float(rows.iloc[0][v.path])} for v in spec.variables})
-    if os.path.exists(output):
-        return _error(f'{output}: exists; expected a new file name')
+    refused = _output_refused(output, overwrite=False)
+    if refused:
+        return _error(refused)
     from cfem_ros.study.sweep import run_one
-    row = run_one(spec, run, record=output)
+    try:
+        row = run_one(spec, run, record=output)
+    except (CfemError, OSError) as err:   # the recording could not be written
+        return _failed(f'{output}: run {run} of {outdir} could not be recorded: '
+                       f'{getattr(err, "strerror", None) or err}')
     print(f'{output}: run {run} of {outdir}, status {row["status"]}'
           + (f' ({row["message"]})' if row['message'] else ''))
     return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
@@ -952,6 +973,8 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
     report.add_argument('-o', '--output', required=True, metavar='REPORT.html',
                         help='page to write')
+    report.add_argument('--overwrite', action='store_true',
+                        help='replace REPORT.html if it exists (never a device or folder)')
     rerun = sub.add_parser('rerun', help='run one run of a sweep folder again and record it',
                            description='Run run RUN of a sweep folder alone, with its values, '
                            'and record it to MCAP.')
@@ -1027,7 +1050,7 @@ def main(argv=None) -> int:
                              csv=args.csv, method=args.method, design=args.design,
                              plan=args.plan, target_cov=args.cov)
         if args.command == 'report':
-            return cmd_report(args.outdir, args.output)
+            return cmd_report(args.outdir, args.output, overwrite=args.overwrite)
         if args.command == 'rerun':
             return cmd_rerun(args.outdir, args.run, args.output)
         if args.command == 'summarize':

@@ -31,6 +31,8 @@ THINNEST = 0.01
 KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'mesh')
 #: Most vertices of a mesh file read for its hull.
 MAX_MESH_VERTICES = 5_000_000
+#: Largest size or vertex coordinate of a shape, m (the bound of every scenario position).
+MAX_EXTENT = 1e9
 
 
 @dataclass(frozen=True)
@@ -163,7 +165,7 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
             fail(where, f'is {list(size)}: shorter than its two hemispheres',
                  '[radius, overall length] with length >= 2 radius')
     elif kind == 'sphere':
-        size = (number(spec, where, positive=True),)
+        size = (number(spec, where, positive=True, limit=MAX_EXTENT),)
     else:
         if not isinstance(spec, str) or not spec.strip():
             fail(where, f'is {spec!r:.80}', 'a mesh file or URL (package://, file://, http://)')
@@ -239,6 +241,10 @@ def mesh_hull(path: str, scale, key: str, fail: Callable) -> tuple:
     points = points * np.asarray(scale, dtype=float)
     if len(points) < 4 or not np.all(np.isfinite(points)):
         fail(key, f'{name} has {len(points)} finite vertices', 'a mesh that encloses a volume')
+    extent = float(np.max(np.abs(points)))
+    if extent > MAX_EXTENT:
+        fail(key, f'{name} has a vertex {extent:g} m from its origin (scaled)',
+             f'vertices within {MAX_EXTENT:g} m, as every scenario position')
     try:
         hull = ConvexHull(points)
     except QhullError:

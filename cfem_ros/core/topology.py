@@ -11,8 +11,46 @@ loops), and finds redundant rows.
 
 from __future__ import annotations
 
+import os
+import resource
+
 from cfem_ros.core import kernel, rotations
+from cfem_ros.core.errors import CfemError
 import numpy as np
+
+
+class ModelTooLarge(CfemError):
+    """A model whose joint solve needs more memory than the process may have."""
+
+
+def memory_limit() -> float:
+    """Return the bytes this process may allocate: physical memory, or a lower RLIMIT_AS."""
+    limit = float(os.sysconf('SC_PAGE_SIZE') * os.sysconf('SC_PHYS_PAGES'))
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    return min(limit, float(soft)) if soft != resource.RLIM_INFINITY else limit
+
+
+def workspace(n: int, m: int, nj: int, dense: int) -> np.ndarray:
+    """
+    Return the zeroed solve workspace of n bodies, m rows and nj joints.
+
+    A tree's is linear in the bodies; closed loops (dense) add the m x m
+    complement and its eigenvectors, and the dense Jacobians (m, 6 n) the
+    redundancy check makes. Raises ModelTooLarge, before anything is
+    allocated, if that is more than half the memory the process may have.
+    """
+    size = kernel.workspace_size(n, m, nj, dense)
+    need = 8.0 * size + (8.0 * m * (12.0 * n + 2.0 * m) if dense else 0.0)
+    limit = memory_limit()
+    if need > 0.5 * limit:
+        form = ('closed loops: a dense m x m solve' if dense
+                else 'a tree: linear in the bodies')
+        raise ModelTooLarge(
+            f'the model is too large for this memory: {n} bodies, {m} constraint rows '
+            f'({form}) need {need / 2**30:.3g} GiB for the joint solve, more than half of '
+            f'the {limit / 2**30:.3g} GiB this process may use; expected a smaller model'
+            + (' (or a tree: cut the closed loops)' if dense else ''))
+    return np.zeros(size)
 
 
 class JointTables:
@@ -128,7 +166,7 @@ class Topology:
         self.line = np.full(len(active), -1, dtype=np.int64)
         self.line[self.plan[:, kernel.P_JOINT]] = np.arange(len(self.plan))
         n = len(free)
-        self.work = np.zeros(kernel.workspace_size(n, self.m, len(self.plan)))
+        self.work = workspace(n, self.m, len(self.plan), self.dense)
 
     @staticmethod
     def _forest(joints, ends, free):

@@ -32,7 +32,8 @@ def output_problem(path: str, *, exists_ok: bool = True, option: str = '-o',
     there would block, or replace the device or folder with a file), as is
     a path under a regular file.
     """
-    example = 'runs/out.mcap' if what == 'a recording' else 'runs/table.parquet'
+    example = {'a recording': 'runs/out.mcap', 'a report': 'runs/report.html'}.get(
+        what, 'runs/table.parquet')
     expected = f'a regular file or a new path, e.g. {example}'
     if not path:
         return f"{option} '': is empty; expected {expected}"

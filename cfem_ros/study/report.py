@@ -201,7 +201,11 @@ def write_report(outdir: str, output: str, figures=()) -> str:
     """Write the report to output (through a temporary file); return its path."""
     text = build(outdir, figures)
     tmp = f'{output}.tmp-{os.getpid()}'
-    with open(tmp, 'w', encoding='utf-8') as stream:
-        stream.write(text)
-    os.replace(tmp, output)
+    try:
+        with open(tmp, 'w', encoding='utf-8') as stream:
+            stream.write(text)
+        os.replace(tmp, output)
+    finally:   # a full disk or file size limit leaves nothing behind
+        if os.path.lexists(tmp):
+            os.remove(tmp)
     return output

@@ -32,6 +32,7 @@ from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
 from cfem_ros.study.metrics import Collector, compute, empty
+from cfem_ros.study.resources import PartialRows, recording_failure, unrecorded
 from cfem_ros.study.spec import (
     apply_values, load_sweep, RANDOM_NUMBERS, resolve, SweepError, SweepSpec)
 
@@ -248,6 +249,8 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
                 _session_run(sim, model, spec, collector)
         row.update(compute(collector.samples(), spec.metrics))
     except Exception as err:   # noqa: B902
+        if record is not None and recording_failure(err):
+            raise   # a recording that cannot be written is no result of the run
         row.update(status='failed', message=f'{type(err).__name__}: {err}')
         row.update(empty(spec.metrics))
         return row
@@ -272,20 +275,30 @@ def run_rows(spec: SweepSpec, runs, outdir: Optional[str] = None,
     stepping releases the GIL), the rows in the order of runs.
     """
     models = Models(spec)
+    unwritten = {}
 
     def one(k):
         path = None
         if record == 'all':
             path = os.path.join(outdir, 'runs', f'run_{k}.mcap')
-        row = run_one(spec, k, path, models)
-        if record == 'failed' and row['status'] == 'failed':
-            run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'), models)
+        try:
+            row = run_one(spec, k, path, models)
+            if record == 'failed' and row['status'] == 'failed':
+                run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'), models)
+        except Exception as err:   # noqa: B902 (run_one lets only a recording failure out)
+            unwritten[k] = str(err)
+            return None
         return row
 
     if threads > 1 and len(runs) > 1:
         with ThreadPoolExecutor(max_workers=threads) as pool:
-            return list(pool.map(one, runs))
-    return [one(k) for k in runs]
+            rows = list(pool.map(one, runs))
+    else:
+        rows = [one(k) for k in runs]
+    if unwritten:   # the runs recorded are kept in a part, the others done again on resume
+        raise PartialRows([row for row in rows if row is not None],
+                          unrecorded(unwritten, next(iter(unwritten.values())), outdir))
+    return rows
 
 
 def columns(spec: SweepSpec) -> list:
@@ -321,9 +334,19 @@ def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
 
     Returns (runs done, runs failed).
     """
-    rows = run_rows(spec, runs, outdir, record, threads)
+    failure = None
+    try:
+        rows = run_rows(spec, runs, outdir, record, threads)
+    except PartialRows as partial:
+        rows, failure = partial.rows, partial.failure
     part = os.path.join(outdir, 'parts', f'part_{runs[0]:07d}_{runs[-1]:07d}.parquet')
-    write_atomic(frame(rows, columns(spec)), part)
+    try:
+        if rows:
+            write_atomic(frame(rows, columns(spec)), part)
+    except OSError as err:
+        raise unrecorded(runs, f'{part}: cannot write ({err.strerror or err})', outdir) from err
+    if failure is not None:
+        raise failure
     return len(rows), sum(r['status'] == 'failed' for r in rows)
 
 

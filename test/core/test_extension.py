@@ -128,7 +128,8 @@ def test_the_dense_solves_give_the_tree_solve_accelerations(name):
     args = list(top.kernel_args(sim))
     found = []
     for dense in (0, 1, 2):
-        args[8] = dense
+        args[8] = dense   # a dense solve needs its m x m parts (a tree's workspace has none)
+        args[9] = np.zeros(kernel.workspace_size(sim.n, top.m, len(top.plan), dense))
         dy = np.empty_like(sim.y)
         assert kernel.derivative(sim.y.copy(), dy, *args) >= 0.0
         found.append(dy)
@@ -146,7 +147,7 @@ def test_an_exactly_singular_complement_is_reported_not_solved():
     rows_f = np.ascontiguousarray(np.concatenate([top.rows_f, top.rows_f]))
     m = len(rows_i)
     plan = top.plan.copy()
-    work = np.zeros(kernel.workspace_size(sim.n, m, len(plan)))
+    work = np.zeros(kernel.workspace_size(sim.n, m, len(plan), 1))
     dy = np.empty_like(sim.y)
     args = [sim._bodies, sim.gravity, sim._loads, rows_i, rows_f, plan, top.roots, sim.eta]
     assert kernel.derivative(sim.y, dy, *args, 1, work) == -1.0

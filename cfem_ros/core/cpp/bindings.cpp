@@ -122,9 +122,9 @@ Bound bind(const py::handle& bodies, const py::handle& gravity, const py::handle
   s.roots = ivec(roots, "roots", n);
   s.eta = eta;
   s.dense = dense;
-  idx size = cfem::workspace_size(n, s.m(), s.joints());
+  idx size = cfem::workspace_size(n, s.m(), s.joints(), dense);
   double* w = vec(work, "work", true, size, false);
-  b.v = cfem::carve(w, n, s.m(), s.joints());
+  b.v = cfem::carve(w, n, s.m(), s.joints(), dense);
   return b;
 }
 
@@ -147,7 +147,8 @@ double* state(const py::handle& y, const char* name, idx n, bool write) {
 PYBIND11_MODULE(_kernel, m) {
   m.doc() = "The compiled hot path of cfem_ros (C++17); cfem_ros.core.kernel is its API.";
 
-  m.def("workspace_size", &cfem::workspace_size, py::arg("n"), py::arg("m"), py::arg("nj"));
+  m.def("workspace_size", &cfem::workspace_size, py::arg("n"), py::arg("m"), py::arg("nj"),
+        py::arg("dense"));
   cfem::bind_aeroshapes(m);   // aerodynamic tables and shape distances, vectorised
 
   m.def("derivative", [](const py::handle& y, const py::handle& dy, SYSTEM_ARGS) {

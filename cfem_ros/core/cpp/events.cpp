@@ -206,6 +206,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
           double at = 0.0;
           if (!(at0 >= 0.0)) {
             at = brentq(q, h, w, col, &code);
+            if (code == SAME_SIGNS) continue;  // not reached by the search's own values
             if (code != REACHED) {
               info[1] = code;
               info[2] = at;
@@ -225,7 +226,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
           }
         }
       }
-      info[3] = best, info[4] = static_cast<double>(count);
+      if (count > 0) info[3] = best, info[4] = static_cast<double>(count);
     }
   }
   // the ejectors' stroke ends (ScheduledLoads.crossing) and the contacts of armed pairs
@@ -250,17 +251,21 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
     } else {
       continue;
     }
-    if (count < 0) count = 0;
     double at0 = excess(q, 0.0, row, col, &code);
     double at = 0.0;
     if (!(at0 >= 0.0)) {
       at = brentq(q, h, row, col, &code);
+      // A contact's distance starts from the last one's guess, so that at the step's end it
+      // can differ in the last bits from the check above: a grazing touch that the search
+      // does not find at h is not reached in this step (the next step's start tells).
+      if (code == SAME_SIGNS) continue;
       if (code != REACHED) {
         info[1] = code;
         info[2] = at;
         return;
       }
     }
+    if (count < 0) count = 0;
     if (at < best - 1e-15) {
       best = at, count = 1;
       wrenches_found[0] = row - n;

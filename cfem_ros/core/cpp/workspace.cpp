@@ -4,13 +4,13 @@
 
 namespace cfem {
 
-idx workspace_size(idx n, idx m, idx nj) {
+idx workspace_size(idx n, idx m, idx nj, idx dense) {
   return n * (9 + 3 + 9 + 36 + 6 + 6) + m * (12 + 12 + 4) + nj * (18 + 18 + 9 + 3 + 6 + 6)
          + 6 * 13 * n + 4 * 36 + 4 * 9 + 8 * 3
-         + 2 * m * m + 2 * m + 9 * n + 18 + 6 * nj;
+         + (dense > 0 ? 2 * m * m : 0) + 2 * m + 9 * n + 18 + 6 * nj;
 }
 
-Work carve(double* work, idx n, idx m, idx nj) {
+Work carve(double* work, idx n, idx m, idx nj, idx dense) {
   Work w;
   double* o = work;
   auto take = [&o](idx size) { double* p = o; o += size; return p; };
@@ -36,7 +36,7 @@ Work carve(double* work, idx n, idx m, idx nj) {
   w.six = take(4 * 36);
   w.three = take(4 * 9);
   w.vec = take(8 * 3);
-  w.schur = take(2 * m * m);
+  w.schur = take(dense > 0 ? 2 * m * m : 0);  // a tree's solve needs none
   w.right = take(m);
   w.lam = take(m);
   w.sample_rot = take(9 * n);

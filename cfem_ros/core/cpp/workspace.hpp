@@ -33,7 +33,7 @@ struct Work {
   double* three;           // (4, 3, 3)
   double* vec;             // (8, 3)
   // after the parts kernel.carve shows: scratch of the dense solve and of a sample
-  double* schur;           // (2, m, m): the complement, its eigenvectors
+  double* schur;           // (2, m, m): the complement, its eigenvectors (dense only)
   double* right;           // (m,)
   double* lam;             // (m,)
   double* sample_rot;      // (n, 3, 3)
@@ -42,10 +42,11 @@ struct Work {
   double* moment;          // (J, 3)
 };
 
-// Length of the workspace for n bodies, m rows and nj joints.
-idx workspace_size(idx n, idx m, idx nj);
+// Length of the workspace for n bodies, m rows and nj joints; the dense solve's m x m parts
+// only if dense (closed loops): a tree's is linear in the bodies.
+idx workspace_size(idx n, idx m, idx nj, idx dense);
 
 // Offsets of the parts (the views kernel.carve makes) and the parts themselves.
-Work carve(double* work, idx n, idx m, idx nj);
+Work carve(double* work, idx n, idx m, idx nj, idx dense);
 
 }  // namespace cfem
