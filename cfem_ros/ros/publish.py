@@ -69,6 +69,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Largest header stamp, s (the stamp's seconds are an int32).
+MAX_STAMP = 2.0 ** 31 - 1
+#: Longest --wait, s (a day).
+MAX_WAIT = 86400.0
+
+
+def _refusal(args, topic: str):
+    """Return why the arguments cannot be published (None if they can), before ROS starts."""
+    if not (math.isfinite(args.wait) and 0.0 <= args.wait <= MAX_WAIT):
+        return f'--wait: is {args.wait:g}; expected seconds from 0 to {MAX_WAIT:g}'
+    if args.command == 'wrench' and not (math.isfinite(args.stamp)
+                                         and 0.0 <= args.stamp <= MAX_STAMP):
+        return (f'wrench: --stamp: is {args.stamp:g}; expected seconds from 0 to '
+                f'{MAX_STAMP:.0f} (a ROS time; 0: on receipt)')
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+    try:
+        validate_full_topic_name(topic if topic.startswith('/') else '/' + topic)
+    except InvalidTopicNameException as err:
+        reason = str(err).splitlines()[0].replace('Invalid topic name: ', '')
+        return (f'the topic {topic!r} (from --ns and the body) is not a ROS 2 name: '
+                f'{reason.rstrip(":")}; expected names of letters, digits and _')
+    return None
+
+
 def _message(args):
     if args.command == 'release':
         return String, 'release', String(data=' '.join(args.joint))
@@ -97,9 +122,14 @@ def main(argv=None) -> int:
             print(f'ERROR: wrench: --frame: {err}; the node would refuse it; nothing '
                   'published', file=sys.stderr)
             return 2
-    kind, relative, msg = _message(args)
+    relative = 'release' if args.command == 'release' else f'bodies/{args.body}/wrench'
     namespace = args.ns.rstrip('/')
     topic = f'{namespace}/{relative}'
+    refused = _refusal(args, topic)
+    if refused:
+        print(f'ERROR: {refused}; nothing published', file=sys.stderr)
+        return 2
+    kind, _, msg = _message(args)
     rclpy.init()
     try:
         node = rclpy.create_node('cfem_pub')
