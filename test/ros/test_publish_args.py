@@ -2,10 +2,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """cfem_pub refuses arguments it cannot publish, before ROS 2 starts (issue 41.10)."""
 
+from cfem_ros.ros import publish
 import pytest
-
-rclpy = pytest.importorskip('rclpy')
-from cfem_ros.ros import publish  # noqa: E402
+import rclpy
 
 
 @pytest.mark.parametrize('argv, said', [
