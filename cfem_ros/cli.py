@@ -64,6 +64,12 @@ def _describe_release(joint) -> str:
     return ', '.join(parts) if parts else 'never (or on command)'
 
 
+def _cannot_start(scenario: str, errors: list) -> str:
+    """Return the error line of a scenario that check and run both refuse."""
+    more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
+    return f'{scenario}: cannot start: {errors[0]}{more}'
+
+
 def cmd_check(scenario: str) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
     from cfem_ros.core.startcheck import start_problems
@@ -79,8 +85,7 @@ def cmd_check(scenario: str) -> int:
         return _error(f'{scenario}: the joints cannot be analysed at t = 0 '
                       f'({type(err).__name__}: {why}); expected a regular configuration')
     if errors:
-        more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
-        return _error(f'{scenario}: cannot start: {errors[0]}{more}')
+        return _error(_cannot_start(scenario, errors))
     for text in warnings:
         print(f'WARNING: {scenario}: {text}', file=sys.stderr)
     print(f'{scenario}: valid scenario {model.name!r}')
@@ -249,6 +254,10 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         if os.path.lexists(output) and not overwrite:
             return _error(f'{output}: already exists; pass --overwrite to replace it')
         sim = Simulator(model)
+        from cfem_ros.core.startcheck import start_problems
+        errors, _ = start_problems(sim)   # what check refuses, run refuses (exit 2)
+        if errors:
+            return _error(_cannot_start(scenario, errors))
     except CfemError as err:
         return _error(str(err))
     interactive = sys.stderr.isatty()

@@ -23,6 +23,8 @@ import numpy as np
 
 #: A release command may name several joints or groups, separated by spaces or commas.
 NAME_SEPARATORS = re.compile(r'[\s,]+')
+#: Largest ratio of two joints' compliances that weighs a redundant split (above: as it).
+MAX_COMPLIANCE_RATIO = 1e4
 
 
 def command_names(text: str) -> list:
@@ -135,6 +137,10 @@ def row_weights(model, row_joint: np.ndarray) -> Optional[np.ndarray]:
     compliant declared row (a common factor changes nothing; scales >= 1
     make a row's violation, as the run's divergence check sees it, no
     smaller); a row without a declared compliance counts as that one.
+    Ratios beyond ``MAX_COMPLIANCE_RATIO`` count as that ratio: the stiffer
+    support then takes all but 1e-4 of the redundant load already, and
+    larger scales would make the solve drop rows (and the divergence check
+    see a violation magnified by their square root), changing the motion.
 
     Parameters
     ----------
@@ -153,5 +159,7 @@ def row_weights(model, row_joint: np.ndarray) -> Optional[np.ndarray]:
         if joint.compliance is None:
             continue
         rows = np.flatnonzero(row_joint == k)
-        scale[rows] = np.sqrt(softest / joint.compliance[:len(rows)])
+        with np.errstate(over='ignore'):   # 1e-8 / 5e-324: inf, held at the largest ratio
+            ratio = softest / joint.compliance[:len(rows)]
+        scale[rows] = np.sqrt(np.minimum(ratio, MAX_COMPLIANCE_RATIO))
     return scale

@@ -1155,6 +1155,9 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
         check.fail(f'{key}.name', "'wrench' is the source of the wrench topic",
                    'another name')
     frame = spec.get('frame', bodies[body].name)
+    if not isinstance(frame, str):   # a list or a mapping is no name (nor hashable)
+        check.fail(f'{key}.frame', f'is {_show(frame)}, not a name',
+                   f'{frame_id} or one of ' + ', '.join(index))
     if frame == frame_id:
         frame_index = -1
     elif frame in index:

@@ -26,6 +26,10 @@ RULE = ('"<column> <op> <number>" or "abs(<column>) <op> <number>", op one of '
         '<, <=, >, >= (e.g. "clearance_store_pylon_min >= 0.0254")')
 #: The margin of a run that did not finish (or whose value is NaN), in thresholds.
 FAILED_MARGIN = -1.0
+#: Smallest threshold magnitude that scales a margin (below it, as 0: scale 1).
+TINY_THRESHOLD = 1e-150
+#: Largest margin magnitude (a quotient that would overflow is held there).
+MARGIN_BOUND = 1e300
 
 _RULE = re.compile(r'^\s*(?:(abs)\(\s*([A-Za-z_][\w.\[\]]*)\s*\)|([A-Za-z_][\w.\[\]]*))'
                    r'\s*(<=|>=|<|>)\s*(\S+)\s*$')
@@ -78,15 +82,18 @@ class Criterion:
 
         Positive inside, negative outside: ``(value - threshold) / scale``
         for ``>``/``>=``, ``(threshold - value) / scale`` for ``<``/``<=``,
-        scale ``|threshold|`` (1 when the threshold is 0). NaN gives
+        scale ``|threshold|`` (1 when the threshold is 0, or so small that
+        the quotient would overflow), clipped to +-1e300. NaN gives
         ``FAILED_MARGIN``. What the rare-event methods follow to the failure
         region: the rule fails where the margin is below 0.
         """
         values = self.value(column_values)
-        scale = abs(self.threshold) or 1.0
-        signed = (values - self.threshold) if self.op in ('>', '>=') \
-            else (self.threshold - values)
-        return np.where(np.isfinite(values), signed / scale, FAILED_MARGIN)
+        scale = abs(self.threshold) if abs(self.threshold) >= TINY_THRESHOLD else 1.0
+        with np.errstate(over='ignore', invalid='ignore'):
+            signed = (values - self.threshold) if self.op in ('>', '>=') \
+                else (self.threshold - values)
+            margin = np.clip(signed / scale, -MARGIN_BOUND, MARGIN_BOUND)
+        return np.where(np.isfinite(values), margin, FAILED_MARGIN)
 
 
 def parse_rule(name: str, text) -> Criterion:

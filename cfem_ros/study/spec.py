@@ -26,7 +26,7 @@ import re
 from typing import Any, Optional
 
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import load_yaml, parse_scenario, read_text
+from cfem_ros.core.scenario import load_yaml, MAX_MAGNITUDE, parse_scenario, read_text
 from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
 import numpy as np
 
@@ -688,7 +688,12 @@ def _points(fail, key, value):
         return np.zeros((1, 3))
     if not isinstance(value, list) or not value:
         fail(key, f'is {_show(value)}', 'a list of points [x, y, z] in body axes, m')
-    return np.array([_number_list(fail, f'{key}[{i}]', p, 3) for i, p in enumerate(value)])
+    points = np.array([_number_list(fail, f'{key}[{i}]', p, 3) for i, p in enumerate(value)])
+    far = np.flatnonzero(np.any(np.abs(points) > MAX_MAGNITUDE, axis=1))
+    if far.size:   # as every scenario position: beyond it distances lose every digit
+        fail(f'{key}[{far[0]}]', f'is {points[far[0]].tolist()}',
+             f'a point within {MAX_MAGNITUDE:g} m (body axes)')
+    return points
 
 
 def _parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
