@@ -856,6 +856,35 @@ def cmd_rerun(outdir: str, run: int, output: str) -> int:
     return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
 
 
+def cmd_fit(fit_file: str, outdir: str, threads: Optional[int] = None,
+            overwrite: bool = False) -> int:
+    """Fit a scenario's parameters to measured poses (SPEC section 13); exit 0, 1 or 2."""
+    from cfem_ros.study.fit.outputs import OUTPUTS
+    held = [name for name in OUTPUTS if os.path.lexists(os.path.join(outdir, name))]
+    if held and not overwrite:
+        return _error(f'-o {outdir}: already holds {", ".join(held)}; pass --overwrite to '
+                      'replace them, or choose a new folder')
+    if threads is not None and threads < 1:
+        return _error(f'--threads: is {threads}; expected a whole number >= 1')
+    from cfem_ros.study.fit.run import fit_file as fit
+    from cfem_ros.study.fit.spec import FitError
+    try:
+        _, _, found = fit(fit_file, outdir, threads=threads)
+    except FitError as err:
+        if err.key == 'parameters':   # a run failed within the bounds: not the file's form
+            print(f'ERROR: {err}', file=sys.stderr)
+            return EXIT_FAILED
+        return _error(str(err))
+    except CfemError as err:
+        return _error(str(err))
+    except OSError as err:
+        return _error(f'{outdir}: cannot write ({err.strerror or err})')
+    print(found)
+    print(f'outputs: {outdir}/ (fit.json, fitted.yaml, fitted.mcap, fit_trajectory.png, '
+          'fit_residuals.png)')
+    return EXIT_OK
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, whose usage errors are one ERROR line (exit 2), as every other."""
 
@@ -975,6 +1004,16 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument('--plan', metavar='P,C',
                        help='print how many runs without failure show P(success) >= P at '
                        'confidence C (0.95,0.95 -> 59), and exit')
+    fit = sub.add_parser('fit', help="fit a scenario's parameters to a measured trajectory",
+                         description='Find the parameters (key paths) that make the simulated '
+                         'poses of a body match measured ones, with their standard errors and '
+                         'correlations; write fit.json, fitted.yaml, fitted.mcap and figures '
+                         '(SPEC section 13).')
+    fit.add_argument('fit', metavar='FIT.yaml', help='fit file')
+    fit.add_argument('-o', '--output', required=True, metavar='OUTDIR', help='folder to write')
+    fit.add_argument('--threads', type=int, metavar='N',
+                     help="runs of one Jacobian at once (default: the machine's cores)")
+    fit.add_argument('--overwrite', action='store_true', help="replace a folder's fit outputs")
     report = sub.add_parser('report', help='one self-contained HTML page of a study folder',
                             description='Write the scenario, sweep, criteria with their '
                             'probabilities, worst runs, sensitivities and figures of a '
@@ -1058,6 +1097,9 @@ def main(argv=None) -> int:
                              scheduler=args.scheduler, runs=args.runs, record=args.record,
                              csv=args.csv, method=args.method, design=args.design,
                              plan=args.plan, target_cov=args.cov)
+        if args.command == 'fit':
+            return cmd_fit(args.fit, args.output, threads=args.threads,
+                           overwrite=args.overwrite)
         if args.command == 'report':
             return cmd_report(args.outdir, args.output, overwrite=args.overwrite)
         if args.command == 'rerun':

@@ -47,7 +47,7 @@ def read_inputs(path: str) -> list:
 def _read(path: str) -> tuple:
     """Return the (log time, input) of a log's input messages, and its start stamp or None."""
     with open_mcap(path) as reader:
-        start_ns = _start_ns(reader)
+        start_ns = start_stamp_ns(reader)
         found = []
         for channel, message, decoded in decoded_messages(reader, path):
             wrench = WRENCH_TOPIC.match(channel.topic)
@@ -90,8 +90,8 @@ def _odometry(body: str, msg):
                           header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec)
 
 
-def _start_ns(reader) -> Optional[int]:
-    """Stamp of simulated time 0 of a recording, if it tells."""
+def start_stamp_ns(reader) -> Optional[int]:
+    """Return the stamp of simulated time 0 of an open recording, if it tells (else None)."""
     for record in reader.iter_metadata():
         if record.name == 'cfem_ros' and 'start_stamp_ns' in record.metadata:
             return int(record.metadata['start_stamp_ns'])

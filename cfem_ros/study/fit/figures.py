@@ -1,0 +1,81 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A fit's figures: measured against fitted poses, and the residuals, per quantity.
+
+Six panels each (x, y, z in m; roll, pitch, yaw in deg, Z-Y-X, of the
+measured body relative to the reference, in its axes) against time from
+the release the window names (or time, s, if it names none).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'deg'),
+              ('yaw', 'deg'))
+
+
+def relative_histories(fit, values, times) -> np.ndarray:
+    """Return the six quantities (m, deg, Z-Y-X) of a run at values, at times (n, 6)."""
+    position, attitude = fit.trajectories.run(values).poses(times)
+    return np.hstack([position, attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
+
+
+def _axes_time(result) -> tuple:
+    release = result.window[2]
+    if release is None:
+        return 0.0, 'time (s)'
+    return release, 'time from release (s)'
+
+
+def draw(fit, result, trajectory_path: str, residuals_path: str):
+    """Write fit_trajectory.png and fit_residuals.png."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    data = fit.data
+    measured = np.hstack([data.position,
+                          data.attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
+    zero, label = _axes_time(result)
+    start, end = result.window[:2]
+    dense = np.linspace(start, end, 400)
+    fitted_dense = relative_histories(fit, result.values, dense)
+    before = relative_histories(fit, fit.spec.x0, dense)
+    fitted = relative_histories(fit, result.values, data.time)
+    title = f'{fit.spec.body} relative to {fit.spec.relative_to} ({fit.spec.relative_to} axes)'
+
+    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
+    for k, (name, unit) in enumerate(QUANTITIES):
+        ax = axes[k % 3, k // 3]
+        ax.plot(data.time - zero, measured[:, k], '.', ms=3, color='black', label='measured')
+        ax.plot(dense - zero, before[:, k], '--', color='tab:gray', label='start values')
+        ax.plot(dense - zero, fitted_dense[:, k], '-', color='tab:blue', label='fitted')
+        ax.set_ylabel(f'{name} ({unit})')
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel(label)
+    axes[0, 0].legend(loc='best', fontsize=8)
+    figure.suptitle(title)
+    figure.tight_layout()
+    figure.savefig(trajectory_path, dpi=110)
+    plt.close(figure)
+
+    residual = measured - fitted
+    residual[:, 3:] = (residual[:, 3:] + 180.0) % 360.0 - 180.0
+    sigmas = [fit.spec.sigma_position] * 3 + [fit.spec.sigma_attitude_deg] * 3
+    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
+    for k, (name, unit) in enumerate(QUANTITIES):
+        ax = axes[k % 3, k // 3]
+        ax.axhspan(-sigmas[k], sigmas[k], color='tab:green', alpha=0.15, label='±1 sigma')
+        ax.plot(data.time - zero, residual[:, k], '.', ms=3, color='black')
+        ax.axhline(0.0, color='tab:blue', lw=0.8)
+        ax.set_ylabel(f'measured - fitted {name} ({unit})')
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel(label)
+    axes[0, 0].legend(loc='best', fontsize=8)
+    figure.suptitle(f'residuals: {title}')
+    figure.tight_layout()
+    figure.savefig(residuals_path, dpi=110)
+    plt.close(figure)

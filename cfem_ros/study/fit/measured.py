@@ -1,0 +1,201 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Measured poses of a fit (SPEC section 13): from an MCAP topic or an exported CSV.
+
+A ``Measured`` holds times (s of simulated time), positions (m) and
+attitudes of one body relative to another, in that body's axes, and the
+releases the file records. Three sources:
+
+- a ``geometry_msgs/msg/PoseStamped`` topic whose ``frame_id`` is the
+  ``relative_to`` body (photogrammetry, a telemetry package): times are
+  the header stamps less the file's start (its ``cfem_ros`` metadata's
+  ``start_stamp_ns``, else its first pose of a cfem_ros recording, else the
+  topic's first stamp), as ``run --inputs`` takes them;
+- a ``bodies/<body>/pose`` topic of a cfem_ros recording (world poses):
+  composed with the ``relative_to`` body's recorded poses;
+- a CSV in the columns of ``cfem-sim export --relative-to`` (``time``,
+  ``<body>_x``, ``_y``, ``_z`` in m, ``_roll_deg``, ``_pitch_deg``,
+  ``_yaw_deg``, Z-Y-X).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from cfem_ros.recording.analysis import BODY_TOPIC, open_run
+from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.reader import decoded_messages, open_mcap
+from cfem_ros.recording.replay import start_stamp_ns
+from cfem_ros.study.fit.spec import FitError, FitSpec
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+POSE_SCHEMA = 'geometry_msgs/msg/PoseStamped'
+CSV_QUANTITIES = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg')
+
+
+@dataclass
+class Measured:
+    """
+    One body's measured poses relative to another.
+
+    Attributes
+    ----------
+    time : ndarray (n,)
+        s of simulated time, increasing.
+    position : ndarray (n, 3)
+        CG relative to the reference body's CG, in its axes, m.
+    attitude : scipy.spatial.transform.Rotation (n)
+        Body axes to the reference body's axes.
+    releases : dict of str to float
+        Release times (s) the file records, by joint (a cfem_ros recording's
+        events); empty if it records none.
+
+    """
+
+    time: np.ndarray
+    position: np.ndarray
+    attitude: Rotation
+    releases: dict = field(default_factory=dict)
+
+    def window(self, start: float, end: float) -> 'Measured':
+        """Return the samples with start <= time <= end."""
+        keep = (self.time >= start) & (self.time <= end)
+        return Measured(self.time[keep], self.position[keep], self.attitude[keep],
+                        self.releases)
+
+
+def relative_poses(position, quaternion, position_ref, quaternion_ref) -> tuple:
+    """
+    Return a body's poses in a reference body's axes, sample by sample.
+
+    Parameters
+    ----------
+    position, position_ref : ndarray (n, 3)
+        CG positions in the world frame, m.
+    quaternion, quaternion_ref : ndarray (n, 4)
+        Body-to-world attitudes, x, y, z, w.
+
+    Returns
+    -------
+    (ndarray (n, 3), Rotation)
+        The CG relative to the reference's CG in its axes (m), and the
+        attitude body-to-reference.
+
+    """
+    reference = Rotation.from_quat(quaternion_ref)
+    moved = reference.inv()
+    return (moved.apply(np.asarray(position) - np.asarray(position_ref)),
+            moved * Rotation.from_quat(quaternion))
+
+
+def read_measured(spec: FitSpec) -> Measured:
+    """
+    Read the fit's measured poses.
+
+    Raises
+    ------
+    FitError
+        If the file cannot be read, lacks the topic or columns, names another
+        frame, or holds fewer than two samples.
+
+    """
+    try:
+        if spec.measured_file.lower().endswith('.csv'):
+            measured = _from_csv(spec)
+        elif BODY_TOPIC.match(spec.topic) and BODY_TOPIC.match(spec.topic)['kind'] == 'pose':
+            measured = _from_recording(spec)
+        else:
+            measured = _from_topic(spec)
+    except RecordingError as err:
+        raise FitError(spec.path, 'measured.file', str(err), 'a readable MCAP recording') \
+            from err
+    if len(measured.time) < 2:
+        raise FitError(spec.path, 'measured', f'{spec.measured_file} holds '
+                       f'{len(measured.time)} pose(s) of {spec.body}', 'a trajectory: '
+                       'poses at two times or more')
+    order = np.argsort(measured.time, kind='stable')
+    return Measured(measured.time[order], measured.position[order],
+                    measured.attitude[order], measured.releases)
+
+
+def _from_csv(spec: FitSpec) -> Measured:
+    import pandas as pd
+    try:
+        table = pd.read_csv(spec.measured_file, encoding='utf-8-sig')
+    except (OSError, ValueError, pd.errors.ParserError) as err:
+        raise FitError(spec.path, 'measured.file', f'{spec.measured_file} cannot be read '
+                       f'as CSV ({err})', 'a CSV written by cfem-sim export') from err
+    names = ['time'] + [f'{spec.body}_{q}' for q in CSV_QUANTITIES]
+    missing = [n for n in names if n not in table.columns]
+    if missing:
+        raise FitError(spec.path, 'measured.file', f'{spec.measured_file} has no column '
+                       + ', '.join(missing), 'the columns of cfem-sim export --relative-to '
+                       f'{spec.relative_to} (time, {spec.body}_x, ..., {spec.body}_yaw_deg)')
+    try:
+        values = table[names].to_numpy(dtype=float)
+    except ValueError as err:
+        raise FitError(spec.path, 'measured.file', f'{spec.measured_file}: a column is not '
+                       f'numeric ({err})', 'numbers') from err
+    values = values[np.all(np.isfinite(values), axis=1)]
+    yaw_pitch_roll = values[:, [6, 5, 4]]
+    return Measured(values[:, 0], values[:, 1:4],
+                    Rotation.from_euler('ZYX', yaw_pitch_roll, degrees=True))
+
+
+def _from_recording(spec: FitSpec) -> Measured:
+    run = open_run(spec.measured_file, namespace=BODY_TOPIC.match(spec.topic)['ns'])
+    name = BODY_TOPIC.match(spec.topic)['name']
+    if name != spec.body:
+        raise FitError(spec.path, 'measured.topic', f'is the pose of {name}',
+                       f'the pose topic of the measured body {spec.body}')
+    releases = {}
+    for t, joint, _ in run.releases():
+        releases.setdefault(joint, float(t))
+    track = run.bodies[name]
+    if spec.relative_to not in run.bodies:   # the world frame
+        return Measured(track.time, track.position, Rotation.from_quat(track.quaternion),
+                        releases)
+    reference = run.bodies[spec.relative_to]
+    common, mine, theirs = np.intersect1d(track.stamp_ns, reference.stamp_ns,
+                                          return_indices=True)
+    position, attitude = relative_poses(track.position[mine], track.quaternion[mine],
+                                        reference.position[theirs],
+                                        reference.quaternion[theirs])
+    return Measured(track.time[mine], position, attitude, releases)
+
+
+def _from_topic(spec: FitSpec) -> Measured:
+    stamps, positions, quaternions, frames = [], [], [], set()
+    with open_mcap(spec.measured_file) as reader:
+        summary = reader.get_summary()
+        topics = {c.topic: summary.schemas[c.schema_id].name
+                  for c in summary.channels.values()} if summary else {}
+        if spec.topic not in topics:
+            raise FitError(spec.path, 'measured.topic', f'{spec.topic} is not in '
+                           f'{spec.measured_file}',
+                           'one of its PoseStamped topics: ' + ', '.join(
+                               t for t, s in sorted(topics.items()) if s == POSE_SCHEMA))
+        if topics[spec.topic] != POSE_SCHEMA:
+            raise FitError(spec.path, 'measured.topic', f'{spec.topic} carries '
+                           f'{topics[spec.topic]}', POSE_SCHEMA)
+        start = start_stamp_ns(reader)
+        for _, _, decoded in decoded_messages(reader, spec.measured_file, topics=[spec.topic]):
+            stamp = decoded.header.stamp
+            p, q = decoded.pose.position, decoded.pose.orientation
+            stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
+            positions.append([p.x, p.y, p.z])
+            quaternions.append([q.x, q.y, q.z, q.w])
+            frames.add(decoded.header.frame_id)
+    if frames - {spec.relative_to, ''}:
+        raise FitError(spec.path, 'measured.relative_to', f'is {spec.relative_to}, but '
+                       f'{spec.topic} is in frame ' + ', '.join(sorted(frames)),
+                       'the frame_id of the measured poses')
+    if not stamps:
+        raise FitError(spec.path, 'measured.topic', f'{spec.topic} holds no message',
+                       f'the measured poses of {spec.body}')
+    stamps = np.array(stamps, dtype=np.int64)
+    start = int(stamps.min()) if start is None else start
+    return Measured((stamps - start) / 1e9, np.array(positions, dtype=float),
+                    Rotation.from_quat(np.array(quaternions, dtype=float)))
