@@ -58,13 +58,17 @@ bench: $(TOOLS)
 	$(BIN)/python benchmarks/bench_node.py
 	$(BIN)/python benchmarks/bench_startup.py
 
-# The paper's figures in docs/guide/verification.md, regenerated.
+# The paper's figures in docs/guide/verification.md, and the fit's in fitting.md, regenerated.
 figures: $(STAMP)
 	@mkdir -p runs
 	for s in fixed_joint_spin double_pendulum store_separation; do \
 	  $(BIN)/cfem-sim run config/$$s.yaml -o runs/$$s.mcap --overwrite && \
 	  rm -rf docs/figures/$$s && $(BIN)/cfem-sim plot runs/$$s.mcap -o docs/figures/$$s || exit 1; \
 	done
+	$(BIN)/python examples/write_pullup_log.py -o runs/flight_plan.mcap --duration 1.0 --overwrite
+	$(BIN)/python examples/photogrammetry_log.py runs/flight_plan.mcap -o runs/flight_037.mcap
+	$(BIN)/cfem-sim fit config/fit/fit_ejectors.yaml -o runs/fit_037 --overwrite
+	mkdir -p docs/figures/fitting && cp runs/fit_037/fit_trajectory.png docs/figures/fitting/
 
 # The user guide as HTML in docs/_build/html (open docs/_build/html/index.html);
 # warnings are errors, as in the test that builds it

@@ -65,9 +65,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[1])
     parser.add_argument('-o', '--output', default='flight.mcap', help='log to write')
     parser.add_argument('--duration', type=float, default=2.0, help='s of flight (default 2)')
+    parser.add_argument('--release', type=float, default=0.5,
+                        help='s from the start when the hook is released (default 0.5)')
     parser.add_argument('--overwrite', action='store_true', help='replace the log')
     args = parser.parse_args(argv)
-    count = write(args.output, duration=args.duration, overwrite=args.overwrite)
+    count = write(args.output, duration=args.duration, release=args.release,
+                  overwrite=args.overwrite)
     print(f'{args.output}: {count} messages')
     return 0
 

@@ -30,6 +30,11 @@ def read_inputs(path: str) -> list:
         holds no input topic, or a message's payload does not decode.
 
     """
+    return read_inputs_and_start(path)[0]
+
+
+def read_inputs_and_start(path: str) -> tuple:
+    """Return ``read_inputs(path)`` and the stamp (ns) it took as simulated time 0."""
     try:
         found, start_ns = _read(path)
     except RecordingError as err:   # run --inputs: an input error, as every other one
@@ -41,7 +46,7 @@ def read_inputs(path: str) -> list:
         start_ns = min(f[0] for f in found)
     found.sort(key=lambda f: f[0])
     return [replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9))
-            for stamp_ns, item in found]
+            for stamp_ns, item in found], start_ns
 
 
 def _read(path: str) -> tuple:

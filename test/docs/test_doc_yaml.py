@@ -36,7 +36,11 @@ SPEC_EXCERPTS = {
           'naming joints (aft_hook) that it does not define',
     '8.': 'not run: an excerpt whose coefficient tables are left out (CX: ...)',
     '9.': 'not run: criteria of a sweep file, an excerpt with no scenario or sweep',
+    '13.': 'not run: a fit file naming a scenario (two_hooks.yaml) and a flight log '
+           '(flight_037.mcap) it does not come with',
 }
+#: Where the fit files a page shows are shipped (the page's commands run them).
+FIT_FILES = ROOT / 'config' / 'fit'
 
 
 def yaml_blocks():
@@ -139,13 +143,23 @@ def test_yaml_example_runs(block, tmp_path):
             # the merged file lies beside the files the extended one names (tables, meshes)
             for entry in (ROOT / block.argument).parent.iterdir():
                 (folder / entry.name).symlink_to(entry)
-        if 'vary' in document or 'scenario' in document:
+        if 'measured' in document:
+            _shipped_fit(block, document)
+        elif 'vary' in document or 'scenario' in document:
             _run_sweep(block, text, folder)
         else:
             assert 'bodies' in document, (
                 f'{block.where}: neither a scenario (bodies) nor a sweep (scenario, vary); '
                 'mark an excerpt with doc-test: extends')
             _run_scenario(block, text, folder)
+
+
+def _shipped_fit(block, document):
+    """Check that a fit file a page shows is one shipped in config/fit (which its commands run)."""
+    shipped = [path for path in sorted(FIT_FILES.glob('*.yaml'))
+               if load_yaml(path.read_text(encoding='utf-8')) == document]
+    assert shipped, (f'{block.where}: a fit file (measured) that is none of those in '
+                     f'{FIT_FILES.relative_to(ROOT)}: show the shipped file as it is')
 
 
 def _run_scenario(block, text, tmp_path):

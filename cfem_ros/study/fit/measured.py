@@ -9,9 +9,10 @@ releases the file records. Three sources:
 
 - a ``geometry_msgs/msg/PoseStamped`` topic whose ``frame_id`` is the
   ``relative_to`` body (photogrammetry, a telemetry package): times are
-  the header stamps less the file's start (its ``cfem_ros`` metadata's
-  ``start_stamp_ns``, else its first pose of a cfem_ros recording, else the
-  topic's first stamp), as ``run --inputs`` takes them;
+  the header stamps less the start of the replayed inputs (as ``run
+  --inputs`` takes it: one clock for both), or without inputs the file's
+  own start (its ``cfem_ros`` metadata's ``start_stamp_ns``, else its first
+  pose of a cfem_ros recording, else the topic's first stamp);
 - a ``bodies/<body>/pose`` topic of a cfem_ros recording (world poses):
   composed with the ``relative_to`` body's recorded poses;
 - a CSV in the columns of ``cfem-sim export --relative-to`` (``time``,
@@ -22,6 +23,7 @@ releases the file records. Three sources:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 from cfem_ros.recording.analysis import BODY_TOPIC, open_run
 from cfem_ros.recording.errors import RecordingError
@@ -90,9 +92,13 @@ def relative_poses(position, quaternion, position_ref, quaternion_ref) -> tuple:
             moved * Rotation.from_quat(quaternion))
 
 
-def read_measured(spec: FitSpec) -> Measured:
+def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
     """
     Read the fit's measured poses.
+
+    start_ns: the stamp of simulated time 0 (the replayed inputs' start, so
+    that measured poses and inputs share one clock); by default the measured
+    file's own start.
 
     Raises
     ------
@@ -107,7 +113,7 @@ def read_measured(spec: FitSpec) -> Measured:
         elif BODY_TOPIC.match(spec.topic) and BODY_TOPIC.match(spec.topic)['kind'] == 'pose':
             measured = _from_recording(spec)
         else:
-            measured = _from_topic(spec)
+            measured = _from_topic(spec, start_ns)
     except RecordingError as err:
         raise FitError(spec.path, 'measured.file', str(err), 'a readable MCAP recording') \
             from err
@@ -166,7 +172,7 @@ def _from_recording(spec: FitSpec) -> Measured:
     return Measured(track.time[mine], position, attitude, releases)
 
 
-def _from_topic(spec: FitSpec) -> Measured:
+def _from_topic(spec: FitSpec, start_ns: Optional[int]) -> Measured:
     stamps, positions, quaternions, frames = [], [], [], set()
     with open_mcap(spec.measured_file) as reader:
         summary = reader.get_summary()
@@ -180,7 +186,7 @@ def _from_topic(spec: FitSpec) -> Measured:
         if topics[spec.topic] != POSE_SCHEMA:
             raise FitError(spec.path, 'measured.topic', f'{spec.topic} carries '
                            f'{topics[spec.topic]}', POSE_SCHEMA)
-        start = start_stamp_ns(reader)
+        start = start_stamp_ns(reader) if start_ns is None else start_ns
         for _, _, decoded in decoded_messages(reader, spec.measured_file, topics=[spec.topic]):
             stamp = decoded.header.stamp
             p, q = decoded.pose.position, decoded.pose.orientation

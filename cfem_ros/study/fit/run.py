@@ -30,13 +30,13 @@ def fit_file(path: str, outdir: str, threads: Optional[int] = None,
 
     """
     spec = load_fit(path)
-    measured = read_measured(spec)
-    inputs, interpolate = [], spec.odometry != 'extrapolate'
+    inputs, interpolate, start_ns = [], spec.odometry != 'extrapolate', None
     if spec.inputs:
-        from cfem_ros.recording.replay import read_inputs, recorded_interpolation
-        inputs = read_inputs(spec.inputs)
+        from cfem_ros.recording.replay import read_inputs_and_start, recorded_interpolation
+        inputs, start_ns = read_inputs_and_start(spec.inputs)
         if spec.odometry is None:
             interpolate = recorded_interpolation(spec.inputs) is not False
+    measured = read_measured(spec, start_ns)
     fit = Fit(spec, measured, inputs, interpolate, threads=threads, log=log)
     result: FitResult = fit.solve()
     write_outputs(fit, result, outdir, inputs, interpolate)

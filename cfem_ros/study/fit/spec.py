@@ -119,7 +119,9 @@ def _number(value) -> bool:
 
 
 def _relative(base: str, name: str) -> str:
-    return name if os.path.isabs(name) else os.path.join(os.path.dirname(base), name)
+    """Return a file named in the fit file base, relative to its folder (``..`` as written)."""
+    return name if os.path.isabs(name) else os.path.normpath(
+        os.path.join(os.path.dirname(base), name))
 
 
 def load_fit(path: str) -> FitSpec:
