@@ -44,10 +44,11 @@ EJECTED = {
         # acts after the window: the measured poses cannot tell its force
         {'name': 'late_push', 'body': 'store', 'force': [0, 0, 100.0], 'start': 0.28}]}
 
-FORCES = {'wrenches[0].force[2]': {'start': 9000, 'bounds': [5000, 20000],
-                                     'name': 'forward ejector force', 'unit': 'N'},
-          'wrenches[1].force[2]': {'start': 38000, 'bounds': [30000, 50000],
-                                     'name': 'aft ejector force', 'unit': 'N'}}
+FORCES = {
+    'wrenches[0].force[2]': {'start': 9000, 'bounds': [5000, 20000],
+                             'name': 'forward ejector force', 'unit': 'N'},
+    'wrenches[1].force[2]': {'start': 38000, 'bounds': [30000, 50000],
+                             'name': 'aft ejector force', 'unit': 'N'}}
 
 
 def _write(path, document):
@@ -65,7 +66,7 @@ def _relative(run, body, reference):
 
 @pytest.fixture(scope='module')
 def flight(tmp_path_factory):
-    """The ejection at known forces, recorded at every step, as relative poses."""
+    """Record the ejection at known forces at every step; return it as relative poses."""
     folder = tmp_path_factory.mktemp('flight')
     scenario = _write(folder / 'scenario.yaml', EJECTED)
     truth = str(folder / 'truth.mcap')
@@ -109,8 +110,7 @@ def test_fit_recovers_the_ejector_forces_and_writes_its_outputs(flight, tmp_path
     folder, scenario, _ = flight
     measured = _csv(tmp_path / 'measured.csv', *_noisy(flight, 1))
     parameters = dict(FORCES)
-    parameters['wrenches[2].force[2]'] = {'start': 100, 'bounds': [0, 1000],
-                                            'name': 'late push'}
+    parameters['wrenches[2].force[2]'] = {'start': 100, 'bounds': [0, 1000], 'name': 'late push'}
     fit = _fit_file(tmp_path, scenario, measured, parameters, window={'from': 0.0, 'to': 0.25})
     out = tmp_path / 'out'
     assert cli.main(['fit', fit, '-o', str(out), '--threads', '2']) == 0
@@ -182,8 +182,8 @@ def test_a_bound_the_fit_ends_at_is_said(flight, tmp_path, capsys):
     ({'sigma': {'position': 0.0, 'attitude_deg': 0.3}}, 'measured.sigma.position'),
     ({'window': {'from': {'release': 'hook'}}}, 'measured.window.from.release'),
 ])
-def test_a_fit_that_cannot_be_done_is_refused_with_the_key(flight, tmp_path, capsys, change,
-                                                          key):
+def test_a_fit_that_cannot_be_done_is_refused_with_the_key(
+        flight, tmp_path, capsys, change, key):
     folder, scenario, truth = flight
     measured = _csv(tmp_path / 'measured.csv', *truth)
     fit = _fit_file(tmp_path, scenario, measured, dict(FORCES), **change)

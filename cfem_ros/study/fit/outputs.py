@@ -157,4 +157,3 @@ def sentence(fit: Fit, result: FitResult) -> str:
     if result.problems:
         text += '\n' + '\n'.join(f'note: {p}' for p in result.problems)
     return text
-

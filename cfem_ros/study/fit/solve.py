@@ -131,7 +131,7 @@ class Fit:
                            'a file with more samples)')
 
     def residuals(self, values) -> np.ndarray:
-        """Return the weighted residuals (6 per measured sample) at parameter values."""
+        """Return the weighted residuals at parameter values (6 per measured sample)."""
         key = np.asarray(values, dtype=float).tobytes()
         if self._last[0] == key:
             return self._last[1]
