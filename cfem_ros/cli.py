@@ -800,6 +800,8 @@ def cmd_report(outdir: str, output: str, overwrite: bool = False) -> int:
     import tempfile
     try:
         _study_imports()
+        from cfem_ros.study.folder import check_folder
+        check_folder(outdir)
         from cfem_ros import study_plots
         from cfem_ros.study.report import write_report
         with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
@@ -820,13 +822,12 @@ def cmd_rerun(outdir: str, run: int, output: str) -> int:
     import json
     try:
         study = _study_imports()
-        with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
-            manifest = json.load(stream)
-        import pandas as pd
-        table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
-    except OSError as err:
-        return _error(f'{outdir}: {err.strerror or err}; expected a sweep folder '
-                      '(sweep.json, results.parquet)')
+        from cfem_ros.study.folder import check_folder, read_table
+        manifest = check_folder(outdir)
+        table = read_table(os.path.join(outdir, 'results.parquet'))
+        if 'run' not in table.columns or not isinstance(manifest.get('resolved'), dict):
+            return _error(f'{outdir}: its results.parquet or sweep.json is not what a sweep '
+                          'writes; expected a sweep folder (sweep.json, results.parquet)')
     except CfemError as err:
         return _error(str(err))
     rows = table[table['run'] == run]

@@ -265,16 +265,19 @@ def read_columns(check, path: str, key: str) -> dict:
         try:
             data = pq.read_table(path)
         except Exception as err:  # noqa: B902 - any reader error is the file's fault
-            check.fail(key, f'{shown} is not a readable Parquet file ({err})',
+            check.fail(key, f'{shown} is not a readable Parquet file ({_one_line(err)})',
                        'a Parquet file with one column per axis and increment')
-        return {name: np.asarray(data.column(name).to_numpy(), dtype=float)
-                for name in data.column_names}
-    with open(path, encoding='utf-8', errors='replace') as handle:
+        return _parquet_columns(check, data, key, shown)
+    with open(path, encoding='utf-8-sig', errors='replace') as handle:   # a BOM is no name
         lines = [ln for ln in handle.read().splitlines()
                  if ln.strip() and not ln.lstrip().startswith('#')]
     if not lines:
         check.fail(key, f'{shown} is empty', 'a header row naming the columns, then numbers')
     header = [h.strip() for h in lines[0].split(',')]
+    _distinct_columns(check, header, key, shown)
+    if len(lines) < 2:
+        check.fail(key, f'{shown} has a header and no data rows',
+                   'a row of numbers per grid point')
     values = np.empty((len(lines) - 1, len(header)))
     for r, line in enumerate(lines[1:]):
         cells = line.split(',')
@@ -288,6 +291,39 @@ def read_columns(check, path: str, key: str) -> dict:
                 check.fail(key, f'{shown}, data row {r + 1}, column {header[c]!r} is '
                            f'{cell.strip()!r:.40}', 'a number')
     return {name: values[:, c] for c, name in enumerate(header)}
+
+
+def _one_line(err) -> str:
+    return ' '.join(str(err).split())[:200]
+
+
+def _distinct_columns(check, names, key: str, shown: str):
+    """Refuse a table that names a column twice (which of the two would be used?)."""
+    seen = set()
+    for name in names:
+        if name in seen:
+            check.fail(key, f'{shown} has the column {name!r:.40} twice', 'each column once')
+        seen.add(name)
+
+
+def _parquet_columns(check, data, key: str, shown: str) -> dict:
+    """Return a Parquet table's columns as floats; only number columns, at least one row."""
+    import pyarrow as pa
+    _distinct_columns(check, data.column_names, key, shown)
+    for name, kind in zip(data.column_names, data.schema.types):
+        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
+            check.fail(key, f'{shown}: column {name!r:.40} holds {kind}',
+                       'numbers (integer or floating point) in every column')
+    if data.num_rows == 0:
+        check.fail(key, f'{shown} has no rows', 'a row of numbers per grid point')
+    columns = {}
+    for name in data.column_names:
+        column = data.column(name)
+        if column.null_count:
+            check.fail(key, f'{shown}: column {name!r:.40} has {column.null_count} empty '
+                       'cell(s)', 'a number in every cell')
+        columns[name] = np.asarray(column.to_numpy(), dtype=float)
+    return columns
 
 
 def grid_of(check, columns: dict, key: str, path: str) -> tuple:

@@ -23,6 +23,7 @@ import os
 import sys
 from typing import Callable, Optional
 
+from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.spec import RANDOM_NUMBERS, SweepError, SweepSpec
 from cfem_ros.study.sweep import (
     _part_of, columns, decide, frame, groups, MANIFEST, numeric, RESULTS, run_task, write_atomic)
@@ -115,8 +116,7 @@ class Evaluator:
             if self.record != 'none':
                 os.makedirs(os.path.join(self.outdir, 'runs'), exist_ok=True)
             if os.path.exists(manifest):
-                with open(manifest, encoding='utf-8') as stream:
-                    held = json.load(stream)
+                held = read_manifest(self.outdir)
                 if held.get('digest') != digest:
                     raise SweepError(self.outdir, '', f'holds another study ({held.get("sweep")},'
                                      f' method {held.get("method", "mc")}, hash '
@@ -142,7 +142,7 @@ class Evaluator:
         paths = sorted(glob.glob(os.path.join(self.outdir, 'parts', '*.parquet')))
         if not paths:
             return {}
-        table = pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True)
+        table = pd.concat([read_table(p, 'part') for p in paths], ignore_index=True)
         return {int(row['run']): row for row in table.to_dict('records')}
 
     def __call__(self, points) -> 'pandas.DataFrame':  # noqa: F821
@@ -176,9 +176,8 @@ class Evaluator:
         return frame([self.saved[k] for k in runs], self.names)
 
     def _read(self, paths):
-        import pandas as pd
         for path in paths:
-            for row in pd.read_parquet(path).to_dict('records'):
+            for row in read_table(path, 'part').to_dict('records'):
                 self.saved[int(row['run'])] = row
 
     def _run(self, part: SweepSpec, todo: list) -> list:

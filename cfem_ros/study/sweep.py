@@ -31,6 +31,7 @@ import uuid
 from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
+from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.metrics import Collector, compute, empty
 from cfem_ros.study.resources import PartialRows, recording_failure, unrecorded
 from cfem_ros.study.spec import (
@@ -357,7 +358,11 @@ def _done_runs(outdir: str) -> set:
     for path in glob.glob(os.path.join(outdir, 'parts', '*.tmp-*')):
         os.remove(path)
     for path in sorted(glob.glob(os.path.join(outdir, 'parts', '*.parquet'))):
-        done.update(pq.read_table(path, columns=['run']).column('run').to_pylist())
+        try:
+            done.update(pq.read_table(path, columns=['run']).column('run').to_pylist())
+        except Exception:  # noqa: B902 - a damaged part: said by the reader, in one line
+            read_table(path, 'part')
+            raise
     return done
 
 
@@ -385,8 +390,7 @@ def prepare(spec: SweepSpec, outdir: str, record: str = 'none') -> list:
         if record != 'none':
             os.makedirs(os.path.join(outdir, 'runs'), exist_ok=True)
         if os.path.exists(manifest):
-            with open(manifest, encoding='utf-8') as stream:
-                held = json.load(stream)
+            held = read_manifest(outdir)
             if held.get('digest') != digest:
                 raise SweepError(outdir, '', f'holds another sweep ({held.get("sweep")}, '
                                  f'{held.get("total")} runs, hash {held.get("digest", "")[:12]})',
@@ -410,7 +414,7 @@ def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
     """Gather the parts into ``results.parquet`` (sorted by run) and return the table."""
     import pandas as pd
     paths = sorted(glob.glob(os.path.join(outdir, 'parts', '*.parquet')))
-    table = pd.concat([pd.read_parquet(p) for p in paths], ignore_index=True) if paths \
+    table = pd.concat([read_table(p, 'part') for p in paths], ignore_index=True) if paths \
         else frame([], columns(spec))
     table = table.drop_duplicates('run').sort_values('run', kind='stable')
     table = table.reset_index(drop=True)[columns(spec)]
