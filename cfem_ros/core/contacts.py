@@ -10,7 +10,7 @@ the hull's vertex count) and then the hull's vertices (shape axes, m).
 
 from __future__ import annotations
 
-from cfem_ros.core import rotations
+from cfem_ros.core import kernel, rotations
 from cfem_ros.core.shapes import Shape
 import numpy as np
 
@@ -69,9 +69,6 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
         The closest (or, overlapping, deepest) point on a, then on b, world, m.
 
     """
-    from cfem_ros.core import native
-
     rot_a = rotations.matrices(np.asarray(quat_a, dtype=float)).reshape(-1, 9)
     rot_b = rotations.matrices(np.asarray(quat_b, dtype=float)).reshape(-1, 9)
-    return native.load().distance(shape_a, rot_a, np.asarray(position_a, dtype=float),
-                                  shape_b, rot_b, np.asarray(position_b, dtype=float))
+    return kernel.distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b)

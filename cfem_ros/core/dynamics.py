@@ -31,7 +31,7 @@ from typing import Optional
 from cfem_ros.core import kernel, motion, rotations, sampling
 from cfem_ros.core.bodies import initial_state, mass_table
 from cfem_ros.core.inputs import held_wrench
-from cfem_ros.core.loads import H_POINT
+from cfem_ros.core.kernel import LOADS
 from cfem_ros.core.model import Model
 from cfem_ros.core.sampling import NumericalFailure, SampledState
 from cfem_ros.core.ties import TiedLoads
@@ -118,17 +118,14 @@ class Dynamics(SampledState):
     def derivative(self, y: np.ndarray) -> np.ndarray:
         """Return dy/dt at state y (external wrenches held constant)."""
         out = np.empty_like(y)
-        if kernel.derivative(y, out, *self._topology.kernel_args(self)) < 0.0:
+        if kernel.derivative(self._topology.system, y, out) < 0.0:
             raise NumericalFailure(sampling.SINGULAR)
         return out
 
     def _rk4(self, y, h):
         """One classical RK4 step of length h from y, quaternions normalized."""
         out = np.empty_like(y)
-        try:
-            worst = kernel.rk4_step(y, h, out, *self._topology.kernel_args(self))
-        except np.linalg.LinAlgError:
-            worst = -1.0
+        worst = kernel.rk4_step(self._topology.system, y, h, out)
         if worst < 0.0:
             raise NumericalFailure(sampling.SINGULAR)
         self._stage_violation = max(self._stage_violation, worst)
@@ -138,7 +135,7 @@ class Dynamics(SampledState):
         """Detect redundant rows; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
         top = self._topology
-        null = top.null_space(self.y, top.kernel_args(self), self.n)
+        null = top.null_space(self.y, self.n)
         rank = top.m - null.shape[1]
         if rank < top.m:
             if not getattr(self, '_warned_redundant', False):
@@ -174,7 +171,7 @@ class Dynamics(SampledState):
     def joint_projection(self) -> np.ndarray:
         """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
         delta = np.zeros((self.n, 6))
-        kernel.project(self.y, *self._topology.kernel_args(self), delta)
+        kernel.project(self._topology.system, self.y, delta)
         return delta
 
     # --------------------------------------------------------------- inputs
@@ -200,8 +197,10 @@ class Dynamics(SampledState):
         """
         i = self.body_index(body)
         force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
-        self._loads[i, :7] = np.concatenate([force, torque, [1.0 if body_axes else 0.0]])
-        self._loads[i, H_POINT:H_POINT + 3] = point
+        row = self._loads[i]
+        row[LOADS.span('H_FORCE')], row[LOADS.span('H_TORQUE')] = force, torque
+        row[LOADS.H_AXES] = 1.0 if body_axes else 0.0
+        row[LOADS.span('H_POINT')] = point
 
     def body_index(self, body) -> int:
         """Return the index of a body given by name or index."""

@@ -75,7 +75,7 @@ class Simulator(Dynamics):
         self.message = ''
         self.steps = 0
         self.max_violation = 0.0
-        self._info = np.zeros(6)
+        self._info = np.zeros(kernel.ADVANCE_INFO.WIDTH)   # advance's, reused
         self.carriers = Carriers(self, self._bodies)   # kinematic bodies, their odometry
         if self.kinematic:
             self.carriers.place(0.0)
@@ -100,13 +100,15 @@ class Simulator(Dynamics):
     def _set_topology(self):
         """Rebuild the rows, the solve plan and the workspace for the active joints."""
         top = self._topology = Topology(self.joints.rows, self.active, self.free)
-        self.dof = self._check_redundancy()
-        if top.dense == 2:   # redundant rows: split by the joints' compliance, if given
-            top.weigh(row_weights(self.model, top.joint))
         self.releases.update(self.active, top.line)
         active = np.flatnonzero(self.active)
         self._outputs_key = tuple(active.tolist())
-        self._outputs_order = np.ascontiguousarray(top.line[active], dtype=np.int64)
+        order = np.ascontiguousarray(top.line[active], dtype=np.int64)
+        top.bind(self._bodies, self.gravity, self._loads, self.eta, self.releases.watched(),
+                 order)
+        self.dof = self._check_redundancy()
+        if top.dense == 2:   # redundant rows: split by the joints' compliance, if given
+            top.weigh(row_weights(self.model, top.joint))
 
     def release(self, joint, cause: str = 'command') -> dict:
         """
@@ -208,7 +210,7 @@ class Simulator(Dynamics):
             while self.t < t_target or (samples is not None and self.t >= samples.next_time):
                 due = self._next_time_trigger()
                 due = math.inf if due is None else due
-                result = advance(self, t_target, due, limit, samples)
+                result = self._advance(t_target, due, limit, samples)
                 if result == kernel.CONDITION:
                     # a release condition is reached within the next step: locate it
                     goal = t_target if samples is None else min(t_target, samples.next_time)
@@ -235,6 +237,17 @@ class Simulator(Dynamics):
             self.fail(str(err))
             return False
         return True
+
+    def _advance(self, t_target, due, limit, samples) -> int:
+        """Take the kernel's steps toward t_target (``kernelcalls.advance``); its result."""
+        done = advance(self._topology.system, self.y, self._info, self.t, self.max_violation,
+                       t_target, due, limit, self.dt, samples)
+        self.t = done.t
+        self.steps += done.steps
+        self.max_violation = done.violation
+        if done.error is not None:
+            raise done.error
+        return done.result
 
     def _check_violation(self):
         """Fail if the joints are violated beyond ``DIVERGENCE_VIOLATION`` now."""
@@ -279,7 +292,8 @@ class Simulator(Dynamics):
         self._scheduled.set_time(self.t)
         if self.kinematic:
             kernel.motion_set_time(self._bodies, self.t)   # motion.py
-        y1, ys, crossing, stroke = locate(self, y0, h)
+        y1, ys, crossing, stroke, self._stage_violation = locate(
+            self._topology.system, y0, h, self._stage_violation)
         if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
             # an ejector's stroke ends first (or with a release), or shapes touch
             s, rows = stroke

@@ -5,32 +5,40 @@ The compiled hot path: state derivative, RK4 and the step loop (C++, ``_kernel``
 
 The functions are those of the extension module ``cfem_ros.core._kernel``
 (``cfem_ros/core/cpp``, built by ``pip install`` or ``colcon build``); this
-module is its Python face: the constants, the workspace's views and the
-same names and arguments the engine calls.
+module is its one Python face: nothing else imports the extension. The
+layout of every array the two share (columns, widths, workspace parts) is
+the extension's (``cpp/layout.hpp``, ``cpp/workspace.hpp``), read here:
+Python writes no column index of its own.
 
-The arrays are laid out by ``engine.Simulator``; this module only computes,
-and never allocates inside the step loop: every scratch array is carved out
-of one workspace (``workspace_size``) made once per set of active joints.
+A ``System`` holds a model's arrays and the rows, plan, watched joints and
+workspace of one set of active joints, checked once when made (as MuJoCo's
+``mjModel``/``mjData``); the solves take it and the state:
+``derivative(system, y, dy)``, ``rk4_step(system, y, h, out)``,
+``advance(system, y, info, ...)``. It points into the caller's arrays (no
+copy): the engine writes held loads, switches and trajectories into them
+between calls. The arrays are laid out by ``engine.Simulator``; this module
+only computes, and never allocates inside the step loop: every scratch array
+is a part of the System's one workspace.
 
 State ``y`` (13 n): positions (3 n, world, m), velocities (3 n, world, m/s),
 quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
 
-``bodies`` (n, 20): mass, 1/mass (0 for ground), inertia (9, body axes, about
-the CG), inverse inertia (9; 0 for ground); with kinematic bodies, more
-columns: their trajectories (``motion.py``; the hooks are marked "motion.py").
-``loads``: the packed applied loads of ``loads.py`` (per body: force (3),
-torque (3), 1.0 if in body axes, application point (3); then the scheduled
-wrenches and their tables).
+``bodies`` (n, ``BODIES.BODY_COLUMNS``): mass, 1/mass (0 for ground), inertia
+(9, body axes, about the CG), inverse inertia (9; 0 for ground); with
+kinematic bodies, more columns: their trajectories (``motion.py``).
+``loads``: the packed applied loads of ``loads.py`` (``LOADS``; per body:
+force (3), torque (3), 1.0 if in body axes, application point (3); then the
+scheduled wrenches and their tables).
 ``rows_i`` (m, 3): parent body, child body, 1 for a translation row, 2 for a
 translation row at the same joint point as the row before (its terms are
 computed once), 0 for a rotation row. Rows come grouped by joint.
 ``rows_f`` (m, 9): translation rows: axis on the parent, anchor on the
 parent, anchor on the child (body axes); rotation rows: vector on the parent,
 vector on the child, unused.
-``plan`` (J, 7), one line per active joint, leaves of the joint tree first:
-first row, translation rows, rotation rows, tree child body, tree parent body,
-+1 if the tree child is the joint's child (-1 if it is its parent), model
-joint index. ``roots`` (n,): -1 for a fixed body, 0 for a free body held to
+``plan`` (J, ``PLAN.WIDTH``), one line per active joint, leaves of the joint
+tree first: first row, translation rows, rotation rows, tree child body, tree
+parent body, +1 if the tree child is the joint's child (-1 if it is its
+parent), model joint index. ``roots`` (n,): -1 for a fixed body, 0 for a free body held to
 its tree parent, 1 for the free root of a tree, 2 for a free body without
 joints.
 
@@ -53,89 +61,147 @@ The joint loads are solved in one of two ways (``engine`` says which):
 from __future__ import annotations
 
 import functools
-import math
 
 from cfem_ros.core import _kernel
 import numpy as np
 
-#: ``advance`` results in ``info[3]`` (LOADS_NOT_FINITE: a sample's outputs or a
-#: force-release check's joint loads are not finite while the state is).
-REACHED, CONDITION, NOT_FINITE, VIOLATION, SINGULAR, ROWS_FULL = 0, 1, 2, 3, 4, 5
-LOADS_NOT_FINITE = 6
+
+class Layout:
+    """
+    The columns of one array the kernel shares with Python, as the extension lays them out.
+
+    Each column is an attribute holding its first index (``LOADS.S_FORCE``),
+    each number of the table an attribute holding its value (``LOADS.WIDTH``,
+    ``LOADS.KIND_SCHEDULED``); ``span(name)`` is the slice of a column's width.
+    """
+
+    def __init__(self, array: str):
+        #: {name: (group, first column, width)}; width 0: to the end of the row.
+        self.columns = {}
+        #: {name: value} of the table's sizes and stored values.
+        self.numbers = {}
+        for name, entry in _kernel.LAYOUT[array].items():
+            if isinstance(entry, tuple):
+                self.columns[name] = entry
+            else:
+                self.numbers[name] = entry
+            setattr(self, name, entry[1] if isinstance(entry, tuple) else entry)
+        self.array = array
+
+    def span(self, name: str) -> slice:
+        """Return the slice of a column's numbers in a row."""
+        _, first, width = self.columns[name]
+        return slice(first, first + width if width else None)
+
+
+#: The arrays' layouts (``cpp/layout.hpp``): ``bodies`` and the kinematic bodies'
+#: columns, ``loads``, ``plan``, and the ``info`` of ``advance`` and of ``locate``.
+BODIES = Layout('bodies')
+LOADS = Layout('loads')
+PLAN = Layout('plan')
+ADVANCE_INFO = Layout('advance_info')
+LOCATE_INFO = Layout('locate_info')
+
+#: ``advance`` results in ``info[ADVANCE_INFO.I_RESULT]`` (LOADS_NOT_FINITE: a
+#: sample's outputs or a force-release check's joint loads are not finite while
+#: the state is); ``locate`` codes in ``info[LOCATE_INFO.L_CODE]`` besides
+#: REACHED, SINGULAR and LOADS_NOT_FINITE: a condition's value is NaN, the
+#: step's ends do not bracket it, no convergence.
+REACHED, CONDITION, NOT_FINITE = _kernel.REACHED, _kernel.CONDITION, _kernel.NOT_FINITE
+VIOLATION, SINGULAR, ROWS_FULL = _kernel.VIOLATION, _kernel.SINGULAR, _kernel.ROWS_FULL
+LOADS_NOT_FINITE = _kernel.LOADS_NOT_FINITE
+NAN_VALUE, SAME_SIGNS, NO_CONVERGENCE = (_kernel.NAN_VALUE, _kernel.SAME_SIGNS,
+                                         _kernel.NO_CONVERGENCE)
 
 #: A pivot of the solve (a Cholesky pivot, a 2x2 or 3x3 determinant over the
 #: product of its diagonal, a hinge's D over its diagonal terms) at
 #: or below this fraction of its scale has lost all but about three of its 16
 #: digits to cancellation: the solve is ill-conditioned and reported as singular.
 #: (A hinge's D = g^T M^ g is measured against sum M^_ii g_i^2.)
-PIVOT_RTOL = 1e-12
+PIVOT_RTOL = _kernel.PIVOT_RTOL
 
-#: Columns of ``plan``.
-P_ROW, P_NT, P_NR, P_CHILD, P_PARENT, P_SIGN, P_JOINT = range(7)
-
-#: ``locate`` codes in ``info[1]`` besides REACHED, SINGULAR and LOADS_NOT_FINITE:
-#: a condition's value is NaN, the step's ends do not bracket it, no convergence
-#: (the errors of ``roots.brentq``).
-NAN_VALUE, SAME_SIGNS, NO_CONVERGENCE = 7, 8, 9
-
-#: Brent's tolerances for a crossing (as releases.py and loads.py use roots.brentq).
-CROSSING_XTOL, CROSSING_RTOL, CROSSING_MAXITER = 1e-15, 4 * np.finfo(np.float64).eps, 200
+#: Brent's tolerances for a crossing (``cpp/events.hpp``: scipy's brentq's, as
+#: ``test/crossings.py``'s reference search uses them).
+CROSSING_XTOL, CROSSING_RTOL = _kernel.CROSSING_XTOL, _kernel.CROSSING_RTOL
+CROSSING_MAXITER = _kernel.CROSSING_MAXITER
 
 #: The compiled functions (their docstrings: the C++ headers in ``cpp/``).
 #: Arrays are float64 (plan, rows_i, roots, watch and the like int64) in C order,
 #: taken without copies; a wrong one raises TypeError or ValueError naming it.
 #: Every function that computes releases the GIL.
-workspace_size = _kernel.workspace_size
+System = _kernel.System
 derivative = _kernel.derivative
 rk4_step = _kernel.rk4_step
 joint_loads = _kernel.joint_loads
 sample_outputs = _kernel.sample_outputs
 row_jacobian = _kernel.row_jacobian
 project = _kernel.project
-conditions = _kernel.conditions
 advance = _kernel.advance
 locate = _kernel.locate
+conditions = _kernel.conditions
+workspace_size = _kernel.workspace_size
 loads_set_time = _kernel.loads_set_time
 loads_strokes = _kernel.loads_strokes
 loads_rotations = _kernel.loads_rotations
 motion_place = _kernel.motion_place
 motion_set_time = _kernel.motion_set_time
 clearance = _kernel.clearance
+isa = _kernel.isa
 #: The solve's small factorizations (tests check their pivot thresholds).
 _inverse = _kernel.inverse
 _cholesky = _kernel.cholesky
 
 
-def carve(work: np.ndarray, n: int, m: int, nj: int) -> tuple:
+def views(system) -> dict:
     """
-    Cut the workspace into views (see ``workspace_size``).
+    Return the parts of a System's workspace as views, by name (``cpp/workspace.hpp``).
 
-    0 rot, 1 omega, 2 inv_inertia, 3 mhat, 4 fhat, 5 acc, 6 jac, 7 weighted,
-    8 rate, 9 gamma, 10 value, 11 rhs, 12 basis, 13 weighted_basis, 14 chol,
-    15 projected, 16 particular, 17 wrench, 18 stages, 19 six (4, 6, 6),
-    20 three (4, 3, 3), 21 vec (8, 3), 22 the first two rows of vec as one (6,).
-    The compiled code cuts the same parts (``cpp/workspace.cpp``), then its own
-    scratch after them.
+    E.g. ``jac`` (m, 12), ``value`` (m,): the rows' Jacobian blocks and
+    values of the last solve.
     """
-    return tuple(work[start:stop].reshape(shape) for start, stop, shape in _parts(n, m, nj))
+    work = system.work
+    return {name: work[start:start + size].reshape(shape)
+            for name, (start, size, shape) in _parts(system).items()}
+
+
+def _parts(system) -> dict:
+    """Return the parts of a System's workspace as {name: (start, size, shape)}."""
+    return _sized_parts(system.n, system.m, system.joints, system.dense)
 
 
 @functools.lru_cache(maxsize=256)
-def _parts(n: int, m: int, nj: int) -> tuple:
-    """Return the views of ``carve`` as (start, stop, shape), computed once per size."""
-    shapes = [(n, 3, 3), (n, 3), (n, 3, 3), (n, 6, 6), (n, 6), (n, 6), (m, 12), (m, 12),
-              (m,), (m,), (m,), (m,), (nj, 6, 3), (nj, 6, 3), (nj, 3, 3), (nj, 3), (nj, 6),
-              (nj, 6), (6, 13 * n), (4, 6, 6), (4, 3, 3), (8, 3)]
-    parts, o = [], 0
-    for shape in shapes:
-        size = math.prod(shape)
-        parts.append((o, o + size, shape))
-        o += size
-    parts.append((o - 24, o - 18, (6,)))
-    return tuple(parts)
+def _sized_parts(n: int, m: int, nj: int, dense: int) -> dict:
+    """Return the workspace's parts as {name: (start, size, shape)}, read once per size."""
+    return {name: (start, int(np.prod(shape, dtype=np.int64)), shape)
+            for name, start, shape in _kernel.workspace_parts(n, m, nj, dense)}
 
 
-def constraint_values(work: np.ndarray, n: int, m: int, n_j: int) -> np.ndarray:
-    """Return the constraint values of the last solve (a view of the workspace)."""
-    start, stop, _ = _parts(n, m, n_j)[10]
-    return work[start:stop]
+def constraint_values(system) -> np.ndarray:
+    """Return the constraint values of the system's last solve (a view of its workspace)."""
+    start, size, _ = _parts(system)['value']
+    return system.work[start:start + size]
+
+
+# The vectorised aerodynamic-table and shape-distance functions (cpp/aeroshapes.cpp)
+# take float64 arrays in C order as they are; these make that so, in the open.
+
+def multilinear(grids, values, points) -> np.ndarray:
+    """Return the multilinear interpolation of a table at points, (k, width)."""
+    return _kernel.multilinear([_floats(g) for g in grids], _floats(values), _floats(points))
+
+
+def aero_wrench(packed, position, velocity, rot, rates, carrier_position, carrier_rot):
+    """Return the aerodynamic wrench at k states, (k, 6), and the air data, (k, 18)."""
+    return _kernel.aero_wrench(*(_floats(a) for a in (packed, position, velocity, rot, rates,
+                                                      carrier_position, carrier_rot)))
+
+
+def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
+    """Return the shapes' distances at k pose pairs, (k,) m, and closest points, (k, 6)."""
+    return _kernel.distance(*(_floats(a) for a in (shape_a, rot_a, position_a, shape_b, rot_b,
+                                                   position_b)))
+
+
+def _floats(a) -> np.ndarray:
+    """Return a as float64 in C order (the same array when it already is)."""
+    return np.ascontiguousarray(a, dtype=np.float64)

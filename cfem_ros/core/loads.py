@@ -4,21 +4,22 @@
 Applied loads: held wrenches at points, scheduled wrenches, ejector strokes.
 
 Every load the kernel applies lives in one packed array, the kernel's
-``loads`` (rows of ``WIDTH`` numbers), so that the compiled step needs no
+``loads`` (rows of ``LOADS.WIDTH`` numbers), so that the compiled step needs no
 Python call and no new argument:
 
 - rows 0 .. n-1, one per body, the wrench held from topics or inputs:
   force (3), torque (3), 1.0 if in body axes, application point (3, body
   axes, from the CG; the moment about the CG gains r x F);
-- then one row per scheduled wrench (``S_*`` columns; ``S_KIND`` = 1);
-- then one row per body with aerodynamic tables (``A_*`` columns, ``S_KIND`` = 3);
-- then one row per watched contact pair (``C_*`` columns, ``S_KIND`` = 5;
+- then one row per scheduled wrench (``S_*`` columns, ``KIND_SCHEDULED``);
+- then one row per body with aerodynamic tables (``A_*``, ``KIND_AERO``);
+- then one row per watched contact pair (``C_*``, ``KIND_CONTACT``;
   ``S_ON`` = 1.0 while armed: its shapes apart);
-- then the rows of their tables (``S_KIND`` = 2): abscissa (time, s, or
-  stroke, m) then force (3) and moment (3); or an aerodynamic table packed
-  by ``aeropack.pack`` or a shape by ``contacts.pack_shape``, 23 numbers a
-  row (``AERO_ROW``);
-- then, if there is any row after the bodies', one scratch row (``S_KIND`` = 4).
+- then the rows of their tables (``KIND_TABLE``): abscissa (time, s, or
+  stroke, m) then force (3) and moment (3) (``T_*``); or an aerodynamic
+  table packed by ``aeropack.pack`` or a shape by ``contacts.pack_shape``,
+  ``AERO_ROW`` numbers a row;
+- then, if there is any row after the bodies', one scratch row (``KIND_SCRATCH``).
+Each row keeps its kind in its last column, ``S_KIND``.
 
 A scheduled wrench acts on its body at its point while it is on: its time
 window cuts the steps like a release time (the engine switches it), and the
@@ -27,45 +28,25 @@ the step's own RK4 map, like a release condition. Its opposite acts on
 ``reacts_on`` at the same world point. Stage times (for tables against
 time) are written by the kernel's RK4 into the scheduled rows.
 
-The compiled step reads these rows in ``cpp/loads.cpp`` (the same column
-constants in ``cpp/loads.hpp``); a new load kind goes there too.
+The columns are the extension's (``kernel.LOADS``, laid out in
+``cpp/layout.hpp``); the compiled step reads these rows in ``cpp/loads.cpp``.
+A new load kind: its columns in ``cpp/layout.hpp``, its rows here, its
+branch there.
 """
 
 from __future__ import annotations
 
-from cfem_ros.core import aeropack, contacts
+from cfem_ros.core import aeropack, contacts, kernel
+from cfem_ros.core.kernel import LOADS
 from cfem_ros.core.roots import brentq   # scipy's brentq, without importing scipy
 import numpy as np
 
-#: Columns of a packed row.
-WIDTH = 24
-#: Held rows: the application point's columns.
-H_POINT = 7
-#: Scheduled rows: body, reacts_on (-1 none), frame (-1 world, else a body), on (1.0).
-S_BODY, S_REACT, S_FRAME, S_ON = 0, 1, 2, 3
-#: point (3), force (3), moment (3), stroke (inf: none), anchor (3).
-S_POINT, S_FORCE, S_MOMENT, S_STROKE, S_ANCHOR = 4, 7, 10, 13, 14
-#: table: 0 none, 1 against time, 2 against stroke; its first row, its length.
-S_TABLE, S_FIRST, S_COUNT = 17, 18, 19
-#: time of the step's start, time of the stage being evaluated, the wrench's start (s).
-S_T0, S_T, S_START = 20, 21, 22
-#: row kind: 0 held, 1 scheduled, 2 table, 3 aerodynamic, 4 scratch (the last row).
-S_KIND = 23
-TABLE_NONE, TABLE_TIME, TABLE_STROKE = 0, 1, 2
-#: Aerodynamic rows: body, carrier of its proximity table (-1 none), first row
-#: of its packed table (``aeropack.pack``; ``cpp/aero.hpp`` reads it).
-A_BODY, A_CARRIER, A_FIRST = 0, 1, 12
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
-AERO_ROW = WIDTH - 1
-#: Contact rows: the bodies, the first rows of their packed shapes, GJK's warm start (3),
-#: the shapes' bounding radii about their CGs (m), the distance GJK last found at a step
-#: end (m, 0 none) and body A's pose in B's axes then (CG (3), quaternion (4)): the kernel
-#: bounds the next step ends' distances from below with them and skips GJK while they are
-#: surely apart (``surely_apart`` in cpp/loads.cpp).
-C_A, C_B, C_SHAPE_A, C_SHAPE_B, C_GUESS, C_RADIUS_A, C_RADIUS_B = 0, 1, 4, 5, 6, 9, 10
-C_SEEN, C_POSE = 11, 12
-#: Shapes this close touch, m (``CONTACT_GAP`` of cpp/loads.hpp).
-CONTACT_GAP = 1e-10
+AERO_ROW = LOADS.AERO_ROW
+#: Shapes this close touch, m.
+CONTACT_GAP = LOADS.CONTACT_GAP
+#: A scheduled row's table: none, against time, against stroke.
+TABLES = {None: LOADS.TABLE_NONE, 'time': LOADS.TABLE_TIME, 'stroke': LOADS.TABLE_STROKE}
 
 
 # ------------------------------------------------------------- Python part
@@ -76,14 +57,8 @@ def _put_packed(rows: np.ndarray, first: int, table: np.ndarray) -> int:
     block = np.zeros(count * AERO_ROW)
     block[:len(table)] = table
     rows[first:first + count, :AERO_ROW] = block.reshape(count, AERO_ROW)
-    rows[first:first + count, S_KIND] = 2.0
+    rows[first:first + count, LOADS.S_KIND] = LOADS.KIND_TABLE
     return first + count
-
-
-def _kernel():
-    """Return the compiled kernel (imported on first use)."""
-    from cfem_ros.core import kernel
-    return kernel
 
 
 class ScheduledLoads:
@@ -99,7 +74,7 @@ class ScheduledLoads:
 
     Attributes
     ----------
-    array : ndarray, shape (n + rows, WIDTH)
+    array : ndarray, shape (n + rows, LOADS.WIDTH)
         The packed loads (the held rows first, zero).
     started, done : ndarray of bool
         Per wrench: switched on once; switched off for good.
@@ -121,31 +96,33 @@ class ScheduledLoads:
         scratch = 1 if self.count or aero or pairs else 0
         #: Where the contact rows start, counted from row n.
         self.contact_first = self.count + len(aero)
-        rows = np.zeros((n + self.contact_first + len(pairs) + tables + scratch, WIDTH))
+        rows = np.zeros((n + self.contact_first + len(pairs) + tables + scratch, LOADS.WIDTH))
         if scratch:
-            rows[-1, S_KIND] = 4.0
+            rows[-1, LOADS.S_KIND] = LOADS.KIND_SCRATCH
         nxt = n + self.contact_first + len(pairs)
         for k, w in enumerate(wrenches):
             r = rows[n + k]
-            r[S_KIND] = 1.0
-            r[S_BODY], r[S_REACT], r[S_FRAME] = w.body, w.reacts_on, w.frame
-            r[S_POINT:S_POINT + 3] = w.point
-            r[S_FORCE:S_FORCE + 3] = w.force
-            r[S_MOMENT:S_MOMENT + 3] = w.moment
-            r[S_STROKE] = np.inf if w.stroke is None else w.stroke
-            r[S_START] = w.start
-            r[S_TABLE] = {None: TABLE_NONE, 'time': TABLE_TIME, 'stroke': TABLE_STROKE}[
-                w.table_against]
+            r[LOADS.S_KIND] = LOADS.KIND_SCHEDULED
+            r[LOADS.S_BODY], r[LOADS.S_REACT], r[LOADS.S_FRAME] = w.body, w.reacts_on, w.frame
+            r[LOADS.span('S_POINT')] = w.point
+            r[LOADS.span('S_FORCE')] = w.force
+            r[LOADS.span('S_MOMENT')] = w.moment
+            r[LOADS.S_STROKE] = np.inf if w.stroke is None else w.stroke
+            r[LOADS.S_START] = w.start
+            r[LOADS.S_TABLE] = TABLES[w.table_against]
             if len(w.table):
-                r[S_FIRST], r[S_COUNT] = nxt, len(w.table)
-                rows[nxt:nxt + len(w.table), :7] = w.table
-                rows[nxt:nxt + len(w.table), S_KIND] = 2.0
+                r[LOADS.S_FIRST], r[LOADS.S_COUNT] = nxt, len(w.table)
+                data, table = np.asarray(w.table, dtype=float), rows[nxt:nxt + len(w.table)]
+                table[:, LOADS.T_ABSCISSA] = data[:, 0]
+                table[:, LOADS.span('T_FORCE')] = data[:, 1:4]
+                table[:, LOADS.span('T_MOMENT')] = data[:, 4:7]
+                table[:, LOADS.S_KIND] = LOADS.KIND_TABLE
                 nxt += len(w.table)
         for k, (a, table) in enumerate(zip(aero, packed)):
             r = rows[n + self.count + k]
-            r[S_KIND] = 3.0
-            r[A_BODY], r[A_FIRST] = a.body, nxt
-            r[A_CARRIER] = -1 if a.proximity is None else a.proximity.carrier
+            r[LOADS.S_KIND] = LOADS.KIND_AERO
+            r[LOADS.A_BODY], r[LOADS.A_FIRST] = a.body, nxt
+            r[LOADS.A_CARRIER] = -1 if a.proximity is None else a.proximity.carrier
             nxt = _put_packed(rows, nxt, table)
         first_row = {}
         for b, shape in shapes.items():
@@ -153,11 +130,12 @@ class ScheduledLoads:
             nxt = _put_packed(rows, nxt, shape)
         for k, pair in enumerate(pairs):
             r = rows[n + self.contact_first + k]
-            r[S_KIND] = 5.0
-            r[C_A], r[C_B] = pair.bodies
-            r[C_SHAPE_A], r[C_SHAPE_B] = first_row[pair.bodies[0]], first_row[pair.bodies[1]]
-            r[C_RADIUS_A], r[C_RADIUS_B] = (contacts.bounding_radius(shapes[b])
-                                            for b in pair.bodies)
+            r[LOADS.S_KIND] = LOADS.KIND_CONTACT
+            r[LOADS.C_A], r[LOADS.C_B] = pair.bodies
+            a, b = pair.bodies
+            r[LOADS.C_SHAPE_A], r[LOADS.C_SHAPE_B] = first_row[a], first_row[b]
+            r[LOADS.C_RADIUS_A], r[LOADS.C_RADIUS_B] = (contacts.bounding_radius(shapes[a]),
+                                                        contacts.bounding_radius(shapes[b]))
         self.array = rows
         self.pairs = pairs
         self.started = np.zeros(self.count, dtype=bool)
@@ -168,7 +146,7 @@ class ScheduledLoads:
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""
         if self.array.shape[0] > self.n:
-            _kernel().loads_set_time(self.array, int(self.n), float(t))
+            kernel.loads_set_time(self.array, int(self.n), float(t))
 
     def due(self, t: float):
         """Return the next time after t at which a wrench switches, or None."""
@@ -191,7 +169,7 @@ class ScheduledLoads:
             if not self.started[k] and w.start <= t:
                 self.started[k] = True
                 self._anchor(k, y)
-                self.array[self.n + k, S_ON] = 1.0
+                self.array[self.n + k, LOADS.S_ON] = 1.0
                 changed = True
             if self.started[k] and w.end is not None and w.end <= t:
                 self._off(k)
@@ -205,31 +183,31 @@ class ScheduledLoads:
 
     def _off(self, k):
         self.done[k] = True
-        self.array[self.n + k, S_ON] = 0.0
+        self.array[self.n + k, LOADS.S_ON] = 0.0
 
     def _anchor(self, k, y):
         """Record where the point is at the start (in world, or in reacts_on's axes)."""
         n = self.n
         row = self.array[n + k]
         rot = np.empty((n, 3, 3))
-        _kernel().loads_rotations(np.ascontiguousarray(y), int(n), rot)
-        b = int(row[S_BODY])
-        point = y[3 * b:3 * b + 3] + rot[b] @ row[S_POINT:S_POINT + 3]
-        j = int(row[S_REACT])
+        kernel.loads_rotations(np.ascontiguousarray(y), int(n), rot)
+        b = int(row[LOADS.S_BODY])
+        point = y[3 * b:3 * b + 3] + rot[b] @ row[LOADS.span('S_POINT')]
+        j = int(row[LOADS.S_REACT])
         if j >= 0:
             point = rot[j].T @ (point - y[3 * j:3 * j + 3])
-        row[S_ANCHOR:S_ANCHOR + 3] = point
+        row[LOADS.span('S_ANCHOR')] = point
 
     def strokes(self, y: np.ndarray) -> np.ndarray:
         """Return each wrench's stroke so far at y, m."""
         out = np.empty(self.array.shape[0] - self.n)
-        _kernel().loads_strokes(np.ascontiguousarray(y), self.array, int(self.n), out)
+        kernel.loads_strokes(np.ascontiguousarray(y), self.array, int(self.n), out)
         return out[:self.count]
 
     def watched(self) -> np.ndarray:
         """Return the wrenches that are on with a stroke."""
         rows = self.array[self.n:self.n + self.count]
-        return np.flatnonzero((rows[:, S_ON] > 0.0) & np.isfinite(rows[:, S_STROKE]))
+        return np.flatnonzero((rows[:, LOADS.S_ON] > 0.0) & np.isfinite(rows[:, LOADS.S_STROKE]))
 
     def crossing(self, y0: np.ndarray, y1: np.ndarray, h: float, rk4):
         """
@@ -240,7 +218,7 @@ class ScheduledLoads:
         watched = self.watched()
         if not watched.size:
             return None
-        stroke = self.array[self.n + watched, S_STROKE]
+        stroke = self.array[self.n + watched, LOADS.S_STROKE]
         reached = self.strokes(y1)[watched] >= stroke
         if not reached.any():
             return None
@@ -264,7 +242,7 @@ class ScheduledLoads:
         """Watch the contact pairs whose shapes are apart at y (the others once they part)."""
         for k in range(len(self.pairs)):
             row = self.n + self.contact_first + k
-            self.array[row, S_ON] = 1.0 if self.gap(k, y)[0] > CONTACT_GAP else 0.0
+            self.array[row, LOADS.S_ON] = 1.0 if self.gap(k, y)[0] > CONTACT_GAP else 0.0
 
     def gap(self, k: int, y: np.ndarray):
         """Return contact pair k's shape distance at y (m) and closest points (world, 6)."""
@@ -273,15 +251,15 @@ class ScheduledLoads:
         quat = y[6 * n:10 * n].reshape(n, 4)
         pos = y[:3 * n].reshape(n, 3)
         row = self.array[n + self.contact_first + k]
-        shape_a = _unpack(self.array, int(row[C_SHAPE_A]))
-        shape_b = _unpack(self.array, int(row[C_SHAPE_B]))
+        shape_a = _unpack(self.array, int(row[LOADS.C_SHAPE_A]))
+        shape_b = _unpack(self.array, int(row[LOADS.C_SHAPE_B]))
         d, points = contacts.distances(shape_a, quat[a:a + 1], pos[a:a + 1], shape_b,
                                        quat[b:b + 1], pos[b:b + 1])
         return float(d[0]), points[0]
 
     def touched(self, k: int):
         """Stop watching contact pair k until its shapes part again."""
-        self.array[self.n + self.contact_first + k, S_ON] = 0.0
+        self.array[self.n + self.contact_first + k, LOADS.S_ON] = 0.0
 
     def end_strokes(self, wrenches):
         """Switch off the wrenches whose stroke has ended."""

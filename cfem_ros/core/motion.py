@@ -26,25 +26,27 @@ models' arrays, and results, are those without this module):
   rotation vector from it (3 x 4: scipy ``RotationSpline``, C2, whose rates
   are body rates). Beyond the table the end segments' polynomials continue.
 
-The compiled step evaluates them (``cpp/motion.cpp``, the same column
-constants in ``cpp/motion.hpp``): ``kernel.motion_place`` writes the state
-and accelerations at a time into y and the columns, at every RK4 stage and
-at the step's end.
+The compiled step evaluates them (``cpp/motion.cpp``; the columns are laid
+out in ``cpp/layout.hpp`` and read from the extension, ``kernel.BODIES``):
+``kernel.motion_place`` writes the state and accelerations at a time into y
+and the columns, at every RK4 stage and at the step's end.
 """
 
 from __future__ import annotations
 
 import math
 
-from cfem_ros.core import rotations
+from cfem_ros.core import kernel, rotations
+from cfem_ros.core.kernel import BODIES
 import numpy as np
 
-#: Columns of ``bodies`` the kernel has without kinematic bodies.
-BODY_COLUMNS = 20
-M_KIND, M_T0, M_ACC, M_REF, M_DATA = 20, 21, 22, 28, 29
-KIND_NONE, KIND_CONSTANT, KIND_TABLE = 0, 1, 2
-#: Numbers per table segment: position coefficients, key quaternion, rotation vector ones.
-SEGMENT = 28
+#: The columns (``kernel.BODIES``, laid out in ``cpp/layout.hpp``): those the
+#: kernel has without kinematic bodies, the trajectory's, the kinds; numbers
+#: per table segment (position coefficients, key quaternion, rotation vector ones).
+BODY_COLUMNS, M_KIND, M_T0, M_ACC, M_REF, M_DATA = (
+    BODIES.BODY_COLUMNS, BODIES.M_KIND, BODIES.M_T0, BODIES.M_ACC, BODIES.M_REF, BODIES.M_DATA)
+KIND_NONE, KIND_CONSTANT, KIND_TABLE, SEGMENT = (
+    BODIES.KIND_NONE, BODIES.KIND_CONSTANT, BODIES.KIND_TABLE, BODIES.SEGMENT)
 
 
 # ------------------------------------------------------------- Python part
@@ -127,7 +129,6 @@ def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acc
 
     first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration,
                     jerk)
-    from cfem_ros.core import kernel
     probe = np.zeros((1, M_DATA + 1 + 2 + SEGMENT))
     probe[0, M_KIND] = KIND_TABLE
     probe[0, M_DATA:] = np.concatenate([[1, t, t + horizon], first])
@@ -200,7 +201,6 @@ def state_at(model, t: float):
         acceleration, angular acceleration (world)).
 
     """
-    from cfem_ros.core import kernel
     n = len(model.bodies)
     extra = columns(model)
     if extra.shape[1] == 0:

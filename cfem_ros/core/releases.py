@@ -91,6 +91,11 @@ class Releases:
         times = times[np.isfinite(times)]
         self.due = float(times.min()) if times.size else None
 
+    def watched(self) -> tuple:
+        """Return the watched joints as ``kernel.System`` takes them (after ``update``)."""
+        return (self._joints_i, self._joints_f, self.watch, self.watch_limits,
+                self.watch_triggers, self.watch_lines)
+
     def timed_out(self, active: np.ndarray, t: float) -> np.ndarray:
         """Return the active joints whose release time is t or earlier."""
         if self.due is None or t < self.due:

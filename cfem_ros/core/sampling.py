@@ -16,6 +16,7 @@ from typing import Optional
 
 from cfem_ros.core import kernel, rotations
 from cfem_ros.core.bodies import state_views
+from cfem_ros.core.kernel import PLAN
 import numpy as np
 
 
@@ -160,18 +161,13 @@ class SampledState:
         force, moment = np.zeros((n_j, 3)), np.zeros((n_j, 3))
         lines = len(top.plan)
         f_line, m_line = np.empty((lines, 3)), np.empty((lines, 3))
-        try:
-            ok = kernel.joint_loads(np.ascontiguousarray(y), *top.kernel_args(self),
-                                    f_line, m_line)
-        except np.linalg.LinAlgError:
-            ok = False
-        if not ok:
+        if not kernel.joint_loads(top.system, np.ascontiguousarray(y), f_line, m_line):
             raise NumericalFailure(SINGULAR)
         if not (np.isfinite(f_line).all() and np.isfinite(m_line).all()):
             raise NumericalFailure(LOADS_NOT_FINITE)
-        force[top.plan[:, kernel.P_JOINT]] = f_line
-        moment[top.plan[:, kernel.P_JOINT]] = m_line
-        value = kernel.constraint_values(top.work, self.n, top.m, lines).copy()
+        force[top.plan[:, PLAN.P_JOINT]] = f_line
+        moment[top.plan[:, PLAN.P_JOINT]] = m_line
+        value = kernel.constraint_values(top.system).copy()
         return force, moment, value
 
     def _outputs_size(self) -> int:
@@ -203,11 +199,7 @@ class SampledState:
         """
         if out is None:
             out = np.empty(self._outputs_size())
-        try:
-            code = kernel.sample_outputs(self.y, *self._topology.kernel_args(self),
-                                         self._outputs_order, out)
-        except np.linalg.LinAlgError:
-            code = kernel.SINGULAR
+        code = kernel.sample_outputs(self._topology.system, self.y, out)
         if code == kernel.SINGULAR:
             raise NumericalFailure(SINGULAR)
         if code == kernel.LOADS_NOT_FINITE:

@@ -13,7 +13,8 @@ like any scheduled time. Everything else is ``loads.ScheduledLoads``.
 
 from __future__ import annotations
 
-from cfem_ros.core.loads import S_ON, S_START, ScheduledLoads
+from cfem_ros.core.kernel import LOADS
+from cfem_ros.core.loads import ScheduledLoads
 import numpy as np
 
 
@@ -74,8 +75,8 @@ class TiedLoads(ScheduledLoads):
             if not self.started[k] and self.start[k] <= t:
                 self.started[k] = True
                 self._anchor(k, y)
-                self.array[self.n + k, S_START] = self.start[k]   # tables against time
-                self.array[self.n + k, S_ON] = 1.0
+                self.array[self.n + k, LOADS.S_START] = self.start[k]   # tables against time
+                self.array[self.n + k, LOADS.S_ON] = 1.0
                 changed = True
             if self.started[k] and self.end[k] <= t:
                 self._off(k)

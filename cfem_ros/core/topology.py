@@ -16,6 +16,7 @@ import resource
 
 from cfem_ros.core import kernel, rotations
 from cfem_ros.core.errors import CfemError
+from cfem_ros.core.kernel import PLAN
 import numpy as np
 
 
@@ -30,14 +31,15 @@ def memory_limit() -> float:
     return min(limit, float(soft)) if soft != resource.RLIM_INFINITY else limit
 
 
-def workspace(n: int, m: int, nj: int, dense: int) -> np.ndarray:
+def check_memory(n: int, m: int, nj: int, dense: int):
     """
-    Return the zeroed solve workspace of n bodies, m rows and nj joints.
+    Check that the solve workspace of n bodies, m rows and nj joints fits in memory.
 
     A tree's is linear in the bodies; closed loops (dense) add the m x m
     complement and its eigenvectors, and the dense Jacobians (m, 6 n) the
-    redundancy check makes. Raises ModelTooLarge, before anything is
-    allocated, if that is more than half the memory the process may have.
+    redundancy check makes. Raises ModelTooLarge, before the System
+    allocates anything, if that is more than half the memory the process
+    may have.
     """
     size = kernel.workspace_size(n, m, nj, dense)
     need = 8.0 * size + (8.0 * m * (12.0 * n + 2.0 * m) if dense else 0.0)
@@ -50,7 +52,6 @@ def workspace(n: int, m: int, nj: int, dense: int) -> np.ndarray:
             f'({form}) need {need / 2**30:.3g} GiB for the joint solve, more than half of '
             f'the {limit / 2**30:.3g} GiB this process may use; expected a smaller model'
             + (' (or a tree: cut the closed loops)' if dense else ''))
-    return np.zeros(size)
 
 
 class JointTables:
@@ -150,23 +151,47 @@ class Topology:
             np.bincount(self.joint[~self.translation], minlength=size)[joints]]).astype(np.int64)
         ends = tables['ends'][joints]
         lines = self._forest(joints, ends, free)
-        self.dense = 0 if lines is not None else 1
+        #: The solve until ``bind`` (then the System's): 0 tree, 1 dense, 2 least squares.
+        self._dense = 0 if lines is not None else 1
         if lines is None:   # closed loops: every joint as written, no tree
             lines = [(i, ends[i, 1], ends[i, 0], 1) for i in range(len(joints))]
-        self.plan = np.array(
-            [(first[i], counts[i, 0], counts[i, 1], child, parent, sign, joints[i])
-             for i, child, parent, sign in lines], dtype=np.int64).reshape(-1, 7)
+        self.plan = _plan(lines, first, counts, joints)
         self.roots = np.where(free, 0, -1).astype(np.int64)
-        held = set(self.plan[:, kernel.P_CHILD].tolist())
-        touched = held | set(self.plan[:, kernel.P_PARENT].tolist())
+        held = set(self.plan[:, PLAN.P_CHILD].tolist())
+        touched = held | set(self.plan[:, PLAN.P_PARENT].tolist())
         for i in np.flatnonzero(free):
             if i not in held:
                 self.roots[i] = 1 if i in touched else 2
         # plan line of each model joint (-1 if released)
         self.line = np.full(len(active), -1, dtype=np.int64)
-        self.line[self.plan[:, kernel.P_JOINT]] = np.arange(len(self.plan))
-        n = len(free)
-        self.work = workspace(n, self.m, len(self.plan), self.dense)
+        self.line[self.plan[:, PLAN.P_JOINT]] = np.arange(len(self.plan))
+        check_memory(len(free), self.m, len(self.plan), self._dense)
+        #: The kernel's System of these rows (``bind``).
+        self.system = None
+
+    def bind(self, bodies, gravity, loads, eta: float, watched: tuple, order: np.ndarray):
+        """
+        Make the kernel's System of these rows with a simulator's arrays, once.
+
+        ``watched``: the watched joints (``Releases.watched``); ``order``:
+        the plan lines of the joints a sample shows. The System keeps the
+        arrays and points into them: the simulator writes into them, never
+        replaces them.
+        """
+        self.system = kernel.System(bodies, gravity, loads, self.rows_i, self.rows_f, self.plan,
+                                    self.roots, float(eta), self._dense, *watched, order)
+        return self.system
+
+    @property
+    def dense(self) -> int:
+        """Return how the rows are solved: 0 tree, 1 dense, 2 least squares (redundant)."""
+        return self._dense if self.system is None else self.system.dense
+
+    @dense.setter
+    def dense(self, value: int):
+        self._dense = int(value)
+        if self.system is not None:
+            self.system.dense = self._dense
 
     @staticmethod
     def _forest(joints, ends, free):
@@ -221,12 +246,7 @@ class Topology:
         if scale is not None:
             self.rows_f[:, 0:3] *= np.asarray(scale, dtype=float)[:, None]
 
-    def kernel_args(self, sim):
-        """Arguments of the kernel's solve functions after y."""
-        return (sim._bodies, sim.gravity, sim._loads, self.rows_i, self.rows_f, self.plan,
-                self.roots, sim.eta, self.dense, self.work)
-
-    def null_space(self, y: np.ndarray, args: tuple, n: int) -> np.ndarray:
+    def null_space(self, y: np.ndarray, n: int) -> np.ndarray:
         """
         Return (m, k) the combinations of the active rows at y that constrain nothing new.
 
@@ -236,19 +256,19 @@ class Topology:
         """
         if self.m == 0 or not self.dense:
             return np.zeros((self.m, 0))
-        jac, weighted = self.jacobian(y, args, n)
+        jac, weighted = self.jacobian(y, n)
         schur = weighted @ jac.T
         scale = 1.0 / np.sqrt(np.maximum(np.diag(schur), 1e-300))
         values, vectors = np.linalg.eigh(schur * scale[:, None] * scale[None, :])
         return vectors[:, np.abs(values) <= 1e-9]
 
-    def jacobian(self, y: np.ndarray, args: tuple, n: int):
+    def jacobian(self, y: np.ndarray, n: int):
         """Return the dense Jacobian J and J M^-1, (m, 6 n), of the active rows at y."""
-        kernel.row_jacobian(y, *args)
-        views = kernel.carve(self.work, n, self.m, len(self.plan))
-        return self._dense(views[6], n), self._dense(views[7], n)
+        kernel.row_jacobian(self.system, y)
+        views = kernel.views(self.system)
+        return self._scatter(views['jac'], n), self._scatter(views['weighted'], n)
 
-    def _dense(self, blocks, n):
+    def _scatter(self, blocks, n):
         """Scatter per-row (parent, child) 6-blocks into a dense (m, 6 n) matrix."""
         out = np.zeros((self.m, 6 * n))
         rows = np.arange(self.m)[:, None]
@@ -256,3 +276,13 @@ class Topology:
         out[rows, 6 * self.rows_i[:, :1] + six] = blocks[:, :6]
         out[rows, 6 * self.rows_i[:, 1:2] + six] = blocks[:, 6:]
         return out
+
+
+def _plan(lines, first, counts, joints) -> np.ndarray:
+    """Return the kernel's plan (J, PLAN.WIDTH) of the forest's lines (``Topology._forest``)."""
+    plan = np.zeros((len(lines), PLAN.WIDTH), dtype=np.int64)
+    for k, (i, child, parent, sign) in enumerate(lines):
+        plan[k, PLAN.P_ROW], plan[k, PLAN.P_NT], plan[k, PLAN.P_NR] = first[i], *counts[i]
+        plan[k, PLAN.P_CHILD], plan[k, PLAN.P_PARENT] = child, parent
+        plan[k, PLAN.P_SIGN], plan[k, PLAN.P_JOINT] = sign, joints[i]
+    return plan

@@ -4,7 +4,7 @@
 
 import math
 
-from cfem_ros.core import aero, aeropack, native
+from cfem_ros.core import aero, aeropack, kernel
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import parse_scenario
 import numpy as np
@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import RegularGridInterpolator
 from scipy.spatial.transform import Rotation
 
-ext = native.load()
+ext = kernel
 rng = np.random.default_rng(8)
 
 MASS, INERTIA = 907.1848, [27.1164, 488.0944, 488.0944]

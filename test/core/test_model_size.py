@@ -29,7 +29,7 @@ def test_a_tree_s_workspace_is_linear_in_the_bodies():
     for count in (400, 800):
         sim = Simulator(parse_scenario(chain(count)))
         assert sim._topology.dense == 0
-        sizes[count] = sim._topology.work.nbytes
+        sizes[count] = sim._topology.system.work.nbytes
     assert sizes[800] < 2.1 * sizes[400]
     assert sizes[800] < 3000 * 8 * 800      # a few thousand numbers a body (m x m: 36 MiB)
 

@@ -67,14 +67,16 @@ def kkt_solution(sim, y):
         omega = rot @ rates[i]
         mass[6 * i:6 * i + 3, 6 * i:6 * i + 3] = body.mass * np.eye(3)
         mass[6 * i + 3:6 * i + 6, 6 * i + 3:6 * i + 6] = inertia
-        external = sim._loads[i, :6].reshape(2, 3)
-        if sim._loads[i, 6] > 0.0:     # given in body axes
+        held = sim._loads[i]
+        external = np.stack([held[kernel.LOADS.span('H_FORCE')],
+                             held[kernel.LOADS.span('H_TORQUE')]])
+        if held[kernel.LOADS.H_AXES] > 0.0:     # given in body axes
             external = external @ rot.T
         force[6 * i:6 * i + 3] = body.mass * sim.gravity + external[0]
         force[6 * i + 3:6 * i + 6] = external[1] - np.cross(omega, inertia @ omega)
     top = sim._topology
-    jac, _ = top.jacobian(y, top.kernel_args(sim), n)
-    rhs = kernel.carve(top.work, n, top.m, len(top.plan))[11].copy()
+    jac, _ = top.jacobian(y, n)
+    rhs = kernel.views(top.system)['rhs'].copy()
     free = np.flatnonzero(np.repeat(sim.free, 6))
     m = top.m
     system = np.zeros((len(free) + m, len(free) + m))

@@ -19,7 +19,10 @@
 #include "multilinear.hpp"
 
 namespace py = pybind11;
-using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+// Arguments are taken as they are, never converted (a copy): float64 in C order, or the
+// call is refused (each argument is noconvert; cfem_ros.core.kernel's wrappers convert
+// in the open, where a caller's array may need it).
+using Array = py::array_t<double, py::array::c_style>;
 
 namespace {
 
@@ -41,7 +44,8 @@ Array py_multilinear(py::list grids, Array values, Array points) {
   std::vector<double> flat;
   int sizes[cfem::kMaxAxes];
   for (int d = 0; d < axes; ++d) {
-    Array g = grids[d].cast<Array>();
+    need(py::isinstance<Array>(grids[d]), "grids: float64 arrays in C order expected");
+    Array g = py::reinterpret_borrow<Array>(grids[d]);
     need(g.ndim() == 1 && g.shape(0) == values.shape(d), "grids: a grid per axis of values");
     sizes[d] = static_cast<int>(g.shape(0));
     flat.insert(flat.end(), g.data(), g.data() + g.shape(0));
@@ -147,13 +151,13 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
 namespace cfem {
 
 void bind_aeroshapes(py::module_& m) {
-  m.def("multilinear", &py_multilinear, py::arg("grids"), py::arg("values"), py::arg("points"));
+  auto arg = [](const char* name) { return py::arg(name).noconvert(); };
+  m.def("multilinear", &py_multilinear, py::arg("grids"), arg("values"), arg("points"));
   m.def("isa", &py_isa, py::arg("altitude"));
-  m.def("aero_wrench", &py_aero_wrench, py::arg("packed"), py::arg("position"),
-        py::arg("velocity"), py::arg("rot"), py::arg("rates"), py::arg("carrier_position"),
-        py::arg("carrier_rot"));
-  m.def("distance", &py_distance, py::arg("shape_a"), py::arg("rot_a"), py::arg("position_a"),
-        py::arg("shape_b"), py::arg("rot_b"), py::arg("position_b"));
+  m.def("aero_wrench", &py_aero_wrench, arg("packed"), arg("position"), arg("velocity"),
+        arg("rot"), arg("rates"), arg("carrier_position"), arg("carrier_rot"));
+  m.def("distance", &py_distance, arg("shape_a"), arg("rot_a"), arg("position_a"),
+        arg("shape_b"), arg("rot_b"), arg("position_b"));
 }
 
 }  // namespace cfem

@@ -7,11 +7,13 @@
 
 #include <cstdint>
 
+#include "layout.hpp"
+
 namespace cfem {
 
 using idx = std::int64_t;
 
-// ``advance`` results (info[3]) and ``locate`` codes (info[1]).
+// ``advance`` results (info[I_RESULT]) and ``locate`` codes (info[L_CODE]).
 enum Code : int {
   REACHED = 0, CONDITION = 1, NOT_FINITE = 2, VIOLATION = 3, SINGULAR = 4, ROWS_FULL = 5,
   LOADS_NOT_FINITE = 6, NAN_VALUE = 7, SAME_SIGNS = 8, NO_CONVERGENCE = 9,
@@ -20,8 +22,9 @@ enum Code : int {
 // A pivot at or below this fraction of its scale is reported as singular (kernel.py).
 constexpr double PIVOT_RTOL = 1e-12;
 
-// Columns of ``plan``.
-enum PlanColumn : int { P_ROW, P_NT, P_NR, P_CHILD, P_PARENT, P_SIGN, P_JOINT };
+// Columns of ``plan``: layout.hpp (CFEM_PLAN_LAYOUT).
+using plan_layout::P_ROW, plan_layout::P_NT, plan_layout::P_NR, plan_layout::P_CHILD,
+    plan_layout::P_PARENT, plan_layout::P_SIGN, plan_layout::P_JOINT;
 
 // A row-major float64 matrix the caller owns (or a part of the workspace).
 struct Mat {
@@ -42,12 +45,12 @@ struct IMat {
 
 // The arguments of every solve after the state: ``Topology.kernel_args``.
 struct System {
-  Mat bodies;            // (n, 20 + kinematic columns)
+  Mat bodies;            // (n, BODY_COLUMNS + kinematic columns)
   const double* gravity;  // (3,)
   Mat loads;             // (n + scheduled rows, loads.WIDTH)
   IMat rows_i;           // (m, 3)
   Mat rows_f;            // (m, 9)
-  IMat plan;             // (J, 7)
+  IMat plan;             // (J, plan_layout::WIDTH)
   const idx* roots;      // (n,)
   double eta;
   idx dense;

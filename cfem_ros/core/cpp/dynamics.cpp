@@ -39,7 +39,7 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
     v.omega[3 * i + 1] = w.y;
     v.omega[3 * i + 2] = w.z;
     double* fh = v.fhat + 6 * i;
-    if (bodies(i, 1) == 0.0) {
+    if (bodies(i, motion::B_INV_MASS) == 0.0) {
       // fixed or kinematic: its rows need its rotation and rates only (its mass terms,
       // never written, stay the workspace's zeros; its load is reset for the scheduled
       // wrenches, which may act on it)
@@ -47,16 +47,18 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
       continue;
     }
     const double* body = bodies.row(i);
-    if (need_inverse) body_congruence(rot, body + 11, v.inv_inertia + 9 * i, 3);
+    if (need_inverse) body_congruence(rot, body + motion::B_INV_INERTIA, v.inv_inertia + 9 * i, 3);
     double* mh = v.mhat + 36 * i;
     for (int k = 0; k < 36; k += LANES) store(mh + k, Pack{});
-    double mass = body[0];
+    double mass = body[motion::B_MASS];
     mh[0] = mh[7] = mh[14] = mass;
-    body_congruence(rot, body + 2, mh + 21, 6);
+    body_congruence(rot, body + motion::B_INERTIA, mh + 21, 6);
     const double* held = s.loads.row(i);
-    double force[3] = {held[0], held[1], held[2]};
-    double torque[3] = {held[3], held[4], held[5]};
-    if (held[6] > 0.0) {
+    const double* hf = held + loads::H_FORCE;
+    const double* ht = held + loads::H_TORQUE;
+    double force[3] = {hf[0], hf[1], hf[2]};
+    double torque[3] = {ht[0], ht[1], ht[2]};
+    if (held[loads::H_AXES] > 0.0) {
       V3 f = rotate(rot, force[0], force[1], force[2]);
       V3 t = rotate(rot, torque[0], torque[1], torque[2]);
       force[0] = f.x, force[1] = f.y, force[2] = f.z;
@@ -168,7 +170,7 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
       for (int side = 0; side < 2; ++side) {
         idx body = side == 0 ? a : b;
         int base = 6 * side;
-        for (int k = 0; k < 3; ++k) wt[base + k] = s.bodies(body, 1) * jac[base + k];
+        for (int k = 0; k < 3; ++k) wt[base + k] = s.bodies(body, motion::B_INV_MASS) * jac[base + k];
         const double* inv = v.inv_inertia + 9 * body;
         for (int k = 0; k < 3; ++k)
           wt[base + 3 + k] = inv[3 * k] * jac[base + 3] + inv[3 * k + 1] * jac[base + 4]
@@ -185,11 +187,11 @@ bool solve(const double* y, const System& s, const Work& v) {
   for (idx i = 0; i < s.n(); ++i) {
     if (s.roots[i] == 2) {  // a free body on its own: a = M^-1 f directly
       double* inv = v.inv_inertia + 9 * i;
-      body_congruence(v.rot + 9 * i, s.bodies.row(i) + 11, inv, 3);
+      body_congruence(v.rot + 9 * i, s.bodies.row(i) + motion::B_INV_INERTIA, inv, 3);
       const double* f = v.fhat + 6 * i;
       double* acc = v.acc + 6 * i;
       for (int k = 0; k < 3; ++k) {
-        acc[k] = s.bodies(i, 1) * f[k];
+        acc[k] = s.bodies(i, motion::B_INV_MASS) * f[k];
         acc[3 + k] = inv[3 * k] * f[3] + inv[3 * k + 1] * f[4] + inv[3 * k + 2] * f[5];
       }
     }

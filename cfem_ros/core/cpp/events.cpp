@@ -15,6 +15,10 @@
 
 namespace cfem {
 
+using locate_info::L_VIOLATION, locate_info::L_CODE, locate_info::L_VALUE,
+    locate_info::L_CROSSING, locate_info::L_JOINTS, locate_info::L_STROKE,
+    locate_info::L_WRENCHES;
+
 namespace {
 
 // What the search needs besides the system: the step's start, its scratch state and the
@@ -55,8 +59,8 @@ int release_values(const Search& q, const double* y, idx first, idx count) {
 
 // The excess of a condition at rk4(y0, s) over its limit, and a code. col 0-2: watched
 // joint which's angle, distance or force; col 3: scheduled row which's stroke. Each RK4
-// raises the largest stage violation info[0]. col 4: contact row which's CONTACT_GAP less
-// the distance between its shapes.
+// raises the largest stage violation info[L_VIOLATION]. col 4: contact row which's
+// CONTACT_GAP less the distance between its shapes.
 double excess(const Search& q, double s, idx which, int col, int* code) {
   const double* state = q.y0;
   *code = REACHED;
@@ -66,7 +70,7 @@ double excess(const Search& q, double s, idx which, int col, int* code) {
       *code = SINGULAR;
       return NAN;
     }
-    if (worst > q.info[0]) q.info[0] = worst;
+    if (worst > q.info[L_VIOLATION]) q.info[L_VIOLATION] = worst;
     state = q.ys;
   }
   if (col == 3) {
@@ -164,23 +168,23 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
   const idx n = s.n();
   std::vector<double> values(3 * t.count, 0.0);
   Search q{y0, ys, size, s, v, t, values.data(), info};
-  info[1] = REACHED;
-  info[3] = NAN;
-  info[4] = 0.0;
-  info[5] = NAN;
-  info[6] = 0.0;
+  info[L_CODE] = REACHED;
+  info[L_CROSSING] = NAN;
+  info[L_JOINTS] = 0.0;
+  info[L_STROKE] = NAN;
+  info[L_WRENCHES] = 0.0;
   double worst = rk4(y0, size, h, y1, s, v, false);
   if (worst < 0.0) {
-    info[1] = SINGULAR;
+    info[L_CODE] = SINGULAR;
     return;
   }
-  if (worst > info[0]) info[0] = worst;
+  if (worst > info[L_VIOLATION]) info[L_VIOLATION] = worst;
   int code;
   // the release conditions (Releases.crossing, Releases._locate)
   if (t.count > 0) {
     code = release_values(q, y1, 0, t.count);
     if (code != REACHED) {
-      info[1] = code;
+      info[L_CODE] = code;
       return;
     }
     std::vector<char> reached(3 * t.count);
@@ -199,8 +203,8 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
           if (!reached[3 * w + col]) continue;
           double at0 = excess(q, 0.0, w, col, &code);
           if (code != REACHED) {
-            info[1] = code;
-            info[2] = 0.0;
+            info[L_CODE] = code;
+            info[L_VALUE] = 0.0;
             return;
           }
           double at = 0.0;
@@ -208,8 +212,8 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
             at = brentq(q, h, w, col, &code);
             if (code == SAME_SIGNS) continue;  // not reached by the search's own values
             if (code != REACHED) {
-              info[1] = code;
-              info[2] = at;
+              info[L_CODE] = code;
+              info[L_VALUE] = at;
               return;
             }
           }
@@ -226,7 +230,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
           }
         }
       }
-      if (count > 0) info[3] = best, info[4] = static_cast<double>(count);
+      if (count > 0) info[L_CROSSING] = best, info[L_JOINTS] = static_cast<double>(count);
     }
   }
   // the ejectors' stroke ends (ScheduledLoads.crossing) and the contacts of armed pairs
@@ -260,8 +264,8 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       // does not find at h is not reached in this step (the next step's start tells).
       if (code == SAME_SIGNS) continue;
       if (code != REACHED) {
-        info[1] = code;
-        info[2] = at;
+        info[L_CODE] = code;
+        info[L_VALUE] = at;
         return;
       }
     }
@@ -274,18 +278,18 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       ++count;
     }
   }
-  if (count >= 0) info[5] = best, info[6] = static_cast<double>(count);
+  if (count >= 0) info[L_STROKE] = best, info[L_WRENCHES] = static_cast<double>(count);
   // the state where the step is cut: the stroke end, unless a release comes first
-  double release = info[3], stroke = info[5];
+  double release = info[L_CROSSING], stroke = info[L_STROKE];
   double cut = (!std::isnan(stroke) && !(release < stroke)) ? stroke : release;
   if (cut < h) {
     worst = rk4(y0, size, cut, ys, s, v, false);
     if (worst < 0.0) {
-      info[1] = SINGULAR;
-      info[2] = cut;
+      info[L_CODE] = SINGULAR;
+      info[L_VALUE] = cut;
       return;
     }
-    if (worst > info[0]) info[0] = worst;
+    if (worst > info[L_VIOLATION]) info[L_VIOLATION] = worst;
   }
 }
 

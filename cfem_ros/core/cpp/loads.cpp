@@ -181,7 +181,7 @@ void add_scheduled(const double* y, const double* rot, const Mat& bodies, const 
     idx b = static_cast<idx>(loads(row, S_BODY));
     for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
     idx j = static_cast<idx>(loads(row, S_REACT));
-    if (j >= 0 && bodies(j, 1) > 0.0) {
+    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
       double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
       double* fj = fhat + 6 * j;
       fj[0] -= w[0];
@@ -282,7 +282,7 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
     for (int k = 0; k < 6; ++k) out[o + k] = on ? w[k] : 0.0;
     o += 6;
     idx j = static_cast<idx>(loads(row, S_REACT));
-    if (j >= 0 && bodies(j, 1) > 0.0) {
+    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
       double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
       double reaction[6] = {-w[0], -w[1], -w[2], -(w[9] + r1 * w[2] - r2 * w[1]),
                             -(w[10] + r2 * w[0] - r0 * w[2]), -(w[11] + r0 * w[1] - r1 * w[0])};

@@ -1,42 +1,24 @@
 // Copyright 2026 the cfem_ros authors
 // SPDX-License-Identifier: Apache-2.0
 //
-// Applied loads from the packed ``loads`` array (loads.py lays it out): held
+// Applied loads from the packed ``loads`` array (layout.hpp; loads.py fills it): held
 // wrenches at points, scheduled wrenches and their tables, aerodynamic tables.
-// A new load kind: a new S_KIND value, a branch in add_scheduled and in
+// A new load kind: a KIND_ value and its columns in layout.hpp, a branch in add_scheduled and in
 // sample_applied (and its outputs in ScheduledLoads.sources).
 #pragma once
 
 #include "common.hpp"
+#include "layout.hpp"
 
 namespace cfem {
 namespace loads {
 
-// Columns of a packed row (loads.py).
-constexpr int WIDTH = 24;
-constexpr int H_POINT = 7;
-constexpr int S_BODY = 0, S_REACT = 1, S_FRAME = 2, S_ON = 3;
-constexpr int S_POINT = 4, S_FORCE = 7, S_MOMENT = 10, S_STROKE = 13, S_ANCHOR = 14;
-constexpr int S_TABLE = 17, S_FIRST = 18, S_COUNT = 19;
-constexpr int S_T0 = 20, S_T = 21, S_START = 22;
-constexpr int S_KIND = 23;
-constexpr int TABLE_NONE = 0, TABLE_TIME = 1, TABLE_STROKE = 2;
-// Aerodynamic rows: the body, the carrier of its proximity table (-1 none), the first
-// row of its packed table (aero.hpp, aeropack.py; 23 numbers a row).
-constexpr int A_BODY = 0, A_CARRIER = 1, A_FIRST = 12;
-constexpr double KIND_SCHEDULED = 1.0, KIND_TABLE = 2.0, KIND_AERO = 3.0, KIND_SCRATCH = 4.0;
-// Contact rows (KIND_CONTACT): the two bodies, armed (S_ON: 1.0 while the shapes are apart),
-// the first rows of their packed shapes (distance.hpp, 23 numbers a row), GJK's last
-// direction (3, its warm start), each shape's bounding radius about its body's CG (m).
-// C_SEEN: the distance GJK found at the step end it last ran (m; 0 none yet), and C_POSE:
-// body A's pose in body B's axes then (CG (3), quaternion (4)), from which a later step end
-// bounds the distance from below without GJK (stroke_reached).
-constexpr double KIND_CONTACT = 5.0;
-constexpr int C_A = 0, C_B = 1, C_SHAPE_A = 4, C_SHAPE_B = 5, C_GUESS = 6, C_RADIUS_A = 9,
-              C_RADIUS_B = 10, C_SEEN = 11, C_POSE = 12;
-// A contact is reached when the shapes are this close, m (GJK's own tolerance, 1e-12 m, is
-// below it: the time it costs is this over the approach speed).
-constexpr double CONTACT_GAP = 1e-10;
+// The columns of a packed row and its kinds: layout.hpp (CFEM_LOADS_LAYOUT). A contact
+// row's C_SEEN is the distance GJK found at the step end it last ran (m; 0 none yet) and
+// C_POSE body A's pose in body B's axes then (CG (3), quaternion (4)), from which a later
+// step end bounds the distance from below without GJK (stroke_reached). A contact is
+// reached when the shapes are CONTACT_GAP close (GJK's own tolerance, 1e-12 m, is below
+// it: the time it costs is this over the approach speed).
 
 // The held torque of body i plus r x F (world axes), r its point turned by rot (3x3).
 inline void held_moment(const double* rot, const Mat& loads, idx i, const double* force,

@@ -2,18 +2,16 @@
 // SPDX-License-Identifier: Apache-2.0
 //
 // Kinematic bodies: prescribed trajectories in the extra columns of ``bodies``
-// (motion.py lays them out).
+// (layout.hpp; motion.py fills them).
 #pragma once
 
 #include "common.hpp"
+#include "layout.hpp"
 
 namespace cfem {
 namespace motion {
 
-constexpr int BODY_COLUMNS = 20;
-constexpr int M_KIND = 20, M_T0 = 21, M_ACC = 22, M_REF = 28, M_DATA = 29;
-constexpr double KIND_NONE = 0.0, KIND_CONSTANT = 1.0, KIND_TABLE = 2.0;
-constexpr int SEGMENT = 28;
+// The columns (M_*): layout.hpp (CFEM_BODIES_LAYOUT).
 
 inline bool any(const Mat& bodies) { return bodies.cols > BODY_COLUMNS; }
 

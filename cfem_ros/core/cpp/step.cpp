@@ -15,6 +15,9 @@
 
 namespace cfem {
 
+using advance_info::I_T, advance_info::I_STEPS, advance_info::I_VIOLATION,
+    advance_info::I_RESULT, advance_info::I_DIVERGENCE, advance_info::I_VALUE;
+
 namespace {
 
 // out = y + c k, number by number (LANES at a time: each lane rounded as one by one).
@@ -87,8 +90,8 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
   bool need_force = false;
   for (idx w = 0; w < watch.count; ++w)
     if (watch.limits(w, 2) < INFINITY) need_force = true;
-  double t = info[0];
-  info[3] = REACHED;
+  double t = info[I_T];
+  info[I_RESULT] = REACHED;
   double* grid = g.grid;
   const double rate = grid[0];
   const Mat& samples = g.samples;
@@ -103,13 +106,13 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
       if (t >= at) {
         idx taken = static_cast<idx>(grid[2]);
         if (taken == samples.rows) {
-          info[3] = ROWS_FULL;
+          info[I_RESULT] = ROWS_FULL;
           return;
         }
         if (samples.cols > 0) {
           int code = sample_outputs(y, s, v, g.order, k, samples.row(taken), samples.cols);
           if (code != REACHED) {
-            info[3] = code;
+            info[I_RESULT] = code;
             return;
           }
           if (k > 0) {
@@ -117,9 +120,9 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
             // state they start from, so a sample's would come late)
             double worst = 0.0;
             for (idx r = 0; r < s.m(); ++r) worst = std::max(worst, std::fabs(v.value[r]));
-            if (worst > info[4]) {
-              info[3] = VIOLATION;
-              info[5] = worst;
+            if (worst > info[I_DIVERGENCE]) {
+              info[I_RESULT] = VIOLATION;
+              info[I_VALUE] = worst;
               return;
             }
           }
@@ -146,14 +149,14 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
       double worst = rk4(y, size, h, out, s, v, fresh);
       fresh = false;
       if (worst < 0.0) {
-        info[3] = SINGULAR;
+        info[I_RESULT] = SINGULAR;
         return;
       }
       if (watch.count > 0) {
         conditions(out, size, watch.joints_i, watch.joints_f, watch.watch, watch.count,
                    values.data(), 2);
         if (need_force && !joint_loads(out, s, v, v.force, v.moment)) {
-          info[3] = SINGULAR;
+          info[I_RESULT] = SINGULAR;
           return;
         }
         for (idx w = 0; w < watch.count; ++w) {
@@ -162,38 +165,38 @@ void advance(double* y, idx size, double* info, double t_target, double due, dou
             const double* f = v.force + 3 * watch.lines[w];
             magnitude = std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
             if (!std::isfinite(magnitude)) {
-              info[3] = LOADS_NOT_FINITE;
+              info[I_RESULT] = LOADS_NOT_FINITE;
               return;
             }
           }
           if (values[2 * w] >= watch.limits(w, 0) || values[2 * w + 1] >= watch.limits(w, 1)
               || magnitude >= watch.limits(w, 2)) {
-            info[3] = CONDITION;
+            info[I_RESULT] = CONDITION;
             return;
           }
         }
       }
       if (s.loads.rows > n && loads::stroke_reached(out, s.loads, n)) {  // a stroke ends
-        info[3] = CONDITION;
+        info[I_RESULT] = CONDITION;
         return;
       }
       if (!all_finite(out, size)) {
-        info[3] = NOT_FINITE;
+        info[I_RESULT] = NOT_FINITE;
         return;
       }
-      if (worst > info[4]) {
-        info[3] = VIOLATION;
-        info[5] = worst;
+      if (worst > info[I_DIVERGENCE]) {
+        info[I_RESULT] = VIOLATION;
+        info[I_VALUE] = worst;
         return;
       }
-      info[2] = std::max(info[2], worst);
+      info[I_VIOLATION] = std::max(info[I_VIOLATION], worst);
       std::copy(out, out + size, y);
       fresh = need_force;
       t = t_end;
-      info[0] = t;
+      info[I_T] = t;
       if (s.loads.rows > n) loads::set_time(s.loads, n, t);
       if (motion::any(s.bodies)) motion::set_time(s.bodies, t);
-      info[1] += 1;
+      info[I_STEPS] += 1;
       if (t_end >= due) break;  // the samples at t first (loop top), then back for the release
     }
   }

@@ -4,49 +4,69 @@
 // The one float workspace of a set of active joints, cut into named parts.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "common.hpp"
+
+// The parts in their order, PART(name, shape...): the shape in n bodies, m rows, nj
+// joints and dense (0 for a tree's solve, whose workspace is linear in the bodies). The
+// size, the cut and the offsets Python reads (workspace_parts) are all made from this
+// one table.
+#define CFEM_WORK_PARTS(PART)                                                            \
+  PART(rot, n, 3, 3)                                                                     \
+  PART(omega, n, 3)                                                                      \
+  PART(inv_inertia, n, 3, 3)                                                             \
+  PART(mhat, n, 6, 6)                                                                    \
+  PART(fhat, n, 6)                                                                       \
+  PART(acc, n, 6)                                                                        \
+  PART(jac, m, 12)                                                                       \
+  PART(weighted, m, 12)                                                                  \
+  PART(rate, m)                                                                          \
+  PART(gamma, m)                                                                         \
+  PART(value, m)                                                                         \
+  PART(rhs, m)                                                                           \
+  PART(basis, nj, 6, 3)                                                                  \
+  PART(weighted_basis, nj, 6, 3)                                                         \
+  PART(chol, nj, 3, 3)                                                                   \
+  PART(projected, nj, 3)                                                                 \
+  PART(particular, nj, 6)                                                                \
+  PART(wrench, nj, 6)                                                                    \
+  PART(stages, 6, 13 * n)                                                                \
+  PART(six, 4, 6, 6)                                                                     \
+  PART(three, 4, 3, 3)                                                                   \
+  PART(vec, 8, 3)                                                                        \
+  PART(schur, dense > 0 ? 2 : 0, m, m) /* the dense solve's complement, eigenvectors */ \
+  PART(right, m)                                                                         \
+  PART(lam, m)                                                                           \
+  PART(sample_rot, n, 3, 3)                                                              \
+  PART(sample_wrench, 18)                                                                \
+  PART(force, nj, 3)                                                                     \
+  PART(moment, nj, 3)
 
 namespace cfem {
 
-// Pointers into the workspace (kernel.carve lists the first 23 in this order).
+// Pointers into the workspace, one per part of CFEM_WORK_PARTS.
 struct Work {
-  double* rot;             // (n, 3, 3)
-  double* omega;           // (n, 3)
-  double* inv_inertia;     // (n, 3, 3)
-  double* mhat;            // (n, 6, 6)
-  double* fhat;            // (n, 6)
-  double* acc;             // (n, 6)
-  double* jac;             // (m, 12)
-  double* weighted;        // (m, 12)
-  double* rate;            // (m,)
-  double* gamma;           // (m,)
-  double* value;           // (m,)
-  double* rhs;             // (m,)
-  double* basis;           // (J, 6, 3)
-  double* weighted_basis;  // (J, 6, 3)
-  double* chol;            // (J, 3, 3)
-  double* projected;       // (J, 3)
-  double* particular;      // (J, 6)
-  double* wrench;          // (J, 6)
-  double* stages;          // (6, 13 n)
-  double* six;             // (4, 6, 6)
-  double* three;           // (4, 3, 3)
-  double* vec;             // (8, 3)
-  // after the parts kernel.carve shows: scratch of the dense solve and of a sample
-  double* schur;           // (2, m, m): the complement, its eigenvectors (dense only)
-  double* right;           // (m,)
-  double* lam;             // (m,)
-  double* sample_rot;      // (n, 3, 3)
-  double* sample_wrench;   // (18,)
-  double* force;           // (J, 3)
-  double* moment;          // (J, 3)
+#define CFEM_WORK_FIELD(name, ...) double* name;
+  CFEM_WORK_PARTS(CFEM_WORK_FIELD)
+#undef CFEM_WORK_FIELD
 };
 
-// Length of the workspace for n bodies, m rows and nj joints; the dense solve's m x m parts
-// only if dense (closed loops): a tree's is linear in the bodies.
+// A part's name, first number and shape.
+struct Part {
+  std::string name;
+  idx offset;
+  std::vector<idx> shape;
+};
+
+// Length of the workspace for n bodies, m rows, nj joints and a solve (dense).
 idx workspace_size(idx n, idx m, idx nj, idx dense);
 
-// Offsets of the parts (the views kernel.carve makes) and the parts themselves.
+// The parts of that workspace, in order (their sizes add up to workspace_size).
+std::vector<Part> workspace_parts(idx n, idx m, idx nj, idx dense);
+
+// The parts themselves, cut from work.
 Work carve(double* work, idx n, idx m, idx nj, idx dense);
 
 }  // namespace cfem

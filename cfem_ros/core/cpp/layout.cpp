@@ -1,0 +1,46 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// The layout tables of layout.hpp and workspace.hpp as Python reads them:
+// _kernel.LAYOUT[array] = {name: (group, first column, width) or a number}, and
+// _kernel.workspace_parts(n, m, nj, dense) = [(name, offset, shape), ...].
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "layout.hpp"
+#include "workspace.hpp"
+
+namespace py = pybind11;
+
+namespace cfem {
+
+void bind_layout(py::module_& m) {
+  py::dict layout;
+#define CFEM_EXPORT_COLUMN(group, name, first, width) \
+  table[#name] = py::make_tuple(#group, first, width);
+#define CFEM_EXPORT_NUMBER(type, name, value) table[#name] = py::cast(static_cast<type>(value));
+#define CFEM_EXPORT(array, TABLE) \
+  {                               \
+    py::dict table;               \
+    TABLE(CFEM_EXPORT_COLUMN, CFEM_EXPORT_NUMBER) layout[array] = table; \
+  }
+  CFEM_EXPORT("bodies", CFEM_BODIES_LAYOUT)
+  CFEM_EXPORT("loads", CFEM_LOADS_LAYOUT)
+  CFEM_EXPORT("plan", CFEM_PLAN_LAYOUT)
+  CFEM_EXPORT("advance_info", CFEM_ADVANCE_INFO_LAYOUT)
+  CFEM_EXPORT("locate_info", CFEM_LOCATE_INFO_LAYOUT)
+#undef CFEM_EXPORT
+#undef CFEM_EXPORT_NUMBER
+#undef CFEM_EXPORT_COLUMN
+  m.attr("LAYOUT") = layout;
+  m.def("workspace_size", &workspace_size, py::arg("n"), py::arg("m"), py::arg("nj"),
+        py::arg("dense"));
+  m.def("workspace_parts", [](idx n, idx m_, idx nj, idx dense) {
+    py::list out;
+    for (const Part& p : workspace_parts(n, m_, nj, dense))
+      out.append(py::make_tuple(p.name, p.offset, py::tuple(py::cast(p.shape))));
+    return out;
+  }, py::arg("n"), py::arg("m"), py::arg("nj"), py::arg("dense"));
+}
+
+}  // namespace cfem

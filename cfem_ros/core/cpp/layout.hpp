@@ -1,0 +1,150 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+//
+// The layout of every array the kernel shares with Python, in one place: a table per
+// array, from which both the C++ constants below and the extension's LAYOUT (layout.cpp,
+// read by cfem_ros.core.kernel) are made. A new column is one line here; Python reads
+// its index and width from the extension, never a number of its own
+// (test/core/test_layout.py walks the tables).
+//
+// COLUMN(group, name, first column, width): a column of a group of rows (the row kinds
+// of ``loads`` share the columns 0 .. WIDTH - 2 and keep their kind in S_KIND, the last).
+// A width of 0: from there to the end of the row. NUMBER(type, name, value): a size or
+// a value stored in the array.
+#pragma once
+
+// ``bodies`` (n, BODY_COLUMNS), then the columns of kinematic bodies (motion.cpp) when the
+// model has any: the step's start time, the accelerations at the last time evaluated (CG,
+// world; angular, world), 1 + the body whose frame this body is sampled in (0 none), then
+// its trajectory (motion.py packs it: constant, or a table of SEGMENT numbers a piece).
+#define CFEM_BODIES_LAYOUT(COLUMN, NUMBER)                                                 \
+  COLUMN(body, B_MASS, 0, 1)                                                               \
+  COLUMN(body, B_INV_MASS, 1, 1)                                                           \
+  COLUMN(body, B_INERTIA, 2, 9)                                                            \
+  COLUMN(body, B_INV_INERTIA, 11, 9)                                                       \
+  NUMBER(int, BODY_COLUMNS, 20)                                                            \
+  COLUMN(motion, M_KIND, 20, 1)                                                            \
+  COLUMN(motion, M_T0, 21, 1)                                                              \
+  COLUMN(motion, M_ACC, 22, 6)                                                             \
+  COLUMN(motion, M_REF, 28, 1)                                                             \
+  COLUMN(motion, M_DATA, 29, 0)                                                            \
+  NUMBER(double, KIND_NONE, 0.0)                                                           \
+  NUMBER(double, KIND_CONSTANT, 1.0)                                                       \
+  NUMBER(double, KIND_TABLE, 2.0)                                                          \
+  NUMBER(int, SEGMENT, 28)
+
+// ``loads`` (n + rows, WIDTH): per body the held wrench (force, torque, 1.0 if in body
+// axes, application point in body axes from the CG); then one row per scheduled wrench
+// (S_*), per body with aerodynamic tables (A_*), per watched contact pair (C_*; S_ON is
+// 1.0 while armed: its shapes apart); then the rows of their tables (T_*, or AERO_ROW
+// numbers a row of a packed aerodynamic table or shape); then one scratch row.
+#define CFEM_LOADS_LAYOUT(COLUMN, NUMBER)                                                  \
+  NUMBER(int, WIDTH, 24)                                                                   \
+  COLUMN(held, H_FORCE, 0, 3)                                                              \
+  COLUMN(held, H_TORQUE, 3, 3)                                                             \
+  COLUMN(held, H_AXES, 6, 1)                                                               \
+  COLUMN(held, H_POINT, 7, 3)                                                              \
+  COLUMN(scheduled, S_BODY, 0, 1)                                                          \
+  COLUMN(scheduled, S_REACT, 1, 1)                                                         \
+  COLUMN(scheduled, S_FRAME, 2, 1)                                                         \
+  COLUMN(scheduled, S_ON, 3, 1)                                                            \
+  COLUMN(scheduled, S_POINT, 4, 3)                                                         \
+  COLUMN(scheduled, S_FORCE, 7, 3)                                                         \
+  COLUMN(scheduled, S_MOMENT, 10, 3)                                                       \
+  COLUMN(scheduled, S_STROKE, 13, 1)                                                       \
+  COLUMN(scheduled, S_ANCHOR, 14, 3)                                                       \
+  COLUMN(scheduled, S_TABLE, 17, 1)                                                        \
+  COLUMN(scheduled, S_FIRST, 18, 1)                                                        \
+  COLUMN(scheduled, S_COUNT, 19, 1)                                                        \
+  COLUMN(scheduled, S_T0, 20, 1)                                                           \
+  COLUMN(scheduled, S_T, 21, 1)                                                            \
+  COLUMN(scheduled, S_START, 22, 1)                                                        \
+  COLUMN(kind, S_KIND, 23, 1)                                                              \
+  COLUMN(aero, A_BODY, 0, 1)                                                               \
+  COLUMN(aero, A_CARRIER, 1, 1)                                                            \
+  COLUMN(aero, A_FIRST, 12, 1)                                                             \
+  COLUMN(contact, C_A, 0, 1)                                                               \
+  COLUMN(contact, C_B, 1, 1)                                                               \
+  COLUMN(contact, C_SHAPE_A, 4, 1)                                                         \
+  COLUMN(contact, C_SHAPE_B, 5, 1)                                                         \
+  COLUMN(contact, C_GUESS, 6, 3)                                                           \
+  COLUMN(contact, C_RADIUS_A, 9, 1)                                                        \
+  COLUMN(contact, C_RADIUS_B, 10, 1)                                                       \
+  COLUMN(contact, C_SEEN, 11, 1)                                                           \
+  COLUMN(contact, C_POSE, 12, 7)                                                           \
+  COLUMN(table, T_ABSCISSA, 0, 1)                                                          \
+  COLUMN(table, T_FORCE, 1, 3)                                                             \
+  COLUMN(table, T_MOMENT, 4, 3)                                                            \
+  NUMBER(int, AERO_ROW, 23)                                                                \
+  NUMBER(int, TABLE_NONE, 0)                                                               \
+  NUMBER(int, TABLE_TIME, 1)                                                               \
+  NUMBER(int, TABLE_STROKE, 2)                                                             \
+  NUMBER(double, KIND_HELD, 0.0)                                                           \
+  NUMBER(double, KIND_SCHEDULED, 1.0)                                                      \
+  NUMBER(double, KIND_TABLE, 2.0)                                                          \
+  NUMBER(double, KIND_AERO, 3.0)                                                           \
+  NUMBER(double, KIND_SCRATCH, 4.0)                                                        \
+  NUMBER(double, KIND_CONTACT, 5.0)                                                        \
+  NUMBER(double, CONTACT_GAP, 1e-10)
+
+// ``plan`` (J, 7), one line per active joint, leaves of the joint tree first: its first
+// row, translation rows, rotation rows, tree child, tree parent, +1 if the tree child is
+// the joint's child (-1 if its parent), model joint index.
+#define CFEM_PLAN_LAYOUT(COLUMN, NUMBER)                                                   \
+  COLUMN(line, P_ROW, 0, 1)                                                                \
+  COLUMN(line, P_NT, 1, 1)                                                                 \
+  COLUMN(line, P_NR, 2, 1)                                                                 \
+  COLUMN(line, P_CHILD, 3, 1)                                                              \
+  COLUMN(line, P_PARENT, 4, 1)                                                             \
+  COLUMN(line, P_SIGN, 5, 1)                                                               \
+  COLUMN(line, P_JOINT, 6, 1)                                                              \
+  NUMBER(int, WIDTH, 7)
+
+// ``info`` of advance: the time reached (s), steps taken, the largest constraint
+// violation so far, the result code, the violation that counts as divergence, the
+// violation that did (VIOLATION).
+#define CFEM_ADVANCE_INFO_LAYOUT(COLUMN, NUMBER)                                           \
+  COLUMN(info, I_T, 0, 1)                                                                  \
+  COLUMN(info, I_STEPS, 1, 1)                                                              \
+  COLUMN(info, I_VIOLATION, 2, 1)                                                          \
+  COLUMN(info, I_RESULT, 3, 1)                                                             \
+  COLUMN(info, I_DIVERGENCE, 4, 1)                                                         \
+  COLUMN(info, I_VALUE, 5, 1)                                                              \
+  NUMBER(int, WIDTH, 6)
+
+// ``info`` of locate: the largest stage violation (read and raised), the code, where the
+// search stopped (a code's value), the crossing's s (NaN none) and the number of joints
+// found, the stroke end's s (NaN none) and the number of wrenches and contacts found.
+#define CFEM_LOCATE_INFO_LAYOUT(COLUMN, NUMBER)                                            \
+  COLUMN(info, L_VIOLATION, 0, 1)                                                          \
+  COLUMN(info, L_CODE, 1, 1)                                                               \
+  COLUMN(info, L_VALUE, 2, 1)                                                              \
+  COLUMN(info, L_CROSSING, 3, 1)                                                           \
+  COLUMN(info, L_JOINTS, 4, 1)                                                             \
+  COLUMN(info, L_STROKE, 5, 1)                                                             \
+  COLUMN(info, L_WRENCHES, 6, 1)                                                           \
+  NUMBER(int, WIDTH, 7)
+
+#define CFEM_LAYOUT_COLUMN(group, name, first, width) constexpr int name = first;
+#define CFEM_LAYOUT_NUMBER(type, name, value) constexpr type name = value;
+
+namespace cfem {
+namespace motion {
+CFEM_BODIES_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace motion
+namespace loads {
+CFEM_LOADS_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace loads
+namespace plan_layout {
+CFEM_PLAN_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace plan_layout
+namespace advance_info {
+CFEM_ADVANCE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace advance_info
+namespace locate_info {
+CFEM_LOCATE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace locate_info
+}  // namespace cfem
+
+#undef CFEM_LAYOUT_COLUMN
+#undef CFEM_LAYOUT_NUMBER
