@@ -610,6 +610,7 @@ def cmd_study(sweep_file: str, outdir: str, method: str, design: Optional[str],
         else:
             from cfem_ros.study.sensitivity import problem
             problem(spec, design)
+        methods.check_size(spec, design or method)   # before the cluster starts
     except CfemError as err:
         return _error(str(err))
     except ImportError as err:

@@ -16,10 +16,29 @@ from typing import Callable, Optional
 
 from cfem_ros.study.evaluate import DESIGNS, Evaluator, METHODS, write_json
 from cfem_ros.study.reliability import mc_estimate  # noqa: F401 - for cfem-sim sweep
-from cfem_ros.study.spec import SweepSpec
+from cfem_ros.study.spec import SweepError, SweepSpec
 
 ESTIMATE = 'estimate.json'
 SENSITIVITY = 'sensitivity.parquet'
+#: Fewest runs (the method's batch: points per level, step, batch, trajectories or base
+#: sample) that each method answers with, and the multiple runs must be of.
+MINIMUM_RUNS = {'subset': (100, 10), 'nais': (100, 1), 'form': (10, 1), 'morris': (2, 1),
+                'sobol': (8, 1)}
+WHY = {'subset': 'a level of subset sampling is runs points, whose 10 % lowest (at least 10 '
+                 'Markov chains) seed the next',
+       'nais': "each step's 10 % quantile must rest on at least 10 points",
+       'form': 'each importance-sampling batch needs points to measure its spread',
+       'morris': "each elementary effect's spread (sigma) needs a few trajectories",
+       'sobol': 'the indices and their intervals need a base sample of a few points'}
+
+
+def check_size(spec: SweepSpec, name: str):
+    """Refuse, before anything runs, a method or design whose runs are too few to answer."""
+    least, multiple = MINIMUM_RUNS.get(name, (1, 1))
+    if spec.runs < least or spec.runs % multiple:
+        times = f', a multiple of {multiple}' if multiple > 1 else ''
+        raise SweepError(spec.path, 'runs', f'is {spec.runs} for {name} ({WHY[name]})',
+                         f'at least {least}{times} (--runs N)')
 
 
 def write_estimate(outdir: str, estimate):
@@ -61,6 +80,7 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
     if method not in METHODS:
         raise ValueError(f'method is {method!r}; expected one of {", ".join(METHODS)}')
     name = design or method
+    check_size(spec, name)
     options = {'runs': spec.runs, 'seed': spec.seed}
     if name == 'form':
         options['target_cov'] = target_cov
@@ -76,5 +96,7 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
     from cfem_ros.study.reliability import estimate
     result = estimate(spec, method, evaluate, spec.criteria, target_cov=target_cov,
                       runs=spec.runs)
+    table = evaluate.assemble()
+    result.failed_runs = int((~table['pass'].to_numpy(dtype=bool)).sum())
     write_estimate(outdir, result)
-    return {'table': evaluate.assemble(), 'estimate': result}
+    return {'table': table, 'estimate': result}

@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 import math
 import signal
 import threading
+from typing import Optional
 
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
@@ -51,6 +52,7 @@ class Estimate:
     runs: int
     method: str
     level: float = 0.95
+    failed_runs: Optional[int] = None   # runs that failed a criterion (None: not counted)
 
     def as_dict(self) -> dict:
         """Return the fields as plain JSON values."""
@@ -59,9 +61,15 @@ class Estimate:
 
     def sentence(self) -> str:
         """Return the line ``cfem-sim sweep`` prints."""
-        return (f'P(any criterion fails) = {self.probability:.4g} by {self.method}, '
+        line = (f'P(any criterion fails) = {self.probability:.4g} by {self.method}, '
                 f'coefficient of variation {self.cov:.3g}, {100 * self.level:g} % interval '
                 f'[{self.ci_low:.4g}, {self.ci_high:.4g}], {self.runs} runs')
+        if self.failed_runs == 0 and self.method == 'mc':
+            line += f'; no run failed: P is at most {self.ci_high:.4g} at this confidence'
+        elif self.failed_runs == 0:
+            line += ('; no run failed: the estimate rests on no failure (extrapolated from '
+                     'the runs nearest to failing), not a measured probability')
+        return line
 
 
 def distribution(spec: SweepSpec):
@@ -153,10 +161,16 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
 
     try:
         found = _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs)
-    except Exception:   # noqa: B902 (what the limit state raised, rather than its wrapping)
+    except Exception as err:   # noqa: B902 (what the limit state raised, not its wrapping)
         if raised:
             raise raised[0] from None
-        raise
+        if isinstance(err, SweepError):
+            raise
+        # OpenTURNS' own failures (a degenerate sample: no spread left to adapt to)
+        why = ' '.join(str(err).split())[:200]
+        raise SweepError(spec.path, f'--method {method}', f'stopped after {evaluate.count} '
+                         f'runs: OpenTURNS could not go on ({type(err).__name__}: {why})',
+                         'more --runs, or another method (form, subset, or mc)') from None
     if raised:   # swallowed by the method: not an estimate
         raise raised[0]
     return found
@@ -236,4 +250,4 @@ def mc_estimate(spec: SweepSpec, table):
     p = failed / n
     low, high = clopper_pearson(failed, n, spec.confidence)
     cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf
-    return Estimate(p, cov, low, high, n, 'mc', spec.confidence)
+    return Estimate(p, cov, low, high, n, 'mc', spec.confidence, failed_runs=failed)

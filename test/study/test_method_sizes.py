@@ -1,0 +1,55 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""Each study method's smallest size, checked before any run; estimates without a failure."""
+
+import json
+import os
+
+from cfem_ros.study.methods import MINIMUM_RUNS, run_study
+from cfem_ros.study.spec import SweepError
+import pytest
+from test_rare_events import _linear_rows, _linear_sweep
+
+
+@pytest.mark.parametrize('name, runs', [('subset', 10), ('subset', 11), ('subset', 5),
+                                        ('subset', 105), ('nais', 1), ('nais', 99),
+                                        ('form', 1), ('morris', 1), ('sobol', 4)])
+def test_a_method_with_too_few_runs_is_refused_before_any_run(tmp_path, name, runs):
+    # issue 41.5: subset at 10 runs answered P = 0.01 with no failure, 11 and 5 runs and
+    # nais at 1 ended in OpenTURNS' TypeErrors, morris at 1 in sigma NaN
+    spec = _linear_sweep(tmp_path, 1e-2, runs)
+    asked = []
+
+    def rows(part, chunk):
+        asked.append(chunk)
+        return _linear_rows(part, chunk)
+
+    design = name if name in ('morris', 'sobol') else None
+    least, multiple = MINIMUM_RUNS[name]
+    with pytest.raises(SweepError, match=rf'runs: is {runs} for {name} .*; expected at least '
+                       rf'{least}'):
+        run_study(spec, str(tmp_path / 'out'), method='mc' if design else name,
+                  design=design, rows=rows, log=lambda line: None)
+    assert not asked and not os.path.exists(tmp_path / 'out')
+
+
+def test_an_estimate_without_any_failed_run_says_so(tmp_path):
+    # a failure 9 standard deviations out: none of the 100 runs fails
+    spec = _linear_sweep(tmp_path, 1e-19, 100)
+    out = str(tmp_path / 'mc')
+    found = run_study(spec, out, method='mc', rows=_linear_rows, log=lambda line: None)
+    estimate = found['estimate']
+    assert estimate.failed_runs == 0 and found['table']['pass'].all()
+    assert estimate.probability == 0.0
+    assert f'no run failed: P is at most {estimate.ci_high:.4g}' in estimate.sentence()
+    with open(os.path.join(out, 'estimate.json')) as stream:
+        assert json.load(stream)['failed_runs'] == 0
+
+
+def test_subset_at_its_smallest_size_finds_a_one_in_a_hundred_failure(tmp_path):
+    spec = _linear_sweep(tmp_path, 1e-2, 100)
+    found = run_study(spec, str(tmp_path / 'subset'), method='subset', rows=_linear_rows,
+                      log=lambda line: None)
+    estimate = found['estimate']
+    assert estimate.failed_runs > 0 and 'no run failed' not in estimate.sentence()
+    assert 1e-3 < estimate.probability < 1e-1
