@@ -14,7 +14,7 @@ import time
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.aero import describe as describe_aero
+from cfem_ros.core.aeroparse import describe as describe_aero
 from cfem_ros.core.engine import Simulator
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario import load_scenario

@@ -1,401 +1,169 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The scenario's ``aero`` section (SPEC section 8): tables, air, ISA, proximity grids.
+The air each body sees, and the events of leaving a table's range (SPEC section 10).
 
-Free-stream coefficient tables over (alpha, beta, Mach), the air the body
-flies through (at rest in the world frame, plus a constant ``wind``, or the
-``freestream`` of a fixed carrier), the ISA atmosphere at the body's own
-altitude, and interference increments on a regular grid over the body's
-position and attitude relative to a carrier (``proximity``), read from a
-long-format CSV or Parquet file. This module only reads and checks; the
-loads are computed in the step.
+The loads themselves are computed in the compiled step (``cpp/aero.hpp``,
+``cpp/loads.cpp``), which also watches, after each step, where each body with
+aerodynamic tables is on every axis a table can be left (alpha, beta, Mach
+with two grid values or more, and the proximity axes): below the grid, on it
+or above. A change stops the kernel's step loop like a stroke end and is
+located inside the step on the step's own RK4 map (``cpp/events.cpp``).
+``AeroWatch`` turns those changes into ``aero_outside`` / ``aero_inside``
+events, keeps the time each body spends outside, and stops the run of a body
+whose tables say ``outside: stop``.
+
+The scenario's ``aero`` section is read by ``aeroparse``; the atmosphere is
+``atmosphere`` (the kernel's).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
-import os
-from typing import Optional
 
-from cfem_ros.core.model import Aero, Proximity
+from cfem_ros.core import kernel
+from cfem_ros.core.kernel import LOADS
 import numpy as np
 
-AERO_KEYS = ('area', 'length', 'density', 'altitude', 'freestream', 'wind', 'alpha_deg',
-             'beta_deg', 'mach', 'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq', 'Cnr',
-             'scale', 'proximity')
-AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
-DAMPING_DERIVATIVES = ('Clp', 'Cmq', 'Cnr')
-PROXIMITY_KEYS = ('carrier', 'table', 'outside')
-#: Axis columns of a proximity table, in the order the grid nests them.
-PROXIMITY_AXES = ('dx', 'dy', 'dz', 'dphi_deg', 'dtheta_deg', 'dpsi_deg', 'mach')
-#: The axes that are positions (m): a fade is measured along them.
-POSITION_AXES = ('dx', 'dy', 'dz')
-#: Increment columns of a proximity table.
-INCREMENTS = ('dCX', 'dCY', 'dCZ', 'dCl', 'dCm', 'dCn')
-#: Most points of a proximity grid.
-MAX_GRID_POINTS = 2_000_000
-
-#: ISA: gas constant of air (J/(kg K)), ratio of specific heats, standard gravity (m/s^2).
-GAS, GAMMA, G0 = 287.05287, 1.4, 9.80665
-#: ISA layers up to 32 km: base altitude (m), base temperature (K), lapse rate (K/m),
-#: base pressure (Pa).
-ISA_LAYERS = ((0.0, 288.15, -0.0065, 101325.0),
-              (11000.0, 216.65, 0.0, 22632.06),
-              (20000.0, 216.65, 0.001, 5474.889))
-#: Reference altitudes a scenario may give, m (the layers above, less a margin for the climb).
-ALTITUDE_RANGE = (-500.0, 20000.0)
+#: The topics of the air a body sees, under ``bodies/<body>/aero/`` (Vector3Stamped):
+#: what x, y and z hold.
+AIR_TOPICS = (('flow', ('alpha_deg', 'beta_deg', 'mach')),
+              ('air', ('dynamic_pressure_pa', 'density_kg_m3', 'airspeed_m_s')),
+              ('force_coefficients', ('CX', 'CY', 'CZ')),
+              ('moment_coefficients', ('Cl', 'Cm', 'Cn')))
+#: Numbers a sample holds per body with aero tables (``cpp/layout.hpp``).
+AIR_OUTPUTS = LOADS.AIR_OUTPUTS
+#: Slots of the axes a body can leave: alpha, beta, Mach, the proximity axes.
+SLOTS = LOADS.AERO_SLOTS
+#: How close to a grid's end a value located at a crossing is (relative to 1 + |end|).
+AT_END = 1e-9
 
 
-def isa(altitude: float) -> tuple:
-    """
-    Return the ISA (density kg/m^3, speed of sound m/s) at a geopotential altitude, m.
-
-    Three layers (troposphere, tropopause, lower stratosphere), valid from
-    -5 km to 32 km; above 32 km the third layer goes on. The compiled step
-    computes the same (``cpp/isa.hpp``) at each body's altitude.
-    """
-    base, temperature0, lapse, pressure0 = ISA_LAYERS[0]
-    for layer in ISA_LAYERS[1:]:
-        if altitude > layer[0]:
-            base, temperature0, lapse, pressure0 = layer
-    height = altitude - base
-    temperature = temperature0 + lapse * height
-    if lapse == 0.0:
-        pressure = pressure0 * math.exp(-G0 * height / (GAS * temperature0))
-    else:
-        pressure = pressure0 * (temperature / temperature0) ** (-G0 / (GAS * lapse))
-    return pressure / (GAS * temperature), math.sqrt(GAMMA * GAS * temperature)
-
-
-def isa_density(altitude: float) -> float:
-    """Return the ISA air density at a geopotential altitude (m), kg/m^3."""
-    return isa(altitude)[0]
-
-
-@dataclass
-class _Context:
-    """What parsing the aero section needs from the scenario parser."""
-
-    check: object
-    index: dict
-    bodies: tuple
-    base_dir: str
-
-
-def parse_aero(check, doc, index: dict, bodies, base_dir: str = '') -> tuple:
-    """
-    Parse ``aero``: body name -> reference values, tables, air and proximity.
-
-    ``check`` is the scenario parser's checker (``fail``, ``mapping``,
-    ``number``, ``vector``); ``index`` maps body names to indices;
-    ``base_dir`` is the folder proximity tables are relative to.
-    """
-    if doc is None:
-        return ()
-    if not isinstance(doc, dict):
-        check.fail('aero', f'is {doc!r:.80}', 'a mapping of body names')
-    context = _Context(check, index, tuple(bodies), base_dir)
-    return tuple(_parse_body(context, name, spec) for name, spec in doc.items())
-
-
-def _body_of(context: _Context, name, key: str) -> int:
-    if not isinstance(name, str) or name not in context.index:
-        context.check.fail(key, f'{name!r:.80} is not a body',
-                           'one of ' + ', '.join(list(context.index)[:8]))
-    return context.index[name]
-
-
-def _parse_body(context: _Context, name, spec) -> Aero:
-    check = context.check
-    key = f'aero.{name}'
-    body = _body_of(context, name, key)
-    if context.bodies[body].fixed:
-        check.fail(key, f'{name!r} is fixed', 'a body that can move')
-    if not context.bodies[body].dynamic:
-        check.fail(key, f'{name!r} is kinematic', 'a body moved by forces')
-    spec = check.mapping(spec, key, AERO_KEYS, required=('area', 'length', 'alpha_deg'))
-    if ('density' in spec) == ('altitude' in spec):
-        check.fail(f'{key}.density', 'density and altitude are both given or both missing',
-                   'one of density (kg/m^3) or altitude (m, ISA)')
-    if 'wind' in spec and 'freestream' in spec:
-        check.fail(f'{key}.wind', 'given together with freestream',
-                   'one of wind (air moving over the ground) or freestream (the air past a '
-                   'fixed carrier): both are the velocity of the air, world axes, m/s')
-    altitude = None
-    if 'density' in spec:
-        density = check.number(spec['density'], f'{key}.density', positive=True)
-    else:
-        altitude = check.number(spec['altitude'], f'{key}.altitude')
-        if not ALTITUDE_RANGE[0] <= altitude <= ALTITUDE_RANGE[1]:
-            check.fail(f'{key}.altitude', f'is {altitude:g}',
-                       f'an altitude from {ALTITUDE_RANGE[0]:g} to {ALTITUDE_RANGE[1]:g} m '
-                       '(ISA)')
-        density = isa_density(altitude)
-    air = spec.get('wind', spec.get('freestream', [0.0, 0.0, 0.0]))
-    air = check.vector(air, f'{key}.{"freestream" if "freestream" in spec else "wind"}')
-    grids = [_grid(check, spec.get('alpha_deg'), f'{key}.alpha_deg', 'angles, deg', True),
-             _grid(check, spec.get('beta_deg', [0.0]), f'{key}.beta_deg', 'angles, deg', True),
-             _grid(check, spec.get('mach', [0.0]), f'{key}.mach', 'Mach numbers', False)]
-    if 'mach' in spec and altitude is None and len(grids[2]) > 1:
-        check.fail(f'{key}.density', 'is given with a table over Mach',
-                   'altitude (m): the ISA speed of sound there gives the Mach number')
-    if len(grids[2]) and grids[2][0] < 0.0:
-        check.fail(f'{key}.mach', f'starts at {grids[2][0]:g}', 'Mach numbers >= 0')
-    given = [True, 'beta_deg' in spec, 'mach' in spec]
-    table = _coefficients(check, spec, key, grids, given)
-    damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
-                        for d in DAMPING_DERIVATIVES])
-    proximity = None
-    if 'proximity' in spec:
-        proximity = _parse_proximity(context, spec['proximity'], f'{key}.proximity', body)
-    # multipliers of the coefficients, damping derivatives and increments (what a study varies)
-    scaled = AERO_COEFFICIENTS + DAMPING_DERIVATIVES + INCREMENTS
-    scales = check.mapping(spec.get('scale', {}), f'{key}.scale', scaled)
-    factors = {c: check.number(v, f'{key}.scale.{c}') for c, v in scales.items()}
-    for c, coefficient in enumerate(AERO_COEFFICIENTS):
-        table[..., c] *= factors.get(coefficient, 1.0)
-    damping *= [factors.get(d, 1.0) for d in DAMPING_DERIVATIVES]
-    if proximity is not None and 'mach' in proximity.axes and altitude is None:
-        check.fail(f'{key}.density', 'is given with a proximity table over Mach',
-                   'altitude (m): the ISA speed of sound there gives the Mach number')
-    if proximity is not None:
-        increments = proximity.increments * [factors.get(d, 1.0) for d in INCREMENTS]
-        proximity = Proximity(**{**proximity.__dict__, 'increments': increments})
-    elif any(d in factors for d in INCREMENTS):
-        first = next(d for d in INCREMENTS if d in factors)
-        check.fail(f'{key}.scale.{first}', 'scales an increment, and there is no proximity '
-                   'table', f'{key}.proximity, or no {first}')
-    return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
-                length=check.number(spec['length'], f'{key}.length', positive=True),
-                density=density, freestream=air, alpha=np.radians(grids[0]),
-                beta=np.radians(grids[1]), coefficients=table, damping=damping,
-                mach=grids[2], altitude=altitude, proximity=proximity)
-
-
-def _grid(check, values, key: str, what: str, angles: bool) -> np.ndarray:
-    """Return a strictly increasing list of numbers (angles within +-180 deg)."""
-    if not isinstance(values, list) or not values:
-        check.fail(key, f'is {values!r:.80}', f'a list of {what}')
-    grid = np.array([check.number(v, f'{key}[{i}]') for i, v in enumerate(values)])
-    if np.any(np.diff(grid) <= 0):
-        check.fail(key, f'is {values!r:.80}', f'strictly increasing {what}')
-    if angles and (grid[0] < -180.0 or grid[-1] > 180.0):
-        check.fail(key, f'is {values!r:.80}', 'angles from -180 to 180 deg')
-    return grid
-
-
-def _coefficients(check, spec: dict, key: str, grids, given) -> np.ndarray:
-    """
-    Return the (alpha, beta, Mach, 6) table of the free-stream coefficients.
-
-    A coefficient is a number, or lists nested alpha, then beta (if given),
-    then Mach (if given); fewer levels are constant along the levels left out.
-    """
-    sizes = [len(g) for g in grids]
-    nested = [len(g) for g, is_given in zip(grids, given) if is_given]
-    names = [n for n, is_given in zip(('alpha', 'beta', 'Mach'), given) if is_given]
-    table = np.zeros(tuple(sizes) + (6,))
-    for c, coefficient in enumerate(AERO_COEFFICIENTS):
-        value = spec.get(coefficient, 0.0)
-        where = f'{key}.{coefficient}'
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            table[..., c] = check.number(value, where)
-            continue
-        try:
-            rows = np.array(value, dtype=object)
-        except ValueError:   # ragged lists
-            rows = np.array([None])
-        shape = rows.shape
-        if not value or len(shape) > len(nested) or list(shape) != nested[:len(shape)]:
-            levels = ', then '.join(f'{n} values per {name}' for n, name in zip(nested, names))
-            check.fail(where, f'has shape {shape}',
-                       f'a number or lists nested as the grids: {levels} (trailing levels '
-                       'may be left out)')
-        numbers = np.empty(shape)
-        for at, v in np.ndenumerate(rows):
-            numbers[at] = check.number(v, where + ''.join(f'[{i}]' for i in at))
-        # the levels map onto the given axes in order; the others are held constant
-        levels = iter(shape)
-        full = [next(levels, 1) if is_given else 1 for is_given in given]
-        table[..., c] = np.broadcast_to(numbers.reshape(full), tuple(sizes))
-    return table
-
-
-def _parse_proximity(context: _Context, doc, key: str, body: int) -> Proximity:
-    check = context.check
-    doc = check.mapping(doc, key, PROXIMITY_KEYS, required=('carrier', 'table', 'outside'))
-    carrier = _body_of(context, doc['carrier'], f'{key}.carrier')
-    if carrier == body:
-        check.fail(f'{key}.carrier', f'is {doc["carrier"]!r}, the body itself',
-                   'the body whose flow field the table describes (the aircraft, the pylon)')
-    outside = doc['outside']
-    fade = None
-    if outside != 'hold':
-        if not isinstance(outside, dict) or list(outside) != ['fade']:
-            check.fail(f'{key}.outside', f'is {outside!r:.80}',
-                       'hold, or {fade: m} (the increments fade to zero over that distance)')
-        fade = check.number(outside['fade'], f'{key}.outside.fade', positive=True)
-    path = doc['table']
-    if not isinstance(path, str) or not path.strip():
-        check.fail(f'{key}.table', f'is {path!r:.80}', 'a CSV or Parquet file name')
-    path = path if os.path.isabs(path) else os.path.join(context.base_dir, path)
-    columns = read_columns(check, path, f'{key}.table')
-    axes, grids, increments = grid_of(check, columns, f'{key}.table', path)
-    if fade is not None and not any(a in POSITION_AXES for a in axes):
-        check.fail(f'{key}.outside', 'fades over a distance, and the table has no position '
-                   'axis (dx, dy, dz)', 'hold, or a table over positions')
-    return Proximity(carrier=carrier, axes=axes, grids=grids, increments=increments,
-                     fade=fade, source=path)
-
-
-def read_columns(check, path: str, key: str) -> dict:
-    """Return a table file's columns by name (CSV with a header row, or Parquet)."""
-    shown = os.path.basename(path)
-    if not os.path.isfile(path):
-        check.fail(key, f'names {path!r:.200}, which is not a file',
-                   'a CSV or Parquet file, relative to the scenario file')
-    if path.lower().endswith(('.parquet', '.pq')):
-        try:
-            import pyarrow.parquet as pq
-        except ImportError:
-            check.fail(key, f'{shown} is Parquet and pyarrow is not installed',
-                       "pip install 'cfem_ros[study]', or the table as CSV")
-        try:
-            data = pq.read_table(path)
-        except Exception as err:  # noqa: B902 - any reader error is the file's fault
-            check.fail(key, f'{shown} is not a readable Parquet file ({_one_line(err)})',
-                       'a Parquet file with one column per axis and increment')
-        return _parquet_columns(check, data, key, shown)
-    with open(path, encoding='utf-8-sig', errors='replace') as handle:   # a BOM is no name
-        lines = [ln for ln in handle.read().splitlines()
-                 if ln.strip() and not ln.lstrip().startswith('#')]
-    if not lines:
-        check.fail(key, f'{shown} is empty', 'a header row naming the columns, then numbers')
-    header = [h.strip() for h in lines[0].split(',')]
-    _distinct_columns(check, header, key, shown)
-    if len(lines) < 2:
-        check.fail(key, f'{shown} has a header and no data rows',
-                   'a row of numbers per grid point')
-    values = np.empty((len(lines) - 1, len(header)))
-    for r, line in enumerate(lines[1:]):
-        cells = line.split(',')
-        if len(cells) != len(header):
-            check.fail(key, f'{shown}, data row {r + 1} has {len(cells)} cells',
-                       f'{len(header)} numbers, one per column of the header')
-        for c, cell in enumerate(cells):
-            try:
-                values[r, c] = float(cell)
-            except ValueError:
-                check.fail(key, f'{shown}, data row {r + 1}, column {header[c]!r} is '
-                           f'{cell.strip()!r:.40}', 'a number')
-    return {name: values[:, c] for c, name in enumerate(header)}
-
-
-def _one_line(err) -> str:
-    return ' '.join(str(err).split())[:200]
-
-
-def _distinct_columns(check, names, key: str, shown: str):
-    """Refuse a table that names a column twice (which of the two would be used?)."""
-    seen = set()
-    for name in names:
-        if name in seen:
-            check.fail(key, f'{shown} has the column {name!r:.40} twice', 'each column once')
-        seen.add(name)
-
-
-def _parquet_columns(check, data, key: str, shown: str) -> dict:
-    """Return a Parquet table's columns as floats; only number columns, at least one row."""
-    import pyarrow as pa
-    _distinct_columns(check, data.column_names, key, shown)
-    for name, kind in zip(data.column_names, data.schema.types):
-        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
-            check.fail(key, f'{shown}: column {name!r:.40} holds {kind}',
-                       'numbers (integer or floating point) in every column')
-    if data.num_rows == 0:
-        check.fail(key, f'{shown} has no rows', 'a row of numbers per grid point')
-    columns = {}
-    for name in data.column_names:
-        column = data.column(name)
-        if column.null_count:
-            check.fail(key, f'{shown}: column {name!r:.40} has {column.null_count} empty '
-                       'cell(s)', 'a number in every cell')
-        columns[name] = np.asarray(column.to_numpy(), dtype=float)
-    return columns
-
-
-def grid_of(check, columns: dict, key: str, path: str) -> tuple:
-    """
-    Return (axes, grids, increments) of a long-format table's columns.
-
-    increments has shape (len(grid) per axis ..., 6), zero for the
-    increments the table does not give. Raises the checker's error for an
-    unknown or repeated column, a non-finite number, a point given twice or
-    the first point of the full grid that is missing.
-    """
-    shown = os.path.basename(path)
-    for name in columns:
-        if name not in PROXIMITY_AXES + INCREMENTS:
-            check.fail(key, f'{shown} has a column {name!r:.40}',
-                       'axis columns from ' + ', '.join(PROXIMITY_AXES)
-                       + ' and increment columns from ' + ', '.join(INCREMENTS))
-    axes = tuple(a for a in PROXIMITY_AXES if a in columns)
-    given = [d for d in INCREMENTS if d in columns]
-    if not axes or not given:
-        check.fail(key, f'{shown} has columns {list(columns)!r:.120}',
-                   'at least one axis column (' + ', '.join(PROXIMITY_AXES)
-                   + ') and one increment column (' + ', '.join(INCREMENTS) + ')')
-    rows = len(columns[axes[0]])
-    for name, values in columns.items():
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            check.fail(key, f'{shown}, data row {bad[0] + 1}, column {name} is '
-                       f'{values[bad[0]]}', 'a finite number')
-    grids = tuple(np.unique(columns[a]) for a in axes)
-    sizes = tuple(len(g) for g in grids)
-    count = math.prod(sizes)
-    if count > MAX_GRID_POINTS:
-        check.fail(key, f'{shown} spans {count} grid points', f'at most {MAX_GRID_POINTS}')
-    for a, g in zip(axes, grids):
-        if len(g) < 2:
-            check.fail(key, f'{shown}: axis {a} has the one value {g[0]:g}',
-                       'two values or more per axis (leave a constant axis out)')
-    where = np.stack([np.searchsorted(g, columns[a]) for a, g in zip(axes, grids)])
-    flat = np.ravel_multi_index(where, sizes)
-    seen = np.zeros(count, dtype=np.int64)
-    np.add.at(seen, flat, 1)
-    twice = np.flatnonzero(seen > 1)
-    if twice.size:
-        row = int(np.flatnonzero(flat == twice[0])[1])
-        check.fail(key, f'{shown}, data row {row + 1} repeats the grid point '
-                   f'{_point(axes, grids, twice[0], sizes)}', 'each grid point once')
-    missing = np.flatnonzero(seen == 0)
-    if missing.size:
-        check.fail(key, f'{shown} has {rows} rows for a grid of {count} points and misses '
-                   f'{_point(axes, grids, missing[0], sizes)} (the first missing, the axes '
-                   f'nested {", ".join(axes)})', 'a full regular grid: one row per point')
-    increments = np.zeros(sizes + (6,))
-    for c, name in enumerate(INCREMENTS):
-        if name in columns:
-            increments.reshape(count, 6)[flat, c] = columns[name]
-    return axes, grids, increments
-
-
-def _point(axes, grids, flat: int, sizes) -> str:
-    at = np.unravel_index(flat, sizes)
-    return ', '.join(f'{a}={g[i]:g}' for a, g, i in zip(axes, grids, at))
-
-
-def describe(aero: Aero, names) -> Optional[str]:
-    """Return one line on an aero entry's Mach and proximity tables (for ``check``)."""
-    parts = []
-    if len(aero.mach) > 1:
-        parts.append(f'Mach {aero.mach[0]:g} to {aero.mach[-1]:g} ({len(aero.mach)} values)')
+def axis_names(aero) -> list:
+    """Return the names of an aero entry's slots (the scenario's keys), '' for none."""
+    names = ['alpha_deg', 'beta_deg', 'mach']
     if aero.proximity is not None:
-        p = aero.proximity
-        fade = 'held' if p.fade is None else f'fading over {p.fade:g} m'
-        parts.append(f'proximity to {names[p.carrier]} over {", ".join(p.axes)} '
-                     f'({p.increments[..., 0].size} points, {fade} outside)')
-    return '; '.join(parts) or None
+        names += [f'proximity.{a}' for a in aero.proximity.axes]
+    return names + [''] * (SLOTS - len(names))
+
+
+def _in_units(name: str, value: float) -> float:
+    """Return a slot's value (rad for angles) in the unit of its name (deg for ``_deg``)."""
+    return math.degrees(value) if name.endswith('_deg') else float(value)
+
+
+class AeroWatch:
+    """
+    Where each body with aero tables is on its tables' axes; the events of leaving them.
+
+    Parameters
+    ----------
+    model : Model
+    loads : ndarray
+        The simulator's packed loads (``loads.ScheduledLoads.array``); the
+        bodies' places are kept in its aero rows (``A_STATUS`` columns).
+    first : int
+        The first aero row.
+
+    """
+
+    def __init__(self, model, loads: np.ndarray, first: int):
+        self.model = model
+        self.loads = loads
+        self.first = first
+        self.n = len(model.bodies)
+        self.names = [axis_names(a) for a in model.aero]
+        self._outside = [0] * len(model.aero)      # slots outside, per entry
+        self.stop_message = ''
+
+    def _axes(self, k: int, y: np.ndarray) -> np.ndarray:
+        out = np.empty((4, SLOTS))
+        kernel.loads_aero_axes(np.ascontiguousarray(y), self.loads, self.n, self.first + k,
+                               out)
+        return out   # values, status, low, high
+
+    def _status(self, k: int) -> np.ndarray:
+        return self.loads[self.first + k, LOADS.span('A_STATUS')]
+
+    def arm(self, y: np.ndarray, t: float) -> list:
+        """Take where each body is at y (time t) as known; return events for axes outside."""
+        events = []
+        for k in range(len(self.model.aero)):
+            self._status(k)[:] = 0.0
+            self._outside[k] = 0
+            values, status, low, high = self._axes(k, y)
+            for slot in np.flatnonzero(status):
+                events += self._change(k, slot, status[slot], values, low, high, t)
+        return events
+
+    def crossed(self, k: int, y: np.ndarray, y_end: np.ndarray, t: float) -> list:
+        """
+        Return the events of entry k's crossing located at y (time t).
+
+        The axes that changed are those on which the body is elsewhere at the
+        step's end y_end than it was, and whose value at y is at its grid's
+        end (the others cross later in the step and are located then).
+        """
+        values, _, low, high = self._axes(k, y)
+        _, target, _, _ = self._axes(k, y_end)
+        was = self._status(k).copy()
+        changed = np.flatnonzero(target != was)
+        ends = np.where(was == 0, np.where(target > 0, high, low), np.where(was > 0, high, low))
+        excess = np.where(was == 0, np.where(target > 0, values - high, low - values),
+                          np.where(was > 0, high - values, values - low))
+        at_end = [s for s in changed if excess[s] >= -AT_END * (1.0 + abs(ends[s]))]
+        if not at_end and changed.size:
+            at_end = [changed[np.argmax(excess[changed])]]
+        events = []
+        for slot in at_end:
+            events += self._change(k, slot, target[slot], values, low, high, t)
+        return events
+
+    def _change(self, k, slot, status, values, low, high, t) -> list:
+        """Record entry k's slot now at status (-1, 0, 1); return its events."""
+        aero = self.model.aero[k]
+        name = self.names[k][slot]
+        body = self.model.bodies[aero.body].name
+        was = int(self._status(k)[slot])
+        self._status(k)[slot] = float(status)
+        figures = {'body': body, 'axis': name, 'value': _in_units(name, values[slot]),
+                   'low': _in_units(name, low[slot]), 'high': _in_units(name, high[slot]),
+                   'time': float(t)}
+        events = []
+        if was != 0:
+            self._outside[k] -= 1
+            events.append({'event': 'aero_inside', **figures})
+        if status != 0:
+            self._outside[k] += 1
+            events.append({'event': 'aero_outside', **figures})
+            if aero.stop_outside and not self.stop_message:
+                self.stop_message = (
+                    f'at t = {t:.9g} s: {body} left its aerodynamic tables: {name} = '
+                    f'{figures["value"]:.6g} outside [{figures["low"]:.6g}, '
+                    f'{figures["high"]:.6g}] (aero.{body}.outside: stop)')
+        return events
+
+
+def seconds_outside(events, body: str, t_end: float) -> float:
+    """
+    Return the time a body spent outside any of its tables' ranges up to t_end, s.
+
+    From its ``aero_outside`` / ``aero_inside`` events (in time order): the
+    body is outside while any axis is.
+    """
+    outside, since, total = 0, 0.0, 0.0
+    for event in events:
+        if event.get('body') != body or event.get('event') not in ('aero_outside',
+                                                                  'aero_inside'):
+            continue
+        if event['event'] == 'aero_outside':
+            if outside == 0:
+                since = event['time']
+            outside += 1
+        elif outside > 0:
+            outside -= 1
+            if outside == 0:
+                total += event['time'] - since
+    if outside > 0:
+        total += t_end - since
+    return total

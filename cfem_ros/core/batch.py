@@ -46,7 +46,8 @@ class Result:
         Its releases (and contacts).
     status : str
         'ok' if the copy ran to its duration, 'contact' if it stopped at a
-        watched contact, 'failed' if it failed.
+        watched contact, 'aero_outside' if it left a table that says
+        ``outside: stop``, 'failed' if it failed.
     message : str
         Why it failed, with the time ('' if ok).
     steps : int
@@ -71,10 +72,14 @@ def _copy(model, spec: dict, duration: float) -> Result:
         sim.y = y0.copy()
         sim._scheduled.reanchor(sim.y)   # strokes measured from the copy's own start
         sim._scheduled.arm(sim.y)        # contact pairs apart there are watched
+        # where it is on its aero tables: told again from this state
+        sim.events[:] = [e for e in sim.events if not e['event'].startswith('aero_')]
+        sim._aero_events(sim._aero.arm(sim.y, sim.t))
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
     ok = sim.advance_to(duration)
-    status = 'ok' if ok else ('contact' if sim.status == 'contact' else 'failed')
+    status = 'ok' if ok else (sim.status if sim.status in ('contact', 'aero_outside')
+                              else 'failed')
     return Result(sim.t, sim.y, sim.events, status, sim.message, sim.steps)
 
 

@@ -24,6 +24,7 @@ import math
 from typing import Optional
 
 from cfem_ros.core import kernel, sampling  # noqa: F401 - sampling kept for users
+from cfem_ros.core.aero import AeroWatch
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
 from cfem_ros.core.dynamics import (  # noqa: F401 - for sweeps
     Dynamics, REDUNDANT_MESSAGES, REDUNDANT_WARNING)
@@ -55,7 +56,9 @@ class Simulator(Dynamics):
         violation beyond ``DIVERGENCE_VIOLATION``, or a singular or
         ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at the
         last good state; or 'contact': a watched pair with ``on_contact:
-        stop`` touched, and the run stopped there (``events`` says where).
+        stop`` touched, and the run stopped there (``events`` says where);
+        or 'aero_outside': a body whose tables say ``outside: stop`` left
+        their range (``aero.AeroWatch``).
     message : str
         Why the run failed, with the time ('' while running).
     events : list of dict
@@ -90,6 +93,9 @@ class Simulator(Dynamics):
         self._fire_time_triggers()
         self._project_velocities()
         self._scheduled.arm(self.y)   # contact pairs apart at t = 0 are watched from now
+        # where the bodies are on their aero tables' axes (aero.py): outside at t = 0 is told
+        self._aero = AeroWatch(model, self._scheduled.array, self.n + self._scheduled.count)
+        self._aero_events(self._aero.arm(self.y, self.t))
 
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
@@ -297,13 +303,15 @@ class Simulator(Dynamics):
         if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
             # an ejector's stroke ends first (or with a release), or shapes touch
             s, rows = stroke
-            first = self._scheduled.contact_first
-            wrenches = [k for k in rows if k < self._scheduled.count]
+            first, count = self._scheduled.contact_first, self._scheduled.count
+            wrenches = [k for k in rows if k < count]
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             self._end_strokes(wrenches)
             for k in rows:
                 if k >= first:
                     self._contact(k - first)
+                elif k >= count:   # a body left (or came back to) an aero table's range
+                    self._aero_events(self._aero.crossed(k - count, self.y, y1, self.t))
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)
@@ -320,6 +328,13 @@ class Simulator(Dynamics):
         """Switch off the wrenches whose stroke ended now; an event for each (strokes.py)."""
         self._scheduled.end_strokes(wrenches)
         self.events.extend(stroke_end_event(self, k) for k in wrenches)
+
+    def _aero_events(self, events: list):
+        """Record aero_outside / aero_inside events; stop the run if a table says so."""
+        self.events.extend(events)
+        if self._aero.stop_message and self.status == 'running':
+            self.status = 'aero_outside'
+            self.message = self._aero.stop_message
 
     def _contact(self, k: int):
         """Record contact pair k's first touch now; stop the run if the pair says so."""

@@ -95,9 +95,11 @@ class Layout:
 
 
 #: The arrays' layouts (``cpp/layout.hpp``): ``bodies`` and the kinematic bodies'
-#: columns, ``loads``, ``plan``, and the ``info`` of ``advance`` and of ``locate``.
+#: columns, ``loads``, a packed aerodynamic table's header (``aero_table``), ``plan``,
+#: and the ``info`` of ``advance`` and of ``locate``.
 BODIES = Layout('bodies')
 LOADS = Layout('loads')
+AERO_TABLE = Layout('aero_table')
 PLAN = Layout('plan')
 ADVANCE_INFO = Layout('advance_info')
 LOCATE_INFO = Layout('locate_info')
@@ -143,6 +145,7 @@ workspace_size = _kernel.workspace_size
 loads_set_time = _kernel.loads_set_time
 loads_strokes = _kernel.loads_strokes
 loads_rotations = _kernel.loads_rotations
+loads_aero_axes = _kernel.loads_aero_axes
 motion_place = _kernel.motion_place
 motion_set_time = _kernel.motion_set_time
 clearance = _kernel.clearance
@@ -191,7 +194,7 @@ def multilinear(grids, values, points) -> np.ndarray:
 
 
 def aero_wrench(packed, position, velocity, rot, rates, carrier_position, carrier_rot):
-    """Return the aerodynamic wrench at k states, (k, 6), and the air data, (k, 18)."""
+    """Return the aerodynamic wrench at k states, (k, 6), and the air data, (k, 22)."""
     return _kernel.aero_wrench(*(_floats(a) for a in (packed, position, velocity, rot, rates,
                                                       carrier_position, carrier_rot)))
 

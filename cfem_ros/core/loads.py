@@ -140,8 +140,9 @@ class ScheduledLoads:
         self.pairs = pairs
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
-        #: Numbers a sample's applied loads take (6 a source).
-        self.outputs_size = 6 * len(self.sources())
+        #: Numbers a sample's applied loads take (6 a source), then the air of each body
+        #: with aero tables (``AIR_OUTPUTS`` each: ``cpp/loads.cpp`` sample_applied).
+        self.outputs_size = 6 * len(self.sources()) + LOADS.AIR_OUTPUTS * len(aero)
 
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""

@@ -137,6 +137,11 @@ class Body:
     velocity_given : bool
         False when the scenario gave this body no velocity: joined to a
         kinematic body, it then starts moving rigidly with it.
+    cg_offset : ndarray, shape (3,)
+        Where the CG is relative to the nominal CG, body axes, m (SPEC
+        section 10). ``position`` is the actual CG; everything given in the
+        body's axes from the CG (wrench points, the shape, the aero reference
+        point) is held here from the actual CG (moved by -cg_offset).
 
     """
 
@@ -151,6 +156,7 @@ class Body:
     shape: Optional[Shape] = None
     motion: Optional[Motion] = None
     velocity_given: bool = True
+    cg_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def dynamic(self) -> bool:
@@ -331,6 +337,18 @@ class Aero:
         height above the origin along -gravity. None: ``density`` is fixed.
     proximity : Proximity or None
         Interference increments near a carrier.
+    temperature_offset : float
+        K added to the ISA temperature (a hot or cold day); pressure ISA.
+    reference_point : ndarray, shape (3,)
+        The point the moment coefficients are about, body axes, from the
+        nominal CG, m (as given).
+    reference_from_cg : ndarray, shape (3,)
+        The same from the actual CG (``reference_point - cg_offset``).
+    delta : ndarray, shape (6,)
+        Added to CX .. Cn after interpolation (and after ``scale``).
+    stop_outside : bool
+        True: the run stops where the body leaves a table's range
+        (``outside: stop``); False: the tables are held at their edges.
 
     """
 
@@ -346,6 +364,11 @@ class Aero:
     mach: np.ndarray = field(default_factory=lambda: np.zeros(1))
     altitude: Optional[float] = None
     proximity: Optional[Proximity] = None
+    temperature_offset: float = 0.0
+    reference_point: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    reference_from_cg: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    delta: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    stop_outside: bool = False
 
 
 @dataclass(frozen=True)

@@ -193,6 +193,7 @@ class SampledState:
             child (world axes, N and N m about the joint point); then per
             scheduled wrench source (``applied_sources``) its force and
             moment about the CG of the body it acts on (world axes); then
+            per body with aero tables the air it sees (``air``); then
             per ``model.references`` pair, the body's pose and twist in
             its reference's frame (``motion.sample_relative``).
 
@@ -214,7 +215,19 @@ class SampledState:
     def applied_loads(self) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
         first = 13 * self.n + 6 * len(self._outputs_key)
-        return self.outputs()[first:first + self._scheduled.outputs_size].reshape(-1, 6)
+        return self.outputs()[first:first + 6 * len(self.applied_sources)].reshape(-1, 6)
+
+    def air(self, outputs: Optional[np.ndarray] = None) -> np.ndarray:
+        """
+        Return the air each body with aero tables sees, (len(model.aero), 12).
+
+        Per body: alpha, beta (deg), Mach, dynamic pressure (Pa), density
+        (kg/m^3), airspeed (m/s), CX, CY, CZ, and Cl, Cm, Cn about the
+        actual CG (``aero.AIR_TOPICS``); from ``outputs`` if given.
+        """
+        first = 13 * self.n + 6 * len(self._outputs_key) + 6 * len(self.applied_sources)
+        out = self.outputs() if outputs is None else outputs
+        return out[first:first + 12 * len(self.model.aero)].reshape(-1, 12)
 
     def relative_states(self) -> np.ndarray:
         """

@@ -20,8 +20,8 @@ import reprlib
 import stat
 from typing import Any, Optional
 
-from cfem_ros.core import aero, rotations, shapes
-from cfem_ros.core.aero import isa_density  # noqa: F401 - where it has always been
+from cfem_ros.core import aeroparse, cgoffset, rotations, shapes
+from cfem_ros.core.atmosphere import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
     AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, Contact, default_baumgarte, Joint,
@@ -43,7 +43,7 @@ TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodie
             'wrenches', 'aero', 'release_groups', 'contacts')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape',
-             'motion', 'reference')
+             'motion', 'reference', 'cg_offset')
 MOTION_KEYS = ('velocity', 'angular_velocity_deg', 'angular_velocity', 'table')
 #: Columns of a motion table (a CSV file's header may name them in any order).
 MOTION_COLUMNS = ('t', 'x', 'y', 'z', 'qx', 'qy', 'qz', 'qw')
@@ -658,8 +658,8 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                   dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
                   wrenches=wrenches, contacts=_parse_contacts(check, top.get('contacts'),
                                                               index, bodies),
-                  aero=aero.parse_aero(check, top.get('aero'), index, bodies,
-                                       _source_dir(check)),
+                  aero=aeroparse.parse_aero(check, top.get('aero'), index, bodies,
+                                            _source_dir(check)),
                   release_groups=groups)
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
@@ -691,6 +691,9 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     fixed = spec.get('fixed', False)
     if not isinstance(fixed, bool):
         check.fail(f'{key}.fixed', f'is {_show(fixed)}', 'true or false')
+    if 'cg_offset' in spec and (fixed or 'motion' in spec):
+        check.fail(f'{key}.cg_offset', 'given on a fixed or kinematic body',
+                   'no cg_offset (it moves the CG of a body moved by forces)')
     if 'motion' in spec:
         return _parse_kinematic(check, name, key, spec, fixed)
     if fixed:
@@ -742,10 +745,12 @@ def _parse_body(check: _Checker, name, spec) -> Body:
         shape = shapes.parse_shape(
             spec['shape'], f'{key}.shape', check.fail, check.number, check.vector,
             _shape_dir(check, spec['shape']))
-    return Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
+    cg_offset = check.vector(spec.get('cg_offset', [0, 0, 0]), f'{key}.cg_offset')
+    body = Body(name=name, fixed=fixed, mass=mass, inertia=inertia, position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
                 velocity_given=('velocity' in spec or 'angular_velocity_deg' in spec
                                 or 'angular_velocity' in spec))
+    return cgoffset.moved(body, cg_offset)
 
 
 #: Quaternions of the attitudes parsed, by the exact bits of their angles (a
@@ -1165,7 +1170,8 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
     else:
         check.fail(f'{key}.frame', f'{_show(frame)} is neither the world frame nor a body',
                    f'{frame_id} or one of ' + ', '.join(index))
-    point = check.vector(spec.get('point', [0, 0, 0]), f'{key}.point')
+    point = cgoffset.from_cg(bodies[body], check.vector(spec.get('point', [0, 0, 0]),
+                                                        f'{key}.point'))
     moment = check.vector(spec.get('moment', [0, 0, 0]), f'{key}.moment')
     if 'force' not in spec and 'moment' not in spec:
         check.fail(f'{key}.force', 'missing', 'a force or a moment')

@@ -75,7 +75,7 @@ def stroke_end_event(sim, k: int) -> dict:
 
 
 def describe_event(event: dict) -> str:
-    """Return one line for a user about a release or stroke-end event (``run``, the node)."""
+    """Return one line for a user about a release, stroke-end or aero event (``run``, the node)."""
     kind = event.get('event')
     when = f"t = {event['time']:.9f} s"
     if kind == 'release':
@@ -89,4 +89,8 @@ def describe_event(event: dict) -> str:
         return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
                 f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.4f}, '
                 f'{q:.4f}, {r:.4f} rad/s ({deg[0]:.2f}, {deg[1]:.2f}, {deg[2]:.2f} deg/s)')
+    if kind in ('aero_outside', 'aero_inside'):
+        where = 'outside' if kind == 'aero_outside' else 'back inside'
+        return (f"{kind} {event['body']} at {when}: {event['axis']} = {event['value']:.6g}, "
+                f"{where} [{event['low']:.6g}, {event['high']:.6g}]")
     return f'{kind} at {when}'

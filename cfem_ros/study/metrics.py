@@ -40,6 +40,11 @@ class Samples:
         End-of-stroke figures by wrench (SPEC section 7), the first of a name.
     contacts : list of (time, (body a, body b))
         The run's contact events.
+    aero_outside : dict of str to float
+        Per body with aero tables, the time it spent outside their range, s.
+    cg_offsets : dict of str to ndarray (3,)
+        Per body with a ``cg_offset``, the offset (body axes, m): points
+        given from the CG are from the nominal CG (SPEC section 10).
 
     """
 
@@ -48,6 +53,8 @@ class Samples:
     releases: list = field(default_factory=list)
     strokes: dict = field(default_factory=dict)
     contacts: list = field(default_factory=list)
+    aero_outside: dict = field(default_factory=dict)
+    cg_offsets: dict = field(default_factory=dict)
 
 
 def from_run(run) -> Samples:
@@ -58,7 +65,17 @@ def from_run(run) -> Samples:
         releases=list(run.releases()),
         strokes={name: (e['time'], e['velocity'], e['rates'])
                  for name, e in run.stroke_ends().items()},
-        contacts=_contacts(run.events))
+        contacts=_contacts(run.events),
+        aero_outside=_outside(run.events, max((float(b.time[-1]) for b in run.bodies.values()
+                                               if len(b.time)), default=0.0)))
+
+
+def _outside(events, t_end: float) -> dict:
+    """Return each body's time outside its aero tables from the run's events, s."""
+    from cfem_ros.core.aero import seconds_outside
+    bodies = dict.fromkeys(e['body'] for e in events
+                           if e.get('event') in ('aero_outside', 'aero_inside'))
+    return {body: seconds_outside(events, body, t_end) for body in bodies}
 
 
 def _contacts(events) -> list:
@@ -158,7 +175,10 @@ class Collector:
             if e.get('event') == 'stroke_end':
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
         return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes,
-                       contacts=_contacts(self.sim.events))
+                       contacts=_contacts(self.sim.events),
+                       aero_outside=_outside(self.sim.events, self.sim.t),
+                       cg_offsets={b.name: b.cg_offset for b in model.bodies
+                                   if np.any(b.cg_offset)})
 
 
 def _kernel():
@@ -233,8 +253,11 @@ def compute(samples: Samples, metrics) -> dict:
         values = (NAN, NAN, -1, -1)
         if len(t):
             best = np.empty(4)
-            _kernel().clearance(_c(pos_a), _c(quat_a), _c(c.points_a), _c(pos_b),
-                                _c(quat_b), _c(c.points_b), best)
+            # points given from the nominal CG: from the actual CG they lie less the offset
+            points_a = c.points_a - samples.cg_offsets.get(c.body_a, 0.0)
+            points_b = c.points_b - samples.cg_offsets.get(c.body_b, 0.0)
+            _kernel().clearance(_c(pos_a), _c(quat_a), _c(points_a), _c(pos_b),
+                                _c(quat_b), _c(points_b), best)
             if best[1] >= 0:
                 values = (float(best[0]), float(t[int(best[1])]), int(best[2]), int(best[3]))
         for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
@@ -279,6 +302,8 @@ def compute(samples: Samples, metrics) -> dict:
         t, velocity, rates = samples.strokes.get(wrench, (NAN, [NAN] * 3, [NAN] * 3))
         values = [float(t)] + [float(v) for v in velocity] + [float(v) for v in rates]
         out.update(zip((f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS), values))
+    for body in getattr(metrics, 'aero', ()):
+        out[f'aero_outside_{body}'] = float(samples.aero_outside.get(body, 0.0))
     return out
 
 

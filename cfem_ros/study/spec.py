@@ -206,6 +206,7 @@ class Metrics:
     joints: list = field(default_factory=list)
     strokes: list = field(default_factory=list)
     distance: list = field(default_factory=list)   # shape_metrics.Distance
+    aero: list = field(default_factory=list)   # bodies with aero tables
 
     def columns(self) -> list:
         """Return the metric column names, in table order."""
@@ -224,6 +225,7 @@ class Metrics:
                                                  'yaw_deg')]
         for wrench in self.strokes:
             names += [f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS]
+        names += [f'aero_outside_{body}' for body in self.aero]
         return names
 
 
@@ -714,7 +716,8 @@ def _parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
     wrenches = base.get('wrenches') if isinstance(base.get('wrenches'), list) else []
     strokes = [w.get('name', f'wrench{k}') for k, w in enumerate(wrenches)
                if isinstance(w, dict) and w.get('stroke') is not None]
-    out = Metrics(joints=joints, strokes=list(dict.fromkeys(strokes)))
+    aero = list(base['aero']) if isinstance(base.get('aero'), dict) else []
+    out = Metrics(joints=joints, strokes=list(dict.fromkeys(strokes)), aero=aero)
     clearance = metrics.get('clearance') or []
     if not isinstance(clearance, list):
         fail('metrics.clearance', f'is {_show(clearance)}', 'a list of body pairs')

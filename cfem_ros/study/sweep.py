@@ -255,8 +255,8 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
         row.update(status='failed', message=f'{type(err).__name__}: {err}')
         row.update(empty(spec.metrics))
         return row
-    if sim.status == 'contact':   # stopped at a watched pair's contact (SPEC section 8)
-        row.update(status='contact', message=sim.message)
+    if sim.status in ('contact', 'aero_outside'):   # stopped as the scenario asks (SPEC 8, 10)
+        row.update(status=sim.status, message=sim.message)
     elif sim.status != 'running':
         row.update(status='failed', message=f'the run failed {sim.message}')
     return row

@@ -71,14 +71,17 @@ Array py_multilinear(py::list grids, Array values, Array points) {
   return out;
 }
 
-py::tuple py_isa(double altitude) {
-  double density, sound;
-  cfem::isa(altitude, density, sound);
-  return py::make_tuple(density, sound);
+// density (kg/m^3), speed of sound (m/s), temperature (K) and pressure (Pa)
+py::tuple py_isa(double altitude, double temperature_offset) {
+  double density, sound, temperature, pressure;
+  cfem::isa(altitude, temperature_offset, density, sound);
+  cfem::isa_temperature_pressure(altitude, temperature, pressure);
+  return py::make_tuple(density, sound, temperature + temperature_offset, pressure);
 }
 
 // the aerodynamic wrench at n states: (n, 6) world force and moment about the CG, and
-// (n, 18) alpha, beta, Mach, speed, density, altitude, coefficients (6), increments (6)
+// (n, 22) alpha, beta, Mach, speed, density, altitude, coefficients (6), increments (6),
+// dynamic pressure, the moment coefficients about the CG (3)
 py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
                       Array carrier_position, Array carrier_rot) {
   need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
@@ -91,7 +94,7 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
   need_rows(rates, "rates", 3, n);
   need_rows(carrier_position, "carrier_position", 3, n);
   need_rows(carrier_rot, "carrier_rot", 9, n);
-  Array out({n, py::ssize_t(6)}), air({n, py::ssize_t(18)});
+  Array out({n, py::ssize_t(6)}), air({n, py::ssize_t(22)});
   double* o = out.mutable_data();
   double* a = air.mutable_data();
   {
@@ -104,11 +107,14 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
                          o + 6 * k, &info);
       double head[6] = {info.alpha, info.beta, info.mach, info.speed, info.density,
                         info.altitude};
+      double* row = a + 22 * k;
       for (int j = 0; j < 6; ++j) {
-        a[18 * k + j] = head[j];
-        a[18 * k + 6 + j] = info.coefficients[j];
-        a[18 * k + 12 + j] = info.increments[j];
+        row[j] = head[j];
+        row[6 + j] = info.coefficients[j];
+        row[12 + j] = info.increments[j];
       }
+      row[18] = info.pressure;
+      for (int j = 0; j < 3; ++j) row[19 + j] = info.about_cg[j];
     }
   }
   return py::make_tuple(out, air);
@@ -153,7 +159,7 @@ namespace cfem {
 void bind_aeroshapes(py::module_& m) {
   auto arg = [](const char* name) { return py::arg(name).noconvert(); };
   m.def("multilinear", &py_multilinear, py::arg("grids"), arg("values"), arg("points"));
-  m.def("isa", &py_isa, py::arg("altitude"));
+  m.def("isa", &py_isa, py::arg("altitude"), py::arg("temperature_offset") = 0.0);
   m.def("aero_wrench", &py_aero_wrench, arg("packed"), arg("position"), arg("velocity"),
         arg("rot"), arg("rates"), arg("carrier_position"), arg("carrier_rot"));
   m.def("distance", &py_distance, arg("shape_a"), arg("rot_a"), arg("position_a"),

@@ -66,6 +66,20 @@ PYBIND11_MODULE(_kernel, m) {
     cfem::loads::strokes(yp, l, n, op);
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("out"));
 
+  m.def("loads_aero_axes", [](const py::handle& y, const py::handle& loads, idx n, idx row,
+                              const py::handle& out) {
+    cfem::Mat l = mat(loads, "loads", false, cfem::loads::WIDTH);
+    const double* yp = vec(y, "y", false, 13 * n);
+    if (row < n || row >= l.rows || l(row, cfem::loads::S_KIND) != cfem::loads::KIND_AERO)
+      throw py::value_error("row: an aerodynamic row of loads expected");
+    py::array o = checked<double>(out, "out", 2, true);
+    if (o.shape(0) != 4 || o.shape(1) != cfem::loads::AERO_SLOTS)
+      throw py::value_error("out: expected (4, AERO_SLOTS)");
+    double* op = ptr<double>(o);
+    const idx k = cfem::loads::AERO_SLOTS;
+    cfem::loads::aero_axes(yp, l, n, row, op, op + k, op + 2 * k, op + 3 * k);
+  }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("row"), py::arg("out"));
+
   m.def("loads_rotations", [](const py::handle& y, idx n, const py::handle& rot) {
     const double* yp = vec(y, "y", false, 13 * n);
     py::array r = checked<double>(rot, "rot", 3, true);

@@ -25,6 +25,7 @@ namespace {
 // values of the watched joints.
 struct Search {
   const double* y0;
+  const double* y1;  // the step's end (where an aero row's body ends up)
   double* ys;
   idx size;
   const System& s;
@@ -60,7 +61,8 @@ int release_values(const Search& q, const double* y, idx first, idx count) {
 // The excess of a condition at rk4(y0, s) over its limit, and a code. col 0-2: watched
 // joint which's angle, distance or force; col 3: scheduled row which's stroke. Each RK4
 // raises the largest stage violation info[L_VIOLATION]. col 4: contact row which's
-// CONTACT_GAP less the distance between its shapes.
+// CONTACT_GAP less the distance between its shapes. col 5: aero row which's crossing of
+// its tables' ends (loads::aero_crossing).
 double excess(const Search& q, double s, idx which, int col, int* code) {
   const double* state = q.y0;
   *code = REACHED;
@@ -77,6 +79,7 @@ double excess(const Search& q, double s, idx which, int col, int* code) {
     return loads::point_and_stroke(state, q.s.loads, which, q.s.n(), nullptr)
            - q.s.loads(which, loads::S_STROKE);
   }
+  if (col == 5) return loads::aero_crossing(state, q.y1, q.s.loads, which, q.s.n());
   if (col == 4) {   // a contact pair: >= 0 once its shapes are within CONTACT_GAP
     return loads::CONTACT_GAP - loads::contact_gap(state, q.s.loads, which, q.s.n(), nullptr);
   }
@@ -167,7 +170,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
             double* info) {
   const idx n = s.n();
   std::vector<double> values(3 * t.count, 0.0);
-  Search q{y0, ys, size, s, v, t, values.data(), info};
+  Search q{y0, y1, ys, size, s, v, t, values.data(), info};
   info[L_CODE] = REACHED;
   info[L_CROSSING] = NAN;
   info[L_JOINTS] = 0.0;
@@ -233,8 +236,9 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       if (count > 0) info[L_CROSSING] = best, info[L_JOINTS] = static_cast<double>(count);
     }
   }
-  // the ejectors' stroke ends (ScheduledLoads.crossing) and the contacts of armed pairs
-  // (ScheduledLoads.contacts), both reported by row in wrenches_found
+  // the ejectors' stroke ends (ScheduledLoads.crossing), the contacts of armed pairs
+  // (ScheduledLoads.contacts) and the tables' ends (aero rows), all reported by row in
+  // wrenches_found
   double best = h;
   idx count = -1;
   for (idx row = n; row < s.loads.rows; ++row) {
@@ -252,6 +256,9 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
             && loads::contact_gap(y1, s.loads, row, n, nullptr) <= loads::CONTACT_GAP))
         continue;
       col = 4;
+    } else if (kind == loads::KIND_AERO) {
+      if (!loads::aero_moved(y1, s.loads, row, n)) continue;
+      col = 5;
     } else {
       continue;
     }

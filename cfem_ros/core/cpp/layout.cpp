@@ -26,6 +26,7 @@ void bind_layout(py::module_& m) {
   }
   CFEM_EXPORT("bodies", CFEM_BODIES_LAYOUT)
   CFEM_EXPORT("loads", CFEM_LOADS_LAYOUT)
+  CFEM_EXPORT("aero_table", CFEM_AERO_TABLE_LAYOUT)
   CFEM_EXPORT("plan", CFEM_PLAN_LAYOUT)
   CFEM_EXPORT("advance_info", CFEM_ADVANCE_INFO_LAYOUT)
   CFEM_EXPORT("locate_info", CFEM_LOCATE_INFO_LAYOUT)

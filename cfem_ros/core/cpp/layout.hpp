@@ -62,6 +62,7 @@
   COLUMN(kind, S_KIND, 23, 1)                                                              \
   COLUMN(aero, A_BODY, 0, 1)                                                               \
   COLUMN(aero, A_CARRIER, 1, 1)                                                            \
+  COLUMN(aero, A_STATUS, 2, 10)                                                            \
   COLUMN(aero, A_FIRST, 12, 1)                                                             \
   COLUMN(contact, C_A, 0, 1)                                                               \
   COLUMN(contact, C_B, 1, 1)                                                               \
@@ -76,6 +77,8 @@
   COLUMN(table, T_FORCE, 1, 3)                                                             \
   COLUMN(table, T_MOMENT, 4, 3)                                                            \
   NUMBER(int, AERO_ROW, 23)                                                                \
+  NUMBER(int, AERO_SLOTS, 10)                                                              \
+  NUMBER(int, AIR_OUTPUTS, 12)                                                             \
   NUMBER(int, TABLE_NONE, 0)                                                               \
   NUMBER(int, TABLE_TIME, 1)                                                               \
   NUMBER(int, TABLE_STROKE, 2)                                                             \
@@ -86,6 +89,46 @@
   NUMBER(double, KIND_SCRATCH, 4.0)                                                        \
   NUMBER(double, KIND_CONTACT, 5.0)                                                        \
   NUMBER(double, CONTACT_GAP, 1e-10)
+
+// A packed aerodynamic table (aeropack.py packs it, aero.hpp reads it; kept in ``loads``
+// from an aero row's A_FIRST on, AERO_ROW numbers a row): a header of WIDTH numbers, then
+// the alpha (rad), beta (rad) and Mach grids, the coefficients (CX .. Cn per node, alpha
+// slowest), the proximity grids and increments. Header: reference area (m^2) and length
+// (m), density (kg/m^3; 0: ISA), ISA altitude of the world origin (m), wind (world, m/s),
+// damping derivatives, up (-gravity, unit), grid sizes, proximity axes, fade (m), the CG
+// in the carrier's axes at t = 0, each proximity axis's code (AXIS_*) and size, the packed
+// length, body, carrier, temperature offset (K), reference point (body axes, from the
+// actual CG, m), constant increments of CX .. Cn.
+#define CFEM_AERO_TABLE_LAYOUT(COLUMN, NUMBER)                                             \
+  NUMBER(int, WIDTH, 56)                                                                   \
+  COLUMN(header, AREA, 0, 1)                                                               \
+  COLUMN(header, LENGTH, 1, 1)                                                             \
+  COLUMN(header, DENSITY, 2, 1)                                                            \
+  COLUMN(header, ALTITUDE, 3, 1)                                                           \
+  COLUMN(header, WIND, 4, 3)                                                               \
+  COLUMN(header, DAMPING, 7, 3)                                                            \
+  COLUMN(header, UP, 10, 3)                                                                \
+  COLUMN(header, NA, 13, 1)                                                                \
+  COLUMN(header, NB, 14, 1)                                                                \
+  COLUMN(header, NM, 15, 1)                                                                \
+  COLUMN(header, PROX_AXES, 16, 1)                                                         \
+  COLUMN(header, FADE, 17, 1)                                                              \
+  COLUMN(header, START, 18, 3)                                                             \
+  COLUMN(header, PROX_CODE, 21, 7)                                                         \
+  COLUMN(header, PROX_SIZE, 28, 7)                                                         \
+  COLUMN(header, TOTAL, 35, 1)                                                             \
+  COLUMN(header, BODY, 36, 1)                                                              \
+  COLUMN(header, CARRIER, 37, 1)                                                           \
+  COLUMN(header, TEMPERATURE_OFFSET, 38, 1)                                                \
+  COLUMN(header, REFERENCE, 39, 3)                                                         \
+  COLUMN(header, DELTA, 42, 6)                                                             \
+  NUMBER(int, AXIS_DX, 0)                                                                  \
+  NUMBER(int, AXIS_DY, 1)                                                                  \
+  NUMBER(int, AXIS_DZ, 2)                                                                  \
+  NUMBER(int, AXIS_DPHI, 3)                                                                \
+  NUMBER(int, AXIS_DTHETA, 4)                                                              \
+  NUMBER(int, AXIS_DPSI, 5)                                                                \
+  NUMBER(int, AXIS_MACH, 6)
 
 // ``plan`` (J, 7), one line per active joint, leaves of the joint tree first: its first
 // row, translation rows, rotation rows, tree child, tree parent, +1 if the tree child is
@@ -135,6 +178,9 @@ CFEM_BODIES_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace loads {
 CFEM_LOADS_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace loads
+namespace aero_table {
+CFEM_AERO_TABLE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace aero_table
 namespace plan_layout {
 CFEM_PLAN_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace plan_layout

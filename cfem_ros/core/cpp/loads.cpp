@@ -85,16 +85,40 @@ bool scheduled_wrench(const double* y, const double* rot, const Mat& loads, idx 
 
 // The aerodynamic force and moment about the CG of the row's body at y into out[0:6]
 // (world axes): aero.hpp on the row's packed table (loads.py keeps it in the first 23
-// columns of the rows from A_FIRST on); zero at zero airspeed.
+// columns of the rows from A_FIRST on); zero at zero airspeed. air: what it was computed from.
 void aero_wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
-                 double* out) {
+                 double* out, aero::Air* air = nullptr) {
   idx b = static_cast<idx>(loads(row, A_BODY));
   idx c = static_cast<idx>(loads(row, A_CARRIER));
   if (c < 0) c = b;   // no proximity table: the carrier is not read
   const double* rb = rot + 9 * b;
   aero::wrench(Rows{loads.row(static_cast<idx>(loads(row, A_FIRST)))}, y + 3 * b,
-               y + 3 * n + 3 * b, rb, y + 10 * n + 3 * b, y + 3 * c, rot + 9 * c, out);
+               y + 3 * n + 3 * b, rb, y + 10 * n + 3 * b, y + 3 * c, rot + 9 * c, out, air);
 }
+
+// Where aero row `row`'s body is on each axis at y: values, status, ends (aero_axes).
+void axes_at(const double* y, const Mat& loads, idx row, idx n, double* values, int* status,
+             double* low, double* high) {
+  idx b = static_cast<idx>(loads(row, A_BODY));
+  idx c = static_cast<idx>(loads(row, A_CARRIER));
+  if (c < 0) c = b;
+  double rb[9], rc[9];
+  const double* qb = y + 6 * n + 4 * b;
+  const double* qc = y + 6 * n + 4 * c;
+  quat_matrix(qb[0], qb[1], qb[2], qb[3], rb);
+  quat_matrix(qc[0], qc[1], qc[2], qc[3], rc);
+  Rows p{loads.row(static_cast<idx>(loads(row, A_FIRST)))};
+  aero::Flow f;
+  aero::flow(p, y + 3 * b, y + 3 * n + 3 * b, rb, y + 3 * c, rc, f);
+  int watched[aero::kSlots] = {0};
+  int used = aero::ranges(p, watched, low, high);
+  for (int k = 0; k < aero::kSlots; ++k) {
+    values[k] = k < used ? f.x[k] : 0.0;
+    status[k] = 0;
+    if (k < used && watched[k]) status[k] = f.x[k] < low[k] ? -1 : (f.x[k] > high[k] ? 1 : 0);
+  }
+}
+
 
 // Body a's pose in body b's axes at y into pose: its CG (3) and quaternion (4, x y z w).
 void relative_pose(const double* y, idx n, idx a, idx b, double* pose) {
@@ -241,6 +265,7 @@ bool stroke_reached(const double* y, const Mat& loads, idx n) {
     if (kind == KIND_SCHEDULED && loads(row, S_ON) > 0.0 && loads(row, S_STROKE) < INFINITY) {
       if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
     }
+    if (kind == KIND_AERO && aero_moved(y, loads, row, n)) return true;
     if (kind == KIND_CONTACT) {
       bool apart = surely_apart(y, loads, row, n);
       if (loads(row, S_ON) > 0.0 && !apart) return true;
@@ -268,10 +293,13 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
   idx n = bodies.rows;
   rotations(y, n, rot);
   idx o = 0;
+  idx aero_first = -1, aero_count = 0;
   for (idx row = n; row < loads.rows; ++row) {
     double kind = loads(row, S_KIND);
     if (kind == KIND_TABLE || kind == KIND_SCRATCH) break;  // the tables
     if (kind == KIND_AERO) {
+      if (aero_first < 0) aero_first = row;
+      ++aero_count;
       aero_wrench(y, rot, loads, row, n, w);
       for (int k = 0; k < 6; ++k) out[o + k] = w[k];
       o += 6;
@@ -290,6 +318,52 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
       o += 6;
     }
   }
+  // the air each body with aero tables sees: flow, air, force and moment coefficients
+  const double deg = 180.0 / 3.14159265358979323846;
+  for (idx row = aero_first; row >= 0 && row < aero_first + aero_count; ++row) {
+    aero::Air air;
+    aero_wrench(y, rot, loads, row, n, w, &air);
+    double numbers[AIR_OUTPUTS] = {air.alpha * deg, air.beta * deg, air.mach, air.pressure,
+                                   air.density, air.speed, air.coefficients[0],
+                                   air.coefficients[1], air.coefficients[2], air.about_cg[0],
+                                   air.about_cg[1], air.about_cg[2]};
+    for (int k = 0; k < AIR_OUTPUTS; ++k) out[o + k] = numbers[k];
+    o += AIR_OUTPUTS;
+  }
+}
+
+bool aero_moved(const double* y, const Mat& loads, idx row, idx n) {
+  double values[aero::kSlots], low[aero::kSlots], high[aero::kSlots];
+  int status[aero::kSlots];
+  axes_at(y, loads, row, n, values, status, low, high);
+  for (int k = 0; k < aero::kSlots; ++k)
+    if (status[k] != static_cast<int>(loads(row, A_STATUS + k))) return true;
+  return false;
+}
+
+void aero_axes(const double* y, const Mat& loads, idx row, idx n, double* values,
+               double* status, double* low, double* high) {
+  int where[aero::kSlots];
+  axes_at(y, loads, row, n, values, where, low, high);
+  for (int k = 0; k < aero::kSlots; ++k) status[k] = where[k];
+}
+
+double aero_crossing(const double* y, const double* y1, const Mat& loads, idx row, idx n) {
+  double values[aero::kSlots], low[aero::kSlots], high[aero::kSlots];
+  double end[aero::kSlots];
+  int status[aero::kSlots], target[aero::kSlots];
+  axes_at(y1, loads, row, n, end, target, low, high);
+  axes_at(y, loads, row, n, values, status, low, high);
+  double most = -INFINITY;
+  for (int k = 0; k < aero::kSlots; ++k) {
+    int was = static_cast<int>(loads(row, A_STATUS + k));
+    if (target[k] == was) continue;
+    // leaving: past the end it leaves by; coming back (or across): inside the end it left by
+    double e = was == 0 ? (target[k] > 0 ? values[k] - high[k] : low[k] - values[k])
+                        : (was > 0 ? high[k] - values[k] : values[k] - low[k]);
+    if (e > most) most = e;
+  }
+  return most;
 }
 
 }  // namespace loads

@@ -19,6 +19,11 @@ namespace loads {
 // step end bounds the distance from below without GJK (stroke_reached). A contact is
 // reached when the shapes are CONTACT_GAP close (GJK's own tolerance, 1e-12 m, is below
 // it: the time it costs is this over the approach speed).
+// An aerodynamic row keeps in A_STATUS (AERO_SLOTS columns) where its body was on each
+// axis of its tables the last time it was told (-1 below the grid, 0 on it, 1 above;
+// aero.hpp's slots); a sample holds AIR_OUTPUTS numbers per aerodynamic row after the
+// applied loads: alpha, beta (deg), Mach, dynamic pressure (Pa), density (kg/m^3),
+// airspeed (m/s), CX, CY, CZ, and Cl, Cm, Cn about the CG.
 
 // The held torque of body i plus r x F (world axes), r its point turned by rot (3x3).
 inline void held_moment(const double* rot, const Mat& loads, idx i, const double* force,
@@ -57,17 +62,32 @@ void rotations(const double* y, idx n, double* rot);
 void strokes(const double* y, const Mat& loads, idx n, double* out);
 
 // True if a scheduled wrench that is on has reached its stroke at y, or an armed contact
-// pair touches (a pair that is not armed is armed when its shapes are apart at y).
+// pair touches (a pair that is not armed is armed when its shapes are apart at y), or a body
+// with aero tables has left or come back to a table's range (aero_moved).
 bool stroke_reached(const double* y, const Mat& loads, idx n);
 
 // The distance between the shapes of contact row `row` at y, m (distance.hpp); the
 // closest points (world) into points[0:6] if points is not null.
 double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points);
 
-// Each scheduled wrench's (and aero table's) load at y into out, 6 a source; rot (n, 3, 3)
-// and w (18) scratch.
+// Each scheduled wrench's (and aero table's) load at y into out, 6 a source, then the air
+// of each aero row (AIR_OUTPUTS numbers); rot (n, 3, 3) and w (18) scratch.
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
                     double* rot, double* w);
+
+// The values at y of the axes of aero row `row`'s tables (aero.hpp's slots; rad, Mach,
+// m) into values, and where the body is on each (-1 below, 0 on the grid, 1 above; 0 for an
+// axis with one grid value) into status, the grids' ends into low and high.
+void aero_axes(const double* y, const Mat& loads, idx row, idx n, double* values,
+               double* status, double* low, double* high);
+
+// True if aero row `row`'s body is elsewhere at y than its A_STATUS columns say.
+bool aero_moved(const double* y, const Mat& loads, idx row, idx n);
+
+// The crossing of aero row `row` at y toward where the body is at y1: the largest, over the
+// axes on which the body is elsewhere at y1 than A_STATUS says, of the signed distance
+// past the grid's end it crosses (>= 0 once crossed).
+double aero_crossing(const double* y, const double* y1, const Mat& loads, idx row, idx n);
 
 }  // namespace loads
 }  // namespace cfem

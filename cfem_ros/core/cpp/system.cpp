@@ -82,7 +82,8 @@ class BoundSystem {
         throw py::value_error("order: not a plan line");
     for (idx row = n; row < s.loads.rows; ++row) {
       double kind = s.loads(row, loads::S_KIND);
-      if (kind == loads::KIND_SCHEDULED || kind == loads::KIND_CONTACT) ++scheduled_;
+      if (kind == loads::KIND_SCHEDULED || kind == loads::KIND_AERO
+          || kind == loads::KIND_CONTACT) ++scheduled_;
     }
     set_dense(dense);
   }
@@ -114,7 +115,7 @@ class BoundSystem {
   Triggers t;
   const idx* order_ = nullptr;
   idx order_count_ = 0;
-  idx scheduled_ = 0;   // scheduled wrenches and contact pairs (locate's wrenches_found)
+  idx scheduled_ = 0;   // scheduled wrenches, aero rows, contact pairs (wrenches_found)
   py::array_t<double> work_;
 
  private:
@@ -224,8 +225,8 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
       throw py::value_error("joints_found: expected (len(watch), 2)");
     py::array wf = checked<idx>(wrenches_found, "wrenches_found", 1, true);
     if (wf.shape(0) < b.scheduled_)
-      throw py::value_error("wrenches_found: expected one entry per scheduled wrench and "
-                            "contact pair");
+      throw py::value_error("wrenches_found: expected one entry per scheduled wrench, aero "
+                            "table and contact pair");
     double* ip = vec(info, "info", true, locate_info::WIDTH);
     py::gil_scoped_release free;
     locate(y0p, 13 * b.s.n(), h, y1p, ysp, b.s, b.v, b.t, ptr<idx>(jf), ptr<idx>(wf), ip);
