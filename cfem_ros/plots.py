@@ -402,6 +402,10 @@ def write_figures(run: Run, directory: str) -> list:
     for key in run.applied:
         paths.append(save(applied_figure(run, key), os.path.join(
             directory, f'applied_{key.replace("/", "_")}.png')))
+    from cfem_ros.aero_plots import air_figure
+    from cfem_ros.recording.airtracks import read_air
+    for name, track in read_air(run.path, run.namespace, run.start_ns).items():
+        paths.append(save(air_figure(run, track), os.path.join(directory, f'aero_{name}.png')))
     paths.append(save(trajectory_figure(run), os.path.join(directory, 'trajectories_3d.png')))
     if run.relative:
         paths.append(save(relative_trajectory_figure(run),

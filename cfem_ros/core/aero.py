@@ -144,26 +144,30 @@ class AeroWatch:
         return events
 
 
-def seconds_outside(events, body: str, t_end: float) -> float:
+def outside_spans(events, body: str, t_end: float) -> list:
     """
-    Return the time a body spent outside any of its tables' ranges up to t_end, s.
+    Return the (start, end) spans, s, in which a body was outside its tables' ranges.
 
     From its ``aero_outside`` / ``aero_inside`` events (in time order): the
-    body is outside while any axis is.
+    body is outside while any axis is; a span still open ends at t_end.
     """
-    outside, since, total = 0, 0.0, 0.0
+    spans, outside, since = [], 0, 0.0
     for event in events:
         if event.get('body') != body or event.get('event') not in ('aero_outside',
                                                                   'aero_inside'):
             continue
         if event['event'] == 'aero_outside':
-            if outside == 0:
-                since = event['time']
+            since = event['time'] if outside == 0 else since
             outside += 1
         elif outside > 0:
             outside -= 1
             if outside == 0:
-                total += event['time'] - since
+                spans.append((since, event['time']))
     if outside > 0:
-        total += t_end - since
-    return total
+        spans.append((since, t_end))
+    return spans
+
+
+def seconds_outside(events, body: str, t_end: float) -> float:
+    """Return the time a body spent outside its tables' ranges up to t_end, s."""
+    return float(sum(end - start for start, end in outside_spans(events, body, t_end)))

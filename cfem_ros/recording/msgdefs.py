@@ -62,6 +62,11 @@ DEFINITIONS = {
         ('builtin_interfaces/Time', _TIME),
         ('geometry_msgs/Wrench', _WRENCH),
         ('geometry_msgs/Vector3', _VECTOR3)),
+    'geometry_msgs/msg/Vector3Stamped': _join(
+        'std_msgs/Header header\nVector3 vector\n',
+        ('std_msgs/Header', _HEADER),
+        ('builtin_interfaces/Time', _TIME),
+        ('geometry_msgs/Vector3', _VECTOR3)),
     'nav_msgs/msg/Odometry': _join(
         'std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n'
         'geometry_msgs/TwistWithCovariance twist\n',

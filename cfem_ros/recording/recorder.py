@@ -21,6 +21,7 @@ from typing import Optional
 
 from cfem_ros import __version__
 from cfem_ros.core import rotations
+from cfem_ros.core.aero import AIR_TOPICS
 from cfem_ros.recording import visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
@@ -35,6 +36,7 @@ import numpy as np
 POSE = 'geometry_msgs/msg/PoseStamped'
 TWIST = 'geometry_msgs/msg/TwistStamped'
 WRENCH = 'geometry_msgs/msg/WrenchStamped'
+VECTOR3 = 'geometry_msgs/msg/Vector3Stamped'
 STRING = 'std_msgs/msg/String'
 ODOMETRY = 'nav_msgs/msg/Odometry'
 TF = 'tf2_msgs/msg/TFMessage'
@@ -865,6 +867,10 @@ class StateRecorder:
             turned.append((self.topic(f'bodies/{body}/applied/{source}'), WRENCH, body,
                            InBodyAxes(column, 13 * model.body_index(body) + 3)))
             column += 6
+        for entry in model.aero:   # the air each body sees (SPEC section 10), 3 a topic
+            body = bodies[entry.body].name
+            messages += [(self.topic(f'bodies/{body}/aero/{name}'), VECTOR3, body, 3)
+                         for name, _ in AIR_TOPICS]
         for body, ref in self.sim.model.references:   # in a carrier's frame (core/motion.py)
             messages.append((self.topic(f'bodies/{bodies[body].name}/relative_pose'), POSE,
                              bodies[ref].name, 7))

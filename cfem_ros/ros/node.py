@@ -40,6 +40,7 @@ from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import visuals
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import parameters
+from cfem_ros.ros.airtopics import AirPublishers
 from cfem_ros.ros.pacing import OdometryGate, WallPace
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from cfem_ros.ros.recording import NodeRecording
@@ -242,6 +243,7 @@ class _Publishers:
                 pose,
                 node.create_publisher(TwistStamped, f'bodies/{name}/relative_twist', TOPIC_QOS),
                 twist))
+        self.air = AirPublishers(node, sim, TOPIC_QOS)   # the air each body sees (aero)
         self.applied = []   # scheduled loads, per source: the body's, and world axes
         for body, source in sim.applied_sources:
             self.applied.append((self._wrench(f'bodies/{body}/applied/{source}', body),
@@ -358,6 +360,7 @@ class _Publishers:
                     _vector3(wrench.wrench.force, values[:3])
                     _vector3(wrench.wrench.torque, values[3:])
                     publisher.publish(wrench)
+        self.air.publish(stamp_ns)
         if self.relative:
             for (pose_pub, pose, twist_pub, twist), state in zip(
                     self.relative, sim.relative_states()):
