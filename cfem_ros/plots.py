@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 
 from cfem_ros.core import rotations
+from cfem_ros.core.aero import outside_spans
 from cfem_ros.core.errors import CfemError
 from cfem_ros.recording.analysis import attitude_difference_deg, Run
 import matplotlib
@@ -383,6 +384,32 @@ def compare_joint_figure(a: Run, b: Run, name: str, labels=('A', 'B')):
     return fig
 
 
+def air_figure(run, track):
+    """Alpha, beta, Mach, dynamic pressure and coefficients of one body against time."""
+    fig = plt.figure(figsize=(10, 11), layout='constrained')
+    fig.suptitle(f'{track.name}: the air it saw ({os.path.basename(run.path)})')
+    axes = _time_axes(fig, run, 5)
+    t, v = track.time, track.values
+    _lines(axes[0], _one(t, v['flow'][:, :2]), ('alpha', 'beta'), 'angle [deg]',
+           'angle of attack and sideslip')
+    _lines(axes[1], _one(t, v['flow'][:, 2:]), ('Mach',), 'Mach [-]', 'Mach number')
+    _lines(axes[2], _one(t, v['air'][:, :1] / 1e3), ('q',), 'dynamic pressure [kPa]',
+           'dynamic pressure')
+    _lines(axes[3], _one(t, v['force_coefficients']), ('CX', 'CY', 'CZ'),
+           'coefficient [-]', 'force coefficients, body axes')
+    _lines(axes[4], _one(t, v['moment_coefficients']), ('Cl', 'Cm', 'Cn'),
+           'coefficient [-]', 'moment coefficients about the actual CG, body axes')
+    spans = outside_spans(run.events, track.name, run.duration)
+    for ax in axes:
+        for k, (start, end) in enumerate(spans):
+            ax.axvspan(start, max(end, start + 1e-9 * max(run.duration, 1.0)),
+                       color='tab:gray', alpha=0.2,
+                       label='outside the tables' if k == 0 and ax is axes[0] else None)
+    if spans:
+        axes[0].legend(loc='best', fontsize=8)
+    return fig
+
+
 def save(fig, path: str) -> str:
     """Write a figure as PNG and close it; return the path."""
     fig.savefig(path, dpi=DPI)
@@ -402,7 +429,6 @@ def write_figures(run: Run, directory: str) -> list:
     for key in run.applied:
         paths.append(save(applied_figure(run, key), os.path.join(
             directory, f'applied_{key.replace("/", "_")}.png')))
-    from cfem_ros.aero_plots import air_figure
     from cfem_ros.recording.airtracks import read_air
     for name, track in read_air(run.path, run.namespace, run.start_ns).items():
         paths.append(save(air_figure(run, track), os.path.join(directory, f'aero_{name}.png')))

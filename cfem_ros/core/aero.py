@@ -35,6 +35,8 @@ AIR_TOPICS = (('flow', ('alpha_deg', 'beta_deg', 'mach')),
 AIR_OUTPUTS = LOADS.AIR_OUTPUTS
 #: Slots of the axes a body can leave: alpha, beta, Mach, the proximity axes.
 SLOTS = LOADS.AERO_SLOTS
+#: The events of leaving a table's range and of coming back.
+AERO_EVENTS = ('aero_outside', 'aero_inside')
 #: How close to a grid's end a value located at a crossing is (relative to 1 + |end|).
 AT_END = 1e-9
 
@@ -153,8 +155,7 @@ def outside_spans(events, body: str, t_end: float) -> list:
     """
     spans, outside, since = [], 0, 0.0
     for event in events:
-        if event.get('body') != body or event.get('event') not in ('aero_outside',
-                                                                  'aero_inside'):
+        if event.get('body') != body or event.get('event') not in AERO_EVENTS:
             continue
         if event['event'] == 'aero_outside':
             since = event['time'] if outside == 0 else since

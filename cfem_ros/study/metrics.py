@@ -72,9 +72,8 @@ def from_run(run) -> Samples:
 
 def _outside(events, t_end: float) -> dict:
     """Return each body's time outside its aero tables from the run's events, s."""
-    from cfem_ros.core.aero import seconds_outside
-    bodies = dict.fromkeys(e['body'] for e in events
-                           if e.get('event') in ('aero_outside', 'aero_inside'))
+    from cfem_ros.core.aero import AERO_EVENTS, seconds_outside
+    bodies = dict.fromkeys(e['body'] for e in events if e.get('event') in AERO_EVENTS)
     return {body: seconds_outside(events, body, t_end) for body in bodies}
 
 

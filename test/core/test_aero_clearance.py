@@ -88,7 +88,7 @@ def free_store():
 
 
 def reference_rhs(_, s):
-    """The guide's equations: Newton at the CG, Euler about it, quaternion kinematics."""
+    """Return the state's rate by the guide's equations (Newton, Euler, quaternions)."""
     v, q, w = s[3:6], s[6:10], s[10:13]
     turn = Rotation.from_quat(q).as_matrix()
     density, _ = standard_1976(ALTITUDE - s[2], HOT)   # height: along -gravity (z down)

@@ -37,7 +37,7 @@ HINGED = {
 
 
 def pendulum_release_time(offset) -> float:
-    """The time the compound pendulum of the moved CG takes to turn RELEASE from rest."""
+    """Return the time the moved CG's compound pendulum takes to turn RELEASE from rest."""
     r = NOMINAL + np.asarray(offset, dtype=float)      # the hinge stays at the origin
     d = float(np.hypot(r[0], r[2]))
     theta0 = math.atan2(r[2], r[0])                     # the CG's angle in the x-z plane
