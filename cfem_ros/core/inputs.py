@@ -129,6 +129,26 @@ def held_wrench(body, force, torque, point=None):
     return force, torque, point
 
 
+#: Largest force, torque, point or odometry number an input may carry (a scenario's bound).
+MAX_INPUT_MAGNITUDE = 1e9
+#: Latest header stamp, ns: a ROS Time's seconds are an int32.
+MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
+
+
+def stamp_problem(header_ns: Optional[int]) -> Optional[str]:
+    """Return why a header stamp is no ROS time (None if it is, or if there is none)."""
+    if header_ns is None or 0 <= header_ns <= MAX_STAMP_NS:
+        return None
+    return (f'header stamp {header_ns} ns is not a ROS time (expected 0 to 2^31 - 1 s, '
+            'nanoseconds below 1e9)')
+
+
+def _bounded(values, what: str):
+    if np.max(np.abs(values)) > MAX_INPUT_MAGNITUDE:
+        raise ValueError(f'{what} must be at most {MAX_INPUT_MAGNITUDE:g} in magnitude, as '
+                         'in a scenario')
+
+
 def input_topic(item: Input) -> str:
     """Topic of an input, relative to the namespace."""
     if item.kind == 'odom':
@@ -152,6 +172,9 @@ def validate_input(sim, item: Input):
         # joints or release groups, one or several (groups.command_names)
         sim.groups.check_command(item.target, sim.active)
         return
+    stamp = stamp_problem(item.header_ns)
+    if stamp:
+        raise ValueError(stamp)
     names = [body.name for body in model.bodies]
     if item.target not in names:
         raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
@@ -164,6 +187,7 @@ def validate_input(sim, item: Input):
                              f'{model.frame_id!r}')
         if item.values is None or not np.isfinite(item.values).all():
             raise ValueError('odometry must be finite numbers')
+        _bounded(item.values, 'odometry numbers')
         norm = np.linalg.norm(item.values[3:7])
         if abs(norm - 1.0) > 1e-3:
             raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
@@ -176,6 +200,10 @@ def validate_input(sim, item: Input):
                          'followed by @x,y,z, the point in body axes)')
     if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
         raise ValueError('force and torque must be finite')
+    _bounded(np.concatenate([item.force, item.torque]), 'force (N) and torque (N m)')
+    _, point = parse_frame_id(item.frame_id)
+    if point is not None:
+        _bounded(point, 'the point after @ (m)')
     body = model.bodies[names.index(item.target)]
     if not body.dynamic:
         what = 'fixed' if body.fixed else 'kinematic'

@@ -22,6 +22,7 @@ from typing import Optional
 from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.core.aero import AIR_TOPICS
+from cfem_ros.core.inputs import stamp_problem
 from cfem_ros.recording import visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
@@ -915,6 +916,8 @@ class StateRecorder:
             self.recorder.write(self.topic('release'), STRING, {'data': item.target}, stamp_ns)
             return
         header_ns = stamp_ns if item.header_ns is None else item.header_ns
+        if stamp_problem(header_ns):   # refused, and no header can hold it: the log time's
+            header_ns = stamp_ns
         if item.kind == 'odom':
             v = item.values
             self.recorder.write(self.topic(f'bodies/{item.target}/odom'), ODOMETRY, {

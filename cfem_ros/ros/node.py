@@ -85,6 +85,9 @@ CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 TICK_BUDGET = 0.05
 #: Seconds between two "falling behind" warnings.
 LAG_WARNING_PERIOD = 5.0
+#: Most simulated seconds one /clock message may move the simulation on (a jump beyond is
+#: ignored with a warning); a jump within it is simulated TICK_BUDGET of wall time at a go.
+MAX_CLOCK_JUMP = 3600.0
 #: Seconds between two warnings of the same kind (topic and reason) about
 #: refused messages; the ones in between are counted, and the count given.
 REFUSAL_WARNING_PERIOD = 1.0
@@ -535,6 +538,7 @@ class CfemNode(Node):
         self._early = []
         self._last_lag_warning = -math.inf
         self._timer = None
+        self._catch_up_timer = None   # goes on toward /clock's time, a slice at a time
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         mode = 'following /clock' if self.sim_time else (
@@ -626,6 +630,10 @@ class CfemNode(Node):
 
     def _on_clock(self, msg: ClockMsg):
         clock_ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+        if clock_ns < 0:
+            self._refusals.warning(f'/clock: {clock_ns * 1e-9:.9g} s is a negative time; '
+                                   'ignored')
+            return
         if self.start_ns is None:
             self.get_logger().info(f'/clock started at {clock_ns * 1e-9:.9f} s; '
                                    'simulated time 0 is that stamp')
@@ -635,8 +643,28 @@ class CfemNode(Node):
             self.get_logger().warning('/clock went back; ignored (restart the node to '
                                       'replay from an earlier time)', throttle_duration_sec=5.0)
             return
-        self._clock_limit = (clock_ns - self.start_ns) / 1e9
-        self._run_to(self._clock_limit)
+        limit = (clock_ns - self.start_ns) / 1e9
+        if limit - self.sim.t > MAX_CLOCK_JUMP:
+            self._refusals.warning(
+                f'/clock jumped {limit - self.sim.t:.6g} s ahead of the simulation (at '
+                f't = {self.sim.t:.6g} s); more than {MAX_CLOCK_JUMP:g} s at once is ignored '
+                '(restart the node to follow a clock that far away)')
+            return
+        self._clock_limit = limit
+        self._catch_up()
+
+    def _catch_up(self):
+        """Run toward /clock's time for TICK_BUDGET of wall time; a timer does the rest."""
+        self._run_to(self._clock_limit, deadline=time.monotonic() + TICK_BUDGET)
+        session = self.session
+        behind = (self.exit_code is None and not session.finished
+                  and session.next_sample_time <= self.gate.held(self._clock_limit))
+        if behind and self._catch_up_timer is None:   # signals and messages come between
+            self._catch_up_timer = self.create_timer(
+                0.001, self._catch_up, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        elif not behind and self._catch_up_timer is not None:
+            self.destroy_timer(self._catch_up_timer)
+            self._catch_up_timer = None
 
     def _run_to(self, limit: float, deadline: float = math.inf):
         """Run the session on to simulated time limit, within a wall deadline."""
@@ -766,7 +794,7 @@ class CfemNode(Node):
             self._refusals.warning(f'{topic}: message not applied: {err}')
         if (item.kind == 'odom' and self.gate.interpolate and self.sim_time
                 and self._clock_limit is not None):
-            self._run_to(self._clock_limit)   # what waited for this message goes on
+            self._catch_up()   # what waited for this message goes on
         if self.session.finished and self.exit_code is None:
             self._end()
 
@@ -794,6 +822,9 @@ def main(args=None) -> int:
                 if node.recording is None:
                     raise
                 node.recording_failed(err)
+            except ValueError as err:   # rclpy's time source on a /clock it cannot hold
+                node.get_logger().warning(f'a message was not applied: {err}',
+                                          throttle_duration_sec=5.0)
         if stop:
             node.get_logger().info(
                 f'{signal.Signals(stop[0]).name} received at simulated t = {node.sim.t:.9g} s;'
