@@ -24,9 +24,11 @@ import sys
 from typing import Callable, Optional
 
 from cfem_ros.study.folder import read_manifest, read_table
+from cfem_ros.study.resources import ResourceFailure
 from cfem_ros.study.spec import RANDOM_NUMBERS, SweepError, SweepSpec
 from cfem_ros.study.sweep import (
-    _part_of, columns, decide, frame, groups, MANIFEST, numeric, RESULTS, run_task, write_atomic)
+    _part_of, columns, decide, frame, groups, MANIFEST, numeric, RESULTS, run_task, task_done,
+    write_atomic)
 import numpy as np
 
 METHODS = ('mc', 'subset', 'nais', 'form')
@@ -192,19 +194,23 @@ class Evaluator:
             for chunk, path in zip(chunks, paths):
                 write_atomic(frame(self.rows(part, chunk), self.names), path)
             return paths
+        failures = []
         if self.client is None:
             for chunk in chunks:
-                run_task(part, chunk, self.outdir, self.record, self.threads)
-            return paths
-        futures = [self.client.submit(run_task, _part_of(part, chunk), chunk, self.outdir,
-                                      self.record, 1, pure=False, retries=2)
-                   for chunk in chunks]
-        try:
-            for future in futures:
-                future.result()
-        finally:
-            for future in futures:
-                future.cancel()
+                task_done(run_task(part, chunk, self.outdir, self.record, self.threads),
+                          failures=failures)
+        else:
+            futures = [self.client.submit(run_task, _part_of(part, chunk), chunk, self.outdir,
+                                          self.record, 1, pure=False, retries=2)
+                       for chunk in chunks]
+            try:
+                for future in futures:
+                    task_done(future.result(), failures=failures)
+            finally:
+                for future in futures:
+                    future.cancel()
+        if failures:
+            raise ResourceFailure(failures[0])
         return paths
 
     def assemble(self):

@@ -33,7 +33,8 @@ from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
 from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.metrics import Collector, compute, empty
-from cfem_ros.study.resources import PartialRows, recording_failure, unrecorded
+from cfem_ros.study.resources import (
+    PartialRows, recording_failure, ResourceFailure, unrecorded)
 from cfem_ros.study.spec import (
     apply_values, load_sweep, RANDOM_NUMBERS, resolve, SweepError, SweepSpec)
 
@@ -333,22 +334,32 @@ def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
     """
     Run a group of runs and write their rows as one Parquet part (a Dask task).
 
-    Returns (runs done, runs failed).
+    Returns (runs done, runs failed, None), or, when recordings or the part
+    could not be written (a full disk), the message of that ``ResourceFailure``
+    third: returned, not raised, so that Dask neither retries the task nor
+    logs a traceback; the caller raises it once the other tasks are done.
     """
     failure = None
     try:
         rows = run_rows(spec, runs, outdir, record, threads)
     except PartialRows as partial:
-        rows, failure = partial.rows, partial.failure
+        rows, failure = partial.rows, str(partial.failure)
     part = os.path.join(outdir, 'parts', f'part_{runs[0]:07d}_{runs[-1]:07d}.parquet')
     try:
         if rows:
             write_atomic(frame(rows, columns(spec)), part)
     except OSError as err:
-        raise unrecorded(runs, f'{part}: cannot write ({err.strerror or err})', outdir) from err
-    if failure is not None:
-        raise failure
-    return len(rows), sum(r['status'] == 'failed' for r in rows)
+        rows, failure = [], str(unrecorded(runs, f'{part}: cannot write '
+                                           f'({err.strerror or err})', outdir))
+    return len(rows), sum(r['status'] == 'failed' for r in rows), failure
+
+
+def task_done(done: tuple, progress=None, failures=None):
+    """Take a task's result: progress(runs, failed); a resource failure kept in failures."""
+    if progress:
+        progress(done[0], done[1])
+    if done[2] is not None and failures is not None:
+        failures.append(done[2])
 
 
 def _done_runs(outdir: str) -> set:
@@ -565,12 +576,12 @@ class Sweep:
         todo = prepare(self.spec, outdir, record)
         if todo:
             warn_once(self.spec)
+        failures = []
         if client is None:
             threads = threads or os.cpu_count() or 1
             for runs in groups(todo, 1):
-                done = run_task(self.spec, runs, outdir, record, threads)
-                if progress:
-                    progress(*done)
+                task_done(run_task(self.spec, runs, outdir, record, threads), progress,
+                          failures)
         else:
             from dask.distributed import as_completed
             workers = max(1, len(client.scheduler_info().get('workers', {})))
@@ -580,10 +591,10 @@ class Sweep:
                        for runs in groups(todo, workers)]
             try:
                 for future in as_completed(futures):
-                    done = future.result()
-                    if progress:
-                        progress(*done)
+                    task_done(future.result(), progress, failures)
             finally:
                 for future in futures:
                     future.cancel()
+        if failures:   # the runs written are saved; those not are done again on resume
+            raise ResourceFailure(failures[0])
         return assemble(self.spec, outdir, csv=csv)
