@@ -446,12 +446,28 @@ class Model:
         raise ValueError(f'no body named {name!r}')
 
     def carrier(self, body: int) -> int:
-        """Return the kinematic body that body's joints lead to (-1 if none)."""
-        for joint in self.joints:
-            if joint.child == body and self.bodies[joint.parent].motion is not None:
-                return joint.parent
-            if joint.parent == body and self.bodies[joint.child].motion is not None:
-                return joint.child
+        """
+        Return the kinematic body that body's joints lead to (-1 if none).
+
+        Through any number of other bodies: a store on a pylon fixed to a
+        moving aircraft is carried by the aircraft. The nearest one (fewest
+        joints away), the first joint's first when several are as near.
+        """
+        seen, front = {body}, [body]
+        while front:
+            after = []
+            for here in front:
+                for joint in self.joints:
+                    if here not in (joint.parent, joint.child):
+                        continue
+                    other = joint.child if joint.parent == here else joint.parent
+                    if other in seen:
+                        continue
+                    if self.bodies[other].motion is not None:
+                        return other
+                    seen.add(other)
+                    after.append(other)
+            front = after
         return -1
 
     def joint_index(self, name: str) -> int:

@@ -211,6 +211,9 @@ class Run:
         force and moment about the body's CG, world axes.
     relative : dict of str to RelativeTrack
         Poses and twists in a carrier's frame (``bodies/<body>/relative_pose``).
+    joint_frame : dict of str to JointTrack
+        Joint loads as published on ``joints/<joint>/wrench``: in the joint's
+        frame (the child's axes), moment about the joint point.
 
     """
 
@@ -225,6 +228,7 @@ class Run:
     duration: float = 0.0
     applied: dict = field(default_factory=dict)
     relative: dict = field(default_factory=dict)
+    joint_frame: dict = field(default_factory=dict)
 
     def releases(self) -> list:
         """Return the release events as (time, joint, cause), in time order."""
@@ -478,9 +482,13 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             position=values[:, 0:3], quaternion=quat, euler_deg=euler,
             euler_continuous_deg=euler_continuous(euler), rates=twist[:, 3:6],
             velocity=velocity, velocity_world=world)
-    joints, applied = {}, {}
-    for kind, tracks in (('joint', joints), ('applied', applied)):
-        for name, rows in raw[kind].items():
+    joints, applied, joint_frame = {}, {}, {}
+    in_joint_frame = {name: [r[:2] for r in rows if r[2] not in raw['world']]
+                      for name, rows in raw['joint_in'].items()}   # old files: world axes
+    for kind, tracks, found in (('joint', joints, raw['joint']),
+                                ('applied', applied, raw['applied']),
+                                ('frame', joint_frame, in_joint_frame)):
+        for name, rows in found.items():
             rows.sort(key=lambda r: r[0])
             stamps = np.array([r[0] for r in rows], dtype=np.int64)
             values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 6)
@@ -506,7 +514,7 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
     last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
     return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
                events=raw['events'], topics=topics, metadata=metadata, duration=float(last),
-               applied=applied, relative=relative)
+               applied=applied, relative=relative, joint_frame=joint_frame)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,217 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A run's time histories as one table (``cfem-sim export``, SPEC section 12).
+
+Everything comes from the recording: the recorded poses and twists,
+composed into another body's axes with ``--relative-to``
+(``relative.relative_pose``), the joints' loads as published in their
+frames, and each aero body's alpha, beta, Mach and dynamic pressure
+computed from its recorded state with the scenario's air (the scenario
+named in the recording's metadata). Nothing is simulated again.
+
+Columns: ``time`` (s), with a reference also ``time_from_release`` (s,
+NaN before the first release); per body ``<body>_x, _y, _z`` (m),
+``_roll_deg, _pitch_deg, _yaw_deg`` (Z-Y-X), ``_u, _v, _w`` (m/s, CG
+velocity relative to the world in body axes), ``_p, _q, _r`` (deg/s,
+body axes); per joint ``<joint>_fx, _fy, _fz`` (N) and ``_mx, _my, _mz``
+(N m about the joint point), joint frame, NaN once released; per aero
+body ``<body>_alpha_deg, _beta_deg, _mach, _dynamic_pressure`` (Pa).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Optional
+
+from cfem_ros.core import rotations
+from cfem_ros.recording.errors import RecordingError
+from cfem_ros.recording.relative import matching, relative_pose, release_time
+import numpy as np
+
+__all__ = ['BODY_COLUMNS', 'JOINT_COLUMNS', 'AERO_COLUMNS', 'export_table', 'write_table']
+
+BODY_COLUMNS = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg', 'u', 'v', 'w', 'p', 'q', 'r')
+JOINT_COLUMNS = ('fx', 'fy', 'fz', 'mx', 'my', 'mz')
+AERO_COLUMNS = ('alpha_deg', 'beta_deg', 'mach', 'dynamic_pressure')
+FORMATS = ('.csv', '.parquet')
+
+
+def _sample_stamps(run, rate: Optional[float]) -> np.ndarray:
+    """Return the stamps of the rows: every pose sample, or those on multiples of 1/rate."""
+    stamps = np.unique(np.concatenate([b.stamp_ns for b in run.bodies.values()]))
+    if rate is None:
+        return stamps
+    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
+        raise RecordingError(f'--rate {rate}: expected a rate > 0 Hz')
+    since = stamps - run.start_ns
+    step_ns = 1e9 / rate
+    on_grid = np.abs(since / step_ns - np.round(since / step_ns)) * step_ns <= 0.5
+    kept = stamps[on_grid]
+    wanted = int(math.floor(since[-1] / step_ns + 1e-9)) + 1 if len(since) else 0
+    if len(kept) < wanted:
+        recorded = run.metadata.get('rate_hz', '')
+        raise RecordingError(
+            f'{run.path}: --rate {rate:g}: {wanted - len(kept)} of the times k/{rate:g} s '
+            f'have no recorded sample (recorded at {recorded or "another rate"} Hz); expected '
+            'a rate that divides the recording\'s (rows are recorded samples, never '
+            'interpolated)')
+    return kept
+
+
+def _fill(n: int, width: int, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
+    out = np.full((n, width), np.nan)
+    out[rows] = values
+    return out
+
+
+def _body_block(run, name: str, stamps: np.ndarray, reference: Optional[str]) -> np.ndarray:
+    """Return a body's 12 columns at the stamps (NaN where it has no sample)."""
+    track = run.bodies[name]
+    rows, mine = matching(stamps, track.stamp_ns)
+    position, quaternion = track.position[mine], track.quaternion[mine]
+    if reference is not None:
+        ref = run.bodies[reference]
+        ref_rows, theirs = matching(stamps, ref.stamp_ns)
+        both, here, there = np.intersect1d(rows, ref_rows, return_indices=True)
+        rows, mine = both, mine[here]
+        position, quaternion = relative_pose(track.position[mine], track.quaternion[mine],
+                                             ref.position[theirs[there]],
+                                             ref.quaternion[theirs[there]])
+    euler = rotations.to_rpy_deg(quaternion) if len(rows) else np.zeros((0, 3))
+    values = np.column_stack([position, euler, track.velocity[mine],
+                              np.degrees(track.rates[mine])])
+    return _fill(len(stamps), 12, rows, values)
+
+
+def _joint_block(run, name: str, stamps: np.ndarray) -> np.ndarray:
+    track = run.joint_frame[name]
+    rows, mine = matching(stamps, track.stamp_ns)
+    return _fill(len(stamps), 6, rows, np.column_stack([track.force[mine], track.moment[mine]]))
+
+
+def _scenario_model(run):
+    """Return the recording's scenario parsed (None if its file is gone or invalid)."""
+    from cfem_ros.core.errors import CfemError
+    from cfem_ros.core.scenario import load_scenario
+    path = run.metadata.get('scenario')
+    if not path or not os.path.isfile(path):
+        return None
+    try:
+        return load_scenario(path)
+    except CfemError:
+        return None
+
+
+def aero_blocks(run, stamps: np.ndarray, model) -> dict:
+    """
+    Return per aero body its (n, 4) alpha (deg), beta (deg), Mach, dynamic pressure (Pa).
+
+    From the recorded pose and twist (the air of the scenario: wind,
+    altitude, ISA), through the compiled core's ``aero_wrench``.
+    """
+    from cfem_ros.core import aeropack, native
+    kernel = native.load()
+    out = {}
+    for aero in model.aero:
+        name = model.bodies[aero.body].name
+        track = run.bodies.get(name)
+        if track is None:
+            continue
+        rows, mine = matching(stamps, track.stamp_ns)
+        k = len(rows)
+        carrier_position, carrier_rot = np.zeros((k, 3)), np.tile(np.eye(3).reshape(9), (k, 1))
+        if aero.proximity is not None:
+            carrier = run.bodies.get(model.bodies[aero.proximity.carrier].name)
+            if carrier is not None:
+                c_rows, theirs = matching(stamps, carrier.stamp_ns)
+                keep = np.isin(rows, c_rows)
+                rows, mine = rows[keep], mine[keep]
+                at = np.searchsorted(c_rows, rows)
+                carrier_position = carrier.position[theirs[at]]
+                carrier_rot = rotations.matrices(carrier.quaternion[theirs[at]]).reshape(-1, 9)
+        rot = rotations.matrices(track.quaternion[mine]).reshape(-1, 9)
+        _, air = kernel.aero_wrench(
+            aeropack.pack(aero, model), np.ascontiguousarray(track.position[mine]),
+            np.ascontiguousarray(track.velocity_world[mine]), np.ascontiguousarray(rot),
+            np.ascontiguousarray(track.rates[mine]), np.ascontiguousarray(carrier_position),
+            np.ascontiguousarray(carrier_rot))
+        values = np.column_stack([np.degrees(air[:, 0]), np.degrees(air[:, 1]), air[:, 2],
+                                  0.5 * air[:, 4] * air[:, 3] ** 2])
+        out[name] = _fill(len(stamps), 4, rows, values)
+    return out
+
+
+def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] = None,
+                 warn=None):
+    """
+    Return a recording's time histories as a pandas DataFrame (columns as the module says).
+
+    Parameters
+    ----------
+    run : recording.analysis.Run
+    relative_to : str, optional
+        A body: the others' positions and attitudes in its axes (from its
+        CG), and ``time_from_release``; the body itself is left out.
+    rate : float, optional
+        Keep only the samples at multiples of 1/rate s (a rate that divides
+        the recording's).
+    warn : callable, optional
+        Called with a line when the aero columns cannot be made (the
+        scenario file is gone).
+
+    Raises
+    ------
+    RecordingError
+        If relative_to is not a body of the recording, or rate does not
+        divide the recording's.
+
+    """
+    import pandas as pd
+    if relative_to is not None and relative_to not in run.bodies:
+        raise RecordingError(f'{run.path}: --relative-to {relative_to}: no such body in the '
+                             f'recording; expected one of {", ".join(run.bodies)}')
+    stamps = _sample_stamps(run, rate)
+    time = (stamps - run.start_ns) / 1e9
+    columns = {'time': time}
+    if relative_to is not None:
+        released = release_time(run)
+        since = time - released
+        since[~(time >= released - 0.5e-9)] = np.nan
+        columns['time_from_release'] = since
+    for name in run.bodies:
+        if name == relative_to:
+            continue
+        block = _body_block(run, name, stamps, relative_to)
+        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(BODY_COLUMNS))
+    for name in run.joint_frame:
+        block = _joint_block(run, name, stamps)
+        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(JOINT_COLUMNS))
+    model = _scenario_model(run)
+    if model is not None:
+        for name, block in aero_blocks(run, stamps, model).items():
+            columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(AERO_COLUMNS))
+    elif warn is not None and run.metadata.get('scenario'):
+        warn(f'{run.path}: its scenario {run.metadata["scenario"]} cannot be read: no aero '
+             'columns')
+    return pd.DataFrame(columns)
+
+
+def write_table(table, path: str) -> str:
+    """Write a table as CSV (pandas) or Parquet (pyarrow) by path's extension, atomically."""
+    extension = os.path.splitext(path)[1].lower()
+    if extension not in FORMATS:
+        raise RecordingError(f'-o {path}: unknown format {extension or "(no extension)"}; '
+                             'expected FILE.csv or FILE.parquet')
+    tmp = f'{path}.tmp-{os.getpid()}'
+    try:
+        if extension == '.csv':
+            table.to_csv(tmp, index=False, float_format='%.17g')
+        else:
+            table.to_parquet(tmp, index=False, engine='pyarrow')
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path

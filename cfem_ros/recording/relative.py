@@ -1,0 +1,122 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Recorded poses in another body's axes: what a captive trajectory system gives.
+
+``relative_pose`` composes two stacks of poses sample by sample (the body's
+and the reference's, both body-to-world as recorded): the body's CG from
+the reference's CG in the reference's axes, and its attitude relative to
+the reference. ``relative_track`` does it for two bodies of a ``Run``
+matched by their stamps; ``release_time`` gives a run's first release.
+Used by ``cfem-sim export``, ``plot --relative-to`` and the sweep
+envelopes; no second simulation is involved anywhere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cfem_ros.core import rotations
+from cfem_ros.recording.errors import RecordingError
+import numpy as np
+
+__all__ = ['RelativeTrack', 'relative_pose', 'relative_track', 'release_time']
+
+
+def relative_pose(position, quaternion, ref_position, ref_quaternion) -> tuple:
+    """
+    Return a body's pose relative to a reference body, in the reference's axes.
+
+    Parameters
+    ----------
+    position, ref_position : array_like, shape (n, 3)
+        The two CGs in the world frame, m.
+    quaternion, ref_quaternion : array_like, shape (n, 4)
+        Body-to-world attitudes, x y z w (any non-zero norm).
+
+    Returns
+    -------
+    (ndarray (n, 3), ndarray (n, 4))
+        ``R_ref^T (p - p_ref)``, the CG from the reference's CG in the
+        reference's axes (m), and ``conj(q_ref) q``, the body-to-reference
+        attitude (unit quaternions, x y z w): its Z-Y-X angles
+        (``rotations.to_rpy_deg``) are the roll, pitch and yaw relative to
+        the reference.
+
+    """
+    position = np.asarray(position, dtype=float).reshape(-1, 3)
+    quaternion = np.asarray(quaternion, dtype=float).reshape(-1, 4)
+    ref_position = np.asarray(ref_position, dtype=float).reshape(-1, 3)
+    ref_quaternion = np.asarray(ref_quaternion, dtype=float).reshape(-1, 4)
+    if not len(position):
+        return np.zeros((0, 3)), np.zeros((0, 4))
+    turn = rotations.matrices(ref_quaternion)
+    moved = np.einsum('nji,nj->ni', turn, position - ref_position)
+    unit = quaternion / np.linalg.norm(quaternion, axis=1)[:, None]
+    ref_unit = ref_quaternion / np.linalg.norm(ref_quaternion, axis=1)[:, None]
+    return moved, rotations.multiply(rotations.conjugate(ref_unit), unit)
+
+
+@dataclass
+class RelativeTrack:
+    """
+    A body's recorded motion in a reference body's axes, at the samples both have.
+
+    Attributes
+    ----------
+    name, reference : str
+    time : ndarray (n,)
+        s from the run's start.
+    position : ndarray (n, 3)
+        m, reference axes, from the reference's CG.
+    quaternion : ndarray (n, 4)
+        Body to reference, x y z w.
+    euler_deg : ndarray (n, 3)
+        Roll, pitch, yaw relative to the reference, Z-Y-X, deg.
+
+    """
+
+    name: str
+    reference: str
+    time: np.ndarray
+    position: np.ndarray
+    quaternion: np.ndarray
+    euler_deg: np.ndarray
+
+
+def matching(stamps: np.ndarray, ref_stamps: np.ndarray) -> tuple:
+    """Return the indices (into stamps, into ref_stamps) of the stamps both hold."""
+    _, mine, theirs = np.intersect1d(stamps, ref_stamps, assume_unique=True,
+                                     return_indices=True)
+    return mine, theirs
+
+
+def relative_track(run, name: str, reference: str) -> RelativeTrack:
+    """
+    Return body ``name`` of a ``Run`` in the axes of body ``reference``.
+
+    Only the samples whose stamps both bodies have (every sample of a
+    cfem_ros recording).
+
+    Raises
+    ------
+    RecordingError
+        If either body is not in the recording.
+
+    """
+    for body in (name, reference):
+        if body not in run.bodies:
+            raise RecordingError(f'{run.path}: no body {body!r} in the recording (it has '
+                                 f'{", ".join(run.bodies)})')
+    body, ref = run.bodies[name], run.bodies[reference]
+    mine, theirs = matching(body.stamp_ns, ref.stamp_ns)
+    position, quaternion = relative_pose(body.position[mine], body.quaternion[mine],
+                                         ref.position[theirs], ref.quaternion[theirs])
+    euler = rotations.to_rpy_deg(quaternion) if len(quaternion) else np.zeros((0, 3))
+    return RelativeTrack(name, reference, body.time[mine], position, quaternion, euler)
+
+
+def release_time(run) -> float:
+    """Return the time of a run's first release, s (NaN if nothing was released)."""
+    releases = run.releases()
+    return float(releases[0][0]) if releases else float('nan')
