@@ -404,22 +404,49 @@ def cmd_recover(broken: str, fixed: str) -> int:
     return EXIT_OK
 
 
-def cmd_plot(recording: str, directory: str, metric: Optional[str] = None) -> int:
+def cmd_plot(recording: str, directory: str, metric: Optional[str] = None,
+             relative_to: Optional[str] = None, snapshots: str = '0.1,0.2,0.3') -> int:
     """Write the figures of a recording (or a sweep folder) under directory; exit 0 or 2."""
+    from cfem_ros import outputs_cli
     if os.path.isdir(recording):
-        return _plot_sweep(recording, directory, metric)
+        code = _plot_sweep(recording, directory, metric)
+        if code or relative_to is None:
+            return code
+        try:
+            paths = outputs_cli.plot_sweep_relative(recording, relative_to, directory)
+        except CfemError as err:
+            return _error(str(err))
+        print('\n'.join(paths))
+        return EXIT_OK
     from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         run = analysis.open_run(recording)
+        if relative_to is not None:
+            outputs_cli.snapshot_times(snapshots)
     except CfemError as err:
         return _error(str(err))
     try:
         from cfem_ros import plots   # matplotlib only for the commands that draw
         paths = plots.write_figures(run, directory)
+        if relative_to is not None:
+            paths += outputs_cli.plot_relative(run, relative_to, directory, snapshots)
+    except CfemError as err:
+        return _error(str(err))
     except OSError as err:
         return _error(f'{directory}: cannot write ({err.strerror or err})')
     for path in paths:
         print(path)
+    return EXIT_OK
+
+
+def cmd_export(args) -> int:
+    """Write a recording's time histories as a table (SPEC section 12); exit 0 or 2."""
+    from cfem_ros import outputs_cli
+    try:
+        print(outputs_cli.export(args.recording, args.output, args.relative_to, args.rate,
+                                 args.overwrite))
+    except CfemError as err:
+        return _error(str(err))
     return EXIT_OK
 
 
@@ -738,6 +765,10 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
     wall = time.monotonic() - started
     touched = int((table['status'] == 'contact').sum())
     contact = f'{touched} stopped at a contact, ' if touched else ''
+    invalid = int((table['status'] == 'invalid').sum())
+    if invalid:   # SPEC section 12: reported, never counted as failures
+        contact += (f'{invalid} invalid draws (refused by the scenario\'s checks, not run, '
+                    'left out of every probability), ')
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
           f'{contact}{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
@@ -940,6 +971,9 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument('--metric', metavar='COLUMN',
                       help='sweep folder: metric to scatter against the varied parameters '
                       '(default the first clearance minimum)')
+    from cfem_ros import outputs_cli
+    outputs_cli.add_plot_options(plot)
+    outputs_cli.add_export_parser(sub)
     info = sub.add_parser('info', help='summarize a recording',
                           description='Print topics, message counts, time range, chunks, '
                           "metadata and events, from the file's summary.")
@@ -1093,7 +1127,10 @@ def main(argv=None) -> int:
         if args.command == 'recover':
             return cmd_recover(args.broken, args.output)
         if args.command == 'plot':
-            return cmd_plot(args.recording, args.output, args.metric)
+            return cmd_plot(args.recording, args.output, args.metric, args.relative_to,
+                            args.snapshots)
+        if args.command == 'export':
+            return cmd_export(args)
         if args.command == 'sweep':
             return cmd_sweep(args.sweep, args.output, workers=args.workers,
                              scheduler=args.scheduler, runs=args.runs, record=args.record,

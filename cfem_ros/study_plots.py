@@ -375,14 +375,13 @@ def _save(fig, path: str) -> str:
 
 def load_criteria(outdir: str) -> tuple:
     """Return (criteria, confidence) a sweep folder's table was judged by (none: [], 0.95)."""
-    from cfem_ros.study.criteria import Criterion
+    from cfem_ros.study.criteria import from_json
     path = os.path.join(outdir, 'criteria.json')
     if not os.path.exists(path):
         return [], 0.95
     with open(path, encoding='utf-8') as stream:
         held = json.load(stream)
-    return [Criterion(c['name'], c['column'], c['op'], c['threshold'], c['absolute'])
-            for c in held['criteria']], held['confidence']
+    return [from_json(c) for c in held['criteria']], held['confidence']
 
 
 def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
@@ -402,6 +401,8 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
     with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
         manifest = json.load(stream)
     document = manifest.get('resolved', {}).get('document')
+    from cfem_ros.study.criteria import valid_runs
+    table = valid_runs(table)   # invalid draws were not run: nothing to draw
     criteria, level = load_criteria(outdir)
     metrics = metric_columns(table, manifest)
     if metric is None:

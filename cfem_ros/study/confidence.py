@@ -102,8 +102,13 @@ class Fraction:
 
 
 def fractions(table, criteria, level: float = 0.95) -> list:
-    """Return a Fraction per criterion and one named 'any' for the runs that fail any."""
-    from cfem_ros.study.criteria import failures
+    """
+    Return a Fraction per criterion and one named 'any' for the runs that fail any.
+
+    Over the valid runs only (``criteria.valid_runs``).
+    """
+    from cfem_ros.study.criteria import failures, valid_runs
+    table = valid_runs(table)   # an invalid draw is neither a pass nor a failure
     failed = failures(table, criteria)
     runs = len(table)
     out = [Fraction(name, int(bad.sum()), runs, level) for name, bad in failed.items()]

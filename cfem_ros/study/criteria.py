@@ -4,11 +4,15 @@
 Pass/fail criteria on a sweep table (SPEC section 9): parse, judge, measure the margin.
 
 A rule is ``<column> <op> <number>`` or ``abs(<column>) <op> <number>``
-with op one of ``<, <=, >, >=``. A NaN value fails its rule; a run whose
-status is not 'ok' (failed, contact) fails every rule. The table gains
-``pass`` (bool) and ``failed_criterion``: the name of the first rule a
+with op one of ``<, <=, >, >=``; a criterion is a rule or rules joined by
+``and``, ``or`` and parentheses (``expressions.py``). A NaN value fails its
+rule; a run whose status is 'failed' or 'contact' fails every rule. A run
+whose status is 'invalid' (its draw refused by the scenario's checks, not
+run) is neither: it is left out of every count and probability
+(``valid_runs``). The table gains ``pass`` (a nullable bool: NA for an
+invalid run) and ``failed_criterion``: the name of the first criterion a
 run fails, in file order, or for a run whose status is not 'ok' that
-status ('failed', 'contact'), its reason being in ``message``.
+status ('failed', 'contact', 'invalid'), its reason being in ``message``.
 """
 
 from __future__ import annotations
@@ -23,7 +27,10 @@ import numpy as np
 #: Operator text -> numpy comparison.
 OPERATORS = {'<': operator.lt, '<=': operator.le, '>': operator.gt, '>=': operator.ge}
 RULE = ('"<column> <op> <number>" or "abs(<column>) <op> <number>", op one of '
-        '<, <=, >, >= (e.g. "clearance_store_pylon_min >= 0.0254")')
+        '<, <=, >, >=, or such rules joined by and, or and parentheses (e.g. '
+        '"distance_store_pylon_min >= 0.0254 and abs(store_max_pitch_deg) <= 30")')
+#: The status of a run whose draw the scenario's checks refuse (SPEC section 12).
+INVALID = 'invalid'
 #: The margin of a run that did not finish (or whose value is NaN), in thresholds.
 FAILED_MARGIN = -1.0
 #: Smallest threshold magnitude that scales a margin (below it, as 0: scale 1).
@@ -64,6 +71,19 @@ class Criterion:
         """Return the rule as written in a sweep file."""
         what = f'abs({self.column})' if self.absolute else self.column
         return f'{what} {self.op} {self.threshold:g}'
+
+    @property
+    def columns(self) -> list:
+        """Return the column the rule is on, in a list (as ``Expression.columns``)."""
+        return [self.column]
+
+    def passes_of(self, table) -> np.ndarray:
+        """Return, per run of a table, whether it meets the rule and finished."""
+        return self.passes(table[self.column].to_numpy(dtype=float)) & finished_runs(table)
+
+    def margin_of(self, table) -> np.ndarray:
+        """Return, per run of a table, the rule's margin (``margin``)."""
+        return self.margin(table[self.column].to_numpy(dtype=float))
 
     def value(self, column_values) -> np.ndarray:
         """Return what the rule compares: the column's values or their magnitudes."""
@@ -120,15 +140,48 @@ def parse_rule(name: str, text) -> Criterion:
                      threshold=threshold, absolute=bool(absolute))
 
 
+def finished_runs(table) -> np.ndarray:
+    """Return, per run, whether its status is 'ok'."""
+    return (table['status'] == 'ok').to_numpy()
+
+
+def valid_runs(table):
+    """Return the runs of a table that are not ``INVALID`` (what every probability counts)."""
+    return table[(table['status'] != INVALID).to_numpy()]
+
+
+def parse_criterion(name: str, text):
+    """Return the criterion of a text: a rule, or rules combined (``expressions.py``)."""
+    from cfem_ros.study.expressions import parse_criterion as parse
+    return parse(name, text)
+
+
+def to_json(criterion) -> dict:
+    """Return what ``criteria.json`` holds of a criterion (``from_json`` reads it back)."""
+    if isinstance(criterion, Criterion):
+        return {'name': criterion.name, 'rule': criterion.text, 'column': criterion.column,
+                'op': criterion.op, 'threshold': criterion.threshold,
+                'absolute': criterion.absolute}
+    return {'name': criterion.name, 'rule': criterion.text, 'expression': True,
+            'columns': criterion.columns}
+
+
+def from_json(held: dict):
+    """Return a criterion from its ``criteria.json`` entry."""
+    if held.get('expression'):
+        return parse_criterion(held['name'], held['rule'])
+    return Criterion(held['name'], held['column'], held['op'], held['threshold'],
+                     held['absolute'])
+
+
 def failures(table, criteria) -> dict:
     """
     Return, per criterion name, a bool array: the runs that fail it.
 
-    A run whose ``status`` is not 'ok' fails every criterion.
+    A run whose ``status`` is not 'ok' fails every criterion (leave invalid
+    runs out first: ``valid_runs``).
     """
-    finished = (table['status'] == 'ok').to_numpy()
-    return {c.name: ~(c.passes(table[c.column].to_numpy(dtype=float)) & finished)
-            for c in criteria}
+    return {c.name: ~c.passes_of(table) for c in criteria}
 
 
 def judge(table, criteria):
@@ -146,7 +199,10 @@ def judge(table, criteria):
         first = np.where(failed[c.name], c.name, first)
     first = np.where(status != 'ok', status, first)
     table = table.copy()
-    table['pass'] = first == ''
+    import pandas as pd
+    passed = pd.array(first == '', dtype='boolean')
+    passed[status == INVALID] = pd.NA   # not run: neither a pass nor a failure
+    table['pass'] = passed
     table['failed_criterion'] = first.astype(str)
     return table
 
@@ -159,8 +215,8 @@ def margins(table, criteria) -> np.ndarray:
     rare-event methods. A run whose status is not 'ok' has ``FAILED_MARGIN``
     (or less, if a criterion's margin already is).
     """
-    finished = (table['status'] == 'ok').to_numpy()
+    finished = finished_runs(table)
     least = np.full(len(table), np.inf)
     for c in criteria:
-        least = np.minimum(least, c.margin(table[c.column].to_numpy(dtype=float)))
+        least = np.minimum(least, c.margin_of(table))
     return np.where(finished, least, np.minimum(least, FAILED_MARGIN))

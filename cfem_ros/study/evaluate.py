@@ -111,6 +111,7 @@ class Evaluator:
         self._prepare(method, options)
 
     def _prepare(self, method: str, options: dict):
+        self.method = method
         manifest = os.path.join(self.outdir, MANIFEST)
         digest = study_digest(self.spec, method, options)
         try:
@@ -172,6 +173,8 @@ class Evaluator:
                 p: {k: values[p][k] for k in todo} for p in self.paths})
             self._read(self._run(part, todo))
             self.ran += len(todo)
+        if self.method != 'mc':
+            refuse_invalid(self.spec, self.method, [self.saved[k] for k in runs])
         failed = sum(self.saved[k]['status'] != 'ok' for k in todo)
         self.log(f'{len(points)} runs asked ({len(todo)} run, {len(points) - len(todo)} saved, '
                  f'{failed} failed); {self.count} in all')
@@ -219,6 +222,24 @@ class Evaluator:
                        frame([self.saved[k] for k in range(self.count)], self.names))
         write_atomic(table, os.path.join(self.outdir, RESULTS))
         return table
+
+
+def refuse_invalid(spec: SweepSpec, method: str, rows):
+    """
+    Raise SweepError if a run of rows is invalid: a method that chose it needs its value.
+
+    Monte Carlo leaves invalid draws out of P; a rare-event method's limit
+    state and a sensitivity design need a value at every point they choose.
+    """
+    from cfem_ros.study.criteria import INVALID
+    for row in rows:
+        if row['status'] == INVALID:
+            raise SweepError(spec.path, 'vary', f'--{"design" if method in DESIGNS else "method"}'
+                             f' {method} drew run {row["run"]}, which the scenario\'s checks '
+                             f'refuse ({row["message"]}); {method} needs a value at every '
+                             'point it draws', 'distributions whose every draw is a valid '
+                             'scenario (truncnormal bounds inside the valid range), or '
+                             '--method mc, which leaves invalid draws out')
 
 
 def table_values(spec: SweepSpec) -> np.ndarray:

@@ -18,6 +18,7 @@ import math
 from cfem_ros.core import rotations
 from cfem_ros.study.shape_metrics import compute_distance
 from cfem_ros.study.spec import STROKE_COLUMNS
+from cfem_ros.study.windowed import at_after, compute_extremes
 import numpy as np
 
 NAN = float('nan')
@@ -45,6 +46,8 @@ class Samples:
     cg_offsets : dict of str to ndarray (3,)
         Per body with a ``cg_offset``, the offset (body axes, m): points
         given from the CG are from the nominal CG (SPEC section 10).
+    rates : dict of str to ndarray (n, 3)
+        Per body its body rates at its samples, rad/s (body axes).
 
     """
 
@@ -55,6 +58,7 @@ class Samples:
     contacts: list = field(default_factory=list)
     aero_outside: dict = field(default_factory=dict)
     cg_offsets: dict = field(default_factory=dict)
+    rates: dict = field(default_factory=dict)
 
 
 def from_run(run) -> Samples:
@@ -67,7 +71,8 @@ def from_run(run) -> Samples:
                  for name, e in run.stroke_ends().items()},
         contacts=_contacts(run.events),
         aero_outside=_outside(run.events, max((float(b.time[-1]) for b in run.bodies.values()
-                                               if len(b.time)), default=0.0)))
+                                               if len(b.time)), default=0.0)),
+        rates={name: b.rates for name, b in run.bodies.items()})
 
 
 def _outside(events, t_end: float) -> dict:
@@ -173,11 +178,14 @@ class Collector:
         for e in self.sim.events:
             if e.get('event') == 'stroke_end':
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
+        rates = {b.name: bodies_rows[:, 13 * i + 10:13 * i + 13]
+                 for i, b in enumerate(model.bodies)}
         return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes,
                        contacts=_contacts(self.sim.events),
                        aero_outside=_outside(self.sim.events, self.sim.t),
                        cg_offsets={b.name: b.cg_offset for b in model.bodies
-                                   if np.any(b.cg_offset)})
+                                   if np.any(b.cg_offset)},
+                       rates=rates)
 
 
 def _kernel():
@@ -286,6 +294,9 @@ def compute(samples: Samples, metrics) -> dict:
         for name in (entry.body, entry.relative_to):
             if name is not None and name not in samples.bodies:
                 raise KeyError(f'no body {name!r} in the run')
+        if entry.after is not None:   # s after a release (SPEC section 12)
+            out.update(zip(names, at_after(entry, samples)))
+            continue
         t, pos, quat = samples.bodies[entry.body]
         want = int(round(entry.time * 1e9))
         k = int(np.searchsorted(t, entry.time - 0.5e-9))
@@ -303,6 +314,8 @@ def compute(samples: Samples, metrics) -> dict:
         out.update(zip((f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS), values))
     for body in getattr(metrics, 'aero', ()):
         out[f'aero_outside_{body}'] = float(samples.aero_outside.get(body, 0.0))
+    for entry in getattr(metrics, 'extremes', ()):
+        out.update(compute_extremes(entry, samples))
     return out
 
 

@@ -241,12 +241,16 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Es
 
 
 def mc_estimate(spec: SweepSpec, table):
-    """Return the estimate of a judged Monte Carlo table: fraction, exact interval."""
-    from cfem_ros.study.criteria import judge
+    """Return the estimate of a judged Monte Carlo table: fraction, exact interval (valid runs)."""
+    from cfem_ros.study.criteria import judge, valid_runs
     if 'pass' not in table:
         table = judge(table, spec.criteria)
+    table = valid_runs(table)   # invalid draws: not run, neither pass nor failure
     failed = int((~table['pass'].to_numpy(dtype=bool)).sum())
     n = len(table)
+    if not n:
+        raise SweepError(spec.path, 'vary', 'gives no valid draw: the scenario\'s checks '
+                         'refuse every run', 'distributions whose draws make valid scenarios')
     p = failed / n
     low, high = clopper_pearson(failed, n, spec.confidence)
     cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf

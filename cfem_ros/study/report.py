@@ -95,17 +95,18 @@ def build(outdir: str, figures=()) -> str:
         manifest = json.load(stream)
     resolved = manifest.get('resolved', {})
     document = resolved.get('document', {})
-    from cfem_ros.study.criteria import Criterion
+    from cfem_ros.study.criteria import from_json, INVALID, valid_runs
     criteria, level = [], 0.95
     path = os.path.join(outdir, 'criteria.json')
     if os.path.exists(path):
         with open(path, encoding='utf-8') as stream:
             held = json.load(stream)
-        criteria = [Criterion(c['name'], c['column'], c['op'], c['threshold'], c['absolute'])
-                    for c in held['criteria']]
+        criteria = [from_json(c) for c in held['criteria']]
         level = held['confidence']
     method = manifest.get('method', 'mc')
     ok = int((table['status'] == 'ok').sum())
+    invalid = int((table['status'] == INVALID).sum())
+    everything, table = table, valid_runs(table)
     parts = [f'<h1>Separation study: {_e(document.get("name", ""))}</h1>',
              f'<p>Generated {_e(time.strftime("%Y-%m-%d %H:%M:%S %Z"))} from '
              f'<code>{_e(os.path.abspath(outdir))}</code>.</p>',
@@ -119,7 +120,9 @@ def build(outdir: str, figures=()) -> str:
                              ' sampling at its design point (OpenTURNS)', 'morris':
                              'Morris screening (SALib)', 'sobol': 'Sobol indices (SALib)'}.get(
                                  method, method)],
-                 ['runs', f'{len(table)} ({ok} finished, {len(table) - ok} did not)'],
+                 ['runs', f'{len(everything)} ({ok} finished, {len(table) - ok} did not, '
+                          f'{invalid} invalid draws: refused by the scenario\'s checks, not '
+                          'run, left out of every probability)'],
                  ['seed', resolved.get('seed', '')],
                  ['bodies', ', '.join(document.get('bodies') or {})],
                  ['joints', ', '.join(document.get('joints') or {}) or 'none'],

@@ -84,7 +84,7 @@ def metrics_to_rank(table, spec: SweepSpec) -> list:
     """
     from cfem_ros.study.rounding import rounding_only
     out = []
-    for name in spec.metrics.columns() + [c.column for c in spec.criteria]:
+    for name in spec.metrics.columns() + [n for c in spec.criteria for n in c.columns]:
         if name in out or name not in table or name.endswith(('_cause', '_point_a',
                                                               '_point_b')):
             continue

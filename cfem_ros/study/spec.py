@@ -27,14 +27,15 @@ from typing import Any, Optional
 
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import load_yaml, MAX_MAGNITUDE, parse_scenario, read_text
+from cfem_ros.study import windowed
 from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
 import numpy as np
 
 TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics', 'criteria',
             'confidence')
-METRIC_KEYS = ('clearance', 'at', 'distance')
+METRIC_KEYS = ('clearance', 'at', 'distance', 'extremes')
 CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to')
-AT_KEYS = ('time', 'body', 'relative_to')
+AT_KEYS = ('time', 'body', 'relative_to', 'after')
 #: Distribution name -> what its list holds.
 DISTRIBUTIONS = {
     'uniform': '[low, high] with low < high',
@@ -181,16 +182,24 @@ class Clearance:
 
 @dataclass
 class At:
-    """A body's state at a sample time, optionally in another body's frame."""
+    """
+    A body's state at a sample time, optionally in another body's frame.
+
+    With ``after`` (a joint or release group, SPEC section 12) the time is
+    counted from that release (``windowed.at_after``); ``groups`` are the
+    scenario's release groups, (name, joints) pairs.
+    """
 
     time: float
     body: str
     relative_to: Optional[str] = None
+    after: Optional[str] = None
+    groups: tuple = ()
 
     @property
     def prefix(self) -> str:
-        """Return the column prefix, ``<body>_at_<time>_``."""
-        return f'{self.body}_at_{self.time:g}_'
+        """Return the column prefix, ``<body>_at_<time>_`` (``<time>r_`` after a release)."""
+        return f'{self.body}_at_{self.time:g}{"r" if self.after else ""}_'
 
 
 #: Sweep columns of a stroke end, after ``stroke_<wrench>_`` (SPEC section 7).
@@ -207,6 +216,7 @@ class Metrics:
     strokes: list = field(default_factory=list)
     distance: list = field(default_factory=list)   # shape_metrics.Distance
     aero: list = field(default_factory=list)   # bodies with aero tables
+    extremes: list = field(default_factory=list)   # windowed.Extremes
 
     def columns(self) -> list:
         """Return the metric column names, in table order."""
@@ -226,6 +236,8 @@ class Metrics:
         for wrench in self.strokes:
             names += [f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS]
         names += [f'aero_outside_{body}' for body in self.aero]
+        for entry in self.extremes:
+            names += entry.columns()
         return names
 
 
@@ -308,6 +320,9 @@ class SweepSpec:
             resolved['metrics']['windows'] = windows
             resolved['metrics']['distance'] = [
                 [d.body_a, d.body_b, d.window.describe()] for d in self.metrics.distance]
+        if any(a.after for a in self.metrics.at) or self.metrics.extremes:   # as windows
+            resolved['metrics']['at_after'] = [a.after for a in self.metrics.at]
+            resolved['metrics']['extremes'] = [e.describe() for e in self.metrics.extremes]
         if self.correlations:   # absent otherwise: a sweep without it keeps its hash
             resolved['correlate'] = [[a, b, repr(rho)] for a, b, rho in self.correlations]
         return json.dumps(resolved, sort_keys=True, default=repr)
@@ -403,7 +418,7 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
     A rule may name any number column of the table: a metric or a varied
     key path drawn as numbers.
     """
-    from cfem_ros.study.criteria import parse_rule, RULE
+    from cfem_ros.study.criteria import parse_criterion, RULE
     level = document.get('confidence', 0.95)
     if isinstance(level, bool) or not isinstance(level, (int, float)) \
             or not 0 < level < 1:
@@ -420,12 +435,13 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
         if not isinstance(name, str) or not re.fullmatch(r'[A-Za-z_][\w-]*', name):
             fail(key, f'{_show(name)} is not a name', 'letters, digits, _ or -')
         try:
-            criterion = parse_rule(name, text)
+            criterion = parse_criterion(name, text)
         except ValueError as err:
             fail(key, str(err), RULE)
-        if criterion.column not in allowed:
-            fail(key, f'{criterion.column!r} is not a number column of the table',
-                 'one of ' + ', '.join(allowed))
+        for column in criterion.columns:
+            if column not in allowed:
+                fail(key, f'{column!r} is not a number column of the table',
+                     'one of ' + ', '.join(allowed))
         criteria.append(criterion)
     return criteria, float(level)
 
@@ -497,7 +513,7 @@ def _check_unique_at(fail, metrics):
     """Refuse an ``at`` entry given twice (its columns would be duplicates)."""
     seen = {}
     for i, entry in enumerate(metrics.at):
-        point = (entry.time, entry.body, entry.relative_to)
+        point = (entry.time, entry.body, entry.relative_to, entry.after)
         if point in seen:
             fail(f'metrics.at[{i}]', f'is the same as metrics.at[{seen[point]}] (time '
                  f'{entry.time:g} s, body {entry.body})', 'each entry once')
@@ -765,12 +781,18 @@ def _parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
                 or t < 0:
             fail(f'{key}.time', f'is {_show(t)}', 'a time >= 0 s')
         _check_at_time(fail, f'{key}.time', t, rate)
-        if abs(t * rate - round(t * rate)) > ON_GRID * max(1.0, t * rate):
+        after, groups = None, ()
+        if 'after' in entry:   # from a release: between samples, interpolated
+            after, groups = windowed.check_after(fail, key, entry['after'], base)
+        elif abs(t * rate - round(t * rate)) > ON_GRID * max(1.0, t * rate):
             fail(f'{key}.time', f'is {t!r} s, between two samples at rate_hz {rate:g}',
-                 f'a multiple of 1/rate_hz = {1 / rate:g} s')
+                 f'a multiple of 1/rate_hz = {1 / rate:g} s (or a time after a release: '
+                 '`after: <joint or group>`)')
         relative = entry.get('relative_to')
         out.at.append(At(float(t), body(f'{key}.body', entry.get('body')),
-                         None if relative is None else body(f'{key}.relative_to', relative)))
+                         None if relative is None else body(f'{key}.relative_to', relative),
+                         after, groups))
+    out.extremes = windowed.parse_extremes(fail, metrics.get('extremes') or [], base, body)
     return out
 
 

@@ -29,8 +29,10 @@ from typing import Callable, Optional
 import uuid
 
 from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
+from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
+from cfem_ros.study.criteria import INVALID
 from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.metrics import Collector, compute, empty
 from cfem_ros.study.resources import (
@@ -220,9 +222,10 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     """
     Run run k of a sweep and return its table row (a dict, columns in order).
 
-    A run whose values make an invalid scenario, or that fails, is a row
-    with ``status`` 'failed' and the reason in ``message``; its metrics are
-    those of the samples it did take. record: the path of an MCAP
+    A run whose values the scenario's checks refuse is not run: a row with
+    ``status`` 'invalid' (SPEC section 12) and the check's message. A run
+    that fails is a row with ``status`` 'failed' and the reason in
+    ``message``; its metrics are those of the samples it did take. record: the path of an MCAP
     recording to write of it. models: where the model comes from (a
     ``Models`` of spec, shared by a task's runs); the whole parse if None.
     """
@@ -233,7 +236,11 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     try:
         model = full_model(spec, k, values) if models is None else models.model(k, values)
         sim = Simulator(model, logger=RUNS_LOG)
-    except Exception as err:   # noqa: B902 (any refusal is this run's failure)
+    except ScenarioError as err:   # the scenario's own checks refuse the draw: not run
+        row.update(status=INVALID, message=str(err))
+        row.update(empty(spec.metrics))
+        return row
+    except Exception as err:   # noqa: B902 (any other refusal is this run's failure)
         row.update(status='failed', message=str(err))
         row.update(empty(spec.metrics))
         return row
@@ -447,7 +454,7 @@ def decide(spec: SweepSpec, outdir: str, table):
     has criteria (SPEC section 9), as it is otherwise. The criteria do not
     change the runs: a folder resumed with other criteria is judged again.
     """
-    from cfem_ros.study.criteria import judge
+    from cfem_ros.study.criteria import judge, to_json
     path = os.path.join(outdir, CRITERIA)
     if not spec.criteria:
         if os.path.exists(path):
@@ -456,9 +463,7 @@ def decide(spec: SweepSpec, outdir: str, table):
     tmp = f'{path}.tmp-{os.getpid()}'
     with open(tmp, 'w', encoding='utf-8') as stream:
         json.dump({'confidence': spec.confidence,
-                   'criteria': [{'name': c.name, 'rule': c.text, 'column': c.column,
-                                 'op': c.op, 'threshold': c.threshold,
-                                 'absolute': c.absolute} for c in spec.criteria]},
+                   'criteria': [to_json(c) for c in spec.criteria]},
                   stream, indent=1)
     os.replace(tmp, path)
     return judge(table, spec.criteria)

@@ -1,0 +1,163 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A sweep's separation envelope in a carrier's axes (SPEC section 12).
+
+From the recorded runs of a sweep folder (``runs/run_<k>.mcap``, written
+by ``cfem-sim sweep --record all``): the separating body's x, y, z, roll,
+pitch, yaw relative to the reference body, against time from each run's
+own first release, on a common grid (the recording's samples, linear
+between them); per grid time the median and the 5 and 95 % percentiles
+over the runs; the worst run by the first criterion (least margin) drawn
+on top. ``cfem-sim plot OUTDIR --relative-to BODY`` and the report draw it.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+import re
+
+from cfem_ros.core.errors import CfemError
+from cfem_ros.plots import save
+from cfem_ros.plots_relative import LEAST_SPAN, QUANTITIES
+from cfem_ros.recording.analysis import euler_continuous, open_run
+from cfem_ros.recording.relative import relative_track, release_time
+import matplotlib
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
+import numpy as np  # noqa: E402, I100
+
+#: The band drawn around the median, percent.
+BAND = (5.0, 95.0)
+_RUN = re.compile(r'run_(\d+)\.mcap$')
+
+
+def recorded_runs(outdir: str) -> dict:
+    """Return the sweep folder's recordings by run number."""
+    found = {}
+    for path in glob.glob(os.path.join(outdir, 'runs', 'run_*.mcap')):
+        match = _RUN.search(path)
+        if match:
+            found[int(match.group(1))] = path
+    return dict(sorted(found.items()))
+
+
+def _manifest(outdir: str) -> dict:
+    with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
+        return json.load(stream)
+
+
+def default_reference(manifest: dict):
+    """Return the body a report draws the separation in: the first kinematic body, or parent."""
+    from cfem_ros.study_plots import released_pair
+    document = manifest.get('resolved', {}).get('document', {})
+    for name, body in (document.get('bodies') or {}).items():
+        if isinstance(body, dict) and body.get('motion'):
+            return name
+    pair = released_pair(manifest)
+    return pair[1] if pair else None
+
+
+def separating_body(path: str, reference: str):
+    """Return the body that moves farthest relative to reference in a recording (or None)."""
+    from cfem_ros.plots_relative import free_bodies
+    tracks = free_bodies(open_run(path), reference)
+    if not tracks:
+        return None
+    return max(tracks, key=lambda track: np.ptp(track.position, axis=0).max()).name
+
+
+def history(path: str, body: str, reference: str):
+    """Return (time from release (n,), values (n, 6): x, y, z m, roll, pitch, yaw deg) of a run."""
+    run = open_run(path)
+    track = relative_track(run, body, reference)
+    released = release_time(run)
+    origin = 0.0 if np.isnan(released) else released
+    return track.time - origin, np.column_stack([track.position,
+                                                 euler_continuous(track.euler_deg)])
+
+
+def envelope(histories: list, step: float) -> tuple:
+    """
+    Return (grid (m,), median (m, 6), low (m, 6), high (m, 6)) of runs' histories.
+
+    The grid runs from 0 (the release) by ``step`` to the end of the
+    shortest history; each history is interpolated linearly onto it.
+    """
+    end = min(t[-1] for t, _ in histories)
+    grid = np.arange(0.0, end + 0.5 * step, step)
+    stack = np.array([[np.interp(grid, t, values[:, k]) for k in range(6)]
+                      for t, values in histories])   # (runs, 6, m)
+    median = np.median(stack, axis=0).T
+    low, high = (np.percentile(stack, q, axis=0).T for q in BAND)
+    return grid, median, low, high
+
+
+def worst_run(outdir: str, runs) -> tuple:
+    """
+    Return (run, criterion name) of the least margin to the first criterion among runs.
+
+    (None, None) when the folder has no criteria.
+    """
+    import pandas as pd
+    from cfem_ros.study_plots import load_criteria
+    criteria, _ = load_criteria(outdir)
+    if not criteria:
+        return None, None
+    table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
+    table = table[table['run'].isin(list(runs)) & (table['status'] != 'invalid')]
+    if table.empty:
+        return None, criteria[0].name
+    margin = criteria[0].margin_of(table)
+    return int(table['run'].to_numpy()[int(np.argmin(margin))]), criteria[0].name
+
+
+def envelope_figure(outdir: str, reference: str):
+    """Draw a sweep's envelope of the six quantities in reference's axes (a Figure)."""
+    manifest = _manifest(outdir)
+    recordings = recorded_runs(outdir)
+    if not recordings:
+        raise CfemError(f'{outdir}: no recorded runs (runs/run_<k>.mcap); expected a sweep run '
+                        'with --record all for its envelope')
+    body = separating_body(next(iter(recordings.values())), reference)
+    if body is None:
+        raise CfemError(f'{outdir}: --relative-to {reference}: no other free body to draw')
+    histories = {k: history(path, body, reference) for k, path in recordings.items()}
+    rate = float(manifest.get('resolved', {}).get('rate_hz', '100') or 100)
+    grid, median, low, high = envelope(list(histories.values()), 1.0 / rate)
+    worst, criterion = worst_run(outdir, histories)
+    fig, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True, layout='constrained')
+    fig.suptitle(f'{body} relative to {reference}, {reference} axes: envelope of '
+                 f'{len(histories)} runs')
+    for ax, column, (name, unit) in zip(axes.ravel(), (0, 3, 1, 4, 2, 5), QUANTITIES):
+        ax.fill_between(grid, low[:, column], high[:, column], color='tab:blue', alpha=0.25,
+                        label=f'{BAND[0]:g}-{BAND[1]:g} % of the runs')
+        ax.plot(grid, median[:, column], color='tab:blue', label='median')
+        if worst is not None:
+            t, values = histories[worst]
+            ax.plot(t, values[:, column], color='tab:red', linewidth=1.2,
+                    label=f'worst run by {criterion}: run {worst}')
+        ax.axvline(0.0, color='tab:red', linestyle='--', linewidth=1.0)
+        ax.set_ylabel(f'{name} [{unit}]')
+        ax.grid(True, alpha=0.3)
+        low_y, high_y = ax.get_ylim()
+        if high_y - low_y < LEAST_SPAN[unit]:
+            middle = (low_y + high_y) / 2
+            ax.set_ylim(middle - LEAST_SPAN[unit] / 2, middle + LEAST_SPAN[unit] / 2)
+    gravity = manifest.get('resolved', {}).get('document', {}).get('gravity', [0, 0, -1])
+    if isinstance(gravity, list) and len(gravity) == 3 and gravity[2] > 0:
+        axes[2, 0].invert_yaxis()
+        axes[2, 0].set_ylabel('z [m] (down)')
+    for ax in axes[-1]:
+        ax.set_xlabel('time from release [s]')
+    axes[0, 0].legend(fontsize=8, loc='best')
+    return fig, worst
+
+
+def write_envelope(outdir: str, reference: str, directory: str) -> list:
+    """Write the envelope figure under directory; return its path in a list."""
+    os.makedirs(directory, exist_ok=True)
+    fig, _ = envelope_figure(outdir, reference)
+    return [save(fig, os.path.join(directory, f'envelope_relative_{reference}.png'))]
