@@ -838,6 +838,9 @@ def cmd_report(outdir: str, output: str, overwrite: bool = False) -> int:
         from cfem_ros.study.report import write_report
         with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
             figures = study_plots.write_sweep_figures(outdir, tmp, None)
+            from cfem_ros.envelopes import report_figures   # SPEC section 12
+            figures = report_figures(outdir, tmp, lambda line: print(
+                f'WARNING: {line}', file=sys.stderr)) + figures
             first = [p for p in figures if not os.path.basename(p).startswith('hist_')]
             write_report(outdir, output, first + [p for p in figures if p not in first])
     except CfemError as err:

@@ -161,3 +161,59 @@ def write_envelope(outdir: str, reference: str, directory: str) -> list:
     os.makedirs(directory, exist_ok=True)
     fig, _ = envelope_figure(outdir, reference)
     return [save(fig, os.path.join(directory, f'envelope_relative_{reference}.png'))]
+
+
+def _rerun(outdir: str, manifest: dict, run: int, output: str):
+    """Record run ``run`` of a Monte Carlo sweep folder again (None if it cannot be)."""
+    from cfem_ros.study.spec import load_sweep
+    from cfem_ros.study.sweep import run_one
+    if manifest.get('method', 'mc') != 'mc':
+        return None
+    spec = load_sweep(manifest['sweep'], runs=manifest['resolved']['runs'])
+    if json.loads(spec.describe()) != manifest['resolved']:
+        return None   # the sweep file changed since: not the run of the table
+    run_one(spec, run, record=output)
+    return output
+
+
+def report_figures(outdir: str, directory: str, warn=None) -> list:
+    """
+    Write the report's separation figures under directory; return their paths.
+
+    The envelope over the recorded runs (if any) and the outline snapshots
+    of the worst run by the first criterion, in the axes of the first
+    kinematic body (else the released joint's parent): its recording, or
+    the run recorded again (Monte Carlo sweeps whose file is unchanged).
+    """
+    from cfem_ros.plots_relative import snapshots_figure
+    manifest = _manifest(outdir)
+    reference = default_reference(manifest)
+    if reference is None:
+        return []
+    paths, recordings = [], recorded_runs(outdir)
+    worst = None
+    try:
+        if recordings:
+            fig, worst = envelope_figure(outdir, reference)
+            paths.append(save(fig, os.path.join(directory,
+                                                 f'envelope_relative_{reference}.png')))
+        else:
+            worst, _ = worst_run(outdir, _valid_runs(outdir))
+        if worst is None:
+            return paths
+        path = recordings.get(worst) or _rerun(outdir, manifest, worst,
+                                               os.path.join(directory, f'run_{worst}.mcap'))
+        if path is not None:
+            fig = snapshots_figure(open_run(path), reference)
+            fig.suptitle(f'worst run ({worst}) by the first criterion: ' + fig._suptitle.get_text())
+            paths.append(save(fig, os.path.join(directory, f'snapshots_run_{worst}.png')))
+    except (CfemError, OSError, KeyError, ValueError) as err:
+        if warn is not None:
+            warn(f'{outdir}: no separation figures in the report ({err})')
+    return paths
+
+
+def _valid_runs(outdir: str) -> list:
+    import pandas as pd
+    table = pd.read_parquet(os.path.join(outdir, 'results.parquet'), columns=['run', 'status'])
+    return table.loc[table['status'] == 'ok', 'run'].tolist()

@@ -273,7 +273,8 @@ def released_pair(manifest: dict):
     """
     Return (joint, reference, body) of the body whose separation the envelope draws.
 
-    The base scenario's first releasable joint: (joint, parent, child).
+    The base scenario's first releasable joint: (joint, parent, child), or
+    the first joint of its first release group.
     With none, the first free body (neither fixed nor moved by a table) is
     drawn relative to the carrier, the first fixed or kinematic body:
     ('', carrier, body); with no carrier, relative to its own release point
@@ -284,6 +285,11 @@ def released_pair(manifest: dict):
     for name, spec in joints.items():
         if isinstance(spec, dict) and spec.get('release'):
             return name, spec.get('parent'), spec.get('child')
+    for group in (document.get('release_groups') or {}).values():   # a group's first joint
+        members = group.get('joints') if isinstance(group, dict) else None
+        spec = joints.get(members[0]) if isinstance(members, list) and members else None
+        if isinstance(spec, dict):
+            return members[0], spec.get('parent'), spec.get('child')
     bodies = {n: b for n, b in (document.get('bodies') or {}).items() if isinstance(b, dict)}
     carried = [n for n, b in bodies.items() if b.get('fixed') or b.get('motion')]
     free = [n for n in bodies if n not in carried]
