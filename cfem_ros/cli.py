@@ -421,8 +421,8 @@ def cmd_plot(recording: str, directory: str, metric: Optional[str] = None,
     from cfem_ros.recording import analysis   # the reader only for the commands that read
     try:
         run = analysis.open_run(recording)
-        if relative_to is not None:
-            outputs_cli.snapshot_times(snapshots)
+        if relative_to is not None:   # before anything is drawn
+            outputs_cli.check_relative(run, relative_to, snapshots)
     except CfemError as err:
         return _error(str(err))
     try:

@@ -84,12 +84,18 @@ def snapshot_times(text: str) -> tuple:
     return times
 
 
-def plot_relative(run, reference: str, directory: str, snapshots: str) -> list:
-    """Write a run's separation sheet and snapshots in reference's axes; return the paths."""
+def check_relative(run, reference: str, snapshots: str) -> tuple:
+    """Return the snapshot times, or raise CfemError if reference or the times are wrong."""
     after = snapshot_times(snapshots)
     if reference not in run.bodies:
         raise RecordingError(f'{run.path}: --relative-to {reference}: no such body in the '
                              f'recording; expected one of {", ".join(run.bodies)}')
+    return after
+
+
+def plot_relative(run, reference: str, directory: str, snapshots: str) -> list:
+    """Write a run's separation sheet and snapshots in reference's axes; return the paths."""
+    after = check_relative(run, reference, snapshots)
     from cfem_ros.plots_relative import write_relative_figures
     return write_relative_figures(run, reference, directory, after)
 

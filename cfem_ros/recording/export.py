@@ -185,10 +185,12 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
             continue
         block = _body_block(run, name, stamps, relative_to)
         columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(BODY_COLUMNS))
-    for name in run.joint_frame:
-        block = _joint_block(run, name, stamps)
-        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(JOINT_COLUMNS))
     model = _scenario_model(run)
+    order = [j.name for j in model.joints] if model is not None else []
+    for name in sorted(run.joint_frame, key=lambda n: (n not in order, order.index(n)
+                                                         if n in order else 0)):
+        block = _joint_block(run, name, stamps)   # in the scenario's order
+        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(JOINT_COLUMNS))
     if model is not None:
         for name, block in aero_blocks(run, stamps, model).items():
             columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(AERO_COLUMNS))
