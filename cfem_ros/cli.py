@@ -407,13 +407,13 @@ def cmd_recover(broken: str, fixed: str) -> int:
 def cmd_plot(recording: str, directory: str, metric: Optional[str] = None,
              relative_to: Optional[str] = None, snapshots: str = '0.1,0.2,0.3') -> int:
     """Write the figures of a recording (or a sweep folder) under directory; exit 0 or 2."""
-    from cfem_ros import outputs_cli
+    from cfem_ros.separation import commands as separation
     if os.path.isdir(recording):
         code = _plot_sweep(recording, directory, metric)
         if code or relative_to is None:
             return code
         try:
-            paths = outputs_cli.plot_sweep_relative(recording, relative_to, directory)
+            paths = separation.plot_sweep_relative(recording, relative_to, directory)
         except CfemError as err:
             return _error(str(err))
         print('\n'.join(paths))
@@ -422,14 +422,14 @@ def cmd_plot(recording: str, directory: str, metric: Optional[str] = None,
     try:
         run = analysis.open_run(recording)
         if relative_to is not None:   # before anything is drawn
-            outputs_cli.check_relative(run, relative_to, snapshots)
+            separation.check_relative(run, relative_to, snapshots)
     except CfemError as err:
         return _error(str(err))
     try:
         from cfem_ros import plots   # matplotlib only for the commands that draw
         paths = plots.write_figures(run, directory)
         if relative_to is not None:
-            paths += outputs_cli.plot_relative(run, relative_to, directory, snapshots)
+            paths += separation.plot_relative(run, relative_to, directory, snapshots)
     except CfemError as err:
         return _error(str(err))
     except OSError as err:
@@ -441,10 +441,10 @@ def cmd_plot(recording: str, directory: str, metric: Optional[str] = None,
 
 def cmd_export(args) -> int:
     """Write a recording's time histories as a table (SPEC section 12); exit 0 or 2."""
-    from cfem_ros import outputs_cli
+    from cfem_ros.separation import commands as separation
     try:
-        print(outputs_cli.export(args.recording, args.output, args.relative_to, args.rate,
-                                 args.overwrite))
+        print(separation.export(args.recording, args.output, args.relative_to, args.rate,
+                                args.overwrite))
     except CfemError as err:
         return _error(str(err))
     return EXIT_OK
@@ -767,7 +767,7 @@ def cmd_sweep(sweep_file: Optional[str], outdir: Optional[str], workers: Optiona
     contact = f'{touched} stopped at a contact, ' if touched else ''
     invalid = int((table['status'] == 'invalid').sum())
     if invalid:   # SPEC section 12: reported, never counted as failures
-        contact += (f'{invalid} invalid draws (refused by the scenario\'s checks, not run, '
+        contact += (f"{invalid} invalid draws (refused by the scenario's checks, not run, "
                     'left out of every probability), ')
     print(f'{os.path.join(outdir, "results.parquet")}: {total} runs, {failed} failed, '
           f'{contact}{wall:.3g} s')
@@ -838,7 +838,7 @@ def cmd_report(outdir: str, output: str, overwrite: bool = False) -> int:
         from cfem_ros.study.report import write_report
         with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
             figures = study_plots.write_sweep_figures(outdir, tmp, None)
-            from cfem_ros.envelopes import report_figures   # SPEC section 12
+            from cfem_ros.separation.envelopes import report_figures   # SPEC section 12
             figures = report_figures(outdir, tmp, lambda line: print(
                 f'WARNING: {line}', file=sys.stderr)) + figures
             first = [p for p in figures if not os.path.basename(p).startswith('hist_')]
@@ -974,9 +974,9 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument('--metric', metavar='COLUMN',
                       help='sweep folder: metric to scatter against the varied parameters '
                       '(default the first clearance minimum)')
-    from cfem_ros import outputs_cli
-    outputs_cli.add_plot_options(plot)
-    outputs_cli.add_export_parser(sub)
+    from cfem_ros.separation import commands as separation
+    separation.add_plot_options(plot)
+    separation.add_export_parser(sub)
     info = sub.add_parser('info', help='summarize a recording',
                           description='Print topics, message counts, time range, chunks, '
                           "metadata and events, from the file's summary.")

@@ -381,7 +381,7 @@ def _save(fig, path: str) -> str:
 
 def load_criteria(outdir: str) -> tuple:
     """Return (criteria, confidence) a sweep folder's table was judged by (none: [], 0.95)."""
-    from cfem_ros.study.criteria import from_json
+    from cfem_ros.study.expressions import from_json
     path = os.path.join(outdir, 'criteria.json')
     if not os.path.exists(path):
         return [], 0.95

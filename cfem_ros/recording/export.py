@@ -55,7 +55,7 @@ def _sample_stamps(run, rate: Optional[float]) -> np.ndarray:
         raise RecordingError(
             f'{run.path}: --rate {rate:g}: {wanted - len(kept)} of the times k/{rate:g} s '
             f'have no recorded sample (recorded at {recorded or "another rate"} Hz); expected '
-            'a rate that divides the recording\'s (rows are recorded samples, never '
+            "a rate that divides the recording's (rows are recorded samples, never "
             'interpolated)')
     return kept
 
@@ -151,6 +151,7 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
     Parameters
     ----------
     run : recording.analysis.Run
+        The recording, read.
     relative_to : str, optional
         A body: the others' positions and attitudes in its axes (from its
         CG), and ``time_from_release``; the body itself is left out.
@@ -187,9 +188,10 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
         columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(BODY_COLUMNS))
     model = _scenario_model(run)
     order = [j.name for j in model.joints] if model is not None else []
-    for name in sorted(run.joint_frame, key=lambda n: (n not in order, order.index(n)
-                                                         if n in order else 0)):
-        block = _joint_block(run, name, stamps)   # in the scenario's order
+    joints = [n for n in order if n in run.joint_frame] + [n for n in run.joint_frame
+                                                           if n not in order]
+    for name in joints:   # in the scenario's order
+        block = _joint_block(run, name, stamps)
         columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(JOINT_COLUMNS))
     if model is not None:
         for name, block in aero_blocks(run, stamps, model).items():

@@ -150,28 +150,14 @@ def valid_runs(table):
     return table[(table['status'] != INVALID).to_numpy()]
 
 
-def parse_criterion(name: str, text):
-    """Return the criterion of a text: a rule, or rules combined (``expressions.py``)."""
-    from cfem_ros.study.expressions import parse_criterion as parse
-    return parse(name, text)
-
-
 def to_json(criterion) -> dict:
-    """Return what ``criteria.json`` holds of a criterion (``from_json`` reads it back)."""
+    """Return what ``criteria.json`` holds of a criterion (``expressions.from_json`` reads it)."""
     if isinstance(criterion, Criterion):
         return {'name': criterion.name, 'rule': criterion.text, 'column': criterion.column,
                 'op': criterion.op, 'threshold': criterion.threshold,
                 'absolute': criterion.absolute}
     return {'name': criterion.name, 'rule': criterion.text, 'expression': True,
             'columns': criterion.columns}
-
-
-def from_json(held: dict):
-    """Return a criterion from its ``criteria.json`` entry."""
-    if held.get('expression'):
-        return parse_criterion(held['name'], held['rule'])
-    return Criterion(held['name'], held['column'], held['op'], held['threshold'],
-                     held['absolute'])
 
 
 def failures(table, criteria) -> dict:

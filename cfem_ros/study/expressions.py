@@ -224,3 +224,11 @@ def parse_criterion(name: str, text):
     if isinstance(tree, Criterion):
         return tree
     return Expression(name=name, text=' '.join(text.split()), tree=tree)
+
+
+def from_json(held: dict):
+    """Return a criterion from its ``criteria.json`` entry (``criteria.to_json``)."""
+    if held.get('expression'):
+        return parse_criterion(held['name'], held['rule'])
+    return Criterion(held['name'], held['column'], held['op'], held['threshold'],
+                     held['absolute'])

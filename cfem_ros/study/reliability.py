@@ -249,7 +249,7 @@ def mc_estimate(spec: SweepSpec, table):
     failed = int((~table['pass'].to_numpy(dtype=bool)).sum())
     n = len(table)
     if not n:
-        raise SweepError(spec.path, 'vary', 'gives no valid draw: the scenario\'s checks '
+        raise SweepError(spec.path, 'vary', "gives no valid draw: the scenario's checks "
                          'refuse every run', 'distributions whose draws make valid scenarios')
     p = failed / n
     low, high = clopper_pearson(failed, n, spec.confidence)

@@ -95,7 +95,8 @@ def build(outdir: str, figures=()) -> str:
         manifest = json.load(stream)
     resolved = manifest.get('resolved', {})
     document = resolved.get('document', {})
-    from cfem_ros.study.criteria import from_json, INVALID, valid_runs
+    from cfem_ros.study.criteria import INVALID, valid_runs
+    from cfem_ros.study.expressions import from_json
     criteria, level = [], 0.95
     path = os.path.join(outdir, 'criteria.json')
     if os.path.exists(path):
@@ -121,7 +122,7 @@ def build(outdir: str, figures=()) -> str:
                              'Morris screening (SALib)', 'sobol': 'Sobol indices (SALib)'}.get(
                                  method, method)],
                  ['runs', f'{len(everything)} ({ok} finished, {len(table) - ok} did not, '
-                          f'{invalid} invalid draws: refused by the scenario\'s checks, not '
+                          f"{invalid} invalid draws: refused by the scenario's checks, not "
                           'run, left out of every probability)'],
                  ['seed', resolved.get('seed', '')],
                  ['bodies', ', '.join(document.get('bodies') or {})],

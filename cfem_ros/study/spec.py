@@ -418,7 +418,8 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
     A rule may name any number column of the table: a metric or a varied
     key path drawn as numbers.
     """
-    from cfem_ros.study.criteria import parse_criterion, RULE
+    from cfem_ros.study.criteria import RULE
+    from cfem_ros.study.expressions import parse_criterion
     level = document.get('confidence', 0.95)
     if isinstance(level, bool) or not isinstance(level, (int, float)) \
             or not 0 < level < 1:

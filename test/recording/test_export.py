@@ -73,7 +73,7 @@ def _export(tmp_path, recording, name, *extra) -> pd.DataFrame:
 
 @pytest.fixture(scope='module')
 def turning(tmp_path_factory):
-    """A carrier flying at 250 m/s and pitching up at 10 deg/s, recorded."""
+    """Record a carrier flying at 250 m/s and pitching up at 10 deg/s."""
     tmp = tmp_path_factory.mktemp('turning')
     return tmp, _run(tmp, _carried([250.0, 0, 0], [0, 10.0, 0]), 'turning')
 
@@ -171,14 +171,14 @@ def test_aero_columns_are_alpha_mach_and_dynamic_pressure_of_the_recorded_state(
     assert math.isclose(table['store_mach'][0], 250.0 / isa(7925.0 - 1.5)[1], rel_tol=1e-12)
 
 
-def test_plot_relative_to_draws_the_sheet_and_snapshots_of_a_store_on_a_pylon(turning,
-                                                                               capsys):
+def test_plot_relative_to_draws_the_sheet_and_snapshots_of_a_store_on_a_pylon(
+        turning, capsys):
     tmp, recording = turning
     run = open_run(recording)
     # the store hangs from the pylon, which hangs from the aircraft: both in its frame
     assert sorted(run.relative) == ['pylon', 'store']
-    from cfem_ros.outputs_cli import plot_relative
-    from cfem_ros.plots_relative import free_bodies
+    from cfem_ros.separation.commands import plot_relative
+    from cfem_ros.separation.figures import free_bodies
     assert [t.name for t in free_bodies(run, 'aircraft')] == ['store']   # the pylon is still
     paths = plot_relative(run, 'aircraft', str(tmp / 'figures'), '0.1,0.2')
     assert [p.rsplit('/', 1)[1] for p in paths] == ['separation_aircraft.png',

@@ -21,9 +21,9 @@ import re
 
 from cfem_ros.core.errors import CfemError
 from cfem_ros.plots import save
-from cfem_ros.plots_relative import LEAST_SPAN, QUANTITIES
 from cfem_ros.recording.analysis import euler_continuous, open_run
 from cfem_ros.recording.relative import relative_track, release_time
+from cfem_ros.separation.figures import LEAST_SPAN, QUANTITIES
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -62,7 +62,7 @@ def default_reference(manifest: dict):
 
 def separating_body(path: str, reference: str):
     """Return the body that moves farthest relative to reference in a recording (or None)."""
-    from cfem_ros.plots_relative import free_bodies
+    from cfem_ros.separation.figures import free_bodies
     tracks = free_bodies(open_run(path), reference)
     if not tracks:
         return None
@@ -185,7 +185,7 @@ def report_figures(outdir: str, directory: str, warn=None) -> list:
     kinematic body (else the released joint's parent): its recording, or
     the run recorded again (Monte Carlo sweeps whose file is unchanged).
     """
-    from cfem_ros.plots_relative import snapshots_figure
+    from cfem_ros.separation.figures import snapshots_figure
     manifest = _manifest(outdir)
     reference = default_reference(manifest)
     if reference is None:
@@ -195,8 +195,8 @@ def report_figures(outdir: str, directory: str, warn=None) -> list:
     try:
         if recordings:
             fig, worst = envelope_figure(outdir, reference)
-            paths.append(save(fig, os.path.join(directory,
-                                                 f'envelope_relative_{reference}.png')))
+            name = f'envelope_relative_{reference}.png'
+            paths.append(save(fig, os.path.join(directory, name)))
         else:
             worst, _ = worst_run(outdir, _valid_runs(outdir))
         if worst is None:
@@ -204,8 +204,8 @@ def report_figures(outdir: str, directory: str, warn=None) -> list:
         path = recordings.get(worst) or _rerun(outdir, manifest, worst,
                                                os.path.join(directory, f'run_{worst}.mcap'))
         if path is not None:
-            fig = snapshots_figure(open_run(path), reference)
-            fig.suptitle(f'worst run ({worst}) by the first criterion: ' + fig._suptitle.get_text())
+            fig = snapshots_figure(open_run(path), reference,
+                                   title=f'worst run ({worst}) by the first criterion')
             paths.append(save(fig, os.path.join(directory, f'snapshots_run_{worst}.png')))
     except (CfemError, OSError, KeyError, ValueError) as err:
         if warn is not None:

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import os
 
-from cfem_ros import outlines
 from cfem_ros.core.errors import CfemError
 from cfem_ros.plots import _z_down, release_groups, save
 from cfem_ros.recording.relative import relative_track, release_time
+from cfem_ros.separation import outlines
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -116,7 +116,7 @@ def _nearest(track, t: float) -> int:
     return int(np.argmin(np.abs(track.time - t)))
 
 
-def snapshots_figure(run, reference: str, after=(0.1, 0.2, 0.3)):
+def snapshots_figure(run, reference: str, after=(0.1, 0.2, 0.3), title: str = ''):
     """
     Draw the bodies' outlines in side, top and front views of reference's axes.
 
@@ -129,8 +129,8 @@ def snapshots_figure(run, reference: str, after=(0.1, 0.2, 0.3)):
     origin, _ = _origin(run)
     times = [0.0] + [float(s) for s in after]
     fig, axes = plt.subplots(1, 3, figsize=(15, 5.2), layout='constrained')
-    fig.suptitle(f'outline snapshots in {reference} axes, s after '
-                 f'{"release" if origin else "the start"} ({os.path.basename(run.path)})')
+    fig.suptitle(f'{title + ": " if title else ""}outline snapshots in {reference} axes, s '
+                 f'after {"release" if origin else "the start"} ({os.path.basename(run.path)})')
     free = {track.name: track for track in free_bodies(run, reference)}
     colors = plt.get_cmap('viridis')(np.linspace(0.0, 0.85, len(times)))
     extent = {view: [] for view in outlines.VIEWS}

@@ -34,7 +34,7 @@ def add_export_parser(sub):
                         help="positions and attitudes in this body's axes, from its CG, and "
                         'time_from_release')
     export.add_argument('--rate', type=float, metavar='HZ',
-                        help="keep the samples at multiples of 1/HZ s (HZ divides the "
+                        help='keep the samples at multiples of 1/HZ s (HZ divides the '
                         "recording's rate)")
     export.add_argument('--overwrite', action='store_true', help='replace an existing table')
 
@@ -96,11 +96,11 @@ def check_relative(run, reference: str, snapshots: str) -> tuple:
 def plot_relative(run, reference: str, directory: str, snapshots: str) -> list:
     """Write a run's separation sheet and snapshots in reference's axes; return the paths."""
     after = check_relative(run, reference, snapshots)
-    from cfem_ros.plots_relative import write_relative_figures
+    from cfem_ros.separation.figures import write_relative_figures
     return write_relative_figures(run, reference, directory, after)
 
 
 def plot_sweep_relative(outdir: str, reference: str, directory: str) -> list:
     """Write a sweep folder's envelope in reference's axes; return the paths."""
-    from cfem_ros.envelopes import write_envelope
+    from cfem_ros.separation.envelopes import write_envelope
     return write_envelope(outdir, reference, directory)

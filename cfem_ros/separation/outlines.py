@@ -75,7 +75,7 @@ def shape_parts(shape) -> list:
 
 
 def outline(points_2d: np.ndarray) -> np.ndarray:
-    """Return the closed convex outline (m, 2) of 2D points (a segment if they are in line)."""
+    """Return the closed convex outline of 2D points, (m, 2): a segment if they are in line."""
     from scipy.spatial import ConvexHull, QhullError
     unique = np.unique(np.round(points_2d, 12), axis=0)
     if len(unique) >= 3:
