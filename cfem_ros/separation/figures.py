@@ -145,7 +145,8 @@ def snapshots_figure(run, reference: str, after=(0.1, 0.2, 0.3), title: str = ''
             k = _nearest(track, origin)
             for ring in outlines.placed_outlines(shapes.get(name, []), track.position[k],
                                                  track.quaternion[k], view):
-                ax.fill(ring[:, 0], ring[:, 1], color='0.85', edgecolor='0.4', linewidth=0.8)
+                ax.fill(ring[:, 0], ring[:, 1], facecolor=(0.6, 0.6, 0.6, 0.35),
+                        edgecolor='0.3', linewidth=0.8)
         for name, track in free.items():
             for color, dt in zip(colors, times):
                 k = _nearest(track, origin + dt)
@@ -167,7 +168,8 @@ def snapshots_figure(run, reference: str, after=(0.1, 0.2, 0.3), title: str = ''
         axes[2].invert_yaxis()
     for color, dt in zip(colors, times):
         axes[0].plot([], [], color=color, label=f't = {dt:g} s (t = {origin + dt:.4f} s)')
-    axes[0].plot([], [], color='0.6', linewidth=6, label=f'{reference} and what it carries')
+    axes[0].plot([], [], color='0.75', linewidth=6,
+                 label=f'{reference} and the bodies still relative to it')
     fig.legend(*axes[0].get_legend_handles_labels(), loc='outside lower center', fontsize=8,
                ncol=len(times) + 1)
     return fig

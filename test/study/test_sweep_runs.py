@@ -51,11 +51,12 @@ def test_sweep_rows_match_cfem_sim_run_recordings_summarized(tmp_path):
     assert table['clearance_store_pylon_min'].nunique() == 4
 
 
-def test_an_invalid_drawn_scenario_is_a_failed_row_not_the_end(tmp_path):
+def test_an_invalid_drawn_scenario_is_an_invalid_row_not_the_end(tmp_path):
+    # SPEC section 12: a draw the scenario's checks refuse is not run and is no failure
     path = write_sweep(tmp_path, runs=1, vary={
         'bodies.store.mass': {'grid': [907.1848, -5.0, 'heavy']}})
     table = Sweep.from_file(path).run(None)
-    assert list(table['status']) == ['ok', 'failed', 'failed']
+    assert list(table['status']) == ['ok', 'invalid', 'invalid']
     assert 'bodies.store.mass: is -5' in table['message'][1]
     assert "bodies.store.mass: is 'heavy'" in table['message'][2]
     assert '(run 1)' in table['message'][1]
@@ -192,7 +193,7 @@ def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path
         'joints.pivot.release.angle_deg': {'choice': [8, 12, -1]}})
     out = str(tmp_path / 'sweep')
     table = Sweep.from_file(path).run(None, out, record='all')
-    assert (table['status'] == 'failed').any() and (table['status'] == 'ok').any()
+    assert (table['status'] == 'invalid').any() and (table['status'] == 'ok').any()
     figures = str(tmp_path / 'figures')
     assert cli.main(['plot', out, '-o', figures]) == 0
     names = sorted(os.listdir(figures))
