@@ -8,7 +8,7 @@ STAMP := $(VENV)/.cfem-installed
 TOOLS := $(VENV)/.cfem-test-tools
 CORE := cfem_ros/core/cpp
 
-.PHONY: demo test venv bench figures docs clean
+.PHONY: demo test venv bench figures separation-figures docs clean
 
 venv: $(STAMP)
 
@@ -69,6 +69,25 @@ figures: $(STAMP)
 	$(BIN)/python examples/photogrammetry_log.py runs/flight_plan.mcap -o runs/flight_037.mcap
 	$(BIN)/cfem-sim fit config/fit/fit_ejectors.yaml -o runs/fit_037 --overwrite
 	mkdir -p docs/figures/fitting && cp runs/fit_037/fit_trajectory.png docs/figures/fitting/
+
+# The pictures of docs/guide/separation-outputs.md, regenerated (runs under runs/).
+SEPARATION := docs/figures/separation
+separation-figures: $(TOOLS)
+	@mkdir -p runs $(SEPARATION)
+	$(BIN)/cfem-sim run config/store_release_near_pylon.yaml -o runs/near_pylon.mcap --overwrite
+	rm -rf runs/near_pylon_figures runs/near_pylon_envelope
+	$(BIN)/cfem-sim plot runs/near_pylon.mcap -o runs/near_pylon_figures --relative-to pylon
+	cp runs/near_pylon_figures/separation_pylon.png runs/near_pylon_figures/snapshots_pylon.png \
+	  $(SEPARATION)/
+	$(BIN)/cfem-sim sweep config/sweeps/store_release_near_pylon_envelope.yaml \
+	  -o runs/near_pylon_envelope --record all --workers 2
+	$(BIN)/cfem-sim plot runs/near_pylon_envelope -o runs/near_pylon_envelope/figures \
+	  --relative-to pylon
+	cp runs/near_pylon_envelope/figures/envelope_relative_pylon.png $(SEPARATION)/
+	$(BIN)/python -c "import shutil, sys; from cfem_ros.separation.envelopes import \
+	  report_figures; found = [p for p in report_figures(sys.argv[1], sys.argv[1]) \
+	  if 'snapshots_run_' in p]; shutil.copy(found[0], sys.argv[2])" \
+	  runs/near_pylon_envelope $(SEPARATION)/snapshots_worst_run.png
 
 # The user guide as HTML in docs/_build/html (open docs/_build/html/index.html);
 # warnings are errors, as in the test that builds it
