@@ -109,10 +109,9 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
     Return per aero body its (n, 4) alpha (deg), beta (deg), Mach, dynamic pressure (Pa).
 
     From the recorded pose and twist (the air of the scenario: wind,
-    altitude, ISA), through the compiled core's ``aero_wrench``.
+    altitude, ISA), through the compiled core's ``aero_wrench`` (``core.kernel``).
     """
-    from cfem_ros.core import aeropack, native
-    kernel = native.load()
+    from cfem_ros.core import aeropack, kernel
     out = {}
     for aero in model.aero:
         name = model.bodies[aero.body].name

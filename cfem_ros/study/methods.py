@@ -97,6 +97,7 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
     result = estimate(spec, method, evaluate, spec.criteria, target_cov=target_cov,
                       runs=spec.runs)
     table = evaluate.assemble()
-    result.failed_runs = int((~table['pass'].to_numpy(dtype=bool)).sum())
+    from cfem_ros.study.criteria import valid_runs   # invalid draws: no pass, no failure
+    result.failed_runs = int((~valid_runs(table)['pass'].to_numpy(dtype=bool)).sum())
     write_estimate(outdir, result)
     return {'table': table, 'estimate': result}

@@ -225,8 +225,8 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     A run whose values the scenario's checks refuse is not run: a row with
     ``status`` 'invalid' (SPEC section 12) and the check's message. A run
     that fails is a row with ``status`` 'failed' and the reason in
-    ``message``; its metrics are those of the samples it did take. record: the path of an MCAP
-    recording to write of it. models: where the model comes from (a
+    ``message``; its metrics are those of the samples it did take.
+    record: the path of an MCAP recording to write of it. models: where the model comes from (a
     ``Models`` of spec, shared by a task's runs); the whole parse if None.
     """
     values = spec.run_values(k)

@@ -28,6 +28,7 @@ from typing import Optional
 from cfem_ros.recording.analysis import BODY_TOPIC, open_run
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
+from cfem_ros.recording.relative import relative_pose
 from cfem_ros.recording.replay import start_stamp_ns
 from cfem_ros.study.fit.spec import FitError, FitSpec
 import numpy as np
@@ -83,13 +84,11 @@ def relative_poses(position, quaternion, position_ref, quaternion_ref) -> tuple:
     -------
     (ndarray (n, 3), Rotation)
         The CG relative to the reference's CG in its axes (m), and the
-        attitude body-to-reference.
+        attitude body-to-reference (``recording.relative.relative_pose``).
 
     """
-    reference = Rotation.from_quat(quaternion_ref)
-    moved = reference.inv()
-    return (moved.apply(np.asarray(position) - np.asarray(position_ref)),
-            moved * Rotation.from_quat(quaternion))
+    moved, attitude = relative_pose(position, quaternion, position_ref, quaternion_ref)
+    return moved, Rotation.from_quat(attitude)
 
 
 def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
