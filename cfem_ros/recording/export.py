@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import os
 from typing import Optional
+import uuid
 
 from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
@@ -207,10 +208,19 @@ def write_table(table, path: str) -> str:
     if extension not in FORMATS:
         raise RecordingError(f'-o {path}: unknown format {extension or "(no extension)"}; '
                              'expected FILE.csv or FILE.parquet')
-    tmp = f'{path}.tmp-{os.getpid()}'
+    return write_frame(table, path, float_format='%.17g')
+
+
+def write_frame(table, path: str, float_format=None) -> str:
+    """
+    Write a DataFrame to Parquet (pyarrow), or CSV (pandas) for .csv, through a temporary file.
+
+    float_format: the CSV's number format (pandas' default, shortest round trip, if None).
+    """
+    tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
     try:
-        if extension == '.csv':
-            table.to_csv(tmp, index=False, float_format='%.17g')
+        if path.endswith('.csv'):
+            table.to_csv(tmp, index=False, float_format=float_format)
         else:
             table.to_parquet(tmp, index=False, engine='pyarrow')
         os.replace(tmp, path)

@@ -26,12 +26,12 @@ import tempfile
 import threading
 import time
 from typing import Callable, Optional
-import uuid
 
 from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario import parse_scenario, reparse
 from cfem_ros.core.session import Session
+from cfem_ros.recording.export import write_frame
 from cfem_ros.study.criteria import INVALID
 from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.metrics import Collector, compute, empty
@@ -324,16 +324,7 @@ def frame(rows, names):
 
 def write_atomic(table, path: str):
     """Write a DataFrame to Parquet (or CSV for .csv) through a temporary file."""
-    tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
-    try:
-        if path.endswith('.csv'):
-            table.to_csv(tmp, index=False)
-        else:
-            table.to_parquet(tmp, index=False, engine='pyarrow')
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_frame(table, path)
 
 
 def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
