@@ -13,7 +13,6 @@ definitions of alpha, Mach and dynamic pressure.
 import math
 
 from cfem_ros import cli
-from cfem_ros.core.aero import isa
 from cfem_ros.recording.analysis import open_run
 import numpy as np
 import pandas as pd
@@ -150,6 +149,14 @@ def test_a_carrier_at_250_m_s_gives_the_fixed_carrier_s_relative_trajectory(tmp_
     np.testing.assert_allclose(moving[angles], fixed[angles], rtol=0, atol=1e-9)
     np.testing.assert_allclose(moving['store_u'] - 250.0 * np.cos(
         np.radians(moving['store_pitch_deg'])), fixed['store_u'], atol=1e-9)
+
+
+def isa(altitude: float) -> tuple:
+    """Return the ISA troposphere's (density kg/m^3, speed of sound m/s) at altitude (m)."""
+    gas, lapse = 8314.32 / 28.9644, 0.0065   # U.S. Standard Atmosphere 1976: R*, M0
+    temperature = 288.15 - lapse * altitude
+    pressure = 101325.0 * (temperature / 288.15) ** (9.80665 / (gas * lapse))
+    return pressure / (gas * temperature), math.sqrt(1.4 * gas * temperature)
 
 
 def test_aero_columns_are_alpha_mach_and_dynamic_pressure_of_the_recorded_state(tmp_path):
