@@ -106,9 +106,24 @@ def _csv(path, time, position, attitude):
     return str(path)
 
 
+def _exported_with_noise(folder, path, seed):
+    """Export the flight's recording relative to the pylon; add noise to its pose columns."""
+    assert cli.main(['export', str(folder / 'truth.mcap'), '-o', str(path),
+                     '--relative-to', 'pylon']) == 0
+    table = pd.read_csv(path)
+    rng = np.random.default_rng(seed)
+    for q in ('x', 'y', 'z'):
+        table[f'store_{q}'] += rng.normal(0.0, SIGMA_POSITION, len(table))
+    for q in ('roll', 'pitch', 'yaw'):
+        table[f'store_{q}_deg'] += rng.normal(0.0, SIGMA_ATTITUDE, len(table))
+    table.to_csv(path, index=False)
+    return str(path)
+
+
 def test_fit_recovers_the_ejector_forces_and_writes_its_outputs(flight, tmp_path, capsys):
+    # the measured poses in the columns of cfem-sim export, noise added to them
     folder, scenario, _ = flight
-    measured = _csv(tmp_path / 'measured.csv', *_noisy(flight, 1))
+    measured = _exported_with_noise(folder, tmp_path / 'measured.csv', 1)
     parameters = dict(FORCES)
     parameters['wrenches[2].force[2]'] = {'start': 100, 'bounds': [0, 1000], 'name': 'late push'}
     fit = _fit_file(tmp_path, scenario, measured, parameters, window={'from': 0.0, 'to': 0.25})
