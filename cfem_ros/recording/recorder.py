@@ -23,7 +23,7 @@ from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.core.aero import AIR_TOPICS
 from cfem_ros.core.inputs import stamp_problem
-from cfem_ros.recording import visuals
+from cfem_ros.recording import viewframes, visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
@@ -107,6 +107,13 @@ class InBodyAxes:
 
     first: int
     quaternion: int
+
+    #: How many numbers it makes per sample.
+    size = 6
+
+    def numbers(self, block: np.ndarray) -> np.ndarray:
+        """Return the force and moment of samples (k, columns) in the body's axes, (k, 6)."""
+        return _in_body_axes(block, self)
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -249,7 +256,10 @@ class Recorder:
         messages: (topic, msgtype, frame_id, number of float64) per message,
         in the order of a sample's values; or (topic, msgtype, frame_id,
         InBodyAxes) for numbers turned from others, or (topic, TF,
-        TransformsOf, None).
+        TransformsOf, None) for poses among them; or (topic, TF,
+        TransformsOf, derived) for poses computed from them by derived
+        (``viewframes.ViewFrames``: its ``size`` and ``numbers(block)``),
+        the TransformsOf's columns counting from the first it computes.
         """
         channels = [self.channel(topic, msgtype) for topic, msgtype, _, _ in messages]
         return SampleLayout(channels, [(frame, count) for _, _, frame, count in messages])
@@ -481,7 +491,7 @@ class SampleLayout:
         self.channels = [int(c) for c in channels]
         self.dtype, self.columns, self.offsets, template, self.size, self.turned = \
             _layout_template(tuple(self.channels), tuple(
-                (f, None) if isinstance(f, TransformsOf) else
+                (f, c) if isinstance(f, TransformsOf) else
                 (str(f), c if isinstance(c, InBodyAxes) else int(c)) for f, c in messages))
         #: Samples whose records make a chunk.
         self.chunk_rows = len(template)
@@ -525,7 +535,7 @@ class SampleLayout:
         block = self.values[start:self.count if stop is None else stop]
         if not self.turned:
             return block
-        return np.concatenate([block] + [_in_body_axes(block, t) for t in self.turned], axis=1)
+        return np.concatenate([block] + [t.numbers(block) for t in self.turned], axis=1)
 
     def records(self, first_sequence: int, start: int = 0, stop: Optional[int] = None,
                 numbers: Optional[np.ndarray] = None, shift: Optional[np.ndarray] = None):
@@ -575,16 +585,18 @@ def _layout_template(channels: tuple, messages: tuple):
     """
     fields, columns, constants, column = [], [], [], 0
     width = sum(c for f, c in messages if isinstance(c, int))
-    turned = tuple(c for f, c in messages if isinstance(c, InBodyAxes))
+    turned = tuple(c for f, c in messages if c is not None and not isinstance(c, int))
+    starts = width + np.cumsum([0] + [t.size for t in turned])   # where each one's go
     for i, (frame_id, count) in enumerate(messages):
-        if isinstance(count, InBodyAxes):
-            data, constant = _stamped_template(frame_id, 6)
-            first = width + 6 * turned.index(count)
-            columns.append([(('stamp', 'values'), (first, first + 6))])
-        elif isinstance(frame_id, TransformsOf):
+        if isinstance(frame_id, TransformsOf):
             data, parts, constant = _transforms_template(frame_id)
-            columns.append([(names, (first, first + 7))
+            base = 0 if count is None else int(starts[turned.index(count)])
+            columns.append([(names, (base + first, base + first + 7))
                             for names, first in zip(parts, frame_id.columns)])
+        elif isinstance(count, InBodyAxes):
+            data, constant = _stamped_template(frame_id, 6)
+            first = int(starts[turned.index(count)])
+            columns.append([(('stamp', 'values'), (first, first + 6))])
         else:
             data, constant = _stamped_template(frame_id, count)
             columns.append([(('stamp', 'values'), (column, column + count))])
@@ -715,6 +727,9 @@ class StateRecorder:
         self._transforms = TransformsOf(
             self.world, tuple(model.bodies[i].name for i in moving),
             tuple(13 * i for i in moving)) if moving else None
+        views = viewframes.of_model(model)   # the carriers' z-up frames, from their poses
+        self._views = None if views is None else (TransformsOf(
+            views.root, views.names, tuple(7 * k for k in range(len(views.names)))), views)
         self._scene_written = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
@@ -880,6 +895,8 @@ class StateRecorder:
         messages += turned
         if self._transforms is not None:
             messages.append(('/tf', TF, self._transforms, None))
+        if self._views is not None:
+            messages.append(('/tf', TF, *self._views))
         return messages
 
     def events(self):

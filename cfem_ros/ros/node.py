@@ -37,7 +37,7 @@ from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_in
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
-from cfem_ros.recording import visuals
+from cfem_ros.recording import viewframes, visuals
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import parameters
 from cfem_ros.ros.airtopics import AirPublishers
@@ -258,14 +258,17 @@ class _Publishers:
         self.marker_publisher = node.create_publisher(MarkerArray, 'markers', _latched())
         self.namespace = node.get_namespace().rstrip('/')
         self.tf = None
+        self.carriers, self.up = viewframes.carriers(model), visuals.up_rotation(model.gravity)
         moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
         if TFMessage is not None:
             self.tf_static = node.create_publisher(TFMessage, '/tf_static', _latched())
-            if moving:
+            if moving:   # the moving bodies, then the carriers' z-up view frames
                 self.tf = (node.create_publisher(TFMessage, '/tf', TF_QOS), TFMessage(
                     transforms=[_fill(TransformStamped(), {
                         'header': {'frame_id': world}, 'child_frame_id': model.bodies[i].name})
-                        for i in moving]), moving)
+                        for i in moving] + [_fill(TransformStamped(), t) for t in
+                                            viewframes.transforms(model, {}, sim.position,
+                                                                  sim.orientation)]), moving)
         self._scene_sent = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
@@ -315,11 +318,13 @@ class _Publishers:
         velocity, rates = sim.velocity_body(), sim.rates
         if self.tf is not None:
             publisher, message, moving = self.tf
-            for transform, i in zip(message.transforms, moving):
+            views = viewframes.view_poses(self.up, position[self.carriers], quat[self.carriers])
+            for transform, values in zip(message.transforms, np.vstack(
+                    [np.hstack([position[moving], quat[moving]]), views])):
                 _time_msg(transform.header.stamp, stamp_ns)
-                _vector3(transform.transform.translation, position[i])
+                _vector3(transform.transform.translation, values[:3])
                 r = transform.transform.rotation
-                r.x, r.y, r.z, r.w = (float(c) for c in quat[i])
+                r.x, r.y, r.z, r.w = (float(c) for c in values[3:])
             publisher.publish(message)
         for i in range(len(self.poses)):
             publisher, pose = self.poses[i]

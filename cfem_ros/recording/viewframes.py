@@ -1,0 +1,131 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The z-up frames that follow the carriers, ``<body>_view`` (SPEC section 4).
+
+A carrier's body axes are the scenario's (x forward, y right, z down in the
+store examples): a viewer following the carrier's own frame shows the scene
+upside down. Each kinematic body gets a frame ``<body>_view`` on ``/tf``,
+child of the z-up root (``visuals.root_frame``): origin at the body's CG,
+z along -gravity, x along the body's x axis projected on the level plane
+(heading only: no pitch, no roll). A viewer whose display frame follows it
+keeps the separation in view, right way up.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+from cfem_ros.core import rotations
+from cfem_ros.recording import visuals
+import numpy as np
+
+#: Suffix of a carrier's view frame: ``aircraft`` -> ``aircraft_view``.
+SUFFIX = '_view'
+
+
+def carriers(model) -> list:
+    """Return the indices of the kinematic bodies (given a ``motion``), in model order."""
+    return [i for i, body in enumerate(model.bodies) if not body.fixed and not body.dynamic]
+
+
+def frame_name(model, body: str) -> str:
+    """Return the view frame of a body: ``<body>_view`` (``_z_up`` added while that is taken)."""
+    taken = ({model.frame_id, visuals.root_frame(model)} | {b.name for b in model.bodies}
+             | {j.name for j in model.joints})
+    name = body + SUFFIX
+    while name in taken:
+        name += '_z_up'
+    return name
+
+
+def view_poses(up_xyzw: Optional[tuple], position: np.ndarray,
+               quat_xyzw: np.ndarray) -> np.ndarray:
+    """
+    Return the view frames' poses in the root frame: translation and rotation x y z w.
+
+    Parameters
+    ----------
+    up_xyzw : tuple of 4 float or None
+        The rotation from the scenario's axes to the root's (``visuals.up_rotation``);
+        None: the scenario's axes are the root's.
+    position : ndarray, shape (k, 3)
+        The bodies' CG positions, scenario (world) axes, m.
+    quat_xyzw : ndarray, shape (k, 4)
+        The bodies' attitudes, body to world.
+
+    Returns
+    -------
+    ndarray, shape (k, 7)
+        Origin at the CG (root axes, m); a turn about the root's z by the
+        heading of the body's x axis on the level plane (0 when that axis is
+        vertical).
+
+    """
+    position = np.asarray(position, dtype=float)
+    x_world = rotations.matrices(np.asarray(quat_xyzw, dtype=float))[:, :, 0]
+    if up_xyzw is not None:
+        up = rotations.matrices(np.asarray(up_xyzw, dtype=float)[None])[0]
+        position, x_world = position @ up.T, x_world @ up.T
+    half = 0.5 * np.arctan2(x_world[:, 1], x_world[:, 0])
+    out = np.zeros((len(position), 7))
+    out[:, :3] = position
+    out[:, 5], out[:, 6] = np.sin(half), np.cos(half)
+    return out
+
+
+@dataclass(frozen=True)
+class ViewFrames:
+    """
+    A sample's view frames, computed from the bodies' poses in the sample.
+
+    ``numbers(block)`` turns samples (rows in ``Simulator.outputs`` order:
+    13 numbers per body, the pose first) into 7 numbers per view frame
+    (translation, rotation x y z w from ``root`` to each of ``names``).
+    """
+
+    root: str
+    names: tuple
+    pose_columns: tuple
+    up_xyzw: Optional[tuple]
+
+    @property
+    def size(self) -> int:
+        """Return how many numbers a sample's view frames take."""
+        return 7 * len(self.pose_columns)
+
+    def numbers(self, block: np.ndarray) -> np.ndarray:
+        """Return the view frames of samples (k, columns) as (k, 7 per frame)."""
+        return np.hstack([view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
+                          for c in self.pose_columns])
+
+
+def of_model(model) -> Optional[ViewFrames]:
+    """Return the view frames of a model's kinematic bodies, None if it has none."""
+    bodies = carriers(model)
+    if not bodies:
+        return None
+    names = tuple(frame_name(model, model.bodies[i].name) for i in bodies)
+    return ViewFrames(visuals.root_frame(model), names, tuple(13 * i for i in bodies),
+                      visuals.up_rotation(model.gravity))
+
+
+def transforms(model, stamp: dict, position: np.ndarray, quat_xyzw: np.ndarray) -> list:
+    """
+    Return the view frames at one state as TransformStamped dicts (for the node).
+
+    position, quat_xyzw: every body's CG (world, m) and attitude, (n, 3) and (n, 4).
+    """
+    bodies = carriers(model)
+    if not bodies:
+        return []
+    poses = view_poses(visuals.up_rotation(model.gravity), np.asarray(position)[bodies],
+                       np.asarray(quat_xyzw)[bodies])
+    root = visuals.root_frame(model)
+    return [{'header': {'stamp': stamp, 'frame_id': root},
+             'child_frame_id': frame_name(model, model.bodies[i].name),
+             'transform': {'translation': dict(zip('xyz', map(float, pose[:3]))),
+                           'rotation': dict(zip('xyzw', map(float, pose[3:])))}}
+            for i, pose in zip(bodies, poses)]
+
