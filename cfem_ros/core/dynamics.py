@@ -202,6 +202,15 @@ class Dynamics(SampledState):
         row[LOADS.H_AXES] = 1.0 if body_axes else 0.0
         row[LOADS.span('H_POINT')] = point
 
+    def held_wrenches(self) -> np.ndarray:
+        """
+        Return the wrenches held on the bodies (``set_wrench``), shape (n, 10).
+
+        Per body: force (N) and torque (N m), in world axes, or in body axes
+        where column 6 is 1; then the force's point (body axes, from the CG, m).
+        """
+        return np.hstack([self._loads[:self.n, :7], self._loads[:self.n, H_POINT:H_POINT + 3]])
+
     def body_index(self, body) -> int:
         """Return the index of a body given by name or index."""
         return _index(self.model.body_index, body, 'body')

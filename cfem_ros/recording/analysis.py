@@ -441,6 +441,14 @@ def _world_axes_loads(raw: dict):
                 raw[kind][name] = [r[:2] for r in rows]
 
 
+def _zero_at_release(rows, release_time, start_ns: int) -> bool:
+    """Tell whether a joint's last load is the zero a recording adds at its release."""
+    if not rows or not isinstance(release_time, (int, float)):
+        return False
+    when, values = rows[-1][0], rows[-1][1]
+    return when == start_ns + round(release_time * 1e9) and not any(values)
+
+
 def _check_attitudes(path: str, topic: str, since_ns: np.ndarray, quat: np.ndarray):
     """Refuse poses whose quaternion is not a rotation (zero or non-finite norm)."""
     norms = np.linalg.norm(quat, axis=1) if len(quat) else np.zeros(0)
@@ -483,6 +491,8 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             euler_continuous_deg=euler_continuous(euler), rates=twist[:, 3:6],
             velocity=velocity, velocity_world=world)
     joints, applied, joint_frame = {}, {}, {}
+    released = {e.get('joint'): e.get('time') for e in raw['events']
+                if e.get('event') == 'release'}
     in_joint_frame = {name: [r[:2] for r in rows if r[2] not in raw['world']]
                       for name, rows in raw['joint_in'].items()}   # old files: world axes
     for kind, tracks, found in (('joint', joints, raw['joint']),
@@ -490,6 +500,8 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
                                 ('frame', joint_frame, in_joint_frame)):
         for name, rows in found.items():
             rows.sort(key=lambda r: r[0])
+            if kind != 'applied' and _zero_at_release(rows, released.get(name), start_ns):
+                rows = rows[:-1]   # for viewers' plots: the loads are those while it held
             stamps = np.array([r[0] for r in rows], dtype=np.int64)
             values = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 6)
             tracks[name] = JointTrack(name=name, time=(stamps - start_ns) / 1e9,

@@ -23,7 +23,7 @@ from cfem_ros import __version__
 from cfem_ros.core import rotations
 from cfem_ros.core.aero import AIR_TOPICS
 from cfem_ros.core.inputs import stamp_problem
-from cfem_ros.recording import viewframes, visuals
+from cfem_ros.recording import loadarrows, viewframes, visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
@@ -734,6 +734,9 @@ class StateRecorder:
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
         self._marker_bytes = MarkerArrayEncoder(encoder(MARKERS))
+        self._arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
+        # sent with joints or applied loads, and from the first wrench input on
+        self._arrows_on = bool(model.joints or sim.applied_sources)
 
     def topic(self, relative: str) -> str:
         """Absolute topic name of a topic relative to the namespace."""
@@ -770,39 +773,24 @@ class StateRecorder:
 
     def _arrows_again(self, times, rows, active) -> list:
         """
-        Return the joint-load arrows among samples at these times (s), as ``between``.
+        Return the load arrows among samples at these times (s), as ``between``.
 
-        Every ``ARROW_PERIOD`` of simulated time, from the samples' numbers
-        (rows in ``Simulator.outputs`` order, these joints active): the
-        force on each child turned into its axes, drawn in the joint's frame.
+        Every ``loadarrows.PERIOD`` of simulated time, from the samples'
+        numbers (rows in ``Simulator.outputs`` order, these joints active)
+        and the wrenches held on the bodies.
         """
-        model = self.sim.model
-        if not model.joints:
+        if not self._arrows_on:
             return []
-        due = []   # the samples that send the arrows
+        out, held = [], None
         for k, t in enumerate(times):
-            if _periods(t, visuals.ARROW_PERIOD) >= self._arrows_due:
-                due.append(k)
-                self._arrows_due = math.floor(_periods(t, visuals.ARROW_PERIOD)) + 1
-        if not due:
-            return []
-        # every due sample's forces turned into their children's axes at once
-        first = 13 * len(model.bodies)
-        picked = np.asarray(rows)[due]
-        local = np.empty((len(due), len(active), 3))
-        for i, j in enumerate(active):
-            child = 13 * model.joints[j].child + 3
-            local[:, i] = rotations.to_body(picked[:, child:child + 4],
-                                            picked[:, first + 6 * i:first + 6 * i + 3])
-        # what makes one sending's markers differ from another's but their numbers
-        arrows_kind = ('arrows', self.namespace, model.frame_id, visuals.metres_per_newton(model),
-                       tuple((j, model.joints[j].name) for j in active))
-        out = []
-        for k, turned in zip(due, local):
-            when = self.stamp_ns(times[k])
-            out.append((k + 1, self.topic('load_markers'), MARKERS, self._marker_bytes(
-                visuals.load_arrows(model, stamp(when), self.namespace, zip(active, turned)),
-                kind=arrows_kind), when, OFFERED_QOS))
+            if _periods(t, loadarrows.PERIOD) < self._arrows_due:
+                continue
+            self._arrows_due = math.floor(_periods(t, loadarrows.PERIOD)) + 1
+            held = self.sim.held_wrenches() if held is None else held
+            when = self.stamp_ns(t)
+            message, kind = self._arrows.message(stamp(when), rows[k], active, held)
+            out.append((k + 1, self.topic('load_markers'), MARKERS,
+                        self._marker_bytes(message, kind=kind), when, OFFERED_QOS))
         return out
 
     def _marker_array(self, stamp_ns: int, t: float) -> bytes:
@@ -908,10 +896,21 @@ class StateRecorder:
         for event in new:
             self.recorder.write(topic, STRING, {'data': json.dumps(event)},
                                 self.stamp_ns(event['time']), qos=EVENTS_QOS)
+            if event.get('event') == 'release':
+                self._zero_load(event['joint'], self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
         if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
             # released joints change colour; contacts get their marker
             self._markers(self.stamp_ns(new[-1]['time']))
+
+    def _zero_load(self, joint: str, stamp_ns: int):
+        """Record a released joint's load as zero once, at its release: plots end at zero."""
+        zero = {'force': _vector((0, 0, 0)), 'torque': _vector((0, 0, 0))}
+        for topic, frame in ((f'joints/{joint}/wrench', joint),
+                             (f'joints/{joint}/wrench_world', self.world)):
+            self.recorder.write(self.topic(topic), WRENCH, {
+                'header': {'stamp': stamp(stamp_ns), 'frame_id': frame}, 'wrench': zero},
+                stamp_ns)
 
     def failed(self):
         """Record the run's failure as an ``error`` event at the time it stopped."""
@@ -935,6 +934,7 @@ class StateRecorder:
         header_ns = stamp_ns if item.header_ns is None else item.header_ns
         if stamp_problem(header_ns):   # refused, and no header can hold it: the log time's
             header_ns = stamp_ns
+        self._arrows_on = self._arrows_on or item.kind == 'wrench'
         if item.kind == 'odom':
             v = item.values
             self.recorder.write(self.topic(f'bodies/{item.target}/odom'), ODOMETRY, {

@@ -128,4 +128,3 @@ def transforms(model, stamp: dict, position: np.ndarray, quat_xyzw: np.ndarray) 
              'transform': {'translation': dict(zip('xyz', map(float, pose[:3]))),
                            'rotation': dict(zip('xyzw', map(float, pose[3:])))}}
             for i, pose in zip(bodies, poses)]
-

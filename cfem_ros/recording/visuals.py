@@ -42,16 +42,19 @@ HULL_COLOR = (1.0, 0.85, 0.0, 0.35)
 #: Colours (r, g, b, a) of moving bodies, in turn; fixed bodies are grey.
 PALETTE = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
            (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0), (0.89, 0.47, 0.76, 1.0))
-FIXED_COLOR = (0.6, 0.6, 0.6, 0.6)
+FIXED_COLOR = (0.6, 0.6, 0.6, 0.3)
+#: The opacity of a carrier's shape (a body not moved by forces, or fixed to one),
+#: so that what hangs under it shows.
+CARRIER_ALPHA = 0.3
 #: The z-up root frame (REP-105's ``map``) above a scenario frame that is not z up.
 ROOT_FRAME = 'map'
 #: Seconds of simulated time between two sendings of the markers (for viewers
 #: that subscribe late with volatile durability, RViz's default).
 MARKER_PERIOD = 1.0
-HELD_COLOR = (0.1, 0.8, 0.1, 1.0)
+HELD_COLOR = (1.0, 0.8, 0.0, 1.0)
 RELEASED_COLOR = (0.9, 0.1, 0.1, 0.35)
-#: A joint's sphere is this fraction of the largest body's size (at least 2 cm).
-JOINT_SIZE = 0.04
+#: A joint's sphere is this fraction of the thinner of the two bodies it joins (at least 1 cm).
+JOINT_SIZE = 0.4
 #: A cylinder marker stands along z; ours lie along the body's x axis.
 _Z_TO_X = np.array([0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5)])   # +90 deg about y
 
@@ -105,12 +108,31 @@ def _triangle_marker(shape: Shape) -> dict:
             'points': [_xyz(p) for p in triangles(shape).reshape(-1, 3)]}
 
 
-def _extent(shape: Shape) -> float:
+def extent(shape: Shape) -> float:
+    """Return a shape's largest dimension, m (a mesh's: its scale's largest)."""
     if shape.kind == 'cylinder':
         return max(2 * shape.size[0], shape.size[1])
     if shape.kind == 'sphere':
         return 2 * shape.size[0]
     return max(shape.size)
+
+
+def thickness(shape: Shape) -> float:
+    """Return a shape's smallest dimension, m (a cylinder's, a capsule's: the diameter)."""
+    if shape.kind in ('cylinder', 'sphere', 'capsule'):
+        return 2 * shape.size[0]
+    if shape.kind == 'box':
+        return min(shape.size)
+    return JOINT_SIZE * extent(shape)   # a mesh: its scale says little of its size
+
+
+def carriers(model) -> set:
+    """Return the names of the bodies that carry: not moved by forces, or fixed to one."""
+    out = {b.name for b in model.bodies if not b.dynamic}
+    for joint in model.joints:
+        if joint.kind == 'fixed' and model.bodies[joint.parent].name in out:
+            out.add(model.bodies[joint.child].name)
+    return out
 
 
 def joint_points_on_parents(model) -> np.ndarray:
@@ -144,11 +166,15 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
     out = []
     colors = iter(PALETTE * (1 + len(model.bodies) // len(PALETTE)))
     shapes = [body_shape(body) for body in model.bodies]
+    carried = carriers(model)
     for i, (body, shape) in enumerate(zip(model.bodies, shapes)):
         marker = _shape_marker(shape)
+        color = FIXED_COLOR if body.fixed else next(colors)
+        if body.name in carried:
+            color = color[:3] + (min(color[3], CARRIER_ALPHA),)
         marker.update(header={'stamp': stamp, 'frame_id': body.name},
                       ns=f'{namespace}/bodies', id=i, action=0, frame_locked=True,
-                      color=_color(FIXED_COLOR if body.fixed else next(colors)), text=body.name)
+                      color=_color(color), text=body.name)
         out.append(marker)
         if shape.kind == 'mesh' and shape.hull:   # what contacts use: the hull
             hull = _triangle_marker(shape)
@@ -156,7 +182,7 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
                         ns=f'{namespace}/collision', id=i, frame_locked=True,
                         color=_color(HULL_COLOR), text=f'{body.name} hull')
             out.append(hull)
-    size = max(0.02, JOINT_SIZE * max((_extent(s) for s in shapes), default=1.0))
+    size = max(0.01, JOINT_SIZE * min((thickness(s) for s in shapes), default=0.05))
     for k, event in enumerate(contacts):
         out.append({'header': {'stamp': stamp, 'frame_id': model.frame_id},
                     'ns': f'{namespace}/contacts', 'id': k, 'type': SPHERE, 'action': 0,
@@ -166,6 +192,8 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
                     'color': _color(CONTACT_COLOR),
                     'text': f'contact {" ".join(event["bodies"])} t={event["time"]:.6f} s'})
     for k, (joint, point) in enumerate(zip(model.joints, joint_points_on_parents(model))):
+        size = max(0.01, JOINT_SIZE * min(thickness(shapes[joint.parent]),
+                                          thickness(shapes[joint.child])))
         out.append({'header': {'stamp': stamp, 'frame_id': model.bodies[joint.parent].name},
                     'ns': f'{namespace}/joints', 'id': k, 'type': SPHERE, 'action': 0,
                     'pose': {'position': _xyz(point), 'orientation': _quat((0, 0, 0, 1))},
@@ -244,49 +272,3 @@ def static_transforms(model, stamp: dict) -> dict:
                               (0, 0, 0, 1))
                    for joint, point in zip(model.joints, joint_points_on_children(model))]
     return {'transforms': transforms}
-
-
-#: Seconds of simulated time between two sendings of the joint-load arrows.
-ARROW_PERIOD = 0.1
-ARROW, DELETEALL = 0, 3
-ARROW_COLOR = (0.85, 0.1, 0.1, 0.9)
-# the arrows' constant fields, shared by every arrow (the encoders only read them)
-_ARROW_POSE = {'orientation': {'x': 0.0, 'y': 0.0, 'z': 0.0, 'w': 1.0}}
-_ORIGIN = {'x': 0.0, 'y': 0.0, 'z': 0.0}
-_ARROW_SCALE = {'x': 0.03, 'y': 0.06, 'z': 0.08}
-_ARROW_RGBA = dict(zip('rgba', ARROW_COLOR))
-
-
-def metres_per_newton(model) -> float:
-    """Return the joint-load arrows' scale: 1 m for the weight of the heaviest moving body."""
-    weights = [body.mass * float(np.linalg.norm(model.gravity))
-               for body in model.bodies if body.dynamic]
-    biggest = max(weights, default=0.0)
-    return 1.0 / biggest if biggest > 0.0 else 1e-3
-
-
-def load_arrows(model, stamp: dict, namespace: str, loads) -> dict:
-    """
-    Return the MarkerArray of the joints' forces as arrows, each at its joint point.
-
-    loads: (joint index, force on the child in the child's axes, N) of each
-    active joint. An arrow lies in its joint's frame (at the joint point, the
-    child's axes), from the point along the force, 1 m per the heaviest
-    moving body's weight; a first DELETEALL clears the released joints' arrows.
-    Each arrow's text is its joint and the force's size, always as wide
-    (``pivot: 7.603e+03 N``), so that a recording encodes it from one template
-    (``markerbytes``).
-    """
-    scale = metres_per_newton(model)
-    out = [{'header': {'stamp': stamp, 'frame_id': model.frame_id},
-            'ns': f'{namespace}/joint_loads', 'id': 0, 'action': DELETEALL}]
-    for k, force in loads:
-        joint = model.joints[k]
-        fx, fy, fz = (float(f) for f in force)
-        out.append({'header': {'stamp': stamp, 'frame_id': joint.name},
-                    'ns': f'{namespace}/joint_loads', 'id': k, 'type': ARROW, 'action': 0,
-                    'pose': _ARROW_POSE, 'points': [_ORIGIN, _xyz((fx * scale, fy * scale,
-                                                                   fz * scale))],
-                    'scale': _ARROW_SCALE, 'color': _ARROW_RGBA,
-                    'text': f'{joint.name}: {math.hypot(fx, fy, fz):.3e} N'})
-    return {'markers': out}

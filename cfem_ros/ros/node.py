@@ -37,7 +37,7 @@ from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_in
 from cfem_ros.core.scenario import load_scenario
 from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
-from cfem_ros.recording import viewframes, visuals
+from cfem_ros.recording import loadarrows, viewframes, visuals
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import parameters
 from cfem_ros.ros.airtopics import AirPublishers
@@ -254,6 +254,7 @@ class _Publishers:
                                  model.body_index(body)))
         self.event_publisher = node.create_publisher(String, 'events', EVENT_QOS)
         self._events_sent = 0
+        self._retired = []   # released joints' publishers, destroyed at the next events
         # what viewers draw: markers on the bodies' tf frames (recording.visuals)
         self.marker_publisher = node.create_publisher(MarkerArray, 'markers', _latched())
         self.namespace = node.get_namespace().rstrip('/')
@@ -272,8 +273,9 @@ class _Publishers:
         self._scene_sent = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
+        self.arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
         self.arrow_publisher = (node.create_publisher(MarkerArray, 'load_markers', TOPIC_QOS)
-                                if model.joints else None)
+                                if any(not b.fixed for b in model.bodies) else None)
 
     def _wrench(self, topic: str, frame_id: str):
         """Return a WrenchStamped publisher on topic and its message, stamped in frame_id."""
@@ -299,10 +301,12 @@ class _Publishers:
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
 
-    def _arrows(self, stamp_ns: int, loads):
-        """Publish the joint-load arrows: (joint, force on the child in its axes) of each."""
+    def _arrows(self, stamp_ns: int):
+        """Publish the load arrows (``recording.loadarrows``) at the current state."""
+        sim = self.sim
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
-        array = visuals.load_arrows(self.sim.model, stamp, self.namespace, loads)
+        array, _ = self.arrows.message(stamp, sim.outputs(), sim.active_joints,
+                                       sim.held_wrenches())
         self.arrow_publisher.publish(MarkerArray(markers=[
             _fill(Marker(), m) for m in array['markers']]))
 
@@ -338,16 +342,14 @@ class _Publishers:
             _vector3(twist.twist.linear, velocity[i])
             _vector3(twist.twist.angular, rates[i])
             publisher.publish(twist)
-        arrows = self.arrow_publisher is not None and sim.t / visuals.ARROW_PERIOD + 1e-9 \
-            >= self._arrows_due
-        if arrows:   # the joint-load arrows, a few per simulated second
-            self._arrows_due = math.floor(sim.t / visuals.ARROW_PERIOD + 1e-9) + 1
+        if self.arrow_publisher is not None and \
+                sim.t / loadarrows.PERIOD + 1e-9 >= self._arrows_due:   # a few per second
+            self._arrows_due = math.floor(sim.t / loadarrows.PERIOD + 1e-9) + 1
+            self._arrows(stamp_ns)
         if self.wrenches:
             force, moment = sim.joint_wrenches()
             turned = quat[self.children]
             axes = rotations.to_body(turned, force), rotations.to_body(turned, moment)
-            if arrows:
-                self._arrows(stamp_ns, [(k, axes[0][k]) for k in self.wrenches])
             for k, publishers in self.wrenches.items():
                 for (publisher, wrench), (f, m) in zip(publishers, (
                         (axes[0][k], axes[1][k]), (force[k], moment[k]))):
@@ -355,8 +357,6 @@ class _Publishers:
                     _vector3(wrench.wrench.force, f)
                     _vector3(wrench.wrench.torque, m)
                     publisher.publish(wrench)
-        elif arrows:
-            self._arrows(stamp_ns, [])
         if self.applied:
             loads = sim.applied_loads()
             turned = quat[[body for _, _, body in self.applied]]
@@ -401,6 +401,9 @@ class _Publishers:
                     _vector3(wrench.wrench.torque, moment[k])
 
     def events(self):
+        for publisher in self._retired:   # their zero went out at the last call
+            self.node.destroy_publisher(publisher)
+        self._retired = []
         for event in self.sim.events[self._events_sent:]:
             self.event_publisher.publish(String(data=json.dumps(event)))
             if event['event'] == 'contact':
@@ -416,8 +419,12 @@ class _Publishers:
                 f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
                 f"(cause: {event['cause']}){group}")
             k = self.sim.model.joint_index(event['joint'])
-            for publisher, _ in self.wrenches.pop(k, ()):
-                self.node.destroy_publisher(publisher)
+            for publisher, wrench in self.wrenches.pop(k, ()):   # zero once: plots end at 0
+                _time_msg(wrench.header.stamp, self.stamp_ns(event['time']))
+                _vector3(wrench.wrench.force, (0.0, 0.0, 0.0))
+                _vector3(wrench.wrench.torque, (0.0, 0.0, 0.0))
+                publisher.publish(wrench)
+                self._retired.append(publisher)
         if self._scene_sent and len(self.sim.events) > self._events_sent:
             self._scene(self.stamp_ns(self.sim.events[-1]['time']))   # released joints
         self._events_sent = len(self.sim.events)

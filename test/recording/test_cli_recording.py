@@ -98,8 +98,11 @@ def test_event_and_wrench_topics(store_run):
     stamp, event = events[0]
     assert event['joint'] == 'pivot' and event['cause'] == 'angle'
     assert stamp == round(event['time'] * 1e9)
-    wrenches = [t for topic, t, _, _ in messages if topic == '/cfem/joints/pivot/wrench']
-    assert wrenches and max(wrenches) < stamp          # published while active only
+    wrenches = [(t, m.wrench.force) for topic, t, _, m in messages
+                if topic == '/cfem/joints/pivot/wrench']
+    # published while active, then zero once at the release
+    assert wrenches and max(t for t, _ in wrenches[:-1]) < stamp == wrenches[-1][0]
+    assert (wrenches[-1][1].x, wrenches[-1][1].y, wrenches[-1][1].z) == (0, 0, 0)
     poses = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/pose']
     assert poses[0].header.frame_id == 'world'
     twists = [m for topic, _, _, m in messages if topic == '/cfem/bodies/store/twist']

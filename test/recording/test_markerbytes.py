@@ -4,8 +4,9 @@
 
 import pathlib
 
+from cfem_ros.core.engine import Simulator
 from cfem_ros.core.scenario import load_scenario
-from cfem_ros.recording import visuals
+from cfem_ros.recording import loadarrows, visuals
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
 from cfem_ros.recording.msgdefs import DEFINITIONS
 from cfem_ros.recording.recorder import MARKERS, stamp
@@ -19,20 +20,35 @@ MODEL = load_scenario(str(CONFIG / 'store_release_two_hooks.yaml'))
 FORCE = st.floats(-1e7, 1e7, allow_nan=False)
 
 
+SOURCES = Simulator(MODEL).applied_sources   # the ejectors, their reactions, aero
+
+
+def _row(active, forces):
+    """A sample of the two-hook model at rest: these joints' and every source's forces."""
+    row = np.zeros(13 * len(MODEL.bodies) + 6 * len(active) + 6 * len(SOURCES))
+    row[6:13 * len(MODEL.bodies):13] = 1.0   # quaternions w
+    first = 13 * len(MODEL.bodies)
+    for i, force in enumerate(forces[:len(active) + len(SOURCES)]):
+        row[first + 6 * i:first + 6 * i + 3] = force
+    return row
+
+
 @settings(max_examples=60, deadline=None)
 @given(sendings=st.lists(st.tuples(
     st.integers(0, 2 ** 40), st.lists(st.booleans(), min_size=3, max_size=3),
-    st.lists(st.tuples(FORCE, FORCE, FORCE), min_size=3, max_size=3)), min_size=1, max_size=6),
+    st.lists(st.tuples(FORCE, FORCE, FORCE), min_size=8, max_size=8)), min_size=1, max_size=6),
     namespace=st.sampled_from(['/cfem', '/a/much/longer/namespace']))
 def test_every_sending_is_the_encoder_s_bytes(sendings, namespace):
     # one encoder for all the sendings: templates made by one are reused by the next
     encoder = MarkerArrayEncoder(ENCODE)
+    arrows = loadarrows.LoadArrows(MODEL, namespace, SOURCES)
+    held = np.zeros((len(MODEL.bodies), 10))
     for stamp_ns, active, forces in sendings:
-        loads = [(k, np.array(f)) for k, (on, f) in enumerate(zip(active, forces)) if on]
-        message = visuals.load_arrows(MODEL, stamp(stamp_ns), namespace, loads)
+        joints = tuple(k for k, on in enumerate(active) if on)
+        held[2, :3] = forces[-1]   # an input on the store
+        message, kind = arrows.message(stamp(stamp_ns), _row(joints, forces), joints, held)
         assert encoder(message) == ENCODE(message)
-        # told the kind as the recorder tells it: the joints (their lengths, not the texts)
-        kind = ('arrows', namespace, tuple(k for k, _ in loads))
+        # told the kind as the recorder tells it (the texts' lengths are added)
         assert encoder(message, kind=kind) == ENCODE(message)
 
 
@@ -49,8 +65,10 @@ def test_the_bodies_markers_follow_releases_and_contacts():
 
 
 def test_an_arrow_s_text_is_as_wide_for_every_force():
-    widths = {len(m['text']) for force in (0.0, 1e-3, 7.6e3, 3.2e6)
-              for m in visuals.load_arrows(MODEL, stamp(0), '/cfem',
-                                           [(0, np.array([force, 0.0, 0.0]))])['markers']
-              if 'text' in m}
-    assert widths == {len('pylon_mount: 7.603e+03 N')}   # joint 0
+    arrows = loadarrows.LoadArrows(MODEL, '/cfem', SOURCES)
+    widths = set()
+    for force in (1e-3, 7.6e3, 3.2e6):
+        message, _ = arrows.message(stamp(0), _row((0,), [(force, 0.0, 0.0)]), (0,),
+                                    np.zeros((len(MODEL.bodies), 10)))
+        widths |= {len(m['text']) for m in message['markers'] if 'text' in m}
+    assert widths == {len('pylon_mount joint: 7.600e+03 N, 1 m = 5e+03 N')}

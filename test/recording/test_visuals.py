@@ -274,12 +274,31 @@ def test_loads_are_stamped_where_they_act(store):
     assert len(local) == len(world) > 10
     for t, message in local:
         assert message.header.frame_id == 'pivot' and world[t].header.frame_id == 'world'
+        if t == local[-1][0]:
+            continue   # the zero at the release (test_a_released_joint_s_load_ends_at_zero)
         q = poses[t]
         turn = rotations.matrices(np.array([[q.x, q.y, q.z, q.w]]))[0]
         for kind in ('force', 'torque'):
             v, w = getattr(message.wrench, kind), getattr(world[t].wrench, kind)
             np.testing.assert_allclose(turn @ [v.x, v.y, v.z], [w.x, w.y, w.z], rtol=0,
                                        atol=1e-9 * max(1.0, abs(w.x), abs(w.z)))
+
+
+def test_a_released_joint_s_load_ends_at_zero(store, store_file):
+    """Once, at the release, so that a viewer's plot ends at zero; the reader keeps the rest."""
+    release = next(yaml.safe_load(m.data)['time'] for topic, _, m in store
+                   if topic == '/cfem/events')
+    for topic in ('/cfem/joints/pivot/wrench', '/cfem/joints/pivot/wrench_world'):
+        loads = [(t, m.wrench) for name, t, m in store if name == topic]
+        (t, last), (before, held) = loads[-1], loads[-2]
+        assert t == round(release * 1e9) and before < t
+        assert [last.force.x, last.force.y, last.force.z, last.torque.x, last.torque.y,
+                last.torque.z] == [0.0] * 6
+        assert abs(held.force.z) > 1000.0   # it held the store until then
+    run = analysis.open_run(str(store_file))
+    pivot = run.joints['pivot']
+    assert pivot.time[-1] < release and len(pivot.time) == len(loads) - 1
+    assert np.all(np.linalg.norm(pivot.force, axis=1) > 1000.0)
 
 
 def _corners(body):
@@ -326,9 +345,9 @@ def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
     local = {t: m.wrench.force for topic, t, m in store if topic == '/cfem/joints/pivot/wrench'}
     arrays = [(t, m) for topic, t, m in store if topic == '/cfem/load_markers']
     assert [t for t, _ in arrays] == [round(k * 1e8) for k in range(16)]
-    scale = 1 / (907.1848 * 9.80665)   # 1 m for the store's weight
     release = next(yaml.safe_load(m.data)['time'] for topic, _, m in store
                    if topic == '/cfem/events')
+    size = 2.5   # the store's length: the largest force is drawn about as long
     for t, array in arrays:
         first, *arrows = array.markers
         assert first.action == 3    # DELETEALL: a released joint's arrow goes
@@ -336,12 +355,15 @@ def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
             assert arrows == []
             continue
         (arrow,) = arrows
-        assert arrow.header.frame_id == 'pivot' and arrow.type == 0
+        assert arrow.header.frame_id == 'pivot' and arrow.type == 0 and arrow.frame_locked
         start, end = arrow.points
         assert (start.x, start.y, start.z) == (0, 0, 0)
-        f = local[t]
-        np.testing.assert_allclose([end.x, end.y, end.z], np.array([f.x, f.y, f.z]) * scale,
-                                   rtol=1e-12, atol=1e-12)
+        f = np.array([local[t].x, local[t].y, local[t].z])
+        per_metre = float(arrow.text.rsplit('= ', 1)[1].split()[0])   # the text states it
+        assert arrow.text.startswith(f'pivot joint: {np.linalg.norm(f):.3e} N, 1 m = ')
+        assert per_metre in [m * 10.0 ** e for m in (1, 2, 5) for e in range(-3, 9)]
+        np.testing.assert_allclose([end.x, end.y, end.z], f / per_metre, rtol=1e-12, atol=1e-12)
+        assert 0.4 * size <= np.linalg.norm(f) / per_metre <= size
 
 
 def test_open_run_reads_world_axes_loads_old_and_new(tmp_path, store, store_file):
@@ -362,4 +384,5 @@ def test_open_run_reads_world_axes_loads_old_and_new(tmp_path, store, store_file
     # a new recording: the world-axes numbers of wrench_world, whatever wrench holds
     new = analysis.open_run(str(store_file))
     world = [m.wrench.force for topic, _, m in store if topic == '/cfem/joints/pivot/wrench_world']
-    np.testing.assert_array_equal(new.joints['pivot'].force[:, 2], [f.z for f in world])
+    # all but the zero at the release (test_a_released_joint_s_load_ends_at_zero)
+    np.testing.assert_array_equal(new.joints['pivot'].force[:, 2], [f.z for f in world[:-1]])

@@ -1,0 +1,178 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Every load as an arrow where it acts (``load_markers``, SPEC section 4).
+
+One arrow per active joint (at the joint's frame, along the force on its
+child), per applied load (ejectors and other scheduled wrenches, their
+reactions, aerodynamic loads, sway braces) and per wrench held on a body by
+an input: each from its point of action along its force, in the frame of the
+body it acts on (frame-locked, so it rides with the body between sendings),
+coloured by kind. Moments are not drawn (plot them).
+
+Where the point of action is not given (a reaction, an aerodynamic load, a
+brace) the arrow is drawn on the load's line of action, at its point nearest
+the CG (force x moment / |force|^2, the central axis), or at the CG when that
+point lies outside the body.
+
+Scale: per sending, the largest force drawn is about the size of the largest
+body that moves under its loads (1, 2 or 5 times a power of ten newtons per
+metre); each arrow's text states it (``fwd_hook joint: 8.897e+03 N, 1 m =
+5e+03 N``), always as wide, so that a recording encodes the arrows from one
+template (``markerbytes``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from cfem_ros.core import rotations
+from cfem_ros.recording import visuals
+import numpy as np
+
+ARROW, DELETEALL = 0, 3
+#: Seconds of simulated time between two sendings of the arrows.
+PERIOD = 0.1
+#: Colours (r, g, b, a) of the kinds of load.
+COLORS = {
+    'joint': (0.9, 0.1, 0.1, 0.95),
+    'ejector': (0.95, 0.2, 0.85, 0.95),
+    'load': (1.0, 0.55, 0.0, 0.95),
+    'reaction': (0.55, 0.3, 0.3, 0.95),
+    'aero': (0.2, 0.6, 1.0, 0.95),
+    'brace': (0.55, 0.3, 0.95, 0.95),
+    'input': (0.0, 0.85, 0.85, 0.95),
+}
+#: An arrow's shaft diameter, head diameter and head length, per metre of the scale's size.
+SHAFT, HEAD, HEAD_LENGTH = 0.02, 0.045, 0.07
+#: Forces smaller than this fraction of the largest drawn are not drawn (rounding).
+SMALLEST = 1e-9
+
+
+def scale_size(model) -> float:
+    """Return the size (m) the largest force is drawn at: the largest body moved by forces."""
+    shapes = [visuals.body_shape(b) for b in model.bodies if b.dynamic] or [
+        visuals.body_shape(b) for b in model.bodies]
+    return max((visuals.extent(s) for s in shapes), default=1.0)
+
+
+def newtons_per_metre(largest: float, size: float) -> float:
+    """Return the arrows' scale: 1, 2 or 5 times a power of ten, the largest force <= size m."""
+    if not largest > 0.0:
+        return 1.0
+    raw = largest / size
+    power = 10.0 ** math.floor(math.log10(raw))
+    for step in (1.0, 2.0, 5.0, 10.0):
+        if step * power >= raw * (1.0 - 1e-12):
+            return step * power
+    return 10.0 * power
+
+
+def source_kind(model, body: int, source: str) -> tuple:
+    """
+    Return the kind of an applied load and its point (body axes, m, or None: not given).
+
+    A scheduled wrench acting on its own body is an ejector (with a stroke)
+    or a load, at its ``point``; on its ``reacts_on`` body it is a reaction;
+    ``aero`` is aerodynamic; any other source (a sway brace) is a brace.
+    """
+    if source == 'aero':
+        return 'aero', None
+    for wrench in model.wrenches:
+        if wrench.name == source:
+            if wrench.body != body:
+                return 'reaction', None
+            kind = 'ejector' if wrench.stroke is not None else 'load'
+            return kind, np.asarray(wrench.point, dtype=float)
+    return 'brace', None
+
+
+class LoadArrows:
+    """
+    The ``load_markers`` MarkerArray of a model, from a sample's numbers.
+
+    Parameters
+    ----------
+    model : Model
+    namespace : str
+        The markers' ``ns`` prefix (the node's namespace).
+    sources : list of (str, str)
+        (body, source) of each applied load of a sample (``Simulator.applied_sources``).
+
+    """
+
+    def __init__(self, model, namespace: str, sources):
+        self.model = model
+        self.namespace = namespace
+        self.size = scale_size(model)
+        self.sources = [(model.body_index(body), source) for body, source in sources]
+        self.kinds = [source_kind(model, i, source) for i, source in self.sources]
+        self.half_extents = [0.5 * visuals.extent(visuals.body_shape(b)) for b in model.bodies]
+        self._scale = {'x': SHAFT * self.size, 'y': HEAD * self.size,
+                       'z': HEAD_LENGTH * self.size}
+
+    def arrows(self, row: np.ndarray, active, held: np.ndarray) -> list:
+        """
+        Return the arrows of one sample: (ns, id, frame, kind, label, start, force), body axes.
+
+        row: the sample's numbers in ``Simulator.outputs`` order, these joints
+        active; held: ``Simulator.held_wrenches()``.
+        """
+        model = self.model
+        n = len(model.bodies)
+        turns = rotations.matrices(row[:13 * n].reshape(n, 13)[:, 3:7])   # body to world
+        out = []
+        first = 13 * n
+        for i, k in enumerate(active):
+            joint = model.joints[k]
+            force = row[first + 6 * i:first + 6 * i + 3] @ turns[joint.child]
+            out.append(('joint_loads', k, joint.name, 'joint', joint.name, np.zeros(3), force))
+        first += 6 * len(active)
+        for j, ((body, source), (kind, point)) in enumerate(zip(self.sources, self.kinds)):
+            values = row[first + 6 * j:first + 6 * j + 6]
+            force, moment = values.reshape(2, 3) @ turns[body]   # in body axes
+            start = point if point is not None else self._on_line(body, force, moment)
+            out.append(('applied_loads', j, model.bodies[body].name, kind, source, start, force))
+        for body in np.flatnonzero(np.abs(held[:, :3]).sum(axis=1) > 0.0):
+            force = held[body, :3] if held[body, 6] else held[body, :3] @ turns[body]
+            out.append(('held_loads', int(body), model.bodies[body].name, 'input',
+                        model.bodies[body].name, held[body, 7:10], force))
+        largest = max((float(np.linalg.norm(a[6])) for a in out), default=0.0)
+        return [a for a in out if np.linalg.norm(a[6]) > SMALLEST * largest]
+
+    def _on_line(self, body: int, force: np.ndarray, moment: np.ndarray) -> np.ndarray:
+        """Return the point of a load's line of action nearest the CG (the CG if off the body)."""
+        size = float(force @ force)
+        if size == 0.0:
+            return np.zeros(3)
+        point = np.cross(force, moment) / size
+        return point if np.linalg.norm(point) <= self.half_extents[body] else np.zeros(3)
+
+    def message(self, stamp: dict, row: np.ndarray, active, held: np.ndarray) -> tuple:
+        """
+        Return the MarkerArray of one sample (a dict) and its kind for ``MarkerArrayEncoder``.
+
+        A first DELETEALL clears the arrows of loads no longer drawn.
+        """
+        arrows = self.arrows(row, active, held)
+        largest = max((float(np.linalg.norm(a[6])) for a in arrows), default=0.0)
+        per_metre = newtons_per_metre(largest, self.size)
+        ns = f'{self.namespace}/'
+        out = [{'header': {'stamp': stamp, 'frame_id': self.model.frame_id},
+                'ns': ns + 'joint_loads', 'id': 0, 'action': DELETEALL}]
+        for space, k, frame, kind, label, start, force in arrows:
+            end = start + force / per_metre
+            out.append({'header': {'stamp': stamp, 'frame_id': frame}, 'ns': ns + space,
+                        'id': k, 'type': ARROW, 'action': 0, 'frame_locked': True,
+                        'pose': {'orientation': {'x': 0.0, 'y': 0.0, 'z': 0.0, 'w': 1.0}},
+                        'points': [_xyz(start), _xyz(end)], 'scale': self._scale,
+                        'color': dict(zip('rgba', COLORS[kind])),
+                        'text': f'{label} {kind}: {np.linalg.norm(force):.3e} N, '
+                                f'1 m = {per_metre:.0e} N'})
+        kind = ('loads', self.namespace, self.model.frame_id, self.size, tuple(
+            (a[0], a[1], a[2], a[3]) for a in arrows))
+        return {'markers': out}, kind
+
+
+def _xyz(v) -> dict:
+    return {'x': float(v[0]), 'y': float(v[1]), 'z': float(v[2])}
