@@ -15,11 +15,13 @@ brace) the arrow is drawn on the load's line of action, at its point nearest
 the CG (force x moment / |force|^2, the central axis), or at the CG when that
 point lies outside the body.
 
-Scale: per sending, the largest force drawn is about the size of the largest
-body that moves under its loads (1, 2 or 5 times a power of ten newtons per
-metre); each arrow's text states it (``fwd_hook joint: 8.897e+03 N, 1 m =
-5e+03 N``), always as wide, so that a recording encodes the arrows from one
-template (``markerbytes``).
+Scale: the largest force of the scene so far (from the start: the scheduled
+wrenches' own sizes) is drawn about the size of the largest body that moves
+under its loads, at 1, 2 or 5 times a power of ten newtons per metre. The
+scale only grows, so that arrows of two times compare; it is stated in each
+arrow's text (``fwd_hook joint: 8.897e+03 N, 1 m = 5e+03 N``), always as
+wide, so that a recording encodes the arrows from one template
+(``markerbytes``).
 """
 
 from __future__ import annotations
@@ -68,6 +70,16 @@ def newtons_per_metre(largest: float, size: float) -> float:
     return 10.0 * power
 
 
+def scheduled_largest(model) -> float:
+    """Return the largest force of the scenario's scheduled wrenches (their tables'), N."""
+    sizes = [0.0]
+    for wrench in model.wrenches:
+        sizes.append(float(np.linalg.norm(wrench.force)))
+        if len(wrench.table):
+            sizes.append(float(np.linalg.norm(wrench.table[:, 1:4], axis=1).max()))
+    return max(sizes)
+
+
 def source_kind(model, body: int, source: str) -> tuple:
     """
     Return the kind of an applied load and its point (body axes, m, or None: not given).
@@ -110,6 +122,8 @@ class LoadArrows:
         self.half_extents = [0.5 * visuals.extent(visuals.body_shape(b)) for b in model.bodies]
         self._scale = {'x': SHAFT * self.size, 'y': HEAD * self.size,
                        'z': HEAD_LENGTH * self.size}
+        #: The largest force drawn so far, N: the scale's (it only grows).
+        self.largest = scheduled_largest(model)
 
     def arrows(self, row: np.ndarray, active, held: np.ndarray) -> list:
         """
@@ -152,11 +166,13 @@ class LoadArrows:
         """
         Return the MarkerArray of one sample (a dict) and its kind for ``MarkerArrayEncoder``.
 
-        A first DELETEALL clears the arrows of loads no longer drawn.
+        Samples are given in time order (the scale grows with the largest
+        force so far). A first DELETEALL clears the arrows of loads no
+        longer drawn.
         """
         arrows = self.arrows(row, active, held)
-        largest = max((float(np.linalg.norm(a[6])) for a in arrows), default=0.0)
-        per_metre = newtons_per_metre(largest, self.size)
+        self.largest = max([self.largest] + [float(np.linalg.norm(a[6])) for a in arrows])
+        per_metre = newtons_per_metre(self.largest, self.size)
         ns = f'{self.namespace}/'
         out = [{'header': {'stamp': stamp, 'frame_id': self.model.frame_id},
                 'ns': ns + 'joint_loads', 'id': 0, 'action': DELETEALL}]

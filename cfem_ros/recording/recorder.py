@@ -87,12 +87,20 @@ class TransformsOf:
     A sample's tf2_msgs/TFMessage: some bodies' poses as transforms from one frame.
 
     It takes no numbers of its own: each child's 7 (translation, rotation
-    x y z w) are the sample's pose numbers starting at ``columns[j]``.
+    x y z w) are the sample's pose numbers starting at ``columns[j]``; the
+    last ``computed`` children's are numbers computed from the sample (the
+    layout entry's derived numbers, ``columns`` counting from their first).
+    ``parent``: the frame of every child, or a tuple of one per child.
     """
 
-    parent: str
+    parent: object
     children: tuple
     columns: tuple
+    computed: int = 0
+
+    def parent_of(self, j: int) -> str:
+        """Return the parent frame of child j."""
+        return self.parent if isinstance(self.parent, str) else self.parent[j]
 
 
 @dataclass(frozen=True)
@@ -257,9 +265,9 @@ class Recorder:
         in the order of a sample's values; or (topic, msgtype, frame_id,
         InBodyAxes) for numbers turned from others, or (topic, TF,
         TransformsOf, None) for poses among them; or (topic, TF,
-        TransformsOf, derived) for poses computed from them by derived
-        (``viewframes.ViewFrames``: its ``size`` and ``numbers(block)``),
-        the TransformsOf's columns counting from the first it computes.
+        TransformsOf, derived) whose last ``computed`` poses derived
+        computes from them (``viewframes.ViewFrames``: its ``size`` and
+        ``numbers(block)``).
         """
         channels = [self.channel(topic, msgtype) for topic, msgtype, _, _ in messages]
         return SampleLayout(channels, [(frame, count) for _, _, frame, count in messages])
@@ -591,8 +599,9 @@ def _layout_template(channels: tuple, messages: tuple):
         if isinstance(frame_id, TransformsOf):
             data, parts, constant = _transforms_template(frame_id)
             base = 0 if count is None else int(starts[turned.index(count)])
-            columns.append([(names, (base + first, base + first + 7))
-                            for names, first in zip(parts, frame_id.columns)])
+            own = len(frame_id.children) - frame_id.computed   # then the computed ones
+            columns.append([(names, (first + base * (j >= own), first + base * (j >= own) + 7))
+                            for j, (names, first) in enumerate(zip(parts, frame_id.columns))])
         elif isinstance(count, InBodyAxes):
             data, constant = _stamped_template(frame_id, 6)
             first = int(starts[turned.index(count)])
@@ -658,11 +667,12 @@ def _transforms_template(transforms: TransformsOf):
               [1.0 + 2.0 ** -40 * (7 * j + c + 1) for c in range(7)])
              for j in range(len(transforms.children))]
     data = encode({'transforms': [
-        {'header': {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': transforms.parent},
+        {'header': {'stamp': {'sec': sec, 'nanosec': nanosec},
+                    'frame_id': transforms.parent_of(j)},
          'child_frame_id': child,
          'transform': {'translation': dict(zip('xyz', values[:3])),
                        'rotation': dict(zip('xyzw', values[3:]))}}
-        for child, (sec, nanosec, values) in zip(transforms.children, marks)]})
+        for j, (child, (sec, nanosec, values)) in enumerate(zip(transforms.children, marks))]})
     variable = []
     for j, (sec, nanosec, values) in enumerate(marks):
         at_stamp = data.index(struct.pack('<iI', sec, nanosec))
@@ -727,9 +737,16 @@ class StateRecorder:
         self._transforms = TransformsOf(
             self.world, tuple(model.bodies[i].name for i in moving),
             tuple(13 * i for i in moving)) if moving else None
-        views = viewframes.of_model(model)   # the carriers' z-up frames, from their poses
-        self._views = None if views is None else (TransformsOf(
-            views.root, views.names, tuple(7 * k for k in range(len(views.names)))), views)
+        # the carriers' z-up frames, computed from their poses, in the same message (a
+        # viewer seeking shows the last /tf message before the time: it must hold all)
+        self._views = viewframes.of_model(model)
+        if self._views is not None:
+            views = self._views
+            self._transforms = TransformsOf(
+                (self.world,) * len(moving) + (views.root,) * len(views.names),
+                self._transforms.children + views.names,
+                self._transforms.columns + tuple(7 * k for k in range(len(views.names))),
+                computed=len(views.names))
         self._scene_written = False
         # the next sendings, counted in periods: the markers at 1, the arrows at 0
         self._markers_due, self._arrows_due = 1, 0
@@ -882,9 +899,7 @@ class StateRecorder:
                              bodies[ref].name, 6))
         messages += turned
         if self._transforms is not None:
-            messages.append(('/tf', TF, self._transforms, None))
-        if self._views is not None:
-            messages.append(('/tf', TF, *self._views))
+            messages.append(('/tf', TF, self._transforms, self._views))
         return messages
 
     def events(self):

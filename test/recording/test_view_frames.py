@@ -96,3 +96,6 @@ def test_only_carriers_get_a_view_frame(frames):
     children = {tf.child_frame_id for topic, _, m in frames if topic in ('/tf', '/tf_static')
                 for tf in m.transforms}
     assert children == {'world', 'aircraft', 'store', 'aircraft_view'}
+    # one /tf message per sample: a viewer that seeks shows the last one before the time
+    stamps = [t for topic, t, _ in frames if topic == '/tf']
+    assert len(stamps) == len(set(stamps)) == 31

@@ -1,0 +1,161 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A Foxglove / Lichtblick layout that shows a scenario's separation with no click.
+
+``layout(model)`` returns the layout (the JSON the apps import and export,
+*Layouts > Import*): a 3D panel with the body and load markers on, its
+display frame the carrier's ``<body>_view`` (z up, following the carrier:
+``viewframes``), the camera on the store's side aimed a little below it, and
+one frame label per origin (frames that start at one point, like ``map``,
+the scenario's frame and a body there, are named once); a Plot of the
+store's position relative to its carrier, one of the hook loads, and the
+events. The shipped examples' layouts are in ``config/viewer/``; for a
+scenario of yours::
+
+    python3 -m cfem_ros.recording.viewerlayout my_scenario.yaml -o my_layout.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from cfem_ros.core import rotations
+from cfem_ros.recording import viewframes, visuals
+import numpy as np
+
+#: Which frame keeps its label where several start at one point: lower first.
+_PRIORITY = {'dynamic': 0, 'joint': 1, 'carrier': 2, 'view': 3, 'scenario': 4, 'root': 5}
+
+
+def subject(model) -> int:
+    """Return the body the layout watches: the first moved by forces that has a carrier."""
+    for body, reference in model.references:
+        if model.bodies[body].dynamic and not model.bodies[reference].dynamic:
+            return body
+    return next((i for i, b in enumerate(model.bodies) if b.dynamic), 0)
+
+
+def _frames_at_start(model) -> list:
+    """Return (name, kind, position at t = 0 in root axes) of every frame a recording has."""
+    up = visuals.up_rotation(model.gravity)
+    turn = np.eye(3) if up is None else rotations.matrices(np.array([up]))[0]
+    root = visuals.root_frame(model)
+    out = [(root, 'root', np.zeros(3))]
+    if root != model.frame_id:
+        out.append((model.frame_id, 'scenario', np.zeros(3)))
+    for i, body in enumerate(model.bodies):
+        at = turn @ np.asarray(body.position, dtype=float)
+        out.append((body.name, 'dynamic' if body.dynamic else 'carrier', at))
+        if i in viewframes.carriers(model):
+            out.append((viewframes.frame_name(model, body.name), 'view', at))
+    out += [(j.name, 'joint', turn @ np.asarray(j.anchor, dtype=float)) for j in model.joints]
+    return out
+
+
+def hidden_frames(model) -> list:
+    """Return the frames whose axes and label the layout hides: all but one per origin."""
+    groups = {}
+    for name, kind, at in _frames_at_start(model):
+        groups.setdefault(tuple(np.round(at, 6)), []).append((_PRIORITY[kind], name))
+    return sorted(name for group in groups.values() for _, name in sorted(group)[1:])
+
+
+def _mm(value) -> float:
+    """Return a length in m rounded to the millimetre (a layout file reads better)."""
+    return round(float(value), 3) + 0.0
+
+
+def _plot(paths: list, title: str) -> dict:
+    return {'paths': [{'value': path, 'enabled': True, 'timestampMethod': 'receiveTime',
+                       'label': label} for path, label in paths],
+            'title': title, 'showXAxisLabels': True, 'showYAxisLabels': True,
+            'showLegend': True, 'legendDisplay': 'floating', 'showPlotValuesInLegend': True,
+            'isSynced': True, 'xAxisVal': 'timestamp'}
+
+
+def layout(model, namespace: str = '/cfem') -> dict:
+    """Return the layout of a scenario's recording (or live node) under namespace."""
+    ns = namespace.rstrip('/')
+    store = subject(model)
+    body = model.bodies[store]
+    carrier = model.carrier(store) if hasattr(model, 'carrier') else -1
+    size = max(visuals.extent(visuals.body_shape(b)) for b in model.bodies if b.dynamic) \
+        if any(b.dynamic for b in model.bodies) else 1.0
+    up = visuals.up_rotation(model.gravity)
+    turn = np.eye(3) if up is None else rotations.matrices(np.array([up]))[0]
+    at = turn @ np.asarray(body.position, dtype=float)
+    if carrier >= 0:   # follow the carrier, z up; aim below the store: it falls
+        follow = viewframes.frame_name(model, model.bodies[carrier].name)
+        at = at - turn @ np.asarray(model.bodies[carrier].position, dtype=float)
+        position = [(f'{ns}/bodies/{body.name}/relative_pose.pose.position.{c}',
+                     f'{body.name} {c} in {model.bodies[carrier].name} axes, m') for c in 'xz']
+    else:
+        follow = visuals.root_frame(model)
+        position = [(f'{ns}/bodies/{body.name}/pose.pose.position.{c}',
+                     f'{body.name} {c} in {model.frame_id} axes, m') for c in 'xz']
+    hooks = [j for j in model.joints if j.child == store]
+    loads = [(f'{ns}/joints/{j.name}/wrench_world.wrench.force.{c}',
+              f'{j.name} force {c} ({model.frame_id} axes), N') for j in hooks for c in 'xz']
+    three_d = {
+        'followTf': follow, 'followMode': 'follow-pose',
+        'cameraState': {'distance': _mm(4.0 * size), 'perspective': True, 'phi': 75.0,
+                        'thetaOffset': -90.0, 'fovy': 45.0, 'near': 0.05, 'far': 5000.0,
+                        'targetOffset': [_mm(at[0]), _mm(at[1]), _mm(at[2] - 0.4 * size)],
+                        'target': [0.0, 0.0, 0.0], 'targetOrientation': [0.0, 0.0, 0.0, 1.0]},
+        'scene': {'transforms': {'showLabel': True, 'axisScale': _mm(0.15 * size),
+                                 'labelSize': _mm(0.06 * size)}},
+        'topics': {f'{ns}/markers': {'visible': True}, f'{ns}/load_markers': {'visible': True}},
+        'transforms': {f'frame:{name}': {'visible': False} for name in hidden_frames(model)},
+    }
+    return {
+        'configById': {
+            '3D!cfem': three_d,
+            'Plot!position': _plot(position, f'{body.name} position'),
+            'Plot!loads': _plot(loads, 'hook loads'),
+            'RawMessages!events': {'topicPath': f'{ns}/events', 'diffEnabled': False,
+                                   'diffMethod': 'custom', 'diffTopicPath': '',
+                                   'showFullMessageForDiff': False},
+        },
+        'globalVariables': {}, 'userNodes': {}, 'playbackConfig': {'speed': 0.2},
+        'layout': {'first': '3D!cfem', 'direction': 'row', 'splitPercentage': 62,
+                   'second': {'first': 'Plot!position', 'direction': 'column',
+                              'splitPercentage': 36, 'second': {
+                                  'first': 'Plot!loads', 'second': 'RawMessages!events',
+                                  'direction': 'column', 'splitPercentage': 60}}},
+    }
+
+
+def main(argv=None) -> int:
+    """Write a scenario's layout as JSON (``-o FILE``, else to standard output)."""
+    from cfem_ros.core.errors import CfemError
+    from cfem_ros.core.scenario import load_scenario
+    parser = argparse.ArgumentParser(
+        prog='python3 -m cfem_ros.recording.viewerlayout',
+        description='Write a Foxglove/Lichtblick layout that shows a scenario\'s separation.')
+    parser.add_argument('scenario')
+    parser.add_argument('-o', '--output', help='the layout file (default: standard output)')
+    parser.add_argument('--namespace', default='/cfem')
+    args = parser.parse_args(argv)
+    try:
+        model = load_scenario(args.scenario)
+    except (CfemError, OSError) as err:
+        print(f'ERROR: {err}', file=sys.stderr)
+        return 2
+    text = json.dumps(layout(model, args.namespace), indent=2) + '\n'
+    if args.output is None:
+        sys.stdout.write(text)
+        return 0
+    try:
+        with open(args.output, 'w') as out:
+            out.write(text)
+    except OSError as err:
+        print(f'ERROR: {args.output}: cannot write ({err.strerror})', file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
