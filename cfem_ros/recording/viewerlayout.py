@@ -31,11 +31,13 @@ _PRIORITY = {'dynamic': 0, 'joint': 1, 'carrier': 2, 'view': 3, 'scenario': 4, '
 
 
 def subject(model) -> int:
-    """Return the body the layout watches: the first moved by forces that has a carrier."""
+    """Return the body the layout watches: the first carried one (a store) that has a carrier."""
+    carried = [i for i, b in enumerate(model.bodies)
+               if b.dynamic and b.name not in visuals.carriers(model)]
     for body, reference in model.references:
-        if model.bodies[body].dynamic and not model.bodies[reference].dynamic:
+        if body in carried and not model.bodies[reference].dynamic:
             return body
-    return next((i for i, b in enumerate(model.bodies) if b.dynamic), 0)
+    return carried[0] if carried else 0
 
 
 def _frames_at_start(model) -> list:
@@ -81,7 +83,8 @@ def layout(model, namespace: str = '/cfem') -> dict:
     ns = namespace.rstrip('/')
     store = subject(model)
     body = model.bodies[store]
-    carrier = model.carrier(store) if hasattr(model, 'carrier') else -1
+    carrier = dict(model.references).get(store, -1)   # its relative pose is recorded
+    carrier = carrier if carrier >= 0 and not model.bodies[carrier].dynamic else -1
     size = max(visuals.extent(visuals.body_shape(b)) for b in model.bodies if b.dynamic) \
         if any(b.dynamic for b in model.bodies) else 1.0
     up = visuals.up_rotation(model.gravity)
@@ -102,11 +105,11 @@ def layout(model, namespace: str = '/cfem') -> dict:
     three_d = {
         'followTf': follow, 'followMode': 'follow-pose',
         'cameraState': {'distance': _mm(4.0 * size), 'perspective': True, 'phi': 75.0,
-                        'thetaOffset': -90.0, 'fovy': 45.0, 'near': 0.05, 'far': 5000.0,
+                        'thetaOffset': 0.0, 'fovy': 45.0, 'near': 0.05, 'far': 5000.0,
                         'targetOffset': [_mm(at[0]), _mm(at[1]), _mm(at[2] - 0.4 * size)],
                         'target': [0.0, 0.0, 0.0], 'targetOrientation': [0.0, 0.0, 0.0, 1.0]},
         'scene': {'transforms': {'showLabel': True, 'axisScale': _mm(0.15 * size),
-                                 'labelSize': _mm(0.06 * size)}},
+                                 'labelSize': _mm(0.04 * size)}},
         'topics': {f'{ns}/markers': {'visible': True}, f'{ns}/load_markers': {'visible': True}},
         'transforms': {f'frame:{name}': {'visible': False} for name in hidden_frames(model)},
     }

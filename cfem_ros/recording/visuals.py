@@ -127,10 +127,18 @@ def thickness(shape: Shape) -> float:
 
 
 def carriers(model) -> set:
-    """Return the names of the bodies that carry: not moved by forces, or fixed to one."""
+    """
+    Return the names of the bodies that carry others.
+
+    Those not moved by forces (fixed, kinematic), and a body that holds
+    another by a joint while a fixed joint holds it to a carrier (a pylon on
+    an aircraft; not a store on fixed hooks, which holds nothing).
+    """
     out = {b.name for b in model.bodies if not b.dynamic}
+    parents = {joint.parent for joint in model.joints}
     for joint in model.joints:
-        if joint.kind == 'fixed' and model.bodies[joint.parent].name in out:
+        if joint.kind == 'fixed' and model.bodies[joint.parent].name in out \
+                and joint.child in parents:
             out.add(model.bodies[joint.child].name)
     return out
 

@@ -65,6 +65,9 @@ def test_a_layout_shows_what_its_recording_holds(name, tmp_path):
     plotted = [p['value'] for key, panel in layout['configById'].items()
                if key.startswith('Plot!') for p in panel['paths']]
     assert len(plotted) >= 4 and {p.split('.')[0] for p in plotted} <= topics
+    position = [p['value'] for p in layout['configById']['Plot!position']['paths']]
+    kind = 'pose' if name == 'store_separation' else 'relative_pose'   # in the carrier's axes
+    assert position == [f'/cfem/bodies/store/{kind}.pose.position.{c}' for c in 'xz']
     assert layout['configById']['RawMessages!events']['topicPath'] == '/cfem/events'
     frames = _frames_at(messages, 0)
     assert three_d['followTf'] in frames
