@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from cfem_ros.core import rotations
@@ -152,6 +153,7 @@ def main(argv=None) -> int:
         sys.stdout.write(text)
         return 0
     try:
+        os.makedirs(os.path.dirname(args.output) or os.curdir, exist_ok=True)
         with open(args.output, 'w') as out:
             out.write(text)
     except OSError as err:

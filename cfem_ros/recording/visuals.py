@@ -39,12 +39,12 @@ CUBE, SPHERE, CYLINDER, MESH_RESOURCE, TRIANGLE_LIST = 1, 2, 3, 10, 11
 CONTACT_COLOR = (1.0, 0.0, 0.0, 1.0)
 #: A mesh's collision hull is drawn over the mesh in this colour.
 HULL_COLOR = (1.0, 0.85, 0.0, 0.35)
-#: Colours (r, g, b, a) of moving bodies, in turn; fixed bodies are grey.
-PALETTE = ((0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
-           (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0), (0.89, 0.47, 0.76, 1.0))
+#: Colours (r, g, b, a) of moving bodies, in turn; fixed bodies are grey. A little
+#: transparent: the load arrows that start inside a body (aero, at its CG) show.
+PALETTE = ((0.12, 0.47, 0.71, 0.75), (1.0, 0.5, 0.05, 0.75), (0.17, 0.63, 0.17, 0.75),
+           (0.58, 0.4, 0.74, 0.75), (0.55, 0.34, 0.29, 0.75), (0.89, 0.47, 0.76, 0.75))
 FIXED_COLOR = (0.6, 0.6, 0.6, 0.3)
-#: The opacity of a carrier's shape (a body not moved by forces, or fixed to one),
-#: so that what hangs under it shows.
+#: The opacity of a carrier's shape (``carriers``), so that what hangs under it shows.
 CARRIER_ALPHA = 0.3
 #: The z-up root frame (REP-105's ``map``) above a scenario frame that is not z up.
 ROOT_FRAME = 'map'
