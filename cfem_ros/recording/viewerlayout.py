@@ -138,7 +138,7 @@ def main(argv=None) -> int:
     from cfem_ros.core.scenario import load_scenario
     parser = argparse.ArgumentParser(
         prog='python3 -m cfem_ros.recording.viewerlayout',
-        description='Write a Foxglove/Lichtblick layout that shows a scenario\'s separation.')
+        description="Write a Foxglove/Lichtblick layout that shows a scenario's separation.")
     parser.add_argument('scenario')
     parser.add_argument('-o', '--output', help='the layout file (default: standard output)')
     parser.add_argument('--namespace', default='/cfem')

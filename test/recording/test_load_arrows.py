@@ -11,14 +11,13 @@ applied topics in body axes, the joint's in its frame).
 
 import pathlib
 
+from cfem_ros import cli
+from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
+from cfem_ros.recording.recorder import Recorder, WRENCH
 import numpy as np
 import pytest
 from recordings import read_rosbags
 from scipy.spatial.transform import Rotation
-
-from cfem_ros import cli
-from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
-from cfem_ros.recording.recorder import Recorder, WRENCH
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 HELD_AT = np.array([1.0, 0.0, 0.0])   # body axes, from the CG, m

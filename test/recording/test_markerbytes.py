@@ -24,7 +24,7 @@ SOURCES = Simulator(MODEL).applied_sources   # the ejectors, their reactions, ae
 
 
 def _row(active, forces):
-    """A sample of the two-hook model at rest: these joints' and every source's forces."""
+    """Return a sample of the two-hook model at rest with these joints' and sources' forces."""
     row = np.zeros(13 * len(MODEL.bodies) + 6 * len(active) + 6 * len(SOURCES))
     row[6:13 * len(MODEL.bodies):13] = 1.0   # quaternions w
     first = 13 * len(MODEL.bodies)

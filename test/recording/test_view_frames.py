@@ -10,13 +10,12 @@ origin is the carrier's CG as its pose says, its z axis is -gravity, its x
 axis the carrier's x projected on the level plane.
 """
 
+from cfem_ros import cli
 import numpy as np
 import pytest
 from recordings import read_rosbags
 from scipy.spatial.transform import Rotation
 import yaml
-
-from cfem_ros import cli
 
 GRAVITY = np.array([0.0, 3.0, 9.0])   # slanted: the root turns it to -z
 SCENARIO = {

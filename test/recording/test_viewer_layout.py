@@ -13,13 +13,12 @@ printed over each other), composed from the recording's ``/tf`` and
 import json
 import pathlib
 
+from cfem_ros import cli, load_scenario
+from cfem_ros.recording import viewerlayout
 import numpy as np
 import pytest
 from recordings import read_rosbags
 from scipy.spatial.transform import Rotation
-
-from cfem_ros import cli, load_scenario
-from cfem_ros.recording import viewerlayout
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 EXAMPLES = ['store_separation', 'store_release_near_pylon', 'store_release_two_hooks']
