@@ -209,7 +209,9 @@ class Dynamics(SampledState):
         Per body: force (N) and torque (N m), in world axes, or in body axes
         where column 6 is 1; then the force's point (body axes, from the CG, m).
         """
-        return np.hstack([self._loads[:self.n, :7], self._loads[:self.n, H_POINT:H_POINT + 3]])
+        rows = self._loads[:self.n]
+        return np.hstack([rows[:, LOADS.span('H_FORCE')], rows[:, LOADS.span('H_TORQUE')],
+                          rows[:, LOADS.H_AXES:LOADS.H_AXES + 1], rows[:, LOADS.span('H_POINT')]])
 
     def body_index(self, body) -> int:
         """Return the index of a body given by name or index."""
