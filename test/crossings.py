@@ -1,21 +1,44 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The Python search of a step's crossings, which the compiled one (kernel.locate) must equal.
+A reference search of a step's crossings, which the compiled one (kernel.locate) must equal.
 
-``Releases.crossing`` and ``ScheduledLoads.crossing`` locate a release
-condition and an ejector's stroke end with ``roots.brentq`` (scipy's
-brentq, checked bit for bit in test_roots) on the step's RK4 map, one
-Python call per evaluation; the engine does the same in one kernel call.
-``PythonSteps`` is the engine stepping with the Python search, as it did
-before the kernel did it.
+The package locates release conditions, stroke ends and contacts in one
+place, the kernel (``cpp/events.cpp``). This reference, for the tests only,
+locates release conditions and ejector stroke ends with scipy's ``brentq``
+on the step's RK4 map ``s -> rk4(y0, s)``, one Python call per evaluation
+of the kernel's own condition values, joint loads and strokes: the kernel's
+search must give the same bits (its Brent iteration is scipy's, rounded the
+same way: ``events.cpp`` is compiled without fused multiply-adds).
+``PythonSteps`` is the engine stepping with this reference search.
 """
 
 import math
 
 from cfem_ros.core import kernel, kernelcalls
 from cfem_ros.core.engine import Simulator
+from cfem_ros.core.kernel import LOADS
+from cfem_ros.core.releases import TRIGGER_CAUSES
 import numpy as np
+from scipy.optimize import brentq
+
+#: scipy's brentq as the kernel calls its own (``kernel.CROSSING_*``).
+TOLERANCES = {'xtol': kernel.CROSSING_XTOL, 'rtol': kernel.CROSSING_RTOL,
+              'maxiter': kernel.CROSSING_MAXITER}
+
+
+def rk4(sim, y, h):
+    """Return the kernel's RK4 step of h from y; raise sim's largest stage violation."""
+    out = np.empty_like(y)
+    worst = kernel.rk4_step(sim._topology.system, y, h, out)
+    assert worst >= 0.0, 'singular solve'
+    sim._stage_violation = max(sim._stage_violation, worst)
+    return out
+
+
+def joint_forces(sim, y):
+    """Return each joint's force on its child at y, world, (n_joints, 3) (zero if released)."""
+    return sim._joint_loads(y)[0]
 
 
 def step_with_condition(sim, t_end):
@@ -29,26 +52,90 @@ def step_with_condition(sim, t_end):
     return min(sim.dt, t_end - sim.t)
 
 
-def python_locate(sim, h):
-    """Return (y1, crossing, stroke, largest stage violation) found by the Python search."""
+def condition_values(sim, y, joints):
+    """Angle (rad), distance (m) and force (N) of some joints at y, (k, 3)."""
+    out = np.zeros((len(joints), 3))
+    kernel.conditions(np.ascontiguousarray(y), sim.joints.joints_i, sim.joints.joints_f,
+                      np.asarray(joints, dtype=np.int64), out)
+    if np.isfinite(sim.releases.triggers[joints, 3]).any():
+        out[:, 2] = np.linalg.norm(joint_forces(sim, y), axis=1)[joints]
+    return out
+
+
+def release_crossing(sim, y0, y1, h):
+    """Return the earliest release condition reached in the step y0 -> y1, or None."""
+    triggers = sim.releases.triggers
+    watched = np.flatnonzero(sim.active & np.isfinite(triggers[:, 1:]).any(axis=1))
+    if not watched.size:
+        return None
+    reached = condition_values(sim, y1, watched) >= triggers[watched, 1:]
+    if not reached.any():
+        return None
+    best = (h, [], [])
+    for row, col in zip(*np.nonzero(reached)):
+        k = int(watched[row])
+
+        def excess(s, k=k, col=col):
+            state = y0 if s == 0.0 else rk4(sim, y0, s)
+            return condition_values(sim, state, [k])[0, col] - triggers[k, 1 + col]
+
+        s = 0.0 if excess(0.0) >= 0.0 else brentq(excess, 0.0, h, **TOLERANCES)
+        if s < best[0] - 1e-15:
+            best = (s, [k], [TRIGGER_CAUSES[1 + col]])
+        elif abs(s - best[0]) <= 1e-15 and k not in best[1]:
+            best[1].append(k)
+            best[2].append(TRIGGER_CAUSES[1 + col])
+    return best
+
+
+def stroke_crossing(sim, y0, y1, h):
+    """Return the earliest ejector stroke end in the step y0 -> y1 as (s, wrenches), or None."""
+    loads, n = sim._scheduled.array, sim.n
+    rows = loads[n:n + sim._scheduled.count]
+    watched = np.flatnonzero((rows[:, LOADS.S_ON] > 0.0) & np.isfinite(rows[:, LOADS.S_STROKE]))
+    if not watched.size:
+        return None
+
+    def strokes(y):
+        out = np.empty(loads.shape[0] - n)
+        kernel.loads_strokes(np.ascontiguousarray(y), loads, int(n), out)
+        return out
+
+    stroke = rows[watched, LOADS.S_STROKE]
+    reached = strokes(y1)[watched] >= stroke
+    if not reached.any():
+        return None
+    best, which = h, []
+    for k, limit in zip(watched[reached], stroke[reached]):
+        def excess(s, k=k, limit=limit):
+            return strokes(y0 if s == 0.0 else rk4(sim, y0, s))[k] - limit
+
+        s = 0.0 if excess(0.0) >= 0.0 else brentq(excess, 0.0, h, **TOLERANCES)
+        if s < best - 1e-15:
+            best, which = s, [int(k)]
+        elif abs(s - best) <= 1e-15:
+            which.append(int(k))
+    return best, which
+
+
+def reference_locate(sim, h):
+    """Return (y1, crossing, stroke, largest stage violation) found by the reference search."""
     sim._stage_violation = 0.0
     y0 = sim.y
-    y1 = sim._rk4(y0, h)
-    crossing = sim.releases.crossing(y0, y1, h, sim.active, sim._rk4, sim._joint_forces)
-    stroke = sim._scheduled.crossing(y0, y1, h, sim._rk4) if sim._scheduled.count else None
+    y1 = rk4(sim, y0, h)
+    crossing = release_crossing(sim, y0, y1, h)
+    stroke = stroke_crossing(sim, y0, y1, h) if sim._scheduled.count else None
     return y1, crossing, stroke, sim._stage_violation
 
 
 def assert_same_location(sim, h):
-    """Check the compiled search against the Python one, bit for bit; return its findings."""
-    y1, crossing, stroke, _ = python_locate(sim, h)
+    """Check the compiled search against the reference, bit for bit; return its findings."""
+    y1, crossing, stroke, _ = reference_locate(sim, h)
     cut = min([c[0] for c in (crossing, stroke) if c is not None] + [h])
-    ys = sim._rk4(sim.y, cut) if cut < h else None   # the state the step is cut at
+    ys = rk4(sim, sim.y, cut) if cut < h else None   # the state the step is cut at
     worst = sim._stage_violation
     y1_k, ys_k, crossing_k, stroke_k, worst_k = kernelcalls.locate(sim._topology.system, sim.y,
                                                                    h, 0.0)
-    if crossing is not None:   # Python's lists of numpy integers
-        crossing = (crossing[0], [int(k) for k in crossing[1]], crossing[2])
     assert crossing_k == crossing
     assert stroke_k == stroke
     np.testing.assert_array_equal(y1_k, y1)
@@ -59,7 +146,7 @@ def assert_same_location(sim, h):
 
 
 class PythonSteps(Simulator):
-    """The engine with a step cut by the Python search (``python_locate``)."""
+    """The engine with a step cut by the reference search (``reference_locate``)."""
 
     def _step(self, h, t_end):
         self._stage_violation = 0.0
@@ -67,13 +154,13 @@ class PythonSteps(Simulator):
         self._scheduled.set_time(self.t)
         if self.kinematic:
             kernel.motion_set_time(self._bodies, self.t)
-        y1 = self._rk4(y0, h)
-        crossing = self.releases.crossing(y0, y1, h, self.active, self._rk4, self._joint_forces)
+        y1 = rk4(self, y0, h)
+        crossing = release_crossing(self, y0, y1, h)
         if self._scheduled.count:
-            stroke = self._scheduled.crossing(y0, y1, h, self._rk4)
+            stroke = stroke_crossing(self, y0, y1, h)
             if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
                 s, wrenches = stroke
-                self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
+                self._commit(rk4(self, y0, s) if s < h else y1, self.t + s if s < h else t_end)
                 self._end_strokes(wrenches)
                 if crossing is not None and crossing[0] <= s:
                     for k, cause in zip(crossing[1], crossing[2]):
@@ -84,13 +171,13 @@ class PythonSteps(Simulator):
             self._commit(y1, t_end)
         else:
             s, joints, causes = crossing
-            self._commit(self._rk4(y0, s) if s < h else y1, self.t + s if s < h else t_end)
+            self._commit(rk4(self, y0, s) if s < h else y1, self.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
 
 
 def assert_same_runs(model, times):
-    """Run model with the compiled and the Python search; check every state bit for bit."""
+    """Run model with the compiled and the reference search; check every state bit for bit."""
     ours, theirs = Simulator(model), PythonSteps(model)
     for t in times:
         assert ours.advance_to(t), ours.message

@@ -122,15 +122,6 @@ class Dynamics(SampledState):
             raise NumericalFailure(sampling.SINGULAR)
         return out
 
-    def _rk4(self, y, h):
-        """One classical RK4 step of length h from y, quaternions normalized."""
-        out = np.empty_like(y)
-        worst = kernel.rk4_step(self._topology.system, y, h, out)
-        if worst < 0.0:
-            raise NumericalFailure(sampling.SINGULAR)
-        self._stage_violation = max(self._stage_violation, worst)
-        return out
-
     def _check_redundancy(self) -> int:
         """Detect redundant rows; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
@@ -220,6 +211,3 @@ class Dynamics(SampledState):
     def joint_index(self, joint) -> int:
         """Return the index of a joint given by name or index."""
         return _index(self.model.joint_index, joint, 'joint')
-
-    def _joint_forces(self, y):
-        return self._joint_loads(y)[0]

@@ -24,7 +24,7 @@ Each row keeps its kind in its last column, ``S_KIND``.
 A scheduled wrench acts on its body at its point while it is on: its time
 window cuts the steps like a release time (the engine switches it), and the
 end of its stroke is watched after each step and located inside the step on
-the step's own RK4 map, like a release condition. Its opposite acts on
+the step's own RK4 map by the kernel, like a release condition. Its opposite acts on
 ``reacts_on`` at the same world point. Stage times (for tables against
 time) are written by the kernel's RK4 into the scheduled rows.
 
@@ -38,7 +38,6 @@ from __future__ import annotations
 
 from cfem_ros.core import aeropack, contacts, kernel
 from cfem_ros.core.kernel import LOADS
-from cfem_ros.core.roots import brentq   # scipy's brentq, without importing scipy
 import numpy as np
 
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
@@ -198,46 +197,6 @@ class ScheduledLoads:
         if j >= 0:
             point = rot[j].T @ (point - y[3 * j:3 * j + 3])
         row[LOADS.span('S_ANCHOR')] = point
-
-    def strokes(self, y: np.ndarray) -> np.ndarray:
-        """Return each wrench's stroke so far at y, m."""
-        out = np.empty(self.array.shape[0] - self.n)
-        kernel.loads_strokes(np.ascontiguousarray(y), self.array, int(self.n), out)
-        return out[:self.count]
-
-    def watched(self) -> np.ndarray:
-        """Return the wrenches that are on with a stroke."""
-        rows = self.array[self.n:self.n + self.count]
-        return np.flatnonzero((rows[:, LOADS.S_ON] > 0.0) & np.isfinite(rows[:, LOADS.S_STROKE]))
-
-    def crossing(self, y0: np.ndarray, y1: np.ndarray, h: float, rk4):
-        """
-        Return the earliest stroke end in the step y0 -> y1 as (s, wrenches), or None.
-
-        Located on the step's RK4 map ``rk4(y0, s)`` like a release condition.
-        """
-        watched = self.watched()
-        if not watched.size:
-            return None
-        stroke = self.array[self.n + watched, LOADS.S_STROKE]
-        reached = self.strokes(y1)[watched] >= stroke
-        if not reached.any():
-            return None
-        best, which = h, []
-        for k, limit in zip(watched[reached], stroke[reached]):
-            def excess(s, k=k, limit=limit):
-                return self.strokes(y0 if s == 0.0 else rk4(y0, s))[k] - limit
-
-            if excess(0.0) >= 0.0:
-                s = 0.0
-            else:
-                s = brentq(excess, 0.0, h, xtol=1e-15, rtol=4 * np.finfo(float).eps,
-                           maxiter=200)
-            if s < best - 1e-15:
-                best, which = s, [int(k)]
-            elif abs(s - best) <= 1e-15:
-                which.append(int(k))
-        return best, which
 
     def arm(self, y: np.ndarray):
         """Watch the contact pairs whose shapes are apart at y (the others once they part)."""

@@ -8,17 +8,15 @@ separation of its two points or its load's magnitude first reaches a limit
 (CFEM.md, "Releases"). Time triggers cut the steps; the other conditions are
 watched at the end of each step, and a crossing is located inside the step
 on the step's own RK4 map, s -> rk4(y0, s), so a run released at a condition
-is the run cut there. The engine locates it in compiled code
-(``kernel.locate``); ``Releases.crossing`` is the same search in Python, the
-reference it is tested against.
+is the run cut there. The kernel watches and locates them (``kernel.advance``,
+``kernel.locate``: ``cpp/events.cpp``, the one implementation); this module
+keeps the triggers and says which joints the kernel watches.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Optional
 
-from cfem_ros.core import kernel
-from cfem_ros.core.roots import brentq
 from cfem_ros.core.topology import JointTables
 import numpy as np
 
@@ -63,9 +61,8 @@ class Releases:
         self._joints_i = tables.joints_i
         self._joints_f = tables.joints_f
         self.due: Optional[float] = None
-        # the joints with a condition (angle, distance or force), and with a force one
+        # the joints with a condition (angle, distance or force)
         self._conditional = np.isfinite(self.triggers[:, 1:]).any(axis=1)
-        self._by_force = np.isfinite(self.triggers[:, 3])
 
     def release(self, joints, t: float, cause: str) -> list:
         """Mark joints released at time t for a cause ('command', 'time', ...); return events."""
@@ -101,69 +98,3 @@ class Releases:
         if self.due is None or t < self.due:
             return np.empty(0, dtype=np.int64)
         return np.flatnonzero(active & (self.triggers[:, 0] <= t))
-
-    def values(self, y: np.ndarray, joints, joint_forces: Callable) -> np.ndarray:
-        """Angle (rad), distance (m) and force (N) of some joints at y, (k, 3)."""
-        out = np.zeros((len(joints), 3))
-        kernel.conditions(np.ascontiguousarray(y), self._joints_i, self._joints_f,
-                          np.asarray(joints, dtype=np.int64), out)
-        if self._by_force[joints].any():
-            out[:, 2] = np.linalg.norm(joint_forces(y), axis=1)[joints]
-        return out
-
-    def crossing(self, y0: np.ndarray, y1: np.ndarray, h: float, active: np.ndarray,
-                 rk4: Callable, joint_forces: Callable):
-        """
-        Return the earliest condition reached in the step y0 -> y1, or None.
-
-        Parameters
-        ----------
-        y0, y1 : ndarray
-            The states at the step's start and end.
-        h : float
-            The step's length, s.
-        active : ndarray of bool
-            Joints not yet released.
-        rk4 : callable
-            ``rk4(y0, s)``, the step's map.
-        joint_forces : callable
-            ``joint_forces(y)``: each joint's force on its child at y, (n_joints, 3).
-
-        Returns
-        -------
-        (s, joints, causes) or None
-            Where in the step (0 < s <= h) the first condition is reached,
-            the joints that reach it there, and the cause of each.
-
-        """
-        watched = np.flatnonzero(active & self._conditional)
-        if not watched.size:
-            return None
-        limits = self.triggers[watched, 1:]
-        reached = self.values(y1, watched, joint_forces) >= limits
-        if not reached.any():
-            return None
-        return self._locate(y0, h, watched, reached, rk4, joint_forces)
-
-    def _locate(self, y0, h, watched, reached, rk4, joint_forces):
-        """Find the earliest crossing in (0, h] on the RK4 map s -> rk4(y0, s)."""
-        best = (h, [], [])
-        for row, col in zip(*np.nonzero(reached)):
-            k = watched[row]
-
-            def excess(s, k=k, col=col):
-                state = y0 if s == 0.0 else rk4(y0, s)
-                values = self.values(state, np.array([k]), joint_forces)
-                return values[0, col] - self.triggers[k, 1 + col]
-
-            if excess(0.0) >= 0.0:
-                s = 0.0
-            else:
-                s = brentq(excess, 0.0, h, xtol=1e-15, rtol=4 * np.finfo(float).eps,
-                           maxiter=200)
-            if s < best[0] - 1e-15:
-                best = (s, [k], [TRIGGER_CAUSES[1 + col]])
-            elif abs(s - best[0]) <= 1e-15 and k not in best[1]:
-                best[1].append(k)
-                best[2].append(TRIGGER_CAUSES[1 + col])
-        return best

@@ -4,7 +4,7 @@
 The compiled core as an extension module: its arguments, threads, its solves, no JIT.
 
 The numbers themselves are tested where they matter (test_solver against a dense
-numpy KKT solve, test_roots and the crossing tests against scipy's brentq, the
+numpy KKT solve, the crossing tests against scipy's brentq (test/crossings.py), the
 paper cases against analytic solutions); here, what the C++ binding adds.
 """
 

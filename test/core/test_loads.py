@@ -12,7 +12,7 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.inputs import wrench_input
 from cfem_ros.core.scenario import isa_density, load_scenario, parse_scenario
 from cfem_ros.core.session import Session
-from crossings import assert_same_location, assert_same_runs, step_with_condition
+from crossings import assert_same_location, assert_same_runs, rk4, step_with_condition
 import numpy as np
 import pytest
 from reference import quat_matrix, skew
@@ -223,7 +223,7 @@ def test_stroke_end_is_located_in_compiled_code_as_in_python():
     # attitude: the point itself), on the step's RK4 map
 
     def excess(u):
-        y = sim._rk4(sim.y, u)
+        y = rk4(sim, sim.y, u)
         return np.linalg.norm(y[:3] + quat_matrix(y[6:10]) @ spec['point']
                               - spec['point']) - spec['stroke']
     # the travel's rounding, ~1e-17 m, at ~1 m/s, plus the 1e-15 s tolerance

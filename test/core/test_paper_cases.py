@@ -11,7 +11,8 @@ import logging
 import pathlib
 
 from cfem_ros import load_scenario, parse_scenario, Simulator
-from crossings import assert_same_location, assert_same_runs, step_with_condition
+from crossings import (assert_same_location, assert_same_runs, joint_forces, rk4,
+                       step_with_condition)
 import numpy as np
 import pytest
 from reference import (axis_rotation, normalized_error, parallel_axis, PivotChain,
@@ -278,7 +279,7 @@ def test_angle_condition_is_located_in_compiled_code_as_in_python():
     # scipy's brentq on the angle of the step's RK4 map, computed from rotation matrices
 
     def excess(u):
-        rot = quat_matrix(sim._rk4(sim.y, u)[6 * sim.n + 4:6 * sim.n + 8])
+        rot = quat_matrix(rk4(sim, sim.y, u)[6 * sim.n + 4:6 * sim.n + 8])
         return np.arccos((np.trace(rot) - 1.0) / 2.0) - np.radians(30.0)
     # angle rounding ~1e-16 rad at ~2 rad/s, plus the 1e-15 s tolerance
     assert abs(scipy_brentq(excess, 0.0, h, xtol=1e-15) - s) < 1e-13
@@ -293,7 +294,7 @@ def test_force_condition_is_located_in_compiled_code_as_in_python():
     assert 0.0 < s < h
 
     def excess(u):
-        return np.linalg.norm(sim._joint_forces(sim._rk4(sim.y, u))[0]) - 40.0
+        return np.linalg.norm(joint_forces(sim, rk4(sim, sim.y, u))[0]) - 40.0
     # the load's rounding, ~1e-14 N, at a rate of ~100 N/s
     assert abs(scipy_brentq(excess, 0.0, h, xtol=1e-15) - s) < 1e-13
     assert_same_runs(sim.model, [0.2, 0.5, 1.0])

@@ -88,7 +88,7 @@ double excess(const Search& q, double s, idx which, int col, int* code) {
   return q.values[3 * which + col] - q.t.triggers(which, col);
 }
 
-// The root in [0, h] of ``excess`` as roots.brentq finds it (scipy's brentq.c, operation
+// The root in [0, h] of ``excess`` as scipy's brentq finds it (its brentq.c, operation
 // for operation, with the crossing's tolerances); the code NAN_VALUE, SAME_SIGNS or
 // NO_CONVERGENCE for its errors (the abscissa it names), or a failure of the excess.
 double brentq(const Search& q, double h, idx which, int col, int* code) {
@@ -183,7 +183,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
   }
   if (worst > info[L_VIOLATION]) info[L_VIOLATION] = worst;
   int code;
-  // the release conditions (Releases.crossing, Releases._locate)
+  // the release conditions
   if (t.count > 0) {
     code = release_values(q, y1, 0, t.count);
     if (code != REACHED) {
@@ -236,9 +236,8 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       if (count > 0) info[L_CROSSING] = best, info[L_JOINTS] = static_cast<double>(count);
     }
   }
-  // the ejectors' stroke ends (ScheduledLoads.crossing), the contacts of armed pairs
-  // (ScheduledLoads.contacts) and the tables' ends (aero rows), all reported by row in
-  // wrenches_found
+  // the ejectors' stroke ends, the contacts of armed pairs (ScheduledLoads.contacts) and
+  // the tables' ends (aero rows), all reported by row in wrenches_found
   double best = h;
   idx count = -1;
   for (idx row = n; row < s.loads.rows; ++row) {

@@ -1,12 +1,13 @@
 // Copyright 2026 the cfem_ros authors
 // SPDX-License-Identifier: Apache-2.0
 //
-// Where in a step a release condition or an ejector's stroke end is first reached,
-// on the step's RK4 map s -> rk4(y0, s), by Brent's method as scipy computes it.
-// Compiled without contraction into fused multiply-adds (-ffp-contract=off), so that
-// the root finder, the excesses and the force magnitudes round as the Python search
-// (releases.py, loads.py) does: the same bits. The RK4, conditions, joint loads and
-// strokes it calls are the other files' (contracted) functions.
+// Where in a step a release condition, an ejector's stroke end or a contact is first
+// reached, on the step's RK4 map s -> rk4(y0, s), by Brent's method as scipy computes it:
+// the package's one implementation of event location. Compiled without contraction into
+// fused multiply-adds (-ffp-contract=off), so that the root finder, the excesses and the
+// force magnitudes round as scipy's brentq and numpy do: the same bits as the reference
+// search of the tests (test/crossings.py). The RK4, conditions, joint loads and strokes
+// it calls are the other files' (contracted) functions.
 // A new event kind: a column of ``excess`` and a block in ``locate`` like the strokes'.
 #pragma once
 
@@ -15,7 +16,7 @@
 
 namespace cfem {
 
-// Brent's tolerances for a crossing (as releases.py and loads.py use roots.brentq).
+// Brent's tolerances for a crossing (scipy's brentq's xtol, rtol and maxiter).
 constexpr double CROSSING_XTOL = 1e-15;
 constexpr double CROSSING_RTOL = 4 * 2.220446049250313e-16;
 constexpr int CROSSING_MAXITER = 200;
