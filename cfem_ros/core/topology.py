@@ -16,7 +16,7 @@ import resource
 
 from cfem_ros.core import kernel, rotations
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.kernel import PLAN
+from cfem_ros.core.kernel import JOINTS_F, JOINTS_I, PLAN, ROWS_F, ROWS_I
 import numpy as np
 
 
@@ -105,18 +105,33 @@ class JointTables:
 
         rows = sorted(t_rows + [(k, a, b, u, v, None) for k, a, b, u, v in r_rows],
                       key=lambda row: (row[0], row[5] is None))
+        rows_i = np.zeros((len(rows), ROWS_I.WIDTH), dtype=np.int64)
+        vectors = np.zeros((len(rows), ROWS_F.WIDTH))
+        for r, (_, a, b, u, v, anchor_b) in enumerate(rows):
+            rows_i[r, ROWS_I.R_PARENT], rows_i[r, ROWS_I.R_CHILD] = a, b
+            if anchor_b is None:
+                rows_i[r, ROWS_I.R_KIND] = ROWS_I.KIND_ROTATION
+                vectors[r, ROWS_F.span('R_VECTOR_A')] = u
+                vectors[r, ROWS_F.span('R_VECTOR_B')] = v
+            else:
+                rows_i[r, ROWS_I.R_KIND] = ROWS_I.KIND_TRANSLATION
+                vectors[r, ROWS_F.span('R_AXIS')] = u
+                vectors[r, ROWS_F.span('R_ANCHOR_A')] = v
+                vectors[r, ROWS_F.span('R_ANCHOR_B')] = anchor_b
         self.rows = {
             'joint': np.array([r[0] for r in rows], dtype=np.int64),
-            'rows_i': np.array([(r[1], r[2], r[5] is not None) for r in rows],
-                               dtype=np.int64).reshape(-1, 3),
-            'vectors': np.array([np.concatenate([r[3], r[4], np.zeros(3) if r[5] is None
-                                                 else r[5]]) for r in rows]).reshape(-1, 9),
+            'rows_i': rows_i,
+            'vectors': vectors,
             'ends': np.column_stack([self.parent, self.child]).reshape(-1, 2),
         }
-        # for the release conditions: anchors and relative attitude at t = 0
-        self.joints_i = np.ascontiguousarray(self.rows['ends'])
-        self.joints_f = np.ascontiguousarray(np.column_stack([
-            self.anchor_a, self.anchor_b, self.relative0]).reshape(-1, 10))
+        # for the release conditions: ends, anchors and relative attitude at t = 0
+        self.joints_i = np.zeros((n_j, JOINTS_I.WIDTH), dtype=np.int64)
+        self.joints_i[:, JOINTS_I.J_PARENT], self.joints_i[:, JOINTS_I.J_CHILD] = (
+            self.parent, self.child)
+        self.joints_f = np.zeros((n_j, JOINTS_F.WIDTH))
+        self.joints_f[:, JOINTS_F.span('J_ANCHOR_A')] = self.anchor_a
+        self.joints_f[:, JOINTS_F.span('J_ANCHOR_B')] = self.anchor_b
+        self.joints_f[:, JOINTS_F.span('J_RELATIVE')] = self.relative0
 
 
 class Topology:
@@ -136,12 +151,15 @@ class Topology:
         self.joint = tables['joint'][keep]
         self.rows_i = np.array(tables['rows_i'][keep])
         self.rows_f = np.ascontiguousarray(tables['vectors'][keep])
-        self.translation = self.rows_i[:, 2].astype(bool)
-        # 2: a translation row at the same joint point as the row before (the kernel
-        # computes the point's terms once per joint)
-        self.rows_i[1:, 2][self.translation[1:] & self.translation[:-1]
-                           & (self.joint[1:] == self.joint[:-1])
-                           & (self.rows_f[1:, 3:9] == self.rows_f[:-1, 3:9]).all(axis=1)] = 2
+        kind = self.rows_i[:, ROWS_I.R_KIND]
+        self.translation = kind != ROWS_I.KIND_ROTATION
+        # a translation row at the same joint point as the row before (the kernel computes
+        # the point's terms once per joint)
+        points = slice(ROWS_F.R_ANCHOR_A, ROWS_F.span('R_ANCHOR_B').stop)
+        kind[1:][self.translation[1:] & self.translation[:-1]
+                 & (self.joint[1:] == self.joint[:-1])
+                 & (self.rows_f[1:, points] == self.rows_f[:-1, points]).all(axis=1)] = (
+            ROWS_I.KIND_SAME_POINT)
         self.m = len(self.joint)
         joints = np.flatnonzero(active)
         first = np.searchsorted(self.joint, joints)
@@ -244,7 +262,10 @@ class Topology:
         of redundant rows changes, to the compliance-weighted one.
         """
         if scale is not None:
-            self.rows_f[:, 0:3] *= np.asarray(scale, dtype=float)[:, None]
+            scale = np.asarray(scale, dtype=float)[:, None]
+            rotation = ~self.translation
+            self.rows_f[self.translation, ROWS_F.span('R_AXIS')] *= scale[self.translation]
+            self.rows_f[rotation, ROWS_F.span('R_VECTOR_A')] *= scale[rotation]
 
     def null_space(self, y: np.ndarray, n: int) -> np.ndarray:
         """
@@ -273,8 +294,8 @@ class Topology:
         out = np.zeros((self.m, 6 * n))
         rows = np.arange(self.m)[:, None]
         six = np.arange(6)
-        out[rows, 6 * self.rows_i[:, :1] + six] = blocks[:, :6]
-        out[rows, 6 * self.rows_i[:, 1:2] + six] = blocks[:, 6:]
+        out[rows, 6 * self.rows_i[:, ROWS_I.R_PARENT, None] + six] = blocks[:, :6]
+        out[rows, 6 * self.rows_i[:, ROWS_I.R_CHILD, None] + six] = blocks[:, 6:]
         return out
 
 

@@ -43,8 +43,8 @@ PYBIND11_MODULE(_kernel, m) {
                          const py::handle& out) {
     idx size, count;
     const double* yp = vec(y, "y", false, -1, true, &size);
-    cfem::IMat ji = imat(joints_i, "joints_i", 2);
-    cfem::Mat jf = mat(joints_f, "joints_f", false, 10);
+    cfem::IMat ji = imat(joints_i, "joints_i", cfem::joints_i::WIDTH);
+    cfem::Mat jf = mat(joints_f, "joints_f", false, cfem::joints_f::WIDTH);
     const idx* wp = ivec(watch, "watch", -1, &count);
     cfem::Mat o = mat(out, "out", true);
     if (o.rows != count || o.cols < 2)

@@ -143,6 +143,42 @@
   COLUMN(line, P_JOINT, 6, 1)                                                              \
   NUMBER(int, WIDTH, 7)
 
+// ``rows_i`` (m, WIDTH), a constraint row's ends and kind, grouped by joint: parent
+// body, child body, KIND_ROTATION, KIND_TRANSLATION, or KIND_SAME_POINT (a translation row
+// at the same joint point as the row before: its terms are computed once).
+#define CFEM_ROWS_I_LAYOUT(COLUMN, NUMBER)                                                 \
+  COLUMN(row, R_PARENT, 0, 1)                                                              \
+  COLUMN(row, R_CHILD, 1, 1)                                                               \
+  COLUMN(row, R_KIND, 2, 1)                                                                \
+  NUMBER(int, WIDTH, 3)                                                                    \
+  NUMBER(int, KIND_ROTATION, 0)                                                            \
+  NUMBER(int, KIND_TRANSLATION, 1)                                                         \
+  NUMBER(int, KIND_SAME_POINT, 2)
+
+// ``rows_f`` (m, WIDTH), in body axes: a translation row's axis on the parent and the
+// joint point on the parent and on the child; a rotation row's vector on the parent and
+// vector on the child (perpendicular at t = 0).
+#define CFEM_ROWS_F_LAYOUT(COLUMN, NUMBER)                                                 \
+  COLUMN(translation, R_AXIS, 0, 3)                                                        \
+  COLUMN(translation, R_ANCHOR_A, 3, 3)                                                    \
+  COLUMN(translation, R_ANCHOR_B, 6, 3)                                                    \
+  COLUMN(rotation, R_VECTOR_A, 0, 3)                                                       \
+  COLUMN(rotation, R_VECTOR_B, 3, 3)                                                       \
+  NUMBER(int, WIDTH, 9)
+
+// ``joints_i`` (joints, WIDTH) and ``joints_f`` (joints, WIDTH) of the release conditions:
+// each joint's parent and child; its point on the parent and on the child (body axes) and
+// the child's attitude relative to the parent at t = 0 (quaternion x y z w).
+#define CFEM_JOINTS_I_LAYOUT(COLUMN, NUMBER)                                               \
+  COLUMN(joint, J_PARENT, 0, 1)                                                            \
+  COLUMN(joint, J_CHILD, 1, 1)                                                             \
+  NUMBER(int, WIDTH, 2)
+#define CFEM_JOINTS_F_LAYOUT(COLUMN, NUMBER)                                               \
+  COLUMN(joint, J_ANCHOR_A, 0, 3)                                                          \
+  COLUMN(joint, J_ANCHOR_B, 3, 3)                                                          \
+  COLUMN(joint, J_RELATIVE, 6, 4)                                                          \
+  NUMBER(int, WIDTH, 10)
+
 // ``info`` of advance: the time reached (s), steps taken, the largest constraint
 // violation so far, the result code, the violation that counts as divergence, the
 // violation that did (VIOLATION).
@@ -184,6 +220,18 @@ CFEM_AERO_TABLE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace plan_layout {
 CFEM_PLAN_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace plan_layout
+namespace rows_i {
+CFEM_ROWS_I_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace rows_i
+namespace rows_f {
+CFEM_ROWS_F_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace rows_f
+namespace joints_i {
+CFEM_JOINTS_I_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace joints_i
+namespace joints_f {
+CFEM_JOINTS_F_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace joints_f
 namespace advance_info {
 CFEM_ADVANCE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace advance_info

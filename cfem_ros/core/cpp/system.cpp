@@ -52,16 +52,16 @@ class BoundSystem {
     s.gravity = vec(gravity, "gravity", false, 3);
     s.loads = mat(loads, "loads", true, loads::WIDTH);
     if (s.loads.rows < n) throw py::value_error("loads: expected at least one row per body");
-    s.rows_i = imat(rows_i, "rows_i", 3);
-    s.rows_f = mat(rows_f, "rows_f", false, 9);
+    s.rows_i = imat(rows_i, "rows_i", rows_i::WIDTH);
+    s.rows_f = mat(rows_f, "rows_f", false, rows_f::WIDTH);
     if (s.rows_f.rows != s.rows_i.rows)
       throw py::value_error("rows_f: expected as many rows as rows_i");
     s.plan = imat(plan, "plan", plan_layout::WIDTH);
     s.roots = ivec(roots, "roots", n);
     s.eta = eta;
     // the watched joints: Watch for the step loop (limits), Triggers for the in-step search
-    w.joints_i = t.joints_i = imat(joints_i, "joints_i", 2);
-    w.joints_f = t.joints_f = mat(joints_f, "joints_f", false, 10);
+    w.joints_i = t.joints_i = imat(joints_i, "joints_i", joints_i::WIDTH);
+    w.joints_f = t.joints_f = mat(joints_f, "joints_f", false, joints_f::WIDTH);
     w.watch = t.watch = ivec(watch, "watch", -1, &w.count);
     t.count = w.count;
     w.limits = mat(limits, "limits", false, 3);
