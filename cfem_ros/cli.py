@@ -23,7 +23,7 @@ from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
-from cfem_ros.study.resources import ResourceFailure
+from cfem_ros.study.resources import MethodFailed, ResourceFailure
 import numpy as np
 
 EXIT_OK = 0
@@ -661,7 +661,7 @@ def cmd_study(sweep_file: str, outdir: str, method: str, design: Optional[str],
         print(f'\ninterrupted by {stop}: the runs done are saved in {outdir}; run the same '
               'command again to resume', file=sys.stderr)
         return stop.exit_status
-    except ResourceFailure as err:
+    except (ResourceFailure, MethodFailed) as err:   # while working: the runs are saved
         return _failed(str(err))
     except CfemError as err:
         return _error(str(err))

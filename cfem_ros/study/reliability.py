@@ -30,6 +30,7 @@ from typing import Optional
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
 from cfem_ros.study.evaluate import random_variables
+from cfem_ros.study.resources import MethodFailed
 from cfem_ros.study.spec import _blocks, SweepError, SweepSpec
 import numpy as np
 
@@ -168,9 +169,9 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
             raise
         # OpenTURNS' own failures (a degenerate sample: no spread left to adapt to)
         why = ' '.join(str(err).split())[:200]
-        raise SweepError(spec.path, f'--method {method}', f'stopped after {evaluate.count} '
-                         f'runs: OpenTURNS could not go on ({type(err).__name__}: {why})',
-                         'more --runs, or another method (form, subset, or mc)') from None
+        raise MethodFailed(spec.path, f'--method {method}', f'stopped after {evaluate.count} '
+                           f'runs: OpenTURNS could not go on ({type(err).__name__}: {why})',
+                           'more --runs, or another method (form, subset, or mc)') from None
     if raised:   # swallowed by the method: not an estimate
         raise raised[0]
     return found
@@ -211,10 +212,10 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Es
         except RuntimeError as err:   # no design point within the budget
             if 'maximum calls' not in str(err):
                 raise
-            raise SweepError(spec.path, '--method form', f'found no design point in '
-                             f'{FORM_CALLS * (dimension + 1)} runs (the search did not '
-                             'converge)', 'a failure region FORM can reach, or --method nais '
-                             'or subset') from None
+            raise MethodFailed(spec.path, '--method form', f'found no design point in '
+                               f'{FORM_CALLS * (dimension + 1)} runs (the search did not '
+                               'converge)', 'a failure region FORM can reach, or --method '
+                               'nais or subset') from None
         found = form.getResult()
         point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(
             spec.variables, found.getPhysicalSpaceDesignPoint()))

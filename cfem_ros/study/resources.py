@@ -10,11 +10,15 @@ run, and a resumed study does it again.
 
 from __future__ import annotations
 
-from cfem_ros.core.errors import CfemError
+from cfem_ros.core.errors import CfemError, ScenarioError
 
 
 class ResourceFailure(CfemError):
     """Runs whose recordings or table part could not be written; the study resumes them."""
+
+
+class MethodFailed(ScenarioError):
+    """A study method that ran and could give no estimate (exit 1: its runs are saved)."""
 
 
 def recording_failure(err: BaseException) -> bool:

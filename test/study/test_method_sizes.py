@@ -6,6 +6,7 @@ import json
 import os
 
 from cfem_ros.study.methods import MINIMUM_RUNS, run_study
+from cfem_ros.study.resources import MethodFailed
 from cfem_ros.study.spec import SweepError
 import pytest
 from test_rare_events import _linear_rows, _linear_sweep
@@ -53,3 +54,21 @@ def test_subset_at_its_smallest_size_finds_a_one_in_a_hundred_failure(tmp_path):
     estimate = found['estimate']
     assert estimate.failed_runs > 0 and 'no run failed' not in estimate.sentence()
     assert 1e-3 < estimate.probability < 1e-1
+
+
+def test_a_method_that_ran_and_found_nothing_is_a_failure_not_bad_input(tmp_path):
+    # a criterion no value of the inputs fails: FORM stops on a zero gradient after its runs
+    # (exit 1 on the command line, the runs saved), not a refusal of the input (exit 2)
+    spec = _linear_sweep(tmp_path, 1e-2, 10)
+
+    def never_failing(part, chunk):
+        rows = _linear_rows(part, chunk)
+        for row in rows:
+            row['clearance_store_pylon_min'] = 1.0
+        return rows
+
+    with pytest.raises(MethodFailed, match='stopped after 5 runs: OpenTURNS could not go on') \
+            as found:
+        run_study(spec, str(tmp_path / 'form'), method='form', rows=never_failing,
+                  log=lambda line: None)
+    assert not isinstance(found.value, SweepError)
