@@ -129,6 +129,12 @@ def cmd_check(scenario: str) -> int:
         more = describe_aero(aero, names)
         if more:
             print(f'    {more}')
+    for brace in model.braces:
+        damping = f', damping {brace.damping:g} N s/m' if brace.damping else ''
+        print(f'  sway brace {brace.name}: {names[brace.carrier]} pushes {names[brace.body]} '
+              f'at {_vec(brace.point)} m along {_vec(brace.direction, "{:.4g}")} '
+              f'({names[brace.body]} axes); preload {brace.preload:g} N, '
+              f'stiffness {brace.stiffness:g} N/m{damping}')
     for pair in model.contacts:
         a, b = (names[i] for i in pair.bodies)
         print(f'  contact watched: {a} - {b} ({"stop" if pair.stop else "continue"} at contact)')
@@ -314,7 +320,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
             a, b = event['bodies']
             x, y, z = event['point']
             print(f'contact {a} {b} at t = {event["time"]:.9f} s, point '
-                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world)')
+                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world){_parts(event)}')
         else:
             print(describe_event(event))
     if not any(e['event'] == 'release' for e in sim.events):
@@ -363,14 +369,23 @@ def cmd_info(recording: str) -> int:
         print(f'  release {joint} at t = {t:.9f} s ({cause})')
     if not releases:
         print('  no release event')
-    for event in summary.events:   # end-of-stroke figures (SPEC section 7)
+    for event in summary.events:   # end-of-stroke figures (SPEC section 7), braces (11)
         if event.get('event') == 'stroke_end' and 'velocity' in event and 'rates' in event:
+            print(f'  {describe_event(event)}')
+        if (event.get('event') == 'brace_contact' and 'time' in event and 'brace' in event
+                and 'contact' in event):
             print(f'  {describe_event(event)}')
     for e in summary.events:
         if e.get('event') == 'contact' and 'time' in e:
             print(f'  contact {" ".join(e.get("bodies", ()))} at t = {e["time"]:.9f} s, '
-                  f'point {e.get("point")} m (world)')
+                  f'point {e.get("point")} m (world){_parts(e)}')
     return EXIT_OK
+
+
+def _parts(event: dict) -> str:
+    """Return the parts of the two shapes that touched (0 for a convex shape), for a line."""
+    parts = event.get('parts')
+    return f', parts {parts[0]} and {parts[1]}' if parts and len(parts) == 2 else ''
 
 
 def cmd_recover(broken: str, fixed: str) -> int:

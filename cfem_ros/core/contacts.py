@@ -6,6 +6,9 @@ Collision shapes packed for the compiled distance (``cpp/distance.hpp``), and di
 A packed shape is ``SHAPE_HEADER`` numbers (kind, size (3), the shape's
 axes in its body's (row-major 3x3), its centre from the CG (body axes, m),
 the hull's vertex count) and then the hull's vertices (shape axes, m).
+A compound shape (SPEC section 11) is ``SHAPE_HEADER`` numbers (``COMPOUND``,
+its part count, zeros) and then per part the radius of a sphere about the
+part's centre that holds it (m) and the part packed as above.
 """
 
 from __future__ import annotations
@@ -16,11 +19,23 @@ import numpy as np
 
 #: Kind codes (``cfem::shapes::kSphere`` ..).
 KIND_CODES = {'sphere': 0, 'capsule': 1, 'box': 2, 'cylinder': 3, 'mesh': 4}
+COMPOUND = 5
 SHAPE_HEADER = 17
 
 
 def pack_shape(shape: Shape) -> np.ndarray:
     """Return a body's collision shape packed (a mesh by its hull's vertices)."""
+    if shape.kind == 'compound':
+        out = [np.zeros(SHAPE_HEADER)]
+        out[0][0], out[0][1] = COMPOUND, len(shape.parts)
+        for part in shape.parts:
+            packed = _pack_convex(part)
+            out += [np.array([_reach(packed)]), packed]
+        return np.concatenate(out)
+    return _pack_convex(shape)
+
+
+def _pack_convex(shape: Shape) -> np.ndarray:
     hull = np.asarray(shape.hull, dtype=float).reshape(-1, 3) if shape.kind == 'mesh' else ()
     if shape.kind == 'mesh' and not len(hull):
         raise ValueError(f'the mesh {shape.mesh} has no hull (not a local file)')
@@ -36,18 +51,46 @@ def pack_shape(shape: Shape) -> np.ndarray:
     return out
 
 
-def bounding_radius(packed: np.ndarray) -> float:
-    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
+def _reach(packed: np.ndarray) -> float:
+    """Return the radius about its centre of a sphere holding a packed convex shape, m."""
     kind, size = int(packed[0]), packed[1:4]
     reach = {0: size[0], 1: 0.5 * size[1], 2: 0.5 * float(np.linalg.norm(size)),
              3: float(np.hypot(size[0], 0.5 * size[1]))}.get(kind)
     if reach is None:   # a hull: its farthest vertex
         reach = float(np.max(np.linalg.norm(packed[SHAPE_HEADER:].reshape(-1, 3), axis=1)))
-    return float(np.linalg.norm(packed[13:16])) + reach
+    return float(reach)
+
+
+def _parts(packed: np.ndarray):
+    """Yield a packed shape's convex parts with their reach (itself if convex)."""
+    if int(packed[0]) != COMPOUND:
+        yield packed, _reach(packed)
+        return
+    at = SHAPE_HEADER
+    for _ in range(int(packed[1])):
+        length = SHAPE_HEADER + 3 * int(packed[at + SHAPE_HEADER])
+        yield packed[at + 1:at + 1 + length], float(packed[at])
+        at += 1 + length
+
+
+def packed_length(flat: np.ndarray) -> int:
+    """Return how many numbers the packed shape at the start of flat takes."""
+    if int(flat[0]) != COMPOUND:
+        return SHAPE_HEADER + 3 * int(flat[SHAPE_HEADER - 1])
+    at = SHAPE_HEADER
+    for _ in range(int(flat[1])):
+        at += 1 + SHAPE_HEADER + 3 * int(flat[at + SHAPE_HEADER])
+    return at
+
+
+def bounding_radius(packed: np.ndarray) -> float:
+    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
+    return max(float(np.linalg.norm(part[13:16])) + reach for part, reach in _parts(packed))
 
 
 def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
-              shape_b: np.ndarray, quat_b: np.ndarray, position_b: np.ndarray):
+              shape_b: np.ndarray, quat_b: np.ndarray, position_b: np.ndarray,
+              parts: bool = False):
     """
     Return the distance between two packed shapes at n pose pairs, and the closest points.
 
@@ -67,8 +110,12 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
         (the shortest translation that parts them; EPA's, ``cpp/distance.hpp``).
     points : ndarray, shape (n, 6)
         The closest (or, overlapping, deepest) point on a, then on b, world, m.
+    parts : ndarray of int, shape (n, 2)
+        Only if ``parts``: the closest parts of a and b (0 for a convex
+        shape); the distance is the least over the pairs of parts.
 
     """
     rot_a = rotations.matrices(np.asarray(quat_a, dtype=float)).reshape(-1, 9)
     rot_b = rotations.matrices(np.asarray(quat_b, dtype=float)).reshape(-1, 9)
-    return kernel.distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b)
+    found = kernel.distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b)
+    return found if parts else found[:2]

@@ -23,7 +23,7 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, sampling  # noqa: F401 - sampling kept for users
+from cfem_ros.core import braces, kernel, sampling  # noqa: F401 - sampling kept for users
 from cfem_ros.core.aero import AeroWatch
 from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
 from cfem_ros.core.dynamics import (  # noqa: F401 - for sweeps
@@ -63,8 +63,11 @@ class Simulator(Dynamics):
         Why the run failed, with the time ('' while running).
     events : list of dict
         Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``
-        (and ``'group'`` for a joint of a release group), and the ends of
-        ejector strokes (``strokes.stroke_end_event``).
+        (and ``'group'`` for a joint of a release group), the ends of
+        ejector strokes (``strokes.stroke_end_event``), contacts
+        (``{'event': 'contact', 'bodies', 'time', 'point', 'parts'}``) and
+        the braces' pads letting go or touching again
+        (``braces.contact_event``).
     active : ndarray of bool, shape (n_joints,)
         Joints not yet released.
 
@@ -304,11 +307,14 @@ class Simulator(Dynamics):
             # an ejector's stroke ends first (or with a release), or shapes touch
             s, rows = stroke
             first, count = self._scheduled.contact_first, self._scheduled.count
+            braces = self._scheduled.brace_first
             wrenches = [k for k in rows if k < count]
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
             self._end_strokes(wrenches)
             for k in rows:
-                if k >= first:
+                if k >= braces:
+                    self._brace_contact(k - braces)
+                elif k >= first:
                     self._contact(k - first)
                 elif k >= count:   # a body left (or came back to) an aero table's range
                     self._aero_events(self._aero.crossed(k - count, self.y, y1, self.t))
@@ -336,14 +342,19 @@ class Simulator(Dynamics):
             self.status = 'aero_outside'
             self.message = self._aero.stop_message
 
+    def _brace_contact(self, k: int):
+        """Switch brace k's pad now (its push changed sign); record the event."""
+        contact = self._scheduled.switch_brace(k)
+        self.events.append(braces.contact_event(self.model.braces[k], contact, self.t))
+
     def _contact(self, k: int):
         """Record contact pair k's first touch now; stop the run if the pair says so."""
         pair = self.model.contacts[k]
         names = [self.model.bodies[b].name for b in pair.bodies]
-        _, points = self._scheduled.gap(k, self.y)
+        _, points, parts = self._scheduled.gap(k, self.y)
         point = [float(v) for v in 0.5 * (points[:3] + points[3:])]
         self.events.append({'event': 'contact', 'bodies': names, 'time': self.t,
-                            'point': point})
+                            'point': point, 'parts': parts})
         self._scheduled.touched(k)   # watched again once the shapes part
         if pair.stop and self.status == 'running':
             self.status = 'contact'

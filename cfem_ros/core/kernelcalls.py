@@ -107,7 +107,8 @@ def locate(system, y0: np.ndarray, h: float, violation: float):
 
     Returns y1 (the step's end), ys (the state at the s the step is cut at,
     if before h), the release crossing (s, joints, causes) or None, the
-    stroke end (s, rows: wrenches, then contact pairs after them) or None,
+    stroke end (s, rows: wrenches, then aero rows, contact pairs and braces after
+    them) or None,
     and the largest stage violation (the given one or more).
     """
     y1, ys = np.empty_like(y0), np.empty_like(y0)

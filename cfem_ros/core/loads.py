@@ -14,6 +14,8 @@ Python call and no new argument:
 - then one row per body with aerodynamic tables (``A_*``, ``KIND_AERO``);
 - then one row per watched contact pair (``C_*``, ``KIND_CONTACT``;
   ``S_ON`` = 1.0 while armed: its shapes apart);
+- then one row per sway brace (``KIND_BRACE``, ``BR_*`` columns; ``BR_ON``
+  1.0 while its pad touches; ``braces.py``);
 - then the rows of their tables (``KIND_TABLE``): abscissa (time, s, or
   stroke, m) then force (3) and moment (3) (``T_*``); or an aerodynamic
   table packed by ``aeropack.pack`` or a shape by ``contacts.pack_shape``,
@@ -36,7 +38,7 @@ branch there.
 
 from __future__ import annotations
 
-from cfem_ros.core import aeropack, contacts, kernel
+from cfem_ros.core import aeropack, braces, contacts, kernel
 from cfem_ros.core.kernel import LOADS
 import numpy as np
 
@@ -92,13 +94,17 @@ class ScheduledLoads:
                   for pair in pairs for b in pair.bodies}
         packed_rows = [-(-len(p) // AERO_ROW) for p in packed + list(shapes.values())]
         tables = sum(len(w.table) for w in wrenches) + sum(packed_rows)
-        scratch = 1 if self.count or aero or pairs else 0
-        #: Where the contact rows start, counted from row n.
+        self.braces = getattr(model, 'braces', ())
+        scratch = 1 if self.count or aero or pairs or self.braces else 0
+        #: Where the contact rows start, and the braces' rows, counted from row n.
         self.contact_first = self.count + len(aero)
-        rows = np.zeros((n + self.contact_first + len(pairs) + tables + scratch, LOADS.WIDTH))
+        self.brace_first = self.contact_first + len(pairs)
+        rows = np.zeros((n + self.brace_first + len(self.braces) + tables + scratch,
+                         LOADS.WIDTH))
         if scratch:
             rows[-1, LOADS.S_KIND] = LOADS.KIND_SCRATCH
-        nxt = n + self.contact_first + len(pairs)
+        braces.pack(rows, n + self.brace_first, self.braces)
+        nxt = n + self.brace_first + len(self.braces)
         for k, w in enumerate(wrenches):
             r = rows[n + k]
             r[LOADS.S_KIND] = LOADS.KIND_SCHEDULED
@@ -199,13 +205,23 @@ class ScheduledLoads:
         row[LOADS.span('S_ANCHOR')] = point
 
     def arm(self, y: np.ndarray):
-        """Watch the contact pairs whose shapes are apart at y (the others once they part)."""
+        """
+        Start at y: the braces' pads in contact there, and the contact pairs watched.
+
+        A pair is watched if its shapes are apart at y, else once they part.
+        """
+        braces.anchor(self.array, self.n + self.brace_first, self.braces, y, self.n)
         for k in range(len(self.pairs)):
             row = self.n + self.contact_first + k
             self.array[row, LOADS.S_ON] = 1.0 if self.gap(k, y)[0] > CONTACT_GAP else 0.0
 
     def gap(self, k: int, y: np.ndarray):
-        """Return contact pair k's shape distance at y (m) and closest points (world, 6)."""
+        """
+        Return contact pair k's shape distance at y (m), closest points (world, 6) and parts.
+
+        The parts: the indices of the closest parts of each body's shape (0 for a
+        convex shape, SPEC section 11).
+        """
         n = self.n
         a, b = self.pairs[k].bodies
         quat = y[6 * n:10 * n].reshape(n, 4)
@@ -213,9 +229,9 @@ class ScheduledLoads:
         row = self.array[n + self.contact_first + k]
         shape_a = _unpack(self.array, int(row[LOADS.C_SHAPE_A]))
         shape_b = _unpack(self.array, int(row[LOADS.C_SHAPE_B]))
-        d, points = contacts.distances(shape_a, quat[a:a + 1], pos[a:a + 1], shape_b,
-                                       quat[b:b + 1], pos[b:b + 1])
-        return float(d[0]), points[0]
+        d, points, parts = contacts.distances(shape_a, quat[a:a + 1], pos[a:a + 1], shape_b,
+                                              quat[b:b + 1], pos[b:b + 1], parts=True)
+        return float(d[0]), points[0], [int(v) for v in parts[0]]
 
     def touched(self, k: int):
         """Stop watching contact pair k until its shapes part again."""
@@ -235,10 +251,20 @@ class ScheduledLoads:
             if w.reacts_on >= 0 and bodies[w.reacts_on].dynamic:
                 out.append((bodies[w.reacts_on].name, w.name))
         out.extend((bodies[a.body].name, 'aero') for a in getattr(self.model, 'aero', ()))
+        for brace in self.braces:
+            out.append((bodies[brace.body].name, brace.name))
+            if bodies[brace.carrier].dynamic:
+                out.append((bodies[brace.carrier].name, brace.name))
         return out
+
+    def switch_brace(self, k: int) -> bool:
+        """Switch brace k's pad in or out of contact (its push changed sign now); return it."""
+        row = self.array[self.n + self.brace_first + k]
+        row[LOADS.BR_ON] = 0.0 if row[LOADS.BR_ON] > 0.0 else 1.0
+        return bool(row[LOADS.BR_ON] > 0.0)
 
 
 def _unpack(rows: np.ndarray, first: int) -> np.ndarray:
     """Return the packed shape kept from row first on (its length is in its header)."""
     flat = rows[first:, :AERO_ROW].reshape(-1)
-    return flat[:contacts.SHAPE_HEADER + 3 * int(flat[contacts.SHAPE_HEADER - 1])].copy()
+    return flat[:contacts.packed_length(flat)].copy()

@@ -421,6 +421,8 @@ class Model:
         sampled: bodies joined to a kinematic one, or given ``reference``.
     release_groups : tuple of ReleaseGroup
         Joints released together, none by default.
+    braces : tuple of SwayBrace
+        One-sided preloaded pads (``braces.SwayBrace``), none by default.
 
     """
 
@@ -437,6 +439,7 @@ class Model:
     references: tuple = ()
     release_groups: tuple = ()
     contacts: tuple = ()
+    braces: tuple = ()
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

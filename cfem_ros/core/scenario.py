@@ -20,7 +20,7 @@ import reprlib
 import stat
 from typing import Any, Optional
 
-from cfem_ros.core import aeroparse, cgoffset, rotations, shapes
+from cfem_ros.core import aeroparse, braces, cgoffset, rotations, shapes
 from cfem_ros.core.atmosphere import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model import (
@@ -40,7 +40,7 @@ except ImportError:  # PyYAML built without libyaml: the pure Python parser only
 LOG = logging.getLogger('cfem_ros')
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches', 'aero', 'release_groups', 'contacts')
+            'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces')
 BODY_KEYS = ('fixed', 'mass', 'inertia', 'position', 'orientation_rpy_deg',
              'orientation_xyzw', 'velocity', 'angular_velocity_deg', 'angular_velocity', 'shape',
              'motion', 'reference', 'cg_offset')
@@ -660,7 +660,9 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                                                               index, bodies),
                   aero=aeroparse.parse_aero(check, top.get('aero'), index, bodies,
                                             _source_dir(check)),
-                  release_groups=groups)
+                  release_groups=groups,
+                  braces=braces.parse_braces(check, top.get('sway_braces'), index, bodies,
+                                             wrenches))
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
         return model
@@ -1264,10 +1266,13 @@ def _parse_contacts(check: _Checker, doc, index: dict, bodies) -> tuple:
                 check.fail(_key('bodies', name) + '.shape', 'missing, and the body is watched '
                            f'for contact ({key})', 'a shape: box, cylinder, sphere, capsule '
                            'or mesh')
-            if shape.kind == 'mesh' and not shape.hull:
-                check.fail(_key('bodies', name) + '.shape.mesh', f'is {_show(shape.mesh)}, '
-                           'not a local file, so it has no hull to watch', 'a local STL or '
-                           'OBJ file (its convex hull is the collision shape)')
+            for k, piece in enumerate(shape.pieces()):
+                if piece.kind == 'mesh' and not piece.hull:
+                    where = '.shape' + (f'.parts[{k}]' if shape.kind == 'compound' else '')
+                    check.fail(_key('bodies', name) + where + '.mesh',
+                               f'is {_show(piece.mesh)}, not a local file, so it has no hull '
+                               'to watch', 'a local STL or OBJ file (its convex hull is the '
+                               'collision shape)')
         stop = spec.get('on_contact', 'stop')
         if stop not in ('stop', 'continue'):
             check.fail(f'{key}.on_contact', f'is {_show(stop)}', 'stop or continue')

@@ -1,7 +1,9 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-What a body looks like (SPEC sections 5, 8): box, cylinder, sphere, capsule or mesh.
+What a body looks like (SPEC sections 5, 8, 11): box, cylinder, sphere, capsule, mesh,
+or a compound of several of them (``{parts: [...]}``, each placed with ``at`` and
+``rpy_deg`` in the body's axes).
 
 Shapes are drawn (markers in RViz and Foxglove) and, for the pairs a
 scenario's ``contacts`` watch, are the collision shapes: a mesh then by its
@@ -29,6 +31,10 @@ FIXED_BODY_CUBE = 0.1
 THINNEST = 0.01
 
 KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'mesh')
+#: Most parts of a compound shape (``cfem::shapes::kMaxParts``).
+MAX_PARTS = 16
+#: The keys that place a compound's part in its body's axes.
+PART_KEYS = ('at', 'rpy_deg')
 #: Most vertices of a mesh file read for its hull.
 MAX_MESH_VERTICES = 5_000_000
 #: Largest size or vertex coordinate of a shape, m (the bound of every scenario position).
@@ -44,7 +50,7 @@ class Shape:
     ----------
     kind : str
         'box', 'cylinder' (along the body's x axis), 'sphere', 'capsule'
-        (along x) or 'mesh'.
+        (along x), 'mesh', or 'compound' (its ``parts``).
     size : tuple of float
         box: edges along x, y, z; cylinder: radius, length; sphere: radius;
         capsule: radius, overall length (tip to tip, >= 2 radius);
@@ -62,6 +68,9 @@ class Shape:
     hull : tuple of tuple
         mesh only: the vertices of its convex hull, shape axes, scaled, m
         (empty when the mesh is not a local file).
+    parts : tuple of Shape
+        compound only: its convex parts, each placed in the body's axes
+        (its ``offset`` and ``orientation_xyzw``).
 
     """
 
@@ -72,6 +81,11 @@ class Shape:
     mesh: str = ''
     given: bool = True
     hull: tuple = ()
+    parts: tuple = ()
+
+    def pieces(self) -> tuple:
+        """Return the convex shapes it is made of: its parts, or itself."""
+        return self.parts if self.kind == 'compound' else (self,)
 
 
 def equivalent_box(mass: float, inertia: np.ndarray) -> Shape:
@@ -142,14 +156,53 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
     Forms: ``{box: [x, y, z]}``, ``{cylinder: [radius, length]}``,
     ``{sphere: radius}``, ``{capsule: [radius, length]}``,
     ``{mesh: file or URL, scale: [sx, sy, sz]}``, each
-    with an optional ``offset: [x, y, z]`` (body axes, m, from the CG).
+    with an optional ``offset: [x, y, z]`` (body axes, m, from the CG);
+    or ``{parts: [...]}``, a compound of up to ``MAX_PARTS`` of those, each
+    placed by ``at: [x, y, z]`` (m) and ``rpy_deg: [roll, pitch, yaw]``
+    (Z-Y-X, deg) in the body's axes.
     """
+    if isinstance(value, dict) and 'parts' in value:
+        return _parse_compound(value, key, fail, number, vector, base_dir)
+    return _parse_convex(value, key, fail, number, vector, base_dir)
+
+
+def _parse_compound(value, key, fail, number, vector, base_dir) -> Shape:
+    extra = [k for k in value if k != 'parts']
+    if extra:
+        fail(f'{key}.{extra[0]}', 'is given with parts', 'only parts: a compound\'s parts '
+             'are placed each by its own at and rpy_deg')
+    parts = value['parts']
+    if not isinstance(parts, list) or not 1 <= len(parts) <= MAX_PARTS:
+        fail(f'{key}.parts', f'is {parts!r:.80}',
+             f'a list of 1 to {MAX_PARTS} convex shapes such as {{box: [x, y, z], at: [x, y, z]}}')
+    out = []
+    for k, part in enumerate(parts):
+        where = f'{key}.parts[{k}]'
+        if isinstance(part, dict) and 'offset' in part:
+            fail(f'{where}.offset', 'is given for a part', 'at: [x, y, z] (and rpy_deg)')
+        if isinstance(part, dict) and 'parts' in part:
+            fail(f'{where}.parts', 'nests a compound', 'a convex shape (box, cylinder, '
+                 'sphere, capsule or mesh)')
+        convex = _parse_convex({k2: v for k2, v in part.items() if k2 not in PART_KEYS}
+                               if isinstance(part, dict) else part, where, fail, number,
+                               vector, base_dir, extra_keys=PART_KEYS)
+        at = tuple(float(v) for v in vector(part.get('at', [0, 0, 0]), f'{where}.at'))
+        rpy = vector(part.get('rpy_deg', [0, 0, 0]), f'{where}.rpy_deg')
+        from cfem_ros.core import rotations
+        quat = tuple(float(v) for v in rotations.from_rpy_deg(rpy))
+        out.append(Shape(convex.kind, convex.size, at, quat, mesh=convex.mesh, hull=convex.hull))
+    return Shape('compound', (), parts=tuple(out))
+
+
+def _parse_convex(value, key, fail, number, vector, base_dir, extra_keys=()) -> Shape:
     if not isinstance(value, dict):
         fail(key, f'is {value!r:.80}', 'a mapping such as {box: [x, y, z]}')
     kinds = [k for k in value if k in KINDS]
+    place = extra_keys or ('offset',)
     extra = [k for k in value if k not in KINDS + ('offset', 'scale')]
     if extra:
-        fail(f'{key}.{extra[0]}', 'unknown key', 'one of ' + ', '.join(KINDS + ('offset',)))
+        fail(f'{key}.{extra[0]}', 'unknown key', 'one of ' + ', '.join(KINDS + place
+                                                                        + ('parts',)))
     if len(kinds) != 1:
         fail(key, f'names {len(kinds)} kinds of shape', 'exactly one of ' + ', '.join(KINDS))
     kind = kinds[0]

@@ -75,7 +75,7 @@ def stroke_end_event(sim, k: int) -> dict:
 
 
 def describe_event(event: dict) -> str:
-    """Return one line for a user about a release, stroke-end or aero event (``run``, the node)."""
+    """Return one line for a user about an event (``run``, the node)."""
     kind = event.get('event')
     when = f"t = {event['time']:.9f} s"
     if kind == 'release':
@@ -93,4 +93,7 @@ def describe_event(event: dict) -> str:
         where = 'outside' if kind == 'aero_outside' else 'back inside'
         return (f"{kind} {event['body']} at {when}: {event['axis']} = {event['value']:.6g}, "
                 f"{where} [{event['low']:.6g}, {event['high']:.6g}]")
+    if kind == 'brace_contact':
+        what = 'touches again' if event['contact'] else 'lets go'
+        return f"brace {event['brace']} {what} at {when}"
     return f'{kind} at {when}'

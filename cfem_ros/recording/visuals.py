@@ -20,7 +20,8 @@ The frames (SPEC section 4), each with the axes viewers expect:
 The markers (``visualization_msgs/MarkerArray`` on ``<namespace>/markers``,
 transient local, sent again every ``MARKER_PERIOD``) are frame-locked to
 those frames, so they move with the frames in RViz and in Foxglove's 3D
-panel: one marker per body (its ``shape``, drawn about its CG), one sphere
+panel: one marker per body (its ``shape``, drawn about its CG; one per part of
+a compound, each part's ``ns`` ending in ``/part<k>`` from the second on), one sphere
 per joint at the joint's point on the parent, green while the joint holds,
 red and faded once released.
 """
@@ -110,6 +111,9 @@ def _triangle_marker(shape: Shape) -> dict:
 
 def extent(shape: Shape) -> float:
     """Return a shape's largest dimension, m (a mesh's: its scale's largest)."""
+    if shape.kind == 'compound':
+        return max(extent(part) + 2 * float(np.linalg.norm(part.offset))
+                   for part in shape.parts)
     if shape.kind == 'cylinder':
         return max(2 * shape.size[0], shape.size[1])
     if shape.kind == 'sphere':
@@ -119,6 +123,8 @@ def extent(shape: Shape) -> float:
 
 def thickness(shape: Shape) -> float:
     """Return a shape's smallest dimension, m (a cylinder's, a capsule's: the diameter)."""
+    if shape.kind == 'compound':
+        return min(thickness(part) for part in shape.parts)
     if shape.kind in ('cylinder', 'sphere', 'capsule'):
         return 2 * shape.size[0]
     if shape.kind == 'box':
@@ -141,6 +147,15 @@ def carriers(model) -> set:
                 and joint.child in parents:
             out.add(model.bodies[joint.child].name)
     return out
+
+
+def _part_ns(namespace: str, kind: str, part: int) -> str:
+    """Return the ``ns`` of a body's marker: part k > 0 of a compound has its own."""
+    return f'{namespace}/{kind}' if part == 0 else f'{namespace}/{kind}/part{part}'
+
+
+def _part_text(name: str, shape: Shape, part: int) -> str:
+    return f'{name} part {part}' if shape.kind == 'compound' else name
 
 
 def joint_points_on_parents(model) -> np.ndarray:
@@ -176,20 +191,23 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
     shapes = [body_shape(body) for body in model.bodies]
     carried = carriers(model)
     for i, (body, shape) in enumerate(zip(model.bodies, shapes)):
-        marker = _shape_marker(shape)
         color = FIXED_COLOR if body.fixed else next(colors)
         if body.name in carried:
             color = color[:3] + (min(color[3], CARRIER_ALPHA),)
-        marker.update(header={'stamp': stamp, 'frame_id': body.name},
-                      ns=f'{namespace}/bodies', id=i, action=0, frame_locked=True,
-                      color=_color(color), text=body.name)
-        out.append(marker)
-        if shape.kind == 'mesh' and shape.hull:   # what contacts use: the hull
-            hull = _triangle_marker(shape)
-            hull.update(header={'stamp': stamp, 'frame_id': body.name}, action=0,
-                        ns=f'{namespace}/collision', id=i, frame_locked=True,
-                        color=_color(HULL_COLOR), text=f'{body.name} hull')
-            out.append(hull)
+        for k, piece in enumerate(shape.pieces()):   # a compound: a marker per part
+            marker = _shape_marker(piece)
+            marker.update(header={'stamp': stamp, 'frame_id': body.name},
+                          ns=_part_ns(namespace, 'bodies', k), id=i, action=0,
+                          frame_locked=True, color=_color(color),
+                          text=_part_text(body.name, shape, k))
+            out.append(marker)
+            if piece.kind == 'mesh' and piece.hull:   # what contacts use: the hull
+                hull = _triangle_marker(piece)
+                hull.update(header={'stamp': stamp, 'frame_id': body.name}, action=0,
+                            ns=_part_ns(namespace, 'collision', k), id=i, frame_locked=True,
+                            color=_color(HULL_COLOR),
+                            text=f'{_part_text(body.name, shape, k)} hull')
+                out.append(hull)
     size = max(0.01, JOINT_SIZE * min((thickness(s) for s in shapes), default=0.05))
     for k, event in enumerate(contacts):
         out.append({'header': {'stamp': stamp, 'frame_id': model.frame_id},

@@ -6,6 +6,7 @@
 // many states for tests, metrics and recordings; shapes and dtypes checked once per
 // call, the GIL released around the loops.
 #include <pybind11/numpy.h>
+#include <cstdint>
 #include <pybind11/pybind11.h>
 
 #include <stdexcept>
@@ -121,13 +122,13 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
 }
 
 void need_shape(const Array& s, const char* name) {
-  need(s.ndim() == 1 && s.shape(0) >= cfem::shapes::kShapeHeader &&
-           s.shape(0) == cfem::shapes::kShapeHeader +
-                             3 * static_cast<py::ssize_t>(s.data()[cfem::shapes::kVertices]),
+  need(s.ndim() == 1 && cfem::shapes::checked_length(s.data(), static_cast<long>(s.shape(0)))
+                            == static_cast<long>(s.shape(0)),
        std::string(name) + ": a shape from cfem_ros.core.contacts.pack_shape expected");
 }
 
-// distances at n pose pairs: (n,) m, and (n, 6) the closest points on a and b (world)
+// distances at n pose pairs: (n,) m, (n, 6) the closest points on a and b (world) and
+// (n, 2) the closest parts (compound shapes; 0 for a convex one)
 py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_b, Array rot_b,
                    Array position_b) {
   need_shape(shape_a, "shape_a");
@@ -138,18 +139,23 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
   need_rows(rot_a, "rot_a", 9, n);
   need_rows(rot_b, "rot_b", 9, n);
   Array out(n), points({n, py::ssize_t(6)});
+  py::array_t<std::int64_t> parts({n, py::ssize_t(2)});
   double* o = out.mutable_data();
   double* p = points.mutable_data();
+  std::int64_t* which = parts.mutable_data();
   {
     py::gil_scoped_release release;
     for (py::ssize_t k = 0; k < n; ++k) {
-      o[k] = cfem::shapes::distance(cfem::Flat{shape_a.data()}, rot_a.data() + 9 * k,
-                                    position_a.data() + 3 * k, cfem::Flat{shape_b.data()},
-                                    rot_b.data() + 9 * k, position_b.data() + 3 * k,
-                                    p + 6 * k, p + 6 * k + 3);
+      int found[2];
+      o[k] = cfem::shapes::any_distance(cfem::Flat{shape_a.data()}, rot_a.data() + 9 * k,
+                                        position_a.data() + 3 * k, cfem::Flat{shape_b.data()},
+                                        rot_b.data() + 9 * k, position_b.data() + 3 * k,
+                                        p + 6 * k, p + 6 * k + 3, nullptr, found);
+      which[2 * k] = found[0];
+      which[2 * k + 1] = found[1];
     }
   }
-  return py::make_tuple(out, points);
+  return py::make_tuple(out, points, parts);
 }
 
 }  // namespace

@@ -18,6 +18,13 @@
 // hull's vertices (3 each, shape axes, m). Cylinders and capsules lie along
 // the shape's x axis; size: box edges (x, y, z); cylinder radius, length;
 // sphere radius; capsule radius, overall length.
+//
+// A compound shape (SPEC section 11) is a header of kShapeHeader doubles (kCompound, the
+// part count, zeros) and then its parts, each the radius of a sphere about the part's
+// centre that holds it (m) followed by the part's own packed convex shape. Its distance
+// to another shape is the least over the pairs of parts; a pair whose bounding spheres
+// are farther apart than the least found so far is skipped (the pairs in the order of
+// that bound), the test the contact rows' bounding spheres make for whole shapes.
 #pragma once
 
 #include <cmath>
@@ -27,7 +34,7 @@
 namespace cfem {
 namespace shapes {
 
-constexpr int kSphere = 0, kCapsule = 1, kBox = 2, kCylinder = 3, kHull = 4;
+constexpr int kSphere = 0, kCapsule = 1, kBox = 2, kCylinder = 3, kHull = 4, kCompound = 5;
 constexpr int kKind = 0, kSize = 1, kAxes = 4, kCentre = 13, kVertices = 16;
 constexpr int kShapeHeader = 17;
 //: The distance is known to this much, m (GJK's stop).
@@ -570,6 +577,148 @@ inline double distance(const P& shape_a, const double* rot_a, const double* posi
                        double* pa, double* pb, double* guess = nullptr) {
   return distance(place(shape_a, rot_a, position_a), place(shape_b, rot_b, position_b), pa, pb,
                   guess);
+}
+
+// ------------------------------------------------------------------ compound shapes
+
+constexpr int kMaxParts = 16;
+
+// A packed shape read from an offset in another (a compound's part).
+template <class P>
+struct Shifted {
+  P base;
+  long first;
+  double operator[](long k) const { return base[first + k]; }
+};
+
+// Numbers of a packed convex shape.
+template <class P>
+inline long convex_length(const P& d) {
+  return kShapeHeader + 3 * static_cast<long>(d[kVertices]);
+}
+
+// The radius about its centre of a sphere that holds a packed convex shape, m.
+template <class P>
+inline double reach(const P& d) {
+  switch (static_cast<int>(d[kKind])) {
+    case kSphere: return d[kSize];
+    case kCapsule: return 0.5 * d[kSize + 1];
+    case kBox: {
+      double x = d[kSize], y = d[kSize + 1], z = d[kSize + 2];
+      return 0.5 * std::sqrt(x * x + y * y + z * z);
+    }
+    case kCylinder: return std::sqrt(d[kSize] * d[kSize] + 0.25 * d[kSize + 1] * d[kSize + 1]);
+    default: {
+      long count = static_cast<long>(d[kVertices]);
+      double most = 0.0;
+      for (long k = 0, v = kShapeHeader; k < count; ++k, v += 3)
+        most = std::fmax(most, d[v] * d[v] + d[v + 1] * d[v + 1] + d[v + 2] * d[v + 2]);
+      return std::sqrt(most);
+    }
+  }
+}
+
+// The parts of a packed shape placed on a body: where each starts, its bounding sphere's
+// centre (world) and radius. A convex shape is its own one part.
+struct Parts {
+  long first[kMaxParts];
+  Vec centre[kMaxParts];
+  double radius[kMaxParts];
+  int count;
+};
+
+template <class P>
+inline void parts_of(const P& d, const double* rot, const double* position, Parts& out) {
+  const bool compound = static_cast<int>(d[kKind]) == kCompound;
+  out.count = compound ? static_cast<int>(d[1]) : 1;
+  long at = compound ? kShapeHeader : 0;
+  for (int k = 0; k < out.count; ++k) {
+    double radius = compound ? d[at] : 0.0;
+    if (compound) ++at;
+    Shifted<P> part{d, at};
+    out.first[k] = at;
+    out.radius[k] = compound ? radius : reach(part);
+    Vec c = turn(rot, {part[kCentre], part[kCentre + 1], part[kCentre + 2]});
+    out.centre[k] = {position[0] + c.x, position[1] + c.y, position[2] + c.z};
+    at += convex_length(part);
+  }
+}
+
+// Distance between packed shapes, convex or compound, at the given poses (as distance's);
+// the closest parts' indices into parts[0:2] if parts is not null (0 for a convex shape).
+// guess (gjk's warm start) is used between two convex shapes only.
+template <class P>
+inline double any_distance(const P& shape_a, const double* rot_a, const double* position_a,
+                           const P& shape_b, const double* rot_b, const double* position_b,
+                           double* pa, double* pb, double* guess = nullptr,
+                           int* parts = nullptr) {
+  if (static_cast<int>(shape_a[kKind]) != kCompound
+      && static_cast<int>(shape_b[kKind]) != kCompound) {
+    if (parts) parts[0] = parts[1] = 0;
+    return distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b, pa, pb, guess);
+  }
+  Parts a, b;
+  parts_of(shape_a, rot_a, position_a, a);
+  parts_of(shape_b, rot_b, position_b, b);
+  // each pair's lower bound: its bounding spheres' distance (signed: a part can go no
+  // deeper into another than their spheres overlap)
+  double lower[kMaxParts * kMaxParts];
+  int order[kMaxParts * kMaxParts];
+  int count = 0;
+  for (int i = 0; i < a.count; ++i) {
+    for (int j = 0; j < b.count; ++j) {
+      Vec gap = a.centre[i] - b.centre[j];
+      double bound = std::sqrt(dot(gap, gap)) - a.radius[i] - b.radius[j];
+      int k = count++;
+      while (k > 0 && lower[order[k - 1]] > bound) {   // insertion by bound
+        order[k] = order[k - 1];
+        --k;
+      }
+      lower[i * kMaxParts + j] = bound;
+      order[k] = i * kMaxParts + j;
+    }
+  }
+  double best = INFINITY;
+  double qa[3], qb[3];
+  for (int k = 0; k < count; ++k) {
+    int pair = order[k];
+    if (lower[pair] >= best) break;   // no later pair can come nearer
+    int i = pair / kMaxParts, j = pair % kMaxParts;
+    double d = distance(Shifted<P>{shape_a, a.first[i]}, rot_a, position_a,
+                        Shifted<P>{shape_b, b.first[j]}, rot_b, position_b, qa, qb);
+    if (d < best) {
+      best = d;
+      for (int c = 0; c < 3; ++c) {
+        pa[c] = qa[c];
+        pb[c] = qb[c];
+      }
+      if (parts) parts[0] = i, parts[1] = j;
+    }
+  }
+  return best;
+}
+
+// Numbers of a packed shape of `size` numbers (convex or compound), or -1 if it is not one.
+inline long checked_length(const double* d, long size) {
+  if (size < kShapeHeader) return -1;
+  auto convex = [&](long at) -> long {
+    if (at + kShapeHeader > size) return -1;
+    int kind = static_cast<int>(d[at + kKind]);
+    double vertices = d[at + kVertices];
+    if (kind < kSphere || kind > kHull || !(vertices >= 0.0) || vertices > 1e7) return -1;
+    long length = kShapeHeader + 3 * static_cast<long>(vertices);
+    return at + length <= size ? length : -1;
+  };
+  if (static_cast<int>(d[kKind]) != kCompound) return convex(0);
+  double count = d[1];
+  if (!(count >= 1.0 && count <= kMaxParts)) return -1;
+  long at = kShapeHeader;
+  for (int k = 0; k < static_cast<int>(count); ++k) {
+    long length = convex(at + 1);
+    if (length < 0) return -1;
+    at += 1 + length;
+  }
+  return at;
 }
 
 }  // namespace shapes

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "braces.hpp"
 #include "conditions.hpp"
 #include "loads.hpp"
 #include "sampling.hpp"
@@ -62,7 +63,8 @@ int release_values(const Search& q, const double* y, idx first, idx count) {
 // joint which's angle, distance or force; col 3: scheduled row which's stroke. Each RK4
 // raises the largest stage violation info[L_VIOLATION]. col 4: contact row which's
 // CONTACT_GAP less the distance between its shapes. col 5: aero row which's crossing of
-// its tables' ends (loads::aero_crossing).
+// its tables' ends (loads::aero_crossing). col 6: brace row which's change of contact
+// (braces.hpp).
 double excess(const Search& q, double s, idx which, int col, int* code) {
   const double* state = q.y0;
   *code = REACHED;
@@ -83,6 +85,7 @@ double excess(const Search& q, double s, idx which, int col, int* code) {
   if (col == 4) {   // a contact pair: >= 0 once its shapes are within CONTACT_GAP
     return loads::CONTACT_GAP - loads::contact_gap(state, q.s.loads, which, q.s.n(), nullptr);
   }
+  if (col == 6) return braces::excess(state, q.s.loads, which, q.s.n());   // a brace's pad
   *code = release_values(q, state, which, 1);
   if (*code != REACHED) return NAN;
   return q.values[3 * which + col] - q.t.triggers(which, col);
@@ -236,8 +239,9 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       if (count > 0) info[L_CROSSING] = best, info[L_JOINTS] = static_cast<double>(count);
     }
   }
-  // the ejectors' stroke ends, the contacts of armed pairs (ScheduledLoads.contacts) and
-  // the tables' ends (aero rows), all reported by row in wrenches_found
+  // the ejectors' stroke ends, the contacts of armed pairs (ScheduledLoads.contacts), the
+  // tables' ends (aero rows) and the braces' pads touching or letting go, all reported by
+  // row in wrenches_found
   double best = h;
   idx count = -1;
   for (idx row = n; row < s.loads.rows; ++row) {
@@ -258,6 +262,9 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
     } else if (kind == loads::KIND_AERO) {
       if (!loads::aero_moved(y1, s.loads, row, n)) continue;
       col = 5;
+    } else if (kind == loads::KIND_BRACE) {
+      if (!braces::switched(y1, s.loads, row, n)) continue;
+      col = 6;
     } else {
       continue;
     }

@@ -36,7 +36,9 @@
 // ``loads`` (n + rows, WIDTH): per body the held wrench (force, torque, 1.0 if in body
 // axes, application point in body axes from the CG); then one row per scheduled wrench
 // (S_*), per body with aerodynamic tables (A_*), per watched contact pair (C_*; S_ON is
-// 1.0 while armed: its shapes apart); then the rows of their tables (T_*, or AERO_ROW
+// 1.0 while armed: its shapes apart), per sway brace (BR_*: body, carrier, 1.0 while its
+// pad touches, its point and direction in the body's axes, preload, stiffness, damping,
+// the pad's point in the carrier's axes; braces.hpp); then the rows of their tables (T_*, or AERO_ROW
 // numbers a row of a packed aerodynamic table or shape); then one scratch row.
 #define CFEM_LOADS_LAYOUT(COLUMN, NUMBER)                                                  \
   NUMBER(int, WIDTH, 24)                                                                   \
@@ -73,6 +75,15 @@
   COLUMN(contact, C_RADIUS_B, 10, 1)                                                       \
   COLUMN(contact, C_SEEN, 11, 1)                                                           \
   COLUMN(contact, C_POSE, 12, 7)                                                           \
+  COLUMN(brace, BR_BODY, 0, 1)                                                             \
+  COLUMN(brace, BR_CARRIER, 1, 1)                                                          \
+  COLUMN(brace, BR_ON, 3, 1)                                                               \
+  COLUMN(brace, BR_POINT, 4, 3)                                                            \
+  COLUMN(brace, BR_DIRECTION, 7, 3)                                                        \
+  COLUMN(brace, BR_PRELOAD, 10, 1)                                                         \
+  COLUMN(brace, BR_STIFFNESS, 11, 1)                                                       \
+  COLUMN(brace, BR_DAMPING, 12, 1)                                                         \
+  COLUMN(brace, BR_PAD, 14, 3)                                                             \
   COLUMN(table, T_ABSCISSA, 0, 1)                                                          \
   COLUMN(table, T_FORCE, 1, 3)                                                             \
   COLUMN(table, T_MOMENT, 4, 3)                                                            \
@@ -88,6 +99,7 @@
   NUMBER(double, KIND_AERO, 3.0)                                                           \
   NUMBER(double, KIND_SCRATCH, 4.0)                                                        \
   NUMBER(double, KIND_CONTACT, 5.0)                                                        \
+  NUMBER(double, KIND_BRACE, 6.0)                                                          \
   NUMBER(double, CONTACT_GAP, 1e-10)
 
 // A packed aerodynamic table (aeropack.py packs it, aero.hpp reads it; kept in ``loads``

@@ -7,6 +7,7 @@
 
 #include "aero.hpp"
 #include "algebra.hpp"
+#include "braces.hpp"
 #include "distance.hpp"
 
 namespace cfem {
@@ -171,6 +172,19 @@ bool surely_apart(const double* y, const Mat& loads, idx row, idx n) {
   return gap > CONTACT_GAP;
 }
 
+// Add to fhat the opposite of wrench w (force (3), moment about the loaded body's CG (3),
+// world point (6:9), moment given (9:12) or none) on body j about its own CG.
+void react(const double* y, const double* w, bool given, idx j, double* fhat) {
+  double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
+  double* fj = fhat + 6 * j;
+  fj[0] -= w[0];
+  fj[1] -= w[1];
+  fj[2] -= w[2];
+  fj[3] -= (given ? w[9] : 0.0) + r1 * w[2] - r2 * w[1];
+  fj[4] -= (given ? w[10] : 0.0) + r2 * w[0] - r0 * w[2];
+  fj[5] -= (given ? w[11] : 0.0) + r0 * w[1] - r1 * w[0];
+}
+
 }  // namespace
 
 double point_and_stroke(const double* y, const Mat& loads, idx row, idx n, double* point) {
@@ -201,20 +215,16 @@ void add_scheduled(const double* y, const double* rot, const Mat& bodies, const 
       for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
       continue;
     }
-    if (kind != KIND_SCHEDULED || !scheduled_wrench(y, rot, loads, row, n, w)) continue;
+    bool brace = kind == KIND_BRACE;
+    if (brace) {
+      if (!braces::wrench(y, loads, row, n, w)) continue;
+    } else if (kind != KIND_SCHEDULED || !scheduled_wrench(y, rot, loads, row, n, w)) {
+      continue;
+    }
     idx b = static_cast<idx>(loads(row, S_BODY));
     for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
     idx j = static_cast<idx>(loads(row, S_REACT));
-    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
-      double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
-      double* fj = fhat + 6 * j;
-      fj[0] -= w[0];
-      fj[1] -= w[1];
-      fj[2] -= w[2];
-      fj[3] -= w[9] + r1 * w[2] - r2 * w[1];
-      fj[4] -= w[10] + r2 * w[0] - r0 * w[2];
-      fj[5] -= w[11] + r0 * w[1] - r1 * w[0];
-    }
+    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) react(y, w, !brace, j, fhat);
   }
 }
 
@@ -261,7 +271,10 @@ void strokes(const double* y, const Mat& loads, idx n, double* out) {
 bool stroke_reached(const double* y, const Mat& loads, idx n) {
   for (idx row = n; row < loads.rows; ++row) {
     double kind = loads(row, S_KIND);
-    if (kind != KIND_SCHEDULED && kind != KIND_AERO && kind != KIND_CONTACT) break;
+    if (kind != KIND_SCHEDULED && kind != KIND_AERO && kind != KIND_CONTACT
+        && kind != KIND_BRACE)
+      break;
+    if (kind == KIND_BRACE && braces::switched(y, loads, row, n)) return true;
     if (kind == KIND_SCHEDULED && loads(row, S_ON) > 0.0 && loads(row, S_STROKE) < INFINITY) {
       if (point_and_stroke(y, loads, row, n, nullptr) >= loads(row, S_STROKE)) return true;
     }
@@ -275,7 +288,8 @@ bool stroke_reached(const double* y, const Mat& loads, idx n) {
   return false;
 }
 
-double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points) {
+double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points,
+                   int* parts) {
   idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
   double rot_a[9], rot_b[9], scratch[6];
   const double* qa = y + 6 * n + 4 * a;
@@ -283,9 +297,10 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
   quat_matrix(qa[0], qa[1], qa[2], qa[3], rot_a);
   quat_matrix(qb[0], qb[1], qb[2], qb[3], rot_b);
   double* p = points ? points : scratch;
-  return shapes::distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
-                          y + 3 * a, Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))},
-                          rot_b, y + 3 * b, p, p + 3, loads.row(row) + C_GUESS);
+  return shapes::any_distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
+                              y + 3 * a,
+                              Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))}, rot_b,
+                              y + 3 * b, p, p + 3, loads.row(row) + C_GUESS, parts);
 }
 
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
@@ -305,15 +320,18 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
       o += 6;
       continue;
     }
-    if (kind != KIND_SCHEDULED) continue;
-    bool on = scheduled_wrench(y, rot, loads, row, n, w);
+    bool brace = kind == KIND_BRACE;
+    if (kind != KIND_SCHEDULED && !brace) continue;
+    bool on = brace ? braces::wrench(y, loads, row, n, w)
+                    : scheduled_wrench(y, rot, loads, row, n, w);
     for (int k = 0; k < 6; ++k) out[o + k] = on ? w[k] : 0.0;
     o += 6;
     idx j = static_cast<idx>(loads(row, S_REACT));
     if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
       double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
-      double reaction[6] = {-w[0], -w[1], -w[2], -(w[9] + r1 * w[2] - r2 * w[1]),
-                            -(w[10] + r2 * w[0] - r0 * w[2]), -(w[11] + r0 * w[1] - r1 * w[0])};
+      double g0 = brace ? 0.0 : w[9], g1 = brace ? 0.0 : w[10], g2 = brace ? 0.0 : w[11];
+      double reaction[6] = {-w[0], -w[1], -w[2], -(g0 + r1 * w[2] - r2 * w[1]),
+                            -(g1 + r2 * w[0] - r0 * w[2]), -(g2 + r0 * w[1] - r1 * w[0])};
       for (int k = 0; k < 6; ++k) out[o + k] = on ? reaction[k] : 0.0;
       o += 6;
     }

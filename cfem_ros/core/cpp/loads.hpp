@@ -4,7 +4,8 @@
 // Applied loads from the packed ``loads`` array (layout.hpp; loads.py fills it): held
 // wrenches at points, scheduled wrenches and their tables, aerodynamic tables.
 // A new load kind: a KIND_ value and its columns in layout.hpp, a branch in add_scheduled and in
-// sample_applied (and its outputs in ScheduledLoads.sources).
+// sample_applied (and its outputs in ScheduledLoads.sources). Sway braces (KIND_BRACE)
+// are braces.hpp's.
 #pragma once
 
 #include "common.hpp"
@@ -67,8 +68,10 @@ void strokes(const double* y, const Mat& loads, idx n, double* out);
 bool stroke_reached(const double* y, const Mat& loads, idx n);
 
 // The distance between the shapes of contact row `row` at y, m (distance.hpp); the
-// closest points (world) into points[0:6] if points is not null.
-double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points);
+// closest points (world) into points[0:6] if points is not null, and the closest parts
+// of compound shapes into parts[0:2] if parts is not null.
+double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points,
+                   int* parts = nullptr);
 
 // Each scheduled wrench's (and aero table's) load at y into out, 6 a source, then the air
 // of each aero row (AIR_OUTPUTS numbers); rot (n, 3, 3) and w (18) scratch.

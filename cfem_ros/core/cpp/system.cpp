@@ -83,7 +83,7 @@ class BoundSystem {
     for (idx row = n; row < s.loads.rows; ++row) {
       double kind = s.loads(row, loads::S_KIND);
       if (kind == loads::KIND_SCHEDULED || kind == loads::KIND_AERO
-          || kind == loads::KIND_CONTACT) ++scheduled_;
+          || kind == loads::KIND_CONTACT || kind == loads::KIND_BRACE) ++scheduled_;
     }
     set_dense(dense);
   }
@@ -115,7 +115,7 @@ class BoundSystem {
   Triggers t;
   const idx* order_ = nullptr;
   idx order_count_ = 0;
-  idx scheduled_ = 0;   // scheduled wrenches, aero rows, contact pairs (wrenches_found)
+  idx scheduled_ = 0;   // scheduled wrenches, aero rows, contact pairs, braces (wrenches_found)
   py::array_t<double> work_;
 
  private:

@@ -1,0 +1,96 @@
+// Copyright 2026 the cfem_ros authors
+// SPDX-License-Identifier: Apache-2.0
+#include "braces.hpp"
+
+#include "loads.hpp"
+
+namespace cfem {
+namespace braces {
+
+namespace {
+
+// Rotation matrix (row-major, body to world) of body i's quaternion in y (not
+// necessarily unit: scaled by 2 / |q|^2 as loads::rotations does).
+void matrix(const double* y, idx n, idx i, double* r) {
+  const double* q = y + 6 * n + 4 * i;
+  double x = q[0], yy = q[1], z = q[2], w = q[3];
+  double s = 2.0 / (x * x + yy * yy + z * z + w * w);
+  r[0] = 1 - s * (yy * yy + z * z);
+  r[1] = s * (x * yy - w * z);
+  r[2] = s * (x * z + w * yy);
+  r[3] = s * (x * yy + w * z);
+  r[4] = 1 - s * (x * x + z * z);
+  r[5] = s * (yy * z - w * x);
+  r[6] = s * (x * z - w * yy);
+  r[7] = s * (yy * z + w * x);
+  r[8] = 1 - s * (x * x + yy * yy);
+}
+
+void turn(const double* r, const double* v, double* out) {
+  for (int k = 0; k < 3; ++k) out[k] = r[3 * k] * v[0] + r[3 * k + 1] * v[1] + r[3 * k + 2] * v[2];
+}
+
+void cross(const double* a, const double* b, double* out) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+}  // namespace
+
+double push(const double* y, const Mat& loads, idx row, idx n, double* point,
+            double* direction) {
+  const double* br = loads.row(row);
+  idx b = static_cast<idx>(br[loads::BR_BODY]), c = static_cast<idx>(br[loads::BR_CARRIER]);
+  double rb[9], rc[9], arm_b[3], arm_c[3], omega_b[3], omega_c[3], spin_b[3], spin_c[3];
+  matrix(y, n, b, rb);
+  matrix(y, n, c, rc);
+  turn(rb, br + loads::BR_POINT, arm_b);
+  turn(rb, br + loads::BR_DIRECTION, direction);
+  turn(rc, br + loads::BR_PAD, arm_c);
+  turn(rb, y + 10 * n + 3 * b, omega_b);
+  turn(rc, y + 10 * n + 3 * c, omega_c);
+  cross(omega_b, arm_b, spin_b);
+  cross(omega_c, arm_c, spin_c);
+  double gap[3], closing[3], turning[3];
+  for (int k = 0; k < 3; ++k) {
+    point[k] = y[3 * b + k] + arm_b[k];
+    gap[k] = point[k] - (y[3 * c + k] + arm_c[k]);
+    closing[k] = (y[3 * n + 3 * b + k] + spin_b[k]) - (y[3 * n + 3 * c + k] + spin_c[k]);
+  }
+  cross(omega_b, direction, turning);
+  // s = -gap . d, and ds/dt = -(d gap/dt . d + gap . (omega_b x d))
+  double s = -(gap[0] * direction[0] + gap[1] * direction[1] + gap[2] * direction[2]);
+  double rate = -(closing[0] * direction[0] + closing[1] * direction[1]
+                  + closing[2] * direction[2])
+                - (gap[0] * turning[0] + gap[1] * turning[1] + gap[2] * turning[2]);
+  return br[loads::BR_PRELOAD] + br[loads::BR_STIFFNESS] * s + br[loads::BR_DAMPING] * rate;
+}
+
+bool wrench(const double* y, const Mat& loads, idx row, idx n, double* out) {
+  if (!(loads(row, loads::BR_ON) > 0.0)) {
+    for (int k = 0; k < 6; ++k) out[k] = 0.0;
+    return false;
+  }
+  double* point = out + 6;
+  double direction[3];
+  double f = push(y, loads, row, n, point, direction);
+  idx b = static_cast<idx>(loads(row, loads::BR_BODY));
+  double r[3] = {point[0] - y[3 * b], point[1] - y[3 * b + 1], point[2] - y[3 * b + 2]};
+  for (int k = 0; k < 3; ++k) out[k] = f * direction[k];
+  cross(r, out, out + 3);
+  return true;
+}
+
+bool switched(const double* y, const Mat& loads, idx row, idx n) {
+  return excess(y, loads, row, n) > 0.0;
+}
+
+double excess(const double* y, const Mat& loads, idx row, idx n) {
+  double point[3], direction[3];
+  double f = push(y, loads, row, n, point, direction);
+  return loads(row, loads::BR_ON) > 0.0 ? -f : f;
+}
+
+}  // namespace braces
+}  // namespace cfem
