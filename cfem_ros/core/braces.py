@@ -121,11 +121,9 @@ def _parse_brace(check, k: int, spec, index: dict, bodies) -> SwayBrace:
 
 def _check_near_shape(check, key: str, point: np.ndarray, body):
     """Refuse a brace point farther than ``NEAR_SHAPE`` from the body's shape (inside or out)."""
-    from cfem_ros.core import contacts, shapes
+    from cfem_ros.core import shapes
 
     shape = body.shape
-    if shape is not None and shape.kind == 'mesh' and not shape.hull:
-        return   # a mesh that is no local file: nothing to measure against
     if shape is None:
         shape = shapes.equivalent_box(body.mass, body.inertia)
         near = NEAR_BOX * max(shape.size)
@@ -133,15 +131,57 @@ def _check_near_shape(check, key: str, point: np.ndarray, body):
     else:
         near = NEAR_SHAPE
         what = 'its shape'
-    dot = contacts.pack_shape(shapes.Shape('sphere', (1e-300,), offset=tuple(point)))
-    identity = np.array([[0.0, 0.0, 0.0, 1.0]])
-    distance, _ = contacts.distances(dot, identity, np.zeros((1, 3)), contacts.pack_shape(shape),
-                                     identity, np.zeros((1, 3)))
-    if abs(distance[0]) > near:
-        side = 'inside' if distance[0] < 0 else 'from'
-        check.fail(key, f'is {list(map(float, point))}, {abs(distance[0]):.3g} m {side} the '
+    pieces = [p for p in shape.pieces() if p.kind != 'mesh' or p.hull]
+    if not pieces:
+        return   # a mesh that is no local file: nothing to measure against
+    distance = surface_distance(pieces, point)
+    if abs(distance) > near:
+        side = 'inside' if distance < 0 else 'from'
+        check.fail(key, f'is {list(map(float, point))}, {abs(distance):.3g} m {side} the '
                    f'surface of {what} of {body.name!r}',
                    f'the pad\'s contact point on the body, within {near:.3g} m of its surface')
+
+
+def surface_distance(pieces, point: np.ndarray) -> float:
+    """
+    Return a point's distance to the surface of a union of convex shapes, m (< 0 inside).
+
+    Outside all of them: the least distance (the compiled distance to a point);
+    inside: the depth below the surface of the piece it is deepest in.
+    """
+    from cfem_ros.core import contacts, shapes
+
+    dot = contacts.pack_shape(shapes.Shape('sphere', (1e-300,), offset=tuple(point)))
+    identity, origin = np.array([[0.0, 0.0, 0.0, 1.0]]), np.zeros((1, 3))
+    outside = []
+    for piece in pieces:
+        d = float(contacts.distances(dot, identity, origin, contacts.pack_shape(piece),
+                                     identity, origin)[0][0])
+        outside.append(d)
+    if min(outside) > 0.0:
+        return min(outside)
+    return -max(_depth(piece, point) for piece, d in zip(pieces, outside) if d <= 0.0)
+
+
+def _depth(shape, point: np.ndarray) -> float:
+    """Return how deep a point lies inside a convex shape, m (its distance to the surface)."""
+    from cfem_ros.core import rotations
+
+    axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
+    p = axes.T @ (np.asarray(point, dtype=float) - np.asarray(shape.offset))
+    size = shape.size
+    if shape.kind == 'box':
+        return float(np.min(0.5 * np.asarray(size) - np.abs(p)))
+    if shape.kind == 'sphere':
+        return float(size[0] - np.linalg.norm(p))
+    if shape.kind == 'cylinder':
+        return float(min(size[0] - np.hypot(p[1], p[2]), 0.5 * size[1] - abs(p[0])))
+    if shape.kind == 'capsule':
+        half = 0.5 * size[1] - size[0]
+        return float(size[0] - np.linalg.norm([max(abs(p[0]) - half, 0.0), p[1], p[2]]))
+    from scipy.spatial import ConvexHull
+    equations = ConvexHull(np.array(shape.hull)).equations   # outward normals, offsets
+    return float(np.min(-(equations[:, :3] @ p + equations[:, 3])))
 
 
 def _edges(size) -> str:
