@@ -36,6 +36,7 @@ SPEC_EXCERPTS = {
           'naming joints (aft_hook) that it does not define',
     '8.': 'not run: an excerpt whose coefficient tables are left out (CX: ...)',
     '9.': 'not run: criteria of a sweep file, an excerpt with no scenario or sweep',
+    '11.': 'extends section 1 (braces on its store, a compound shape for its pylon)',
     '13.': 'not run: a fit file naming a scenario (two_hooks.yaml) and a flight log '
            '(flight_037.mcap) it does not come with',
 }
