@@ -302,8 +302,12 @@ def test_a_released_joint_s_load_ends_at_zero(store, store_file):
 
 
 def _corners(body):
-    """Return the 8 corners of a body's shape's bounding box at t = 0, world, m."""
-    shape = visuals.body_shape(body)
+    """Return the 8 corners of each part of a body's shape's bounding boxes at t = 0, world, m."""
+    return np.concatenate([_piece_corners(body, piece)
+                           for piece in visuals.body_shape(body).pieces()])
+
+
+def _piece_corners(body, shape):
     if shape.kind == 'box':
         half = np.array(shape.size) / 2
     elif shape.kind == 'cylinder':
@@ -317,7 +321,12 @@ def _corners(body):
 
 
 def _inside(points, body):
-    shape_box = _corners(body)
+    """Tell whether the points all lie in the bounding box of one part of body's shape."""
+    return any(_inside_box(points, _piece_corners(body, piece))
+               for piece in visuals.body_shape(body).pieces())
+
+
+def _inside_box(points, shape_box):
     centre = shape_box.mean(axis=0)
     axes = [shape_box[4] - shape_box[0], shape_box[2] - shape_box[0], shape_box[1] - shape_box[0]]
     for axis in axes:
