@@ -409,7 +409,8 @@ class _Publishers:
             if event['event'] == 'contact':
                 self.node.get_logger().warning(
                     f"contact between {' and '.join(event['bodies'])} at t = "
-                    f"{event['time']:.9g} s, point {event['point']} (world, m)")
+                    f"{event['time']:.9g} s, point {event['point']} (world, m), "
+                    f"parts {event.get('parts', [0, 0])}")
                 continue
             if event.get('event') != 'release':
                 self.node.get_logger().info(describe_event(event))
