@@ -139,7 +139,7 @@ def _check_near_shape(check, key: str, point: np.ndarray, body):
         side = 'inside' if distance < 0 else 'from'
         check.fail(key, f'is {list(map(float, point))}, {abs(distance):.3g} m {side} the '
                    f'surface of {what} of {body.name!r}',
-                   f'the pad\'s contact point on the body, within {near:.3g} m of its surface')
+                   f"the pad's contact point on the body, within {near:.3g} m of its surface")
 
 
 def surface_distance(pieces, point: np.ndarray) -> float:

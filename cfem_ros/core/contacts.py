@@ -102,6 +102,8 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
         Body-to-world orientations (x, y, z, w).
     position_a, position_b : ndarray, shape (n, 3)
         The bodies' CGs, world, m.
+    parts : bool
+        Also return the closest parts (below).
 
     Returns
     -------

@@ -1,9 +1,10 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-What a body looks like (SPEC sections 5, 8, 11): box, cylinder, sphere, capsule, mesh,
-or a compound of several of them (``{parts: [...]}``, each placed with ``at`` and
-``rpy_deg`` in the body's axes).
+What a body looks like (SPEC sections 5, 8, 11): a convex shape, or several.
+
+A box, cylinder, sphere, capsule or mesh, or a compound of several of them
+(``{parts: [...]}``, each placed with ``at`` and ``rpy_deg`` in the body's axes).
 
 Shapes are drawn (markers in RViz and Foxglove) and, for the pairs a
 scenario's ``contacts`` watch, are the collision shapes: a mesh then by its
@@ -169,7 +170,7 @@ def parse_shape(value, key: str, fail: Callable, number: Callable, vector: Calla
 def _parse_compound(value, key, fail, number, vector, base_dir) -> Shape:
     extra = [k for k in value if k != 'parts']
     if extra:
-        fail(f'{key}.{extra[0]}', 'is given with parts', 'only parts: a compound\'s parts '
+        fail(f'{key}.{extra[0]}', 'is given with parts', "only parts: a compound's parts "
              'are placed each by its own at and rpy_deg')
     parts = value['parts']
     if not isinstance(parts, list) or not 1 <= len(parts) <= MAX_PARTS:
@@ -201,8 +202,8 @@ def _parse_convex(value, key, fail, number, vector, base_dir, extra_keys=()) -> 
     place = extra_keys or ('offset',)
     extra = [k for k in value if k not in KINDS + ('offset', 'scale')]
     if extra:
-        fail(f'{key}.{extra[0]}', 'unknown key', 'one of ' + ', '.join(KINDS + place
-                                                                        + ('parts',)))
+        fail(f'{key}.{extra[0]}', 'unknown key',
+             'one of ' + ', '.join(KINDS + place + ('parts',)))
     if len(kinds) != 1:
         fail(key, f'names {len(kinds)} kinds of shape', 'exactly one of ' + ', '.join(KINDS))
     kind = kinds[0]

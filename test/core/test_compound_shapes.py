@@ -26,6 +26,7 @@ pytest.importorskip('coal')
 #: The accuracy asked of the distance (issue 36), m.
 TOLERANCE = 1e-9
 
+
 def part(kind, size, at, rpy=(0.0, 0.0, 0.0), **extra):
     return Shape(kind, size, tuple(at), tuple(rotations.from_rpy_deg(rpy)), **extra)
 
@@ -112,7 +113,7 @@ def test_the_pair_skip_gives_the_distance_of_a_convex_shape_of_one_part():
 
 
 def bar_on_a_rack():
-    """A capsule moving down at 1 m/s and spinning at 2 rad/s toward a rack of two boxes."""
+    """Return a capsule moving down at 1 m/s, spinning at 2 rad/s, toward a rack of two boxes."""
     return {
         'gravity': [0, 0, 0], 'dt': 0.001, 'duration': 2.0,
         'bodies': {

@@ -101,7 +101,7 @@ def test_hook_and_brace_loads_at_rest_are_the_statics_and_the_store_stays_put():
 
 
 def pushed_store(braces, gravity=0.0, dt=2e-4, duration=0.1):
-    """A free 100 kg block pushed down (+z) by braces on a fixed pylon, along its CG's line."""
+    """Return a free 100 kg block pushed down (+z) by braces on a fixed pylon, through its CG."""
     doc = {'gravity': [0, 0, gravity], 'dt': dt, 'duration': duration,
            'bodies': {'pylon': {'fixed': True, 'position': [0, 0, -1.0]},
                       'store': {'mass': 100.0, 'inertia': [2.0, 3.0, 4.0],
@@ -177,7 +177,7 @@ def test_the_carrier_takes_the_opposite_push():
 
 
 def linear_roll(preloads, stiffness, damping, t):
-    """The roll about the hook line at t of the linearised dynamics, rad (from rest)."""
+    """Return the roll about the hook line at t of the linearised dynamics, rad (from rest)."""
     axis = np.array([0.0, 0.0, -0.25])
     arms = []
     for x, side in PADS:
@@ -221,7 +221,7 @@ def test_a_preload_sweep_rolls_as_the_linearised_roll_dynamics_say(tmp_path):
         else:
             # linearised: the neglected terms are of the order of the roll (1e-6 rad)
             assert abs(roll - want) < 1e-5 * abs(want), (d, roll, want)
-    assert abs(math.radians(rows[-1]["store_at_0.1_roll_deg"])) > 1e-6   # a roll to measure
+    assert abs(math.radians(rows[-1]['store_at_0.1_roll_deg'])) > 1e-6   # a roll to measure
 
 
 @pytest.mark.parametrize('change, key, words', [
