@@ -2,6 +2,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "braces.hpp"
 
+#include "algebra.hpp"
 #include "loads.hpp"
 
 namespace cfem {
@@ -9,21 +10,11 @@ namespace braces {
 
 namespace {
 
-// Rotation matrix (row-major, body to world) of body i's quaternion in y (not
-// necessarily unit: scaled by 2 / |q|^2 as loads::rotations does).
+// Rotation matrix (row-major, body to world) of body i's quaternion in y, as the step
+// computes the bodies' (quat_matrix).
 void matrix(const double* y, idx n, idx i, double* r) {
   const double* q = y + 6 * n + 4 * i;
-  double x = q[0], yy = q[1], z = q[2], w = q[3];
-  double s = 2.0 / (x * x + yy * yy + z * z + w * w);
-  r[0] = 1 - s * (yy * yy + z * z);
-  r[1] = s * (x * yy - w * z);
-  r[2] = s * (x * z + w * yy);
-  r[3] = s * (x * yy + w * z);
-  r[4] = 1 - s * (x * x + z * z);
-  r[5] = s * (yy * z - w * x);
-  r[6] = s * (x * z - w * yy);
-  r[7] = s * (yy * z + w * x);
-  r[8] = 1 - s * (x * x + yy * yy);
+  quat_matrix(q[0], q[1], q[2], q[3], r);
 }
 
 void turn(const double* r, const double* v, double* out) {
@@ -38,13 +29,17 @@ void cross(const double* a, const double* b, double* out) {
 
 }  // namespace
 
-double push(const double* y, const Mat& loads, idx row, idx n, double* point,
-            double* direction) {
+double push(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+            double* point, double* direction) {
   const double* br = loads.row(row);
   idx b = static_cast<idx>(br[loads::BR_BODY]), c = static_cast<idx>(br[loads::BR_CARRIER]);
-  double rb[9], rc[9], arm_b[3], arm_c[3], omega_b[3], omega_c[3], spin_b[3], spin_c[3];
-  matrix(y, n, b, rb);
-  matrix(y, n, c, rc);
+  double own_b[9], own_c[9], arm_b[3], arm_c[3], omega_b[3], omega_c[3], spin_b[3], spin_c[3];
+  const double* rb = rot ? rot + 9 * b : own_b;
+  const double* rc = rot ? rot + 9 * c : own_c;
+  if (!rot) {
+    matrix(y, n, b, own_b);
+    matrix(y, n, c, own_c);
+  }
   turn(rb, br + loads::BR_POINT, arm_b);
   turn(rb, br + loads::BR_DIRECTION, direction);
   turn(rc, br + loads::BR_PAD, arm_c);
@@ -67,14 +62,15 @@ double push(const double* y, const Mat& loads, idx row, idx n, double* point,
   return br[loads::BR_PRELOAD] + br[loads::BR_STIFFNESS] * s + br[loads::BR_DAMPING] * rate;
 }
 
-bool wrench(const double* y, const Mat& loads, idx row, idx n, double* out) {
+bool wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+            double* out) {
   if (!(loads(row, loads::BR_ON) > 0.0)) {
     for (int k = 0; k < 6; ++k) out[k] = 0.0;
     return false;
   }
   double* point = out + 6;
   double direction[3];
-  double f = push(y, loads, row, n, point, direction);
+  double f = push(y, rot, loads, row, n, point, direction);
   idx b = static_cast<idx>(loads(row, loads::BR_BODY));
   double r[3] = {point[0] - y[3 * b], point[1] - y[3 * b + 1], point[2] - y[3 * b + 2]};
   for (int k = 0; k < 3; ++k) out[k] = f * direction[k];
@@ -88,7 +84,7 @@ bool switched(const double* y, const Mat& loads, idx row, idx n) {
 
 double excess(const double* y, const Mat& loads, idx row, idx n) {
   double point[3], direction[3];
-  double f = push(y, loads, row, n, point, direction);
+  double f = push(y, nullptr, loads, row, n, point, direction);
   return loads(row, loads::BR_ON) > 0.0 ? -f : f;
 }
 

@@ -19,13 +19,16 @@ namespace braces {
 // Its columns are layout.hpp's (loads::BR_*, KIND_BRACE).
 
 // The brace's push f at y (N, negative past the loss of contact), its world point into
-// point[0:3] and world direction into direction[0:3].
-double push(const double* y, const Mat& loads, idx row, idx n, double* point,
-            double* direction);
+// point[0:3] and world direction into direction[0:3]; rot: the bodies' rotation matrices
+// at y (n, 3, 3), or null to compute the two it needs.
+double push(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+            double* point, double* direction);
 
 // The brace's wrench on its body at y into out (world): force (3), moment about the CG
 // (3), then the world point (3); zero while it is out of contact. False if out of contact.
-bool wrench(const double* y, const Mat& loads, idx row, idx n, double* out);
+// rot as push's.
+bool wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n,
+            double* out);
 
 // True if the brace's contact changes within the step that ends at y: in contact and
 // pulling (f < 0), or out of contact and pushing (f > 0).

@@ -217,7 +217,7 @@ void add_scheduled(const double* y, const double* rot, const Mat& bodies, const 
     }
     bool brace = kind == KIND_BRACE;
     if (brace) {
-      if (!braces::wrench(y, loads, row, n, w)) continue;
+      if (!braces::wrench(y, rot, loads, row, n, w)) continue;
     } else if (kind != KIND_SCHEDULED || !scheduled_wrench(y, rot, loads, row, n, w)) {
       continue;
     }
@@ -322,7 +322,7 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
     }
     bool brace = kind == KIND_BRACE;
     if (kind != KIND_SCHEDULED && !brace) continue;
-    bool on = brace ? braces::wrench(y, loads, row, n, w)
+    bool on = brace ? braces::wrench(y, rot, loads, row, n, w)
                     : scheduled_wrench(y, rot, loads, row, n, w);
     for (int k = 0; k < 6; ++k) out[o + k] = on ? w[k] : 0.0;
     o += 6;
