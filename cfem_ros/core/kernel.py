@@ -204,7 +204,11 @@ def aero_wrench(packed, position, velocity, rot, rates, carrier_position, carrie
 
 
 def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
-    """Return the shapes' distances at k pose pairs, (k,) m, and closest points, (k, 6)."""
+    """
+    Return the shapes' distances at k pose pairs, (k,) m, closest points, (k, 6), and parts.
+
+    The parts, (k, 2): the closest parts of compound shapes (0 for a convex one).
+    """
     return _kernel.distance(*(_floats(a) for a in (shape_a, rot_a, position_a, shape_b, rot_b,
                                                    position_b)))
 
