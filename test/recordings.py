@@ -78,6 +78,9 @@ def fields(message):
     if hasattr(message, 'twist'):
         a, b = message.twist.linear, message.twist.angular
         return header + [a.x, a.y, a.z, b.x, b.y, b.z]
+    if hasattr(message, 'vector'):   # Vector3Stamped (the air a body sees)
+        v = message.vector
+        return header + [v.x, v.y, v.z]
     a, b = message.wrench.force, message.wrench.torque
     return header + [a.x, a.y, a.z, b.x, b.y, b.z]
 
