@@ -1142,7 +1142,7 @@ def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str, *,
 
 
 def _body_of(check: _Checker, value, key: str, index: dict) -> int:
-    if value not in index:
+    if not isinstance(value, str) or value not in index:   # a list is no name (nor hashable)
         check.fail(key, f'{_show(value)} is not a body', 'one of ' + ', '.join(index))
     return index[value]
 

@@ -34,3 +34,13 @@ def test_check_and_run_refuse_the_same_scenario(tmp_path, capsys):
     assert cli.main(['run', str(scenario), '-o', str(out), '--duration', '0.01']) == 2
     assert capsys.readouterr().err == refused and 'loads at t = 0 overflow' in refused
     assert not out.exists()
+
+
+@pytest.mark.parametrize('body', [[1e308, 1e308, 1e308], {}, ['store']])
+def test_a_wrench_body_that_is_no_name_is_refused_with_its_key(body):
+    # found by the reliability campaign of 2026-11-27: a TypeError (unhashable) before
+    doc = yaml.safe_load((CONFIG / 'store_separation.yaml').read_text())
+    doc['wrenches'] = [{'body': body, 'force': [0, 0, 1]}]
+    with pytest.raises(ScenarioError, match=r'wrenches\[0\]\.body: .* is not a body; expected '
+                       'one of pylon, store'):
+        parse_scenario(doc)
