@@ -196,3 +196,31 @@ def test_plot_relative_to_draws_the_sheet_and_snapshots_of_a_store_on_a_pylon(
         assert cli.main(['plot', recording, '-o', str(tmp / 'none'), *options]) == 2
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 2 and '--snapshots 0.1,-1' in lines[0] and 'wing' in lines[1]
+
+
+def test_outlines_of_a_turned_box_a_cylinder_and_a_compound_shape_are_exact():
+    from types import SimpleNamespace
+
+    from cfem_ros.core.shapes import Shape
+    from cfem_ros.separation import outlines
+    box = Shape('box', (2.0, 0.4, 0.5), offset=(0.1, 0.0, -0.2))
+    pitch = Rotation.from_euler('y', 30, degrees=True)
+    [ring] = outlines.placed_outlines(outlines.shape_parts(box), [1.0, 0.0, 2.0],
+                                      pitch.as_quat(), 'side')
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-0.2, 0.2) for z in (-0.25, 0.25)])
+    seen = pitch.apply(corners + [0.1, 0.0, -0.2]) + [1.0, 0.0, 2.0]
+    want = {tuple(np.round(p, 12)) for p in seen[:, [0, 2]]}
+    assert len(ring) == 5 and {tuple(np.round(p, 12)) for p in ring[:-1]} == want
+    cylinder = Shape('cylinder', (0.25, 2.5))
+    [front] = outlines.placed_outlines(outlines.shape_parts(cylinder), [0, 0, 0],
+                                       [0, 0, 0, 1], 'front')
+    np.testing.assert_allclose(np.hypot(front[:, 0], front[:, 1]), 0.25, atol=1e-12)
+    assert len(front) == outlines.CIRCLE_POINTS + 1
+    # a compound shape (SPEC section 11): each part placed in the body's axes, drawn alone
+    compound = SimpleNamespace(parts=(Shape('box', (3.0, 0.4, 0.5), offset=(0, 0, -0.35)),
+                                      Shape('sphere', (0.3,), offset=(0, 0, -1.4))))
+    rings = outlines.placed_outlines(outlines.shape_parts(compound), [0, 0, 0], [0, 0, 0, 1],
+                                     'top')
+    assert len(rings) == 2
+    np.testing.assert_allclose(np.ptp(rings[0], axis=0), [3.0, 0.4], rtol=1e-12)
+    np.testing.assert_allclose(np.hypot(*rings[1].T), 0.3, atol=1e-12)
