@@ -199,8 +199,6 @@ def test_plot_relative_to_draws_the_sheet_and_snapshots_of_a_store_on_a_pylon(
 
 
 def test_outlines_of_a_turned_box_a_cylinder_and_a_compound_shape_are_exact():
-    from types import SimpleNamespace
-
     from cfem_ros.core.shapes import Shape
     from cfem_ros.separation import outlines
     box = Shape('box', (2.0, 0.4, 0.5), offset=(0.1, 0.0, -0.2))
@@ -217,8 +215,8 @@ def test_outlines_of_a_turned_box_a_cylinder_and_a_compound_shape_are_exact():
     np.testing.assert_allclose(np.hypot(front[:, 0], front[:, 1]), 0.25, atol=1e-12)
     assert len(front) == outlines.CIRCLE_POINTS + 1
     # a compound shape (SPEC section 11): each part placed in the body's axes, drawn alone
-    compound = SimpleNamespace(parts=(Shape('box', (3.0, 0.4, 0.5), offset=(0, 0, -0.35)),
-                                      Shape('sphere', (0.3,), offset=(0, 0, -1.4))))
+    compound = Shape('compound', (), parts=(Shape('box', (3.0, 0.4, 0.5), offset=(0, 0, -0.35)),
+                                            Shape('sphere', (0.3,), offset=(0, 0, -1.4))))
     rings = outlines.placed_outlines(outlines.shape_parts(compound), [0, 0, 0], [0, 0, 0, 1],
                                      'top')
     assert len(rings) == 2
