@@ -57,6 +57,15 @@ def test_cfem_pub_releases_the_station_in_one_instant_and_the_replay_agrees(tmp_
     run = open_run(str(record))
     strokes = run.stroke_ends()
     assert set(strokes) == {'forward_ejector', 'aft_ejector'}
+    # the sway braces: each one's push on the store and on the pylon, the preload while
+    # the store is carried, nothing once its pad let go after the release
+    for brace in ('fwd_left', 'fwd_right', 'aft_left', 'aft_right'):
+        push, back = run.applied[f'store/{brace}'], run.applied[f'pylon/{brace}']
+        np.testing.assert_allclose(np.linalg.norm(push.force[0]), 2000.0, rtol=1e-9)
+        np.testing.assert_allclose(back.force, -push.force, rtol=0, atol=1e-9)
+        assert np.all(push.force[push.time > events[0]['time'] + 0.01] == 0.0)
+    lets_go = [e for e in run.events if e['event'] == 'brace_contact']
+    assert len(lets_go) == 4 and not any(e['contact'] for e in lets_go)
     assert all(s['time'] > events[0]['time'] for s in strokes.values())
     # the same run offline, from the node's recording
     replay = tmp_path / 'replay.mcap'
