@@ -103,3 +103,19 @@ def test_summarize_gives_the_sweeps_numbers_from_a_recording(tmp_path):
     for column in spec.metrics.columns():
         assert summary[column] == pytest.approx(row[column], abs=1e-12, nan_ok=True), column
     assert summary['contact_store_floor_time'] > 0.1   # from the recorded contact event
+
+
+def test_the_distance_to_a_compound_is_the_least_over_its_parts(tmp_path):
+    # the pylon in two parts: the box above the store, and a block 2.7 m aft reaching
+    # 0.35 m lower than the store's top; their hull would cut through the store
+    scenario = dict(SCENARIO, bodies=dict(SCENARIO['bodies'], pylon=dict(PYLON, shape={
+        'parts': [{'box': [0.4, 0.4, 0.3], 'at': [3.0, 0.0, -0.35]},
+                  {'box': [2.0, 0.4, 0.3]}]})))
+    path = write_sweep(tmp_path, runs=1, vary={}, scenario=scenario, metrics={
+        'distance': [{'bodies': ['store', 'pylon'], 'from': {'release': 'hook', 'delay': 0.05}}]})
+    row = run_one(load_sweep(path), 0)
+    assert row['status'] == 'ok', row['message']
+    assert row['distance_store_pylon_time'] == pytest.approx(0.15, abs=1e-12)
+    assert row['distance_store_pylon_min'] == pytest.approx(GAP + G * 0.05 ** 2 / 2, abs=1e-9)
+    np.testing.assert_allclose([row[f'distance_store_pylon_point_b_{c}'] for c in 'xyz'],
+                               [0.3, 0.05, -0.15], atol=1e-9)
