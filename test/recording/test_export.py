@@ -222,3 +222,9 @@ def test_outlines_of_a_turned_box_a_cylinder_and_a_compound_shape_are_exact():
     assert len(rings) == 2
     np.testing.assert_allclose(np.ptp(rings[0], axis=0), [3.0, 0.4], rtol=1e-12)
     np.testing.assert_allclose(np.hypot(*rings[1].T), 0.3, atol=1e-12)
+    # a mesh by its convex hull's vertices (here a wedge): its outline in the side view
+    wedge = ((0, -0.1, 0), (1.0, -0.1, 0), (0, -0.1, 0.5), (0, 0.1, 0), (1.0, 0.1, 0),
+             (0, 0.1, 0.5))
+    [side] = outlines.placed_outlines(outlines.shape_parts(Shape('mesh', (1, 1, 1), hull=wedge)),
+                                      [0, 0, 0], [0, 0, 0, 1], 'side')
+    assert {tuple(p) for p in side[:-1]} == {(0.0, 0.0), (1.0, 0.0), (0.0, 0.5)}

@@ -191,3 +191,35 @@ def test_invalid_draws_are_left_out_of_p_and_its_interval(tmp_path, capsys):
     from cfem_ros.study.evaluate import refuse_invalid
     with pytest.raises(SweepError, match='subset drew run 18.*--method mc'):
         refuse_invalid(load_sweep(with_invalid), 'subset', a.to_dict('records'))
+
+
+def test_the_envelope_is_the_median_and_band_of_the_recorded_runs(tmp_path):
+    from cfem_ros.separation import envelopes
+    path = _sweep(tmp_path, [27.0], runs=3,
+                  criteria={'deep': 'store_at_0.1r_z >= 1.74 and abs(store_max_pitch_deg) <= 60'})
+    outdir = str(tmp_path / 'out')
+    table = Sweep.from_file(path).run(None, outdir, record='all', threads=1)
+    histories = []
+    for k in range(3):
+        out = tmp_path / f'run_{k}.parquet'
+        assert cli.main(['export', f'{outdir}/runs/run_{k}.mcap', '-o', str(out),
+                         '--relative-to', 'aircraft']) == 0
+        history = pd.read_parquet(out)
+        release = (history['time'] - history['time_from_release']).dropna().iloc[0]
+        histories.append((history['time'] - release, history['store_z']))   # all samples
+    grid, median, low, high = envelopes.envelope(
+        [envelopes.history(f'{outdir}/runs/run_{k}.mcap', 'store', 'aircraft')
+         for k in range(3)], 0.01)
+    assert grid[0] == 0.0 and grid[-1] > 0.2
+    z = np.array([np.interp(grid, since, values) for since, values in histories])
+    np.testing.assert_allclose(median[:, 2], np.median(z, axis=0), atol=1e-12)
+    np.testing.assert_allclose(low[:, 2], np.percentile(z, 5, axis=0), atol=1e-12)
+    np.testing.assert_allclose(high[:, 2], np.percentile(z, 95, axis=0), atol=1e-12)
+    assert np.ptp(z[:, -1]) > 0.01   # the runs differ
+    # the worst run by the first criterion: the least margin
+    judged = judge(table, load_sweep(path).criteria)
+    worst, name = envelopes.worst_run(outdir, range(3))
+    assert name == 'deep' and worst == int(np.argmin(margins(judged, load_sweep(path).criteria)))
+    figures = envelopes.report_figures(outdir, str(tmp_path))
+    assert [os.path.basename(p) for p in figures] == ['envelope_relative_aircraft.png',
+                                                      f'snapshots_run_{worst}.png']
