@@ -77,7 +77,7 @@ PYBIND11_MODULE(_kernel, m) {
       throw py::value_error("out: expected (4, AERO_SLOTS)");
     double* op = ptr<double>(o);
     const idx k = cfem::loads::AERO_SLOTS;
-    cfem::loads::aero_axes(yp, l, n, row, op, op + k, op + 2 * k, op + 3 * k);
+    cfem::loads::aero_axes(yp, l, row, n, op, op + k, op + 2 * k, op + 3 * k);
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("row"), py::arg("out"));
 
   m.def("loads_rotations", [](const py::handle& y, idx n, const py::handle& rot) {
