@@ -103,7 +103,9 @@ def cmd_check(scenario: str) -> int:
         else:
             detail = (f'{body.mass:g} kg, principal inertia '
                       f'{_vec(np.linalg.eigvalsh(body.inertia), "{:.6g}")} kg m^2')
-        print(f'    {body.name:<16} {detail}; CG {_vec(body.position)} m')
+        moved = (f' (cg_offset {_vec(body.cg_offset)} m from the nominal CG)'
+                 if np.any(body.cg_offset) else '')
+        print(f'    {body.name:<16} {detail}; CG {_vec(body.position)} m{moved}')
     print(f'  joints ({len(model.joints)}):')
     for joint in model.joints:
         trans, rot = joint.rows.dof

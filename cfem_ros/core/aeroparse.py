@@ -394,8 +394,17 @@ def _point(axes, grids, flat: int, sizes) -> str:
 
 
 def describe(aero: Aero, names) -> Optional[str]:
-    """Return one line on an aero entry's Mach and proximity tables (for ``check``)."""
+    """Return one line on an aero entry's day, data and tables beyond the basics (``check``)."""
     parts = []
+    if aero.temperature_offset:
+        parts.append(f'ISA {aero.temperature_offset:+g} K (pressure ISA)')
+    if np.any(aero.reference_point):
+        r = aero.reference_point
+        parts.append(f'moments about [{r[0]:g}, {r[1]:g}, {r[2]:g}] m from the nominal CG')
+    if np.any(aero.delta):
+        parts.append('delta ' + ', '.join(f'{c} {d:+g}' for c, d in zip(AERO_COEFFICIENTS,
+                                                                      aero.delta) if d))
+    parts.append('outside the tables: ' + ('stop' if aero.stop_outside else 'hold'))
     if len(aero.mach) > 1:
         parts.append(f'Mach {aero.mach[0]:g} to {aero.mach[-1]:g} ({len(aero.mach)} values)')
     if aero.proximity is not None:

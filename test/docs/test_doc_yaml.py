@@ -28,7 +28,7 @@ ROOT = docblocks.ROOT
 SPEC = ROOT / 'docs' / 'SPEC.md'
 
 #: The SPEC's excerpts (by the number of their section): the section 1
-#: scenario they are added to, or why they cannot run as a scenario.
+#: scenario (or the example) they are added to, or why they cannot run as a scenario.
 SPEC_EXCERPTS = {
     '1.': 'the format: every key at once',
     '5.': 'extends section 1',
@@ -36,6 +36,7 @@ SPEC_EXCERPTS = {
           'naming joints (aft_hook) that it does not define',
     '8.': 'not run: an excerpt whose coefficient tables are left out (CX: ...)',
     '9.': 'not run: criteria of a sweep file, an excerpt with no scenario or sweep',
+    '10.': 'extends config/store_clearance_aero.yaml, the example whose tables it leaves out',
     '11.': 'extends section 1 (braces on its store, a compound shape for its pylon)',
     '13.': 'not run: a fit file naming a scenario (two_hooks.yaml) and a flight log '
            '(flight_037.mcap) it does not come with',
@@ -104,6 +105,9 @@ def resolve(block, document):
             return []       # read as YAML above; nothing to run
         if rule.startswith('the format'):
             return format_variants(document)
+        if rule.startswith('extends config/'):
+            base = ROOT / rule.split()[1].rstrip(',')
+            return [deep_merge(load_yaml(base.read_text(encoding='utf-8')), document)]
         return [deep_merge(variant, document) for variant in format_variants(spec_section_one())]
     if block.verb == 'skip':
         assert len(block.argument) > 10, f'{block.where}: a block not run says why'
