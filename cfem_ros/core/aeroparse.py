@@ -402,8 +402,8 @@ def describe(aero: Aero, names) -> Optional[str]:
         r = aero.reference_point
         parts.append(f'moments about [{r[0]:g}, {r[1]:g}, {r[2]:g}] m from the nominal CG')
     if np.any(aero.delta):
-        parts.append('delta ' + ', '.join(f'{c} {d:+g}' for c, d in zip(AERO_COEFFICIENTS,
-                                                                      aero.delta) if d))
+        added = zip(AERO_COEFFICIENTS, aero.delta)
+        parts.append('delta ' + ', '.join(f'{c} {d:+g}' for c, d in added if d))
     parts.append('outside the tables: ' + ('stop' if aero.stop_outside else 'hold'))
     if len(aero.mach) > 1:
         parts.append(f'Mach {aero.mach[0]:g} to {aero.mach[-1]:g} ({len(aero.mach)} values)')
