@@ -43,6 +43,17 @@ def stamp_ns(header) -> int:
     return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
 
 
+def clock_through(peer, received, clocks, what: str):
+    """Publish each /clock time until a message stamped with it is in received (10 s each)."""
+    for clock in clocks:
+        tries = 0
+        while not any(stamp_ns(m.header) == clock for m in received):
+            assert tries < 40, f'no {what} at /clock {clock} ns'
+            peer.clock(clock)
+            peer.spin_for(0.25)
+            tries += 1
+
+
 class NodeProcess:
     """
     A cfem_node process; its stdout and stderr go to a file under directory.

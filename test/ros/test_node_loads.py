@@ -9,7 +9,7 @@ from cfem_ros import analysis, cli
 from cfem_ros.core import rotations
 import numpy as np
 import pytest
-from rosharness import NodeProcess, Peer, stamp_ns
+from rosharness import clock_through, NodeProcess, Peer, stamp_ns
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 T0 = 1_000_000_000_000  # /clock start: 1000 s
@@ -30,14 +30,7 @@ def test_node_publishes_and_records_the_applied_loads(tmp_path, peer):
     try:
         peer.connected()
         received = peer.received['bodies/store/applied/aft_ejector']
-        for k in range(0, 11):
-            clock = T0 + 10 * k * MS
-            deadline = 0
-            while not any(stamp_ns(m.header) == clock for m in received):
-                assert deadline < 40, f'no applied load at /clock {clock} ns'
-                peer.clock(clock)
-                peer.spin_for(0.25)
-                deadline += 1
+        clock_through(peer, received, [T0 + 10 * k * MS for k in range(11)], 'applied load')
     finally:
         status = node.stop(signal.SIGINT)
     assert status == 0, node.output
