@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
+import yaml
 
 G0 = 9.80665
 
@@ -185,6 +186,18 @@ def test_leaving_a_table_is_located_inside_the_step():
     assert not sim.advance_to(1.2)
     assert sim.status == 'aero_outside' and abs(sim.t - crossing) < 1e-9
     assert 'alpha_deg = 5' in sim.message and '[-5, 5]' in sim.message
+
+
+def test_run_exits_1_where_a_table_that_says_stop_is_left(tmp_path, capsys):
+    from cfem_ros import cli
+    from cfem_ros.recording.analysis import open_run
+    path = tmp_path / 'stop.yaml'
+    path.write_text(yaml.safe_dump(falling_store('stop')))
+    assert cli.main(['run', str(path), '-o', str(tmp_path / 'stop.mcap')]) == 1
+    err = capsys.readouterr().err
+    assert 'ERROR' in err and 'alpha_deg = 5' in err and 'outside: stop' in err
+    run = open_run(str(tmp_path / 'stop.mcap'))   # complete up to there, the event in it
+    assert [e['event'] for e in run.events if e['event'].startswith('aero')] == ['aero_outside']
 
 
 def test_a_run_that_starts_outside_is_told_at_once_and_comes_back_inside():
