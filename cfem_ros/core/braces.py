@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from cfem_ros.core import cgoffset
 import numpy as np
 
 #: The scenario keys of a brace.
@@ -108,7 +109,7 @@ def _parse_brace(check, k: int, spec, index: dict, bodies) -> SwayBrace:
     name = check.name(spec.get('name', f'brace{k}'), f'{key}.name')
     if name in ('wrench', 'aero'):
         check.fail(f'{key}.name', f'{name!r} is the name of another load source', 'another name')
-    point = check.vector(spec['point'], f'{key}.point')
+    point = cgoffset.from_cg(bodies[body], check.vector(spec['point'], f'{key}.point'))
     direction = check.direction(spec['direction'], f'{key}.direction')
     direction = direction / np.linalg.norm(direction)
     preload = check.number(spec['preload'], f'{key}.preload', minimum=0.0)

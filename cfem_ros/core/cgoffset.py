@@ -27,11 +27,16 @@ def moved(body, cg_offset) -> object:
     if not offset.any():
         return body
     turn = rotations.matrices(np.asarray(body.orientation_xyzw, dtype=float)[None])[0]
-    shape = body.shape
-    if shape is not None:
-        shape = replace(shape, offset=tuple(float(v) for v in np.asarray(shape.offset) - offset))
+    shape = None if body.shape is None else _shifted(body.shape, offset)
     return replace(body, position=np.asarray(body.position, dtype=float) + turn @ offset,
                    shape=shape, cg_offset=offset)
+
+
+def _shifted(shape, offset: np.ndarray):
+    """Return a shape placed from the actual CG (a compound: each of its parts)."""
+    if shape.parts:
+        return replace(shape, parts=tuple(_shifted(part, offset) for part in shape.parts))
+    return replace(shape, offset=tuple(float(v) for v in np.asarray(shape.offset) - offset))
 
 
 def from_cg(body, point) -> np.ndarray:
