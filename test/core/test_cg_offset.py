@@ -1,6 +1,6 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""``cg_offset`` (SPEC section 10): the CG moves, everything given from it stays on the geometry."""
+"""``cg_offset`` (SPEC section 10): the CG moves, what is given from it stays on the geometry."""
 
 from cfem_ros import Simulator
 from cfem_ros.core.scenario import parse_scenario
