@@ -7,8 +7,9 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.cfem-installed
 TOOLS := $(VENV)/.cfem-test-tools
 CORE := cfem_ros/core/cpp
+IFACES := $(VENV)/.cfem-simulation-interfaces
 
-.PHONY: demo test venv bench figures separation-figures docs clean
+.PHONY: demo test venv interfaces bench figures separation-figures docs clean
 
 venv: $(STAMP)
 
@@ -40,13 +41,24 @@ $(TOOLS): $(SOURCES)
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP) $(TOOLS)
 
+# The ROS 2 standard simulator interfaces (simulation_interfaces 1.6.1) built with the ROS
+# wheels' generators into the venv: the node's simulation control services need them. About
+# 3 CPU-minutes, once; not part of demo. (A ROS 2 install gets them from rosdep instead.)
+$(IFACES): interfaces/build.py interfaces/simulation_interfaces/CMakeLists.txt \
+		$(wildcard interfaces/simulation_interfaces/*/*.msg interfaces/simulation_interfaces/*/*.srv \
+		interfaces/simulation_interfaces/*/*.action) | $(STAMP)
+	$(BIN)/python interfaces/build.py
+	@touch $(IFACES)
+
+interfaces: $(IFACES)
+
 demo: $(STAMP)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
 # two test processes (pytest-xdist), a test file's tests in one of them, the long files
 # first (test/conftest.py)
-test: $(TOOLS)
+test: $(TOOLS) $(IFACES)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder test
 
 # MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
