@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-Build and install simulation_interfaces (1.6.1) into this venv from interfaces/simulation_interfaces.
+Build simulation_interfaces (1.6.1) from interfaces/simulation_interfaces into this venv.
 
 The pip route has no wheel of the ROS 2 standard simulator interfaces, so this
 builds the interface package with the ROS wheels' own generators (ament_cmake,
@@ -88,7 +88,8 @@ def build():
     with tempfile.TemporaryDirectory(prefix='simulation_interfaces-') as work:
         step('configuring')
         subprocess.run([cmake, '-S', str(SOURCE), '-B', work, '-G', 'Ninja',
-                        f'-DCMAKE_INSTALL_PREFIX={PREFIX}', f'-DPython3_EXECUTABLE={sys.executable}',
+                        f'-DCMAKE_INSTALL_PREFIX={PREFIX}',
+                        f'-DPython3_EXECUTABLE={sys.executable}',
                         '-DBUILD_TESTING=OFF', '-DCMAKE_BUILD_TYPE=Release'],
                        check=True, env=env, stdout=subprocess.DEVNULL)
         step('building (about 3 CPU-minutes)')
@@ -101,13 +102,13 @@ def build():
 def check():
     """Import the types in a fresh interpreter (as the node will)."""
     subprocess.run([sys.executable, '-c', 'from simulation_interfaces.srv import '
-                    'GetSimulatorFeatures; from simulation_interfaces.action import SimulateSteps'],
-                   check=True)
+                    'GetSimulatorFeatures; '
+                    'from simulation_interfaces.action import SimulateSteps'], check=True)
 
 
 def main() -> int:
     if sys.prefix == sys.base_prefix:
-        sys.exit('ERROR: run this with the venv\'s Python (.venv/bin/python interfaces/build.py)')
+        sys.exit("ERROR: run this with the venv's Python (.venv/bin/python interfaces/build.py)")
     install_tools()
     step(f'{fix_exports()} generator files pointed at this Python')
     build()

@@ -53,6 +53,11 @@ class Input:
         Odometry (REP-105): position (world), quaternion x y z w, CG
         velocity and angular velocity (body axes); ``frame_id`` is the
         message's, the body its ``child_frame_id`` names by topic.
+    at : float or None
+        Odometry that came late (stamped before the simulated time it took
+        effect at): its own time, s. The body then moves as the message,
+        extrapolated from that time, says it is now; the message was not
+        known ahead, so no cubic led to it (``InputQueue``).
 
     """
 
@@ -64,6 +69,7 @@ class Input:
     frame_id: str = ''
     header_ns: Optional[int] = None
     values: Optional[np.ndarray] = None
+    at: Optional[float] = None
 
 
 def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[float] = None,
@@ -215,7 +221,8 @@ def apply_input(sim, item: Input):
     validate_input(sim, item)
     if item.kind == 'odom':
         v = item.values   # from now: the time it takes effect (a sample's at most)
-        sim.carriers.set_odometry(item.target, sim.t, v[0:3], v[3:7], v[7:10], v[10:13])
+        at = sim.t if item.at is None else min(item.at, sim.t)   # a late one: its own time
+        sim.carriers.set_odometry(item.target, at, v[0:3], v[3:7], v[7:10], v[10:13])
         return
     if item.kind == 'wrench':
         # the world frame wins: a body named as the world frame is loaded in world axes
@@ -273,7 +280,7 @@ class InputQueue:
     def _expect(self, item: Input):
         """Make an odometry input held for later known to the simulator (interpolation)."""
         if not (self.interpolate_odometry and item.kind == 'odom' and item.time is not None
-                and item.time > self.sim.t):
+                and item.time > self.sim.t and item.at is None):
             return
         try:
             validate_input(self.sim, item)

@@ -927,6 +927,19 @@ class StateRecorder:
                 'header': {'stamp': stamp(stamp_ns), 'frame_id': frame}, 'wrench': zero},
                 stamp_ns)
 
+    def note(self, event: dict):
+        """Record an event of the node's own (a pause, a step, a reset) at its time."""
+        self.recorder.write(self.topic('events'), STRING, {'data': json.dumps(event)},
+                            self.stamp_ns(event['time']), qos=EVENTS_QOS)
+
+    def restart(self, sim, start_ns: int):
+        """Go on recording a new run of the same model (a reset): sim from start_ns on."""
+        self.sim = sim
+        self.start_ns = int(start_ns)
+        self._events_written = 0
+        self._markers_due, self._arrows_due = 1, 0
+        self._markers(self.stamp_ns(0.0))
+
     def failed(self):
         """Record the run's failure as an ``error`` event at the time it stopped."""
         sim = self.sim

@@ -42,11 +42,26 @@ def read_inputs_and_start(path: str) -> tuple:
     if not found:
         raise InputError(f'{path}: holds no input topic (.../bodies/<body>/wrench, '
                          '.../bodies/<body>/odom or .../release); nothing to replay')
+    recorded = start_ns is not None   # by cfem_ros: log times are when inputs took effect
     if start_ns is None:
         start_ns = min(f[0] for f in found)
     found.sort(key=lambda f: f[0])
-    return [replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9))
+    return [_late(replace(item, time=max(0.0, (stamp_ns - start_ns) / 1e9)), start_ns, recorded)
             for stamp_ns, item in found], start_ns
+
+
+def _late(item, start_ns: int, recorded: bool):
+    """
+    Mark odometry that took effect after its own stamp in the recorded run (``Input.at``).
+
+    The node applied it late, when it came, as the message extrapolated from
+    its stamp; the replay does the same at the same time (and does not know
+    it ahead), so it moves the carrier as the node did.
+    """
+    if not (recorded and item.kind == 'odom' and item.header_ns):
+        return item
+    own = (item.header_ns - start_ns) / 1e9
+    return replace(item, at=own) if own < item.time else item
 
 
 def _read(path: str) -> tuple:

@@ -19,7 +19,6 @@ same values. Pacing:
 
 from __future__ import annotations
 
-from dataclasses import replace
 import json
 import logging
 import math
@@ -39,11 +38,13 @@ from cfem_ros.core.session import Session
 from cfem_ros.core.strokes import describe_event
 from cfem_ros.recording import loadarrows, viewframes, visuals
 from cfem_ros.recording.errors import OutputError
-from cfem_ros.ros import parameters
+from cfem_ros.ros import control as simulation_control, parameters
 from cfem_ros.ros.airtopics import AirPublishers
 from cfem_ros.ros.pacing import OdometryGate, WallPace
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from cfem_ros.ros.recording import NodeRecording
+from cfem_ros.ros.runcontrol import RunControl
+from cfem_ros.ros.stamps import divergence_advice, InputTiming, OdometryCheck
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
@@ -232,9 +233,7 @@ class _Publishers:
         # loads in the frames where they act (the joint's frame, the loaded body's),
         # and in world axes on <topic>_world (SPEC sections 3 and 5)
         self.wrenches = {}   # joint index -> its two (publisher, message)
-        for k, joint in enumerate(model.joints):
-            self.wrenches[k] = (self._wrench(f'joints/{joint.name}/wrench', joint.name),
-                                self._wrench(f'joints/{joint.name}/wrench_world', world))
+        self._joint_wrenches()
         self.children = [joint.child for joint in model.joints]
         self.relative = []   # poses and twists in a carrier's frame, per model.references
         for body, ref in model.references:
@@ -276,6 +275,22 @@ class _Publishers:
         self.arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
         self.arrow_publisher = (node.create_publisher(MarkerArray, 'load_markers', TOPIC_QOS)
                                 if any(not b.fixed for b in model.bodies) else None)
+
+    def _joint_wrenches(self):
+        """Publish the loads of every joint that has no publishers (all, or the released)."""
+        world = self.sim.model.frame_id
+        for k, joint in enumerate(self.sim.model.joints):
+            if k not in self.wrenches:
+                self.wrenches[k] = (self._wrench(f'joints/{joint.name}/wrench', joint.name),
+                                    self._wrench(f'joints/{joint.name}/wrench_world', world))
+
+    def restart(self, sim, start_ns: int):
+        """Publish a new run of the same model (a reset): sim, from stamp start_ns on."""
+        self.sim, self.start_ns = sim, int(start_ns)
+        self._events_sent = 0
+        self._markers_due, self._arrows_due = 1, 0
+        self._joint_wrenches()   # the joints released in the run before are joined again
+        self._scene(self.start_ns)
 
     def _wrench(self, topic: str, frame_id: str):
         """Return a WrenchStamped publisher on topic and its message, stamped in frame_id."""
@@ -511,6 +526,7 @@ class CfemNode(Node):
         #: Refused inputs: one warning line per topic and reason per second.
         self._refusals = _Throttle(self.get_logger())
         self._refused = {}   # topic -> messages refused
+        self._diagnosed = False
 
         self._python_log = logging.getLogger(f'cfem_ros.node.{id(self)}')
         self._python_log.propagate = False
@@ -539,13 +555,9 @@ class CfemNode(Node):
 
         self.recording = (NodeRecording(self, self.sim, values['record'], values['overwrite'])
                           if values['record'] else None)
-        outputs = [self._publishers_sink] + ([self.recording.state] if self.recording else [])
-        interpolate = bool(values['interpolate_odometry'])
-        self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
-                               outputs=outputs, warn=self._refusals.warning,
-                               interpolate_odometry=interpolate)
-        self.gate = OdometryGate(self.sim, self.session, interpolate=interpolate,
-                                 following_clock=self.sim_time)
+        self._interpolate = bool(values['interpolate_odometry'])
+        self.odometry_check = OdometryCheck(self.get_logger().warning)
+        self.new_session()
         self._clock_limit: Optional[float] = None   # simulated time /clock last gave
         self.start_ns: Optional[int] = None
         self._early = []
@@ -553,6 +565,8 @@ class CfemNode(Node):
         self._timer = None
         self._catch_up_timer = None   # goes on toward /clock's time, a slice at a time
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.control = RunControl(self, paused=bool(values['paused']))
+        self.simulation_services = simulation_control.serve(self, self.control)
 
         mode = 'following /clock' if self.sim_time else (
             'as fast as possible' if self.pace.factor == 0
@@ -568,6 +582,21 @@ class CfemNode(Node):
             self.get_logger().info('waiting for /clock (use_sim_time is true)')
         else:
             self._begin(None)
+
+    def new_session(self):
+        """Make the session (and what times its inputs) of a run of self.sim from t = 0."""
+        outputs = [self._publishers_sink] + ([self.recording.state] if self.recording else [])
+        self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
+                               outputs=outputs, warn=self._refusals.warning,
+                               interpolate_odometry=self._interpolate)
+        self.gate = OdometryGate(self.sim, self.session, interpolate=self._interpolate,
+                                 following_clock=self.sim_time,
+                                 subscribed=any(b.motion is not None
+                                                for b in self.sim.model.bodies))
+        late = getattr(self, 'timing', None)
+        self.timing = InputTiming(self.sim, self._refusals.warning)
+        if late is not None:
+            self.timing.late_inputs = late.late_inputs
 
     # ------------------------------------------------------------ parameters
 
@@ -595,7 +624,7 @@ class CfemNode(Node):
             self._start_timer()
             start_ns = self.get_clock().now().nanoseconds
             self.pace.start(time.monotonic())
-        self.start_ns = int(start_ns)
+        self.start_ns = self.timing.start_ns = int(start_ns)
         if self.sim_time:
             self._clock_limit = 0.0
         self._publishers_sink.start_ns = self.start_ns
@@ -606,8 +635,8 @@ class CfemNode(Node):
         for item in self._early:
             self._submit(*item)
         self._early.clear()
-        if not self.sim_time:
-            self.session.start()
+        if not self.sim_time or self.control.paused:
+            self.session.start()   # paused: the initial state is published, then it waits
         # following /clock, the session starts on its first advance, once a carrier's
         # first odometry has come (``OdometryGate``): odometry stamped at t = 0 is applied before
         # the t = 0 sample, as in the offline replay
@@ -628,6 +657,8 @@ class CfemNode(Node):
         self.get_logger().info(f'real_time_factor set to {factor:g}')
 
     def _on_tick(self):
+        if self.control.paused:
+            return
         now = time.monotonic()
         target = self.pace.target(now)
         self._run_to(target, deadline=now + TICK_BUDGET)
@@ -680,8 +711,10 @@ class CfemNode(Node):
             self._catch_up_timer = None
 
     def _run_to(self, limit: float, deadline: float = math.inf):
-        """Run the session on to simulated time limit, within a wall deadline."""
+        """Run the session on to simulated time limit, within a wall deadline (not paused)."""
         session = self.session
+        if self.control.paused:
+            return
         limit = self.gate.held(limit)
         while (not session.finished and session.next_sample_time <= limit
                and time.monotonic() < deadline):
@@ -696,6 +729,8 @@ class CfemNode(Node):
             self.get_logger().warning(f'run stopped: {self.sim.message}')
             self.exit_code = EXIT_CONTACT
         elif self.session.failed:
+            self.sim.message = divergence_advice(self.sim.message, self.timing.late_inputs,
+                                                 self.odometry_check.warned)
             self.get_logger().error(f'the run failed {self.sim.message}')
             self._publishers_sink.event_publisher.publish(String(data=json.dumps(
                 {'event': 'error', 'time': self.sim.t, 'message': self.sim.message})))
@@ -717,6 +752,9 @@ class CfemNode(Node):
             self.get_logger().info('messages refused: ' + ', '.join(
                 f'{count} on {topic}' for topic, count in sorted(self._refused.items())))
             self._refused = {}
+        if getattr(self, 'timing', None) is not None and not self._diagnosed:
+            self._diagnosed = True
+            self.get_logger().info(f'diagnostics: late_inputs {self.timing.late_inputs}')
         if self.recording is not None:
             recording, self.recording = self.recording, None
             recording.finish()
@@ -786,28 +824,21 @@ class CfemNode(Node):
         if self.start_ns is None:
             self._early.append((topic, item))
             return
-        if self.sim_time:
-            # at its stamp if that is still ahead; else at the clock's time, which is
-            # ahead of the simulation while it waits for odometry (``OdometryGate``)
-            t = self._clock_limit
-            if item.kind in ('wrench', 'odom') and item.header_ns:
-                t = (item.header_ns - self.start_ns) / 1e9
-                if t <= self.sim.t:
-                    t = self._clock_limit
-            if t is not None and t > self.sim.t:
-                item = replace(item, time=t)
-        else:
-            t = self._arrival_time()
-            if t is not None and t > self.sim.t:
-                item = replace(item, time=t)
+        # at its stamp if that is still ahead; else at the clock's time, which is ahead of
+        # the simulation while it waits for odometry (``OdometryGate``), or at once
+        self.odometry_check.check(topic, item)
+        item = self.timing.timed(topic, item,
+                                 self._clock_limit if self.sim_time else self._arrival_time())
         try:
             self.session.submit(item)
         except ValueError as err:
             self._refused[topic] = self._refused.get(topic, 0) + 1
             self._refusals.warning(f'{topic}: message not applied: {err}')
-        if (item.kind == 'odom' and self.gate.interpolate and self.sim_time
-                and self._clock_limit is not None):
-            self._catch_up()   # what waited for this message goes on
+        if item.kind == 'odom' and self.gate.interpolate:   # what waited for it goes on
+            if self.sim_time and self._clock_limit is not None:
+                self._catch_up()
+            elif not self.sim_time and self.pace.factor > 0:
+                self._run_to(self.pace.target(time.monotonic()))
         if self.session.finished and self.exit_code is None:
             self._end()
 

@@ -32,6 +32,10 @@ class WallPace:
             return math.inf
         return self._sim_ref + (now - self._wall_ref) * self.factor
 
+    def resume(self, now: float, sim_t: float):
+        """Go on from sim_t at the wall time now (after a pause, a step or a reset)."""
+        self._wall_ref, self._sim_ref = now, sim_t
+
     def retime(self, now: float, sim_t: float, factor: float):
         """Go on from now at a new factor, from where the clock (or sim_t, unpaced) was."""
         target = self.target(now)
@@ -44,14 +48,17 @@ class OdometryGate:
     """
     How far a run may go toward a time while it waits for a carrier's odometry.
 
-    ``seen`` counts the odometry messages that came (the first two matter).
+    ``seen`` counts the odometry messages that came (the first two matter);
+    ``subscribed``: whether any body may follow odometry.
     """
 
-    def __init__(self, sim, session, *, interpolate: bool, following_clock: bool):
+    def __init__(self, sim, session, *, interpolate: bool, following_clock: bool,
+                 subscribed: bool = True):
         self.sim = sim
         self.session = session
         self.interpolate = interpolate
         self.following_clock = following_clock
+        self.subscribed = subscribed and sim.kinematic
         self.seen = 0
 
     def held(self, limit: float) -> float:
@@ -64,6 +71,10 @@ class OdometryGate:
         latest odometry message (the motion beyond it needs the next one)
         while limit is within ``ODOMETRY_HORIZON`` of it; beyond that, on
         (extrapolated, with the engine's warning). -inf: not even t = 0.
+        In real time (the t = 0 sample is out at the start), with
+        ``interpolate``, the run waits at t = 0 for a carrier's first message
+        as long: live odometry comes after its stamp, and what comes after
+        the simulation has passed its stamp is late.
         """
         first = 2 if self.interpolate else 1
         if (self.following_clock and not self.session.started and self.sim.kinematic
@@ -71,6 +82,9 @@ class OdometryGate:
             return -math.inf
         if not self.interpolate:
             return limit
+        if (not self.following_clock and self.subscribed and self.seen == 0
+                and limit < ODOMETRY_HORIZON):
+            return min(limit, self.sim.t)
         held = limit
         for latest in self.sim.carriers.known().values():
             if limit <= latest + ODOMETRY_HORIZON:

@@ -49,6 +49,10 @@ PARAMETERS = {
     'overwrite': (False, ParameterDescriptor(
         description='replace the record file if it exists', read_only=True),
         'true or false'),
+    'paused': (False, ParameterDescriptor(
+        description='start paused: the initial state is published, then the node waits for '
+        'a play or a step (simulation_interfaces services)', read_only=True),
+        'true or false'),
     'interpolate_odometry': (True, ParameterDescriptor(
         description='a kinematic body following bodies/<body>/odom moves on the cubic between '
         'its messages: the simulation waits for the next message (at most the 0.1 s '

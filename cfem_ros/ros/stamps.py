@@ -1,0 +1,170 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+When a live input takes effect: at its header stamp (SPEC section 3).
+
+Simulated time is stamp - the start stamp. A stamped wrench or odometry
+message whose time is still ahead waits for it; one stamped before the
+simulation's current time is late: it applies at once and is counted
+(``late_inputs``); late odometry then says where the body is now by its own
+extrapolation from its stamp (``Input.at``), so an offline replay of the
+recording, which logs it where it took effect, moves the body as the node
+did. A zero stamp means "unstamped": the message applies when it arrives,
+as release commands (a String, no stamp) always do.
+
+``OdometryCheck`` warns, once per topic, when an odometry stream's positions
+and velocities disagree by more than the spacing of its samples explains
+(stamps that are not the measurement times, velocities in the wrong axes).
+Plain bookkeeping: no rclpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+import math
+from typing import Callable, Optional
+
+from cfem_ros.core import rotations
+from cfem_ros.core.inputs import Input, stamp_problem
+import numpy as np
+
+#: What a position may differ from the velocities' account of it by, beyond what the
+#: spacing explains: a fraction of the distance travelled, and an absolute floor (m).
+ODOMETRY_RELATIVE = 0.01
+ODOMETRY_ABSOLUTE = 1e-6
+
+
+def next_ns(t: float) -> float:
+    """Return the first whole nanosecond at or after t, s (what a recording's log time holds)."""
+    ns = math.ceil(t * 1e9)
+    while ns / 1e9 < t:
+        ns += 1
+    return ns / 1e9
+
+
+class InputTiming:
+    """
+    Give a live input the simulated time it takes effect at, from its stamp.
+
+    Parameters
+    ----------
+    sim : Simulator
+        Whose current time ``sim.t`` tells late from early.
+    warn : callable
+        Takes a warning line (the first late input of each topic).
+
+    Attributes
+    ----------
+    start_ns : int or None
+        The stamp of simulated time 0.
+    late_inputs : int
+        Stamped inputs that came after their time (applied at once).
+
+    """
+
+    def __init__(self, sim, warn: Callable[[str], None]):
+        self.sim = sim
+        self.warn = warn
+        self.start_ns: Optional[int] = None
+        self.late_inputs = 0
+        self._late_topics = set()
+
+    def timed(self, topic: str, item: Input, now: Optional[float]) -> Input:
+        """
+        Return item with the time it takes effect at (None: at once).
+
+        now: where the simulation should be by its clock (``/clock``, or the
+        wall clock in real time; None: no clock, as fast as possible), the
+        time of an unstamped input and of a late one if that is ahead.
+        """
+        if stamp_problem(item.header_ns):
+            return item   # refused by the session, with the reason
+        if item.kind in ('wrench', 'odom') and item.header_ns and self.start_ns is not None:
+            own = (item.header_ns - self.start_ns) / 1e9
+            if own >= self.sim.t:
+                return replace(item, time=own)
+            self._late(topic, own)
+            if item.kind == 'odom':
+                item = replace(item, at=own)
+        at = next_ns(self.sim.t)   # a recording's log time holds it exactly
+        if now is not None and math.isfinite(now):
+            at = max(at, now)
+        return replace(item, time=at) if at > self.sim.t else item
+
+    def _late(self, topic: str, own: float):
+        self.late_inputs += 1
+        if topic in self._late_topics:
+            return
+        self._late_topics.add(topic)
+        self.warn(f'{topic}: a message stamped {self.sim.t - own:.6f} s before the simulated '
+                  f'time it arrived at (t = {self.sim.t:.6f} s) was applied at once; further '
+                  'late messages are counted (late_inputs); the simulation runs ahead of its '
+                  'inputs: lower real_time_factor, or follow /clock')
+
+
+class OdometryCheck:
+    """
+    Warn once per topic when odometry positions and velocities disagree.
+
+    Between two messages (in stamp order) the position should move by the
+    mean of their world velocities times the time between their stamps, to
+    within half the change of velocity times that time (what a smooth motion
+    can differ from the trapezoid by) plus ``ODOMETRY_RELATIVE`` of the
+    distance and ``ODOMETRY_ABSOLUTE``.
+    """
+
+    def __init__(self, warn: Callable[[str], None]):
+        self.warn = warn
+        self._last = {}   # topic -> (stamp ns, position, world velocity)
+        self.warned = set()
+
+    def check(self, topic: str, item: Input):
+        """Compare an odometry message with the topic's previous one."""
+        if item.kind != 'odom' or not item.header_ns or topic in self.warned:
+            return
+        v = item.values
+        if not np.isfinite(v).all() or not 0.999 < np.linalg.norm(v[3:7]) < 1.001:
+            return   # refused elsewhere
+        world = rotations.matrices(v[None, 3:7] / np.linalg.norm(v[3:7]))[0] @ v[7:10]
+        last = self._last.get(topic)
+        self._last[topic] = (item.header_ns, v[0:3].copy(), world)
+        if last is None or item.header_ns <= last[0]:
+            return
+        span = (item.header_ns - last[0]) / 1e9
+        moved = v[0:3] - last[1]
+        explained = 0.5 * (world + last[2]) * span
+        allowed = (0.5 * np.linalg.norm(world - last[2]) * span
+                   + ODOMETRY_RELATIVE * np.linalg.norm(explained) + ODOMETRY_ABSOLUTE)
+        error = np.linalg.norm(moved - explained)
+        if error > allowed:
+            self.warned.add(topic)
+            self.warn(
+                f'{topic}: positions and velocities disagree: between the stamps '
+                f'{last[0] * 1e-9:.6f} s and {item.header_ns * 1e-9:.6f} s the position moved '
+                f'{np.linalg.norm(moved):.6g} m, the velocities account for '
+                f'{np.linalg.norm(explained):.6g} m (off by {error:.6g} m, more than the '
+                f'{allowed:.3g} m the sample spacing explains); check that the stamps are the '
+                'measurement times and the twist is in the body axes (REP-105). Warned once '
+                'for this topic')
+
+
+def divergence_advice(message: str, late_inputs: int, odometry_warned) -> str:
+    """
+    Return a failure message whose advice names the cure.
+
+    The engine says "try a smaller dt" when the joints diverge; when inputs
+    came late or an odometry stream disagreed with itself, the jumps they
+    made are the likelier cause, and a smaller dt would not cure them.
+    """
+    advice = '; try a smaller dt'
+    if advice not in message or not (late_inputs or odometry_warned):
+        return message
+    causes = []
+    if late_inputs:
+        causes.append(f'{late_inputs} inputs came after their stamps (late_inputs) and moved '
+                      'bodies in jumps')
+    if odometry_warned:
+        causes.append('odometry on ' + ', '.join(sorted(odometry_warned))
+                      + ' has positions and velocities that disagree')
+    return message.replace(advice, '; ' + ' and '.join(causes)
+                           + ': a smaller dt would not help; fix the inputs')
