@@ -26,11 +26,11 @@ endef
 
 SOURCES := setup.py setup.cfg package.xml pyproject.toml $(wildcard $(CORE)/*.cpp $(CORE)/*.hpp)
 
-# what a user needs (the ROS extra), the compiled core built by pip (C++, seconds);
-# again when the C++ sources change
+# what a user needs (the ROS and study extras: the README's node and sweep), the compiled
+# core built by pip (C++, seconds); again when the C++ sources change
 $(STAMP): $(SOURCES)
 	$(make-venv)
-	$(BIN)/python -m pip install -q -e '.[ros]'
+	$(BIN)/python -m pip install -q -e '.[ros,study]'
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP)
 
