@@ -212,7 +212,9 @@ class Carriers:
         t, _, _, start, acc, alpha = self._last[i]
         ahead = self._ahead.get(i)
         following = min(ahead) if ahead else None
-        if following is not None and _within_horizon(t, following):
+        # a message applied late (its time before now) is extrapolated from: the body jumped
+        # to it, and no cubic leads from a state it never had (live or replayed alike)
+        if following is not None and _within_horizon(t, following) and t >= self.sim.t:
             data = motion.hermite(t, start, following, ahead[following])
             self._cubic_end[i] = following
         else:

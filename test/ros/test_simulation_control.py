@@ -248,3 +248,14 @@ def _until(client, condition):
             future.set_result(True)
     client.node.create_timer(0.01, check)
     return future
+
+
+def test_without_the_types_the_node_says_in_one_line_how_to_get_them(monkeypatch):
+    from cfem_ros.ros import control
+    lines = []
+    logger = type('Logger', (), {'info': lambda self, line: lines.append(line)})()
+    node = type('Node', (), {'get_logger': lambda self: logger})()
+    monkeypatch.setattr(control, 'SimulateSteps', None)
+    assert control.serve(node, None) is None
+    assert len(lines) == 1 and 'make interfaces' in lines[0]
+    assert 'ros-$ROS_DISTRO-simulation-interfaces' in lines[0]
