@@ -287,6 +287,7 @@ class _Publishers:
     def restart(self, sim, start_ns: int):
         """Publish a new run of the same model (a reset): sim, from stamp start_ns on."""
         self.sim, self.start_ns = sim, int(start_ns)
+        self.air.sim = sim
         self._events_sent = 0
         self._markers_due, self._arrows_due = 1, 0
         self._joint_wrenches()   # the joints released in the run before are joined again
