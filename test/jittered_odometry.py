@@ -28,7 +28,7 @@ LATEST_DELAY = 0.030   # s
 
 
 def odometry(t: float, stamp_ns: int, body: str) -> Odometry:
-    """The pull-up at t s (since the stream began), stamped stamp_ns."""
+    """Return the pull-up at t s (since the stream began), stamped stamp_ns."""
     msg = Odometry()
     msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     msg.header.frame_id, msg.child_frame_id = 'world', body

@@ -37,7 +37,7 @@ PUBLISHED = {
 
 
 def _prefix() -> pathlib.Path:
-    """The install prefix of the simulation_interfaces the node imports."""
+    """Return the install prefix of the simulation_interfaces the node imports."""
     here = pathlib.Path(simulation_interfaces.__file__).resolve()
     for parent in here.parents:
         if (parent / 'share' / 'simulation_interfaces' / 'package.xml').is_file():
