@@ -32,8 +32,8 @@ PHASES = r"""
 import sys, time
 t0 = time.perf_counter()
 from cfem_ros.cli import main
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
 t1 = time.perf_counter()
@@ -54,7 +54,7 @@ print(t1 - t0, t2 - t1, t3 - t2, t4 - t3, t6 - t5, 'numba' in sys.modules, 'scip
 
 LOAD = r"""
 import sys, time
-from cfem_ros.core import scenario
+from cfem_ros.core.scenario import parse as scenario
 t0 = time.perf_counter()
 model = scenario.load_scenario(sys.argv[1])
 print(time.perf_counter() - t0, len(model.bodies))
@@ -80,8 +80,8 @@ def byte_compile():
     then, and without it every start compiles the package's sources again.
     The MuJoCo side's bytecode was written by pip.
     """
-    import compileall
     import cfem_ros
+    import compileall
     package = os.path.dirname(cfem_ros.__file__)
     with contextlib.redirect_stdout(io.StringIO()):
         fresh = compileall.compile_dir(package, quiet=1)

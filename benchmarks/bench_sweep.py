@@ -70,7 +70,7 @@ def sweep_file(folder, runs, scenario='hinge'):
 
 def _warm():
     """Import what a task needs (a warm worker has run a task before)."""
-    from cfem_ros.core import kernel  # noqa: F401 - loads the compiled kernel
+    from cfem_ros.core.engine import kernel  # noqa: F401 - loads the compiled kernel
     from cfem_ros.study import sweep  # noqa: F401
     import pandas  # noqa: F401
     import pyarrow.parquet  # noqa: F401
@@ -140,7 +140,7 @@ def mujoco_rollout(runs, threads):
 
 def profile(path, runs):
     """Print where a run's time goes, in this process, one thread (ms per run)."""
-    from cfem_ros.core.engine import Simulator
+    from cfem_ros.core.engine.simulator import Simulator
     from cfem_ros.study import metrics, sweep as study_sweep
     spec = Sweep.from_file(path).spec
     models = study_sweep.Models(spec)

@@ -21,16 +21,16 @@ import importlib
 __version__ = '0.1.0'
 
 _HOMES = {
-    'Body': 'cfem_ros.core.model',
-    'Joint': 'cfem_ros.core.model',
-    'Model': 'cfem_ros.core.model',
-    'Release': 'cfem_ros.core.model',
+    'Body': 'cfem_ros.core.model.model',
+    'Joint': 'cfem_ros.core.model.model',
+    'Model': 'cfem_ros.core.model.model',
+    'Release': 'cfem_ros.core.model.model',
     'CfemError': 'cfem_ros.core.errors',
     'ScenarioError': 'cfem_ros.core.errors',
     'RecordingError': 'cfem_ros.recording.errors',
-    'Simulator': 'cfem_ros.core.engine',
-    'load_scenario': 'cfem_ros.core.scenario',
-    'parse_scenario': 'cfem_ros.core.scenario',
+    'Simulator': 'cfem_ros.core.engine.simulator',
+    'load_scenario': 'cfem_ros.core.scenario.parse',
+    'parse_scenario': 'cfem_ros.core.scenario.parse',
 }
 
 __all__ = sorted(_HOMES)

@@ -14,11 +14,11 @@ import time
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.aeroparse import describe as describe_aero
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError, InputError
-from cfem_ros.core.scenario import load_scenario
-from cfem_ros.core.strokes import describe_event
+from cfem_ros.core.scenario.aeroparse import describe as describe_aero
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.interrupts import exit_now, Interrupted, quiet_broken_pipe
 from cfem_ros.recording import offline
 from cfem_ros.recording.errors import OutputError
@@ -72,7 +72,7 @@ def _cannot_start(scenario: str, errors: list) -> str:
 
 def cmd_check(scenario: str) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
-    from cfem_ros.core.startcheck import start_problems
+    from cfem_ros.core.run.startcheck import start_problems
     try:
         model = load_scenario(scenario)
         with np.errstate(all='raise', under='ignore'):
@@ -262,7 +262,7 @@ def cmd_run(scenario: str, output: str, rate: float = 100.0, duration: Optional[
         if os.path.lexists(output) and not overwrite:
             return _error(f'{output}: already exists; pass --overwrite to replace it')
         sim = Simulator(model)
-        from cfem_ros.core.startcheck import start_problems
+        from cfem_ros.core.run.startcheck import start_problems
         errors, _ = start_problems(sim)   # what check refuses, run refuses (exit 2)
         if errors:
             return _error(_cannot_start(scenario, errors))

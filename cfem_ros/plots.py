@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 
 from cfem_ros.core import rotations
-from cfem_ros.core.aero import outside_spans
+from cfem_ros.core.engine.aero import outside_spans
 from cfem_ros.core.errors import CfemError
 from cfem_ros.recording.analysis import attitude_difference_deg, Run
 import matplotlib
@@ -199,7 +199,7 @@ def joint_points(run: Run) -> dict:
     metadata; without a readable scenario there are none (an empty dict).
     """
     try:
-        from cfem_ros.core.scenario import load_scenario
+        from cfem_ros.core.scenario.parse import load_scenario
         model = load_scenario(run.metadata['scenario'])
     except (KeyError, CfemError):
         return {}

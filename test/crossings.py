@@ -15,10 +15,10 @@ same way: ``events.cpp`` is compiled without fused multiply-adds).
 
 import math
 
-from cfem_ros.core import kernel, kernelcalls
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.kernel import LOADS
-from cfem_ros.core.releases import TRIGGER_CAUSES
+from cfem_ros.core.engine import kernel, kernelcalls
+from cfem_ros.core.engine.kernel import LOADS
+from cfem_ros.core.engine.releases import TRIGGER_CAUSES
+from cfem_ros.core.engine.simulator import Simulator
 import numpy as np
 from scipy.optimize import brentq
 

@@ -3,7 +3,7 @@
 """
 Draw a recording as a viewer with default settings would: /tf composed to the root, markers.
 
-``python test/viewer.py RUN.mcap OUT.png [--times 0 0.3 0.6]`` reads the
+``python tools/viewer.py RUN.mcap OUT.png [--times 0 0.3 0.6]`` reads the
 file with rosbags (not with cfem_ros), composes every frame to the root of
 the tf tree (the display frame of RViz and Foxglove when nothing is set),
 draws each body's marker (box, cylinder, sphere) and each joint's wrench
@@ -12,12 +12,15 @@ looking at, during development.
 """
 
 import argparse
+import pathlib
 import sys
 
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / 'test'))
 from recordings import read_rosbags  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 import re
 
-from cfem_ros.core.aero import AIR_TOPICS
+from cfem_ros.core.engine.aero import AIR_TOPICS
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 import numpy as np
 

@@ -8,7 +8,7 @@ import logging
 import math
 from typing import Callable, Optional
 
-from cfem_ros.core.session import Session
+from cfem_ros.core.run.session import Session
 
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),

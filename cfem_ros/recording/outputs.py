@@ -8,7 +8,7 @@ import os
 import stat
 from typing import Optional
 
-from cfem_ros.core.scenario import file_kind
+from cfem_ros.core.fileio.textfile import file_kind
 
 
 def _nearest_existing(directory: str) -> str:

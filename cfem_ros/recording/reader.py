@@ -27,7 +27,7 @@ import struct
 from typing import BinaryIO, Iterator
 import zlib
 
-from cfem_ros.core.scenario import file_kind
+from cfem_ros.core.fileio.textfile import file_kind
 from cfem_ros.recording.errors import RecordingError
 from mcap.exceptions import McapError
 from mcap.reader import make_reader

@@ -21,8 +21,8 @@ from typing import Optional
 
 from cfem_ros import __version__
 from cfem_ros.core import rotations
-from cfem_ros.core.aero import AIR_TOPICS
-from cfem_ros.core.inputs import stamp_problem
+from cfem_ros.core.engine.aero import AIR_TOPICS
+from cfem_ros.core.run.inputs import stamp_problem
 from cfem_ros.recording import loadarrows, viewframes, visuals
 from cfem_ros.recording.chunks import ChunkedWriter, message_record_fields, signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError

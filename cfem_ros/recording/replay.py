@@ -8,8 +8,8 @@ from dataclasses import replace
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
-from cfem_ros.core.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
-                                  RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
+from cfem_ros.core.run.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
+                                      RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.shapes import default_shape, Shape, triangles
+from cfem_ros.core.model.shapes import default_shape, Shape, triangles
 import numpy as np
 
 #: visualization_msgs/Marker types.

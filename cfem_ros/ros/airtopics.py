@@ -11,7 +11,7 @@ hold.
 
 from __future__ import annotations
 
-from cfem_ros.core.aero import AIR_TOPICS
+from cfem_ros.core.engine.aero import AIR_TOPICS
 from geometry_msgs.msg import Vector3Stamped
 
 

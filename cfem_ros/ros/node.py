@@ -30,12 +30,12 @@ import time
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.inputs import Input, odometry_input, release_input, wrench_input
-from cfem_ros.core.scenario import load_scenario
-from cfem_ros.core.session import Session
-from cfem_ros.core.strokes import describe_event
+from cfem_ros.core.run.inputs import Input, odometry_input, release_input, wrench_input
+from cfem_ros.core.run.session import Session
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import loadarrows, viewframes, visuals
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import control as simulation_control, parameters

@@ -11,7 +11,7 @@ odometry that has not come yet.
 
 import math
 
-from cfem_ros.core.carrier import ODOMETRY_HORIZON
+from cfem_ros.core.engine.carrier import ODOMETRY_HORIZON
 
 
 class WallPace:

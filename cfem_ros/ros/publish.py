@@ -27,7 +27,7 @@ import math
 import sys
 import time
 
-from cfem_ros.core.inputs import parse_frame_id
+from cfem_ros.core.run.inputs import parse_frame_id
 from cfem_ros.ros.node import TOPIC_QOS
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 import rclpy

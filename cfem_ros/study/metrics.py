@@ -77,7 +77,7 @@ def from_run(run) -> Samples:
 
 def _outside(events, t_end: float) -> dict:
     """Return each body's time outside its aero tables from the run's events, s."""
-    from cfem_ros.core.aero import AERO_EVENTS, seconds_outside
+    from cfem_ros.core.engine.aero import AERO_EVENTS, seconds_outside
     bodies = dict.fromkeys(e['body'] for e in events if e.get('event') in AERO_EVENTS)
     return {body: seconds_outside(events, body, t_end) for body in bodies}
 
@@ -190,7 +190,7 @@ class Collector:
 
 def _kernel():
     """Return the compiled kernel (imported on first use: ``summarize`` may not need it)."""
-    from cfem_ros.core import kernel
+    from cfem_ros.core.engine import kernel
     return kernel
 
 

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 import math
 from typing import Optional
 
-from cfem_ros.core import contacts, rotations
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import contacts
 import numpy as np
 
 NAN = float('nan')

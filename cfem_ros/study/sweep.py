@@ -27,10 +27,10 @@ import threading
 import time
 from typing import Callable, Optional
 
-from cfem_ros.core.engine import REDUNDANT_MESSAGES, Simulator
+from cfem_ros.core.engine.simulator import REDUNDANT_MESSAGES, Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario, reparse
-from cfem_ros.core.session import Session
+from cfem_ros.core.run.session import Session
+from cfem_ros.core.scenario.parse import parse_scenario, reparse
 from cfem_ros.recording.export import write_frame
 from cfem_ros.study.criteria import INVALID
 from cfem_ros.study.folder import read_manifest, read_table

@@ -13,9 +13,9 @@ table, against the closed form of its fall.
 import math
 
 from cfem_ros import Simulator
-from cfem_ros.core import atmosphere
+from cfem_ros.core.engine import atmosphere
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -178,7 +178,7 @@ def test_leaving_a_table_is_located_inside_the_step():
     assert (event['body'], event['axis'], event['low'], event['high']) == \
         ('store', 'alpha_deg', -5.0, 5.0)
     assert event['value'] == pytest.approx(5.0, abs=1e-7)
-    from cfem_ros.core.aero import seconds_outside
+    from cfem_ros.core.engine.aero import seconds_outside
     assert seconds_outside(sim.events, 'store', sim.t) == pytest.approx(1.2 - crossing,
                                                                         abs=1e-9)
     # outside: stop ends the run there, with the axis and the value in the message

@@ -5,8 +5,8 @@
 import importlib.util
 import pathlib
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.study.spec import load_sweep
 import numpy as np
 import yaml

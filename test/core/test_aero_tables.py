@@ -4,9 +4,10 @@
 
 import math
 
-from cfem_ros.core import aeropack, aeroparse, atmosphere, kernel
+from cfem_ros.core.engine import aeropack, atmosphere, kernel
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario import aeroparse
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -275,7 +276,7 @@ def test_a_store_falling_through_a_proximity_field_against_dop853(tmp_path):
     doc['bodies']['store'].update(velocity=[250.0, 0.0, 0.0], angular_velocity=[0.3, 0.5, -0.2])
     model = parse_scenario(doc)
     a = model.aero[0]
-    from cfem_ros.core.engine import Simulator
+    from cfem_ros.core.engine.simulator import Simulator
     sim = Simulator(model)
     t_end = 0.6
     sim.advance_to(t_end)

@@ -5,10 +5,11 @@
 import copy
 import math
 
-from cfem_ros.core import motion, rotations
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import motion
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -241,7 +242,7 @@ def test_table_from_a_csv_file_relative_to_the_scenario(tmp_path):
     path = tmp_path / 'scenario.yaml'
     import yaml
     path.write_text(yaml.safe_dump(doc))
-    from cfem_ros.core.scenario import load_scenario
+    from cfem_ros.core.scenario.parse import load_scenario
     model = load_scenario(str(path))
     p, v, q, w, a, alpha = motion.state_at(model, 1.234)[0]
     assert np.allclose(p, [SPEED * 1.234, 0, 0], atol=1e-9)
@@ -283,10 +284,10 @@ def test_reference_key_names_the_frame_of_the_relative_outputs():
 
 
 def test_recording_has_the_relative_topics_and_plot(tmp_path):
+    from cfem_ros import plots
     from cfem_ros.recording.analysis import open_run
     from cfem_ros.recording.offline import run
     from cfem_ros.recording.recorder import Recorder, StateRecorder
-    from cfem_ros import plots
     rate = math.radians(20.0)
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft, release=0.3)))
@@ -304,7 +305,7 @@ def test_recording_has_the_relative_topics_and_plot(tmp_path):
 
 
 def _odometry_inputs(rate, until, step=0.01):
-    from cfem_ros.core.inputs import odometry_input
+    from cfem_ros.core.run.inputs import odometry_input
     out = []
     for k in range(int(round(until / step)) + 1):
         t = k * step
@@ -316,7 +317,7 @@ def _odometry_inputs(rate, until, step=0.01):
 
 def _pull_up_error(step, interpolate):
     """Return the store's largest error in the pull-up driven by odometry every step s."""
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.run.session import Session
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft)))
@@ -373,8 +374,8 @@ def _body_rates(angles, angle_rates):
 
 
 def test_odometry_between_messages_is_the_cubic_hermite_through_them():
-    from cfem_ros.core.inputs import odometry_input
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.run.inputs import odometry_input
+    from cfem_ros.core.run.session import Session
     from scipy.interpolate import CubicHermiteSpline
     times = np.arange(0.0, 1.0 + 1e-9, 0.05)   # 20 Hz
     flight = [_flight(t) for t in times]
@@ -419,8 +420,8 @@ def test_odometry_between_messages_is_the_cubic_hermite_through_them():
 
 
 def test_odometry_known_too_late_to_interpolate_is_warned(caplog):
-    from cfem_ros.core.inputs import odometry_input
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.run.inputs import odometry_input
+    from cfem_ros.core.run.session import Session
     sim = Simulator(parse_scenario(_document({'motion': {'velocity': [SPEED, 0, 0]}})))
     session = Session(sim, rate_hz=100.0, duration=1.0, outputs=[])
     session.submit(odometry_input('aircraft', [0, 0, 0], [0, 0, 0, 1], [SPEED, 0, 0],
@@ -441,8 +442,8 @@ def test_odometry_known_too_late_to_interpolate_is_warned(caplog):
 
 
 def test_odometry_stops_beyond_the_horizon_with_a_warning(caplog):
-    from cfem_ros.core.engine import ODOMETRY_HORIZON
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.engine.simulator import ODOMETRY_HORIZON
+    from cfem_ros.core.run.session import Session
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft)))
@@ -462,7 +463,7 @@ def test_odometry_stops_beyond_the_horizon_with_a_warning(caplog):
 
 
 def test_a_carrier_back_from_an_odometry_gap_takes_what_hangs_on_it_along(caplog):
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.run.session import Session
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft)))
@@ -502,7 +503,7 @@ def test_a_carrier_back_from_an_odometry_gap_takes_what_hangs_on_it_along(caplog
 
 
 def test_odometry_is_refused_for_a_body_that_is_not_kinematic():
-    from cfem_ros.core.inputs import apply_input, odometry_input
+    from cfem_ros.core.run.inputs import apply_input, odometry_input
     sim = Simulator(parse_scenario(_document({'motion': {'velocity': [SPEED, 0, 0]}})))
     bad = odometry_input('store', [0, 0, 0], [0, 0, 0, 1], [0, 0, 0], [0, 0, 0], 'world')
     with pytest.raises(ValueError, match='not kinematic'):

@@ -16,8 +16,8 @@ import types
 import warnings
 
 from cfem_ros import cli
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import load_scenario
 import numpy as np
 import pytest
 import yaml

@@ -4,8 +4,8 @@
 
 import pathlib
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 import yaml

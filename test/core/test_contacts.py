@@ -7,9 +7,9 @@ import math
 import struct
 
 from cfem_ros import cli
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 from mcap.reader import make_reader
 import numpy as np
 import pytest
@@ -234,7 +234,7 @@ def test_a_mesh_collides_by_its_convex_hull(tmp_path):
     doc = drop({'mesh': 'octahedron.stl', 'scale': [1, 1, 2]}, [0, 0, 1.5])
     scenario = tmp_path / 'drop.yaml'
     scenario.write_text(yaml.safe_dump(doc))
-    from cfem_ros.core.scenario import load_scenario
+    from cfem_ros.core.scenario.parse import load_scenario
     model = load_scenario(str(scenario))
     # the inner points are not on the hull
     assert len(model.bodies[model.body_index('body')].shape.hull) == 6

@@ -7,9 +7,9 @@ import pathlib
 import struct
 
 from cfem_ros import cli
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import load_scenario, parse_scenario
+from cfem_ros.core.scenario.parse import load_scenario, parse_scenario
 from mcap.reader import make_reader
 import numpy as np
 import pytest

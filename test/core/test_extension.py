@@ -12,7 +12,8 @@ import pathlib
 import threading
 
 from cfem_ros import load_scenario, Simulator
-from cfem_ros.core import _kernel, kernel
+from cfem_ros.core import _kernel
+from cfem_ros.core.engine import kernel
 import numpy as np
 import pytest
 

@@ -13,10 +13,10 @@ import json
 import math
 
 from cfem_ros import cli, parse_scenario, Simulator
-from cfem_ros.core import engine, kernel
+from cfem_ros.core.engine import kernel, simulator as engine
 from cfem_ros.core.errors import InputError, ScenarioError
-from cfem_ros.core.inputs import apply_input, validate_input, wrench_input
-from cfem_ros.core.session import Session
+from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
+from cfem_ros.core.run.session import Session
 from cfem_ros.recording.msgdefs import DEFINITIONS
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 from cfem_ros.recording.replay import read_inputs

@@ -11,7 +11,7 @@ interpolation on, and only if it could apply.
 import pathlib
 
 from cfem_ros import load_scenario, Simulator
-from cfem_ros.core.inputs import InputQueue, odometry_input, release_input, wrench_input
+from cfem_ros.core.run.inputs import InputQueue, odometry_input, release_input, wrench_input
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 

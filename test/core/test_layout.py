@@ -14,7 +14,8 @@ import math
 import pathlib
 import re
 
-from cfem_ros.core import _kernel, kernel, loads, motion
+from cfem_ros.core import _kernel
+from cfem_ros.core.engine import kernel, loads, motion
 import numpy as np
 import pytest
 

@@ -2,9 +2,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """The joint solve's memory: linear in the bodies for a tree, a model too large refused first."""
 
-from cfem_ros.core import topology
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.engine import topology
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import parse_scenario
 import pytest
 
 

@@ -4,11 +4,11 @@
 
 import copy
 
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.inputs import release_input
-from cfem_ros.core.scenario import parse_scenario
-from cfem_ros.core.session import Session
+from cfem_ros.core.run.inputs import release_input
+from cfem_ros.core.run.session import Session
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from reference import normalized_error

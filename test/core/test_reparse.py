@@ -6,10 +6,12 @@ import copy
 import os
 
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.model import triad_from_axes
-from cfem_ros.core.scenario import (
-    _Checker, _parse_inertia, _show, INERTIA_RANGE, load_yaml, parse_scenario, read_text,
-    reparse)
+from cfem_ros.core.fileio.messages import show as _show
+from cfem_ros.core.fileio.textfile import read_text
+from cfem_ros.core.fileio.yamlfile import load_yaml
+from cfem_ros.core.model.model import triad_from_axes
+from cfem_ros.core.scenario.parse import (
+    _Checker, _parse_inertia, INERTIA_RANGE, parse_scenario, reparse)
 import numpy as np
 import pytest
 

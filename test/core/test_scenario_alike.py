@@ -6,7 +6,7 @@ import pathlib
 
 from cfem_ros import cli
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import pytest
 import yaml
 

@@ -15,9 +15,10 @@ import pathlib
 import warnings
 
 from cfem_ros import parse_scenario, Simulator
-from cfem_ros.core import scenario
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.model import JOINT_TABLE
+from cfem_ros.core.fileio import yamlfile
+from cfem_ros.core.model.model import JOINT_TABLE
+from cfem_ros.core.scenario import parse as scenario
 from hypothesis import given, HealthCheck, settings, strategies as st
 import pytest
 import yaml
@@ -183,9 +184,9 @@ def test_load_scenario_returns_a_model_or_one_clear_error(folder, data):
 @given(data=files)
 def test_both_loaders_agree(data):
     outcomes = []
-    for loader in scenario.LOADERS:
+    for loader in yamlfile.LOADERS:
         try:
-            outcomes.append(('ok', scenario.load_yaml(data.decode('utf-8'), loader=loader)))
+            outcomes.append(('ok', yamlfile.load_yaml(data.decode('utf-8'), loader=loader)))
         except UnicodeDecodeError:
             return
         except ScenarioError as err:

@@ -11,8 +11,9 @@ import sys
 import warnings
 
 from cfem_ros import cli, parse_scenario
-from cfem_ros.core import scenario
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.fileio import textfile, yamlfile
+from cfem_ros.core.scenario import parse as scenario
 import numpy as np
 import pytest
 import yaml
@@ -51,7 +52,7 @@ def bomb(levels=9):
 
 # ------------------------------------------------------------------ the loader
 
-@pytest.mark.parametrize('loader', scenario.LOADERS, ids=lambda c: c.__name__)
+@pytest.mark.parametrize('loader', yamlfile.LOADERS, ids=lambda c: c.__name__)
 @pytest.mark.parametrize('text, words', [
     (bomb(), 'aliases expand to more than 1,000,000 values'),
     ('bodies: ' + '[' * 100_000, 'nested deeper than 64 levels'),
@@ -67,20 +68,20 @@ def bomb(levels=9):
 ])
 def test_loader_bounds(loader, text, words):
     with pytest.raises(ScenarioError) as caught:
-        scenario.load_yaml(text, 'f.yaml', loader=loader)
+        yamlfile.load_yaml(text, 'f.yaml', loader=loader)
     message = str(caught.value)
     assert message.startswith('f.yaml: ') and words in message, message
     assert '\n' not in message and len(message) < 400, message
 
 
-@pytest.mark.parametrize('loader', scenario.LOADERS, ids=lambda c: c.__name__)
+@pytest.mark.parametrize('loader', yamlfile.LOADERS, ids=lambda c: c.__name__)
 def test_loaders_agree_on_a_shipped_file_and_on_bounded_aliases(loader):
     text = (CONFIG / 'store_separation.yaml').read_text()
-    assert scenario.load_yaml(text, loader=loader) == yaml.safe_load(text)
+    assert yamlfile.load_yaml(text, loader=loader) == yaml.safe_load(text)
     small = bomb(6)                           # 9^6 = 531,441 values: within the bound
-    assert scenario.load_yaml(small, loader=loader) == yaml.safe_load(small)
+    assert yamlfile.load_yaml(small, loader=loader) == yaml.safe_load(small)
     merged = 'a: &a {x: 1}\nb: {<<: *a, y: 2}\n'
-    assert scenario.load_yaml(merged, loader=loader) == {'a': {'x': 1}, 'b': {'x': 1, 'y': 2}}
+    assert yamlfile.load_yaml(merged, loader=loader) == {'a': {'x': 1}, 'b': {'x': 1, 'y': 2}}
 
 
 def test_files_that_are_not_readable_scenarios(tmp_path):
@@ -98,7 +99,7 @@ def test_files_that_are_not_readable_scenarios(tmp_path):
     assert 'is a device' in message('/dev/zero')
     big = tmp_path / 'big.yaml'
     with open(big, 'wb') as stream:
-        stream.truncate(scenario.MAX_FILE_BYTES + 1)
+        stream.truncate(textfile.MAX_FILE_BYTES + 1)
     assert '16 MiB' in message(big)
     binary = tmp_path / 'bin.yaml'
     binary.write_bytes(b'bodies:\n  A: \xff\xfe\n')

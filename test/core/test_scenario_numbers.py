@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Numbers in scenario files are read as YAML 1.2 reads them (5.0e4 is a number)."""
 
-from cfem_ros.core.scenario import load_yaml, LOADERS, parse_scenario
+from cfem_ros.core.fileio.yamlfile import load_yaml, LOADERS
+from cfem_ros.core.scenario.parse import parse_scenario
 import pytest
 
 SCENARIO = """

@@ -16,8 +16,8 @@ import json
 import pathlib
 
 from cfem_ros import load_scenario, parse_scenario, Simulator
-from cfem_ros.core.inputs import release_input, wrench_input
-from cfem_ros.core.session import Session
+from cfem_ros.core.run.inputs import release_input, wrench_input
+from cfem_ros.core.run.session import Session
 from cfem_ros.recording import recorder
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np

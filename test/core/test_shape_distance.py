@@ -4,8 +4,9 @@
 
 import math
 
-from cfem_ros.core import contacts, rotations
-from cfem_ros.core.shapes import Shape
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import contacts
+from cfem_ros.core.model.shapes import Shape
 import numpy as np
 import pytest
 

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """The drawn box of a body without a shape: turned as scipy turns it, to the bit."""
 
-from cfem_ros.core import shapes
+from cfem_ros.core.model import shapes
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation

@@ -4,9 +4,9 @@
 
 import math
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
-from cfem_ros.core.strokes import relative_motion
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.strokes import relative_motion
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from reference import normalized_error

@@ -3,7 +3,7 @@
 """Proximity tables of every column type and shape: read, or one clear refusal (issue 41.8)."""
 
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq

@@ -19,7 +19,7 @@ import math
 import pathlib
 import re
 
-from cfem_ros.core.scenario import load_yaml
+from cfem_ros.core.fileio.yamlfile import load_yaml
 import docblocks
 import pytest
 import yaml

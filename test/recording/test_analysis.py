@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 from cfem_ros import analysis, cli, load_scenario, plots, Simulator
-from cfem_ros.core.inputs import release_input
+from cfem_ros.core.run.inputs import release_input
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import matplotlib.image

@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 from cfem_ros import cli, load_scenario, Simulator
-from cfem_ros.core.inputs import release_input, wrench_input
+from cfem_ros.core.run.inputs import release_input, wrench_input
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 from doctor import diagnose
 import numpy as np

@@ -5,8 +5,8 @@
 import math
 
 from cfem_ros import cli
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording.analysis import compare_runs, open_run
 from cfem_ros.recording.offline import run
 from cfem_ros.recording.recorder import POSE, Recorder, StateRecorder

@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: Apache-2.0
 """Markers of collision shapes as used (capsules, mesh hulls) and of contact points."""
 
-from cfem_ros.core.scenario import parse_scenario
-from cfem_ros.core.shapes import Shape, triangles
+from cfem_ros.core.model.shapes import Shape, triangles
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording import visuals
 import numpy as np
 

@@ -4,8 +4,8 @@
 
 import pathlib
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import loadarrows, visuals
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
 from cfem_ros.recording.msgdefs import DEFINITIONS

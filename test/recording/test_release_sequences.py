@@ -11,7 +11,7 @@ import json
 import pathlib
 
 from cfem_ros import cli, load_scenario, Simulator
-from cfem_ros.core.inputs import release_input
+from cfem_ros.core.run.inputs import release_input
 from cfem_ros.recording.analysis import open_run
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np

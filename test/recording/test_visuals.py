@@ -15,7 +15,7 @@ import urllib.parse
 
 from cfem_ros import analysis, cli, load_scenario, parse_scenario
 from cfem_ros.core import rotations
-from cfem_ros.core.shapes import equivalent_box
+from cfem_ros.core.model.shapes import equivalent_box
 from cfem_ros.recording import visuals
 import numpy as np
 import pytest

@@ -18,8 +18,8 @@ import pathlib
 import re
 import signal
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 from cfem_ros.recording.replay import read_inputs

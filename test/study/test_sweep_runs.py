@@ -8,8 +8,8 @@ import math
 import os
 
 from cfem_ros import cli
-from cfem_ros.core.engine import REDUNDANT_WARNING
-from cfem_ros.core.model import STANDARD_GRAVITY
+from cfem_ros.core.engine.simulator import REDUNDANT_WARNING
+from cfem_ros.core.model.model import STANDARD_GRAVITY
 from cfem_ros.study import Sweep
 from cfem_ros.study.metrics import compute, from_run
 import numpy as np
@@ -208,9 +208,9 @@ def test_plot_of_a_sweep_folder_draws_spreads_scatters_and_the_envelope(tmp_path
 def test_collected_samples_are_the_recordings_numbers_at_any_rate(tmp_path):
     # at 30 Hz the sample times k / 30 are not whole nanoseconds: the collector must
     # give them back as a recording does (stamped in ns), and every number alike
-    from cfem_ros.core.engine import Simulator
-    from cfem_ros.core.scenario import parse_scenario
-    from cfem_ros.core.session import Session
+    from cfem_ros.core.engine.simulator import Simulator
+    from cfem_ros.core.run.session import Session
+    from cfem_ros.core.scenario.parse import parse_scenario
     from cfem_ros.recording.analysis import open_run
     from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
     from cfem_ros.study.metrics import Collector

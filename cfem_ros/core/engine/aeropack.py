@@ -13,8 +13,8 @@ Cn per node, alpha slowest, then beta, then Mach), then the proximity grids
 from __future__ import annotations
 
 from cfem_ros.core import rotations
-from cfem_ros.core.kernel import AERO_TABLE as T
-from cfem_ros.core.model import Aero, Model
+from cfem_ros.core.engine.kernel import AERO_TABLE as T
+from cfem_ros.core.model.model import Aero, Model
 import numpy as np
 
 #: Numbers of the header.

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import math
 
-from cfem_ros.core import kernel, motion, rotations
-from cfem_ros.core.bodies import state_views
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import kernel, motion
+from cfem_ros.core.engine.bodies import state_views
 import numpy as np
 
 #: How long after its last odometry message a kinematic body is extrapolated to

@@ -13,8 +13,9 @@ part's centre that holds it (m) and the part packed as above.
 
 from __future__ import annotations
 
-from cfem_ros.core import kernel, rotations
-from cfem_ros.core.shapes import Shape
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import kernel
+from cfem_ros.core.model.shapes import Shape
 import numpy as np
 
 #: Kind codes (``cfem::shapes::kSphere`` ..).

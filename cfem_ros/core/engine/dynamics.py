@@ -28,13 +28,14 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import kernel, motion, rotations, sampling
-from cfem_ros.core.bodies import initial_state, mass_table
-from cfem_ros.core.inputs import held_wrench
-from cfem_ros.core.kernel import LOADS
-from cfem_ros.core.model import Model
-from cfem_ros.core.sampling import NumericalFailure, SampledState
-from cfem_ros.core.ties import TiedLoads
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import kernel, motion, sampling
+from cfem_ros.core.engine.bodies import initial_state, mass_table
+from cfem_ros.core.engine.kernel import LOADS
+from cfem_ros.core.engine.sampling import NumericalFailure, SampledState
+from cfem_ros.core.engine.ties import TiedLoads
+from cfem_ros.core.model.model import Model
+from cfem_ros.core.run.inputs import held_wrench
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')

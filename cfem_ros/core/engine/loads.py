@@ -38,8 +38,9 @@ branch there.
 
 from __future__ import annotations
 
-from cfem_ros.core import aeropack, braces, contacts, kernel
-from cfem_ros.core.kernel import LOADS
+from cfem_ros.core import braces
+from cfem_ros.core.engine import aeropack, contacts, kernel
+from cfem_ros.core.engine.kernel import LOADS
 import numpy as np
 
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).

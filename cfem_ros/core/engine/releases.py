@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Optional
 
-from cfem_ros.core.topology import JointTables
+from cfem_ros.core.engine.topology import JointTables
 import numpy as np
 
 #: Indices of the release triggers in ``Releases.triggers``.

@@ -23,19 +23,21 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import braces, kernel, sampling  # noqa: F401 - sampling kept for users
-from cfem_ros.core.aero import AeroWatch
-from cfem_ros.core.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.dynamics import (  # noqa: F401 - for sweeps
-    Dynamics, REDUNDANT_MESSAGES, REDUNDANT_WARNING)
-from cfem_ros.core.groups import ReleaseGroups, row_weights
-from cfem_ros.core.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
-                                       NOT_FINITE)
-from cfem_ros.core.model import Model
-from cfem_ros.core.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
-from cfem_ros.core.sampling import NumericalFailure, SampleGrid  # noqa: F401 - kept for users
-from cfem_ros.core.strokes import stroke_end_event
-from cfem_ros.core.topology import JointTables, Topology
+from cfem_ros.core import braces
+from cfem_ros.core.engine import kernel, sampling  # noqa: F401 - sampling kept for users
+from cfem_ros.core.engine.aero import AeroWatch
+from cfem_ros.core.engine.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
+from cfem_ros.core.engine.dynamics import (  # noqa: F401 - for sweeps
+                                           Dynamics, REDUNDANT_MESSAGES, REDUNDANT_WARNING)
+from cfem_ros.core.engine.groups import ReleaseGroups, row_weights
+from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
+                                              NOT_FINITE)
+from cfem_ros.core.engine.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
+from cfem_ros.core.engine.sampling import (  # noqa: F401 - kept for users
+    NumericalFailure, SampleGrid)
+from cfem_ros.core.engine.strokes import stroke_end_event
+from cfem_ros.core.engine.topology import JointTables, Topology
+from cfem_ros.core.model.model import Model
 import numpy as np
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import math
 from typing import Optional
 
-from cfem_ros.core.shapes import Shape
+from cfem_ros.core.model.shapes import Shape
 import numpy as np
 
 #: Standard gravity, m/s^2.

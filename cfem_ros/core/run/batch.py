@@ -23,7 +23,7 @@ import logging
 import os
 from typing import Optional, Sequence
 
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
 import numpy as np
 
 __all__ = ['Result', 'run']

@@ -37,9 +37,9 @@ import math
 import time
 from typing import Callable, Optional
 
-from cfem_ros.core.engine import SampleGrid
-from cfem_ros.core.inputs import apply_input, Input, input_topic, InputQueue, validate_input
-from cfem_ros.core.sampling import NumericalFailure
+from cfem_ros.core.engine.sampling import NumericalFailure
+from cfem_ros.core.engine.simulator import SampleGrid
+from cfem_ros.core.run.inputs import apply_input, Input, input_topic, InputQueue, validate_input
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from cfem_ros.core.sampling import NumericalFailure
+from cfem_ros.core.engine.sampling import NumericalFailure
 import numpy as np
 
 __all__ = ['RK4_STABILITY', 'start_problems']

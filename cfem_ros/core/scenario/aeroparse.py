@@ -21,8 +21,8 @@ import math
 import os
 from typing import Optional
 
-from cfem_ros.core.atmosphere import ALTITUDE_RANGE, isa_density, OFFSET_RANGE
-from cfem_ros.core.model import Aero, Proximity
+from cfem_ros.core.engine.atmosphere import ALTITUDE_RANGE, isa_density, OFFSET_RANGE
+from cfem_ros.core.model.model import Aero, Proximity
 import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'atmosphere', 'freestream', 'wind',

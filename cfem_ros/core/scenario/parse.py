@@ -16,26 +16,21 @@ import logging
 import math
 import os
 import re
-import reprlib
-import stat
 from typing import Any, Optional
 
-from cfem_ros.core import aeroparse, braces, cgoffset, rotations, shapes
-from cfem_ros.core.atmosphere import isa_density  # noqa: F401 - where it has always been
+from cfem_ros.core import braces, rotations
+from cfem_ros.core.engine.atmosphere import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.model import (
+from cfem_ros.core.fileio.messages import clip, show
+from cfem_ros.core.fileio.textfile import display, read_text
+from cfem_ros.core.fileio.yamlfile import load_yaml, Yaml11Number
+from cfem_ros.core.model import shapes
+from cfem_ros.core.model.model import (
     AXIS_REQUIRED, BAUMGARTE_DT_LIMIT, Body, Contact, default_baumgarte, Joint,
     JOINT_TABLE, Model, Motion, Release, ReleaseGroup, STANDARD_GRAVITY, triad_from_axes, Wrench)
+from cfem_ros.core.scenario import aeroparse, cgoffset
 import numpy as np
-import yaml
-from yaml.composer import Composer
-from yaml.constructor import ConstructorError, SafeConstructor
-from yaml.resolver import BaseResolver, Resolver
 
-try:
-    from yaml.cyaml import CParser
-except ImportError:  # PyYAML built without libyaml: the pure Python parser only
-    CParser = None
 
 LOG = logging.getLogger('cfem_ros')
 
@@ -58,14 +53,6 @@ WRENCH_KEYS = ('name', 'body', 'point', 'force', 'moment', 'frame', 'start', 'en
                'reacts_on')
 TABLE_KEYS = ('against', 'table')
 
-#: Largest scenario file, bytes.
-MAX_FILE_BYTES = 16 * 1024 * 1024
-
-#: Deepest nesting of YAML collections (a scenario needs 5).
-MAX_DEPTH = 64
-
-#: Most YAML values once aliases are expanded (an alias counts as a copy).
-MAX_EXPANDED_NODES = 1_000_000
 
 #: Names become ROS topic tokens (bodies/<body>/pose), so they must be valid ones.
 NAME_PATTERN = re.compile(r'[A-Za-z][A-Za-z0-9_]*')
@@ -103,305 +90,6 @@ TRIANGLE_TOLERANCE = 1e-9
 #: Axis vectors with a component larger than this are scaled down before use.
 _AXIS_RESCALE = 1e100
 
-_REPR = reprlib.Repr()
-_REPR.maxstring = 60
-_REPR.maxother = 60
-_REPR.maxlevel = 3
-_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = _REPR.maxset = 6
-_REPR.maxlong = 40
-
-
-class _Refused(Exception):
-    """A loader bound was passed (``load_yaml`` makes it a ScenarioError)."""
-
-    def __init__(self, problem: str, expected: str, mark=None):
-        super().__init__(problem)
-        self.problem, self.expected, self.mark = problem, expected, mark
-
-
-class _BoundedComposer(Composer):
-    """
-    The YAML composer with bounds on nesting depth and alias expansion.
-
-    A node's size counts every alias in it as a full copy of the node it
-    names, so an alias bomb (a billion laughs) is refused while its text and
-    its node graph are still small. The same code runs over the pure Python
-    parser and over libyaml's (``CParser``).
-    """
-
-    def compose_document(self):
-        self._depth = 0
-        self._sizes = {}
-        try:
-            return super().compose_document()
-        finally:
-            self._sizes = {}
-
-    def compose_node(self, parent, index):
-        if self.check_event(yaml.events.AliasEvent):
-            event = self.peek_event()
-            node = super().compose_node(parent, index)
-            if id(node) not in self._sizes:
-                raise _Refused(f'alias *{_clip(event.anchor, 40)} refers to a collection '
-                               'that contains it', 'no recursive aliases', event.start_mark)
-            return node
-        self._depth += 1
-        if self._depth > MAX_DEPTH:
-            raise _Refused(f'collections nested deeper than {MAX_DEPTH} levels',
-                           f'at most {MAX_DEPTH} levels', self.peek_event().start_mark)
-        try:
-            node = super().compose_node(parent, index)
-        finally:
-            self._depth -= 1
-        if isinstance(node, yaml.MappingNode):
-            children = [n for pair in node.value for n in pair]
-        elif isinstance(node, yaml.SequenceNode):
-            children = node.value
-        else:
-            children = ()
-        size = 1 + sum(self._sizes[id(child)] for child in children)
-        if size > MAX_EXPANDED_NODES:
-            raise _Refused(f'aliases expand to more than {MAX_EXPANDED_NODES:,} values',
-                           f'at most {MAX_EXPANDED_NODES:,} values once aliases are '
-                           'expanded', node.start_mark)
-        self._sizes[id(node)] = size
-        return node
-
-
-_MERGE_TAG = 'tag:yaml.org,2002:merge'
-
-
-class _Constructor(SafeConstructor):
-    """The safe constructor, refusing unhashable and duplicate mapping keys."""
-
-    def construct_unique_mapping(self, node, deep=False):
-        """Build a mapping; refuse a key given twice instead of keeping the last."""
-        own = [key_node for key_node, _ in node.value if key_node.tag != _MERGE_TAG]
-        self.flatten_mapping(node)      # merge keys (<<): their entries yield to own keys
-        seen = {}
-        for key_node in own:
-            key = self.construct_object(key_node, deep=deep)
-            if isinstance(key, (list, dict, set)):
-                raise ConstructorError(None, None, f'a {type(key).__name__} is used as a '
-                                       'mapping key', key_node.start_mark)
-            if key in seen:
-                raise ConstructorError(
-                    None, None, f'duplicate key {_show(key)} (first at line {seen[key] + 1})',
-                    key_node.start_mark)
-            seen[key] = key_node.start_mark.line
-        return SafeConstructor.construct_mapping(self, node, deep)
-
-
-_Constructor.add_constructor(BaseResolver.DEFAULT_MAPPING_TAG,
-                             _Constructor.construct_unique_mapping)
-
-
-class Yaml11Number(str):
-    """
-    A YAML 1.1 number in a notation a reader rarely means: sexagesimal, hexadecimal, octal, binary.
-
-    YAML 1.1 (PyYAML) reads ``1:30`` as 90, ``0x10`` as 16 and ``010`` as 8.
-    The scenario loader keeps such a value as written (a string, fine where
-    text is meant) and ``_Checker.number`` refuses it where a number is
-    meant, naming both readings.
-    """
-
-    kind: str = ''
-    reading: Any = None
-
-
-_INT_TAG, _FLOAT_TAG = 'tag:yaml.org,2002:int', 'tag:yaml.org,2002:float'
-_YAML11_TAG = 'tag:cfem_ros,2026:yaml11-number'
-_YAML11_NUMBER = re.compile(r"""^(?:[-+]?0b[0-1_]+
-    |[-+]?0[0-7_]+
-    |[-+]?0x[0-9a-fA-F_]+
-    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?)$""", re.X)
-_DECIMAL_INT = re.compile(r'^[-+]?(?:0|[1-9][0-9_]*)$')
-#: Decimal floats, also without a dot or an exponent sign (1e5, 2.5E-3: YAML 1.2, which
-#: PyYAML's YAML 1.1 reads as strings), infinities and NaN (refused later as not finite).
-_DECIMAL_FLOAT = re.compile(r"""^(?:[-+]?[0-9][0-9_]*(?:\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                                            |[eE][-+]?[0-9]+)
-    |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
-    |[-+]?\.(?:inf|Inf|INF)
-    |\.(?:nan|NaN|NAN))$""", re.X)
-
-
-class _Resolver(Resolver):
-    """YAML 1.1's implicit types, with decimal numbers only (see ``Yaml11Number``)."""
-
-    yaml_implicit_resolvers = {
-        first: [(tag, regexp) for tag, regexp in resolvers if tag not in (_INT_TAG, _FLOAT_TAG)]
-        for first, resolvers in Resolver.yaml_implicit_resolvers.items()}
-
-
-for _tag, _pattern, _first in ((_YAML11_TAG, _YAML11_NUMBER, '-+0123456789'),
-                               (_INT_TAG, _DECIMAL_INT, '-+0123456789'),
-                               (_FLOAT_TAG, _DECIMAL_FLOAT, '-+0123456789.')):
-    for _char in _first:   # first: checked before the timestamp's resolver
-        _Resolver.yaml_implicit_resolvers.setdefault(_char, [])
-    _Resolver.add_implicit_resolver(_tag, _pattern, list(_first))
-for _char, _resolvers in _Resolver.yaml_implicit_resolvers.items():   # numbers first
-    _resolvers.sort(key=lambda item: item[0] not in (_YAML11_TAG, _INT_TAG, _FLOAT_TAG))
-
-
-def _construct_yaml11(constructor, node) -> Yaml11Number:
-    text = constructor.construct_scalar(node)
-    value = Yaml11Number(text)
-    plain = text.lstrip('+-').lower()
-    value.kind = ('sexagesimal (base 60)' if ':' in plain else 'hexadecimal' if 'x' in plain
-                  else 'binary' if 'b' in plain else 'octal')
-    try:
-        value.reading = (SafeConstructor.construct_yaml_float(constructor, node) if '.' in text
-                         else SafeConstructor.construct_yaml_int(constructor, node))
-    except (ValueError, OverflowError):
-        value.reading = None
-    return value
-
-
-_Constructor.add_constructor(_YAML11_TAG, _construct_yaml11)
-
-
-class PythonLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
-                   _BoundedComposer, _Constructor, _Resolver):
-    """The bounded safe loader over PyYAML's pure Python parser."""
-
-    def __init__(self, stream):
-        yaml.reader.Reader.__init__(self, stream)
-        yaml.scanner.Scanner.__init__(self)
-        yaml.parser.Parser.__init__(self)
-        _BoundedComposer.__init__(self)
-        _Constructor.__init__(self)
-        _Resolver.__init__(self)
-
-
-if CParser is not None:
-    class CLoader(_BoundedComposer, CParser, _Constructor, _Resolver):
-        """The bounded safe loader over libyaml's parser: the same results, faster."""
-
-        def __init__(self, stream):
-            CParser.__init__(self, stream)
-            _BoundedComposer.__init__(self)
-            _Constructor.__init__(self)
-            _Resolver.__init__(self)
-
-    #: The loaders available, the one ``load_yaml`` uses by default first.
-    LOADERS = (CLoader, PythonLoader)
-else:  # pragma: no cover - PyYAML without libyaml
-    LOADERS = (PythonLoader,)
-
-
-def load_yaml(text: str, source: str = '<scenario>', loader=None) -> Any:
-    """
-    Parse one YAML document within the bounds of a scenario file.
-
-    Parameters
-    ----------
-    text : str
-        The document.
-    source : str
-        Named in error messages.
-    loader : class, optional
-        One of ``LOADERS``; by default the fastest available.
-
-    Raises
-    ------
-    ScenarioError
-        For YAML syntax, duplicate or unhashable keys, nesting deeper than
-        ``MAX_DEPTH``, aliases expanding beyond ``MAX_EXPANDED_NODES``, and
-        values Python cannot represent.
-
-    """
-    parser = None
-    try:
-        parser = (loader or LOADERS[0])(text)
-        return parser.get_single_data()
-    except _Refused as err:
-        raise ScenarioError(source, '', _where(err.mark) + err.problem, err.expected) from None
-    except yaml.YAMLError as err:
-        mark = getattr(err, 'problem_mark', None)
-        problem = getattr(err, 'problem', None) or getattr(err, 'reason', None) or str(err)
-        if 'maximum nesting depth' in str(problem):   # libyaml's own bound, below ours
-            raise ScenarioError(source, '', f'{_where(mark)}collections nested deeper than '
-                                f'{MAX_DEPTH} levels', f'at most {MAX_DEPTH} levels') from None
-        raise ScenarioError(source, '', f'{_where(mark)}not valid YAML: {_clip(problem)}',
-                            'a YAML mapping as in SPEC section 1') from None
-    except (ValueError, OverflowError) as err:
-        problem = ('a number has more than 4300 digits' if 'digits' in str(err)
-                   else f'a value cannot be read ({_clip(err, 120)})')
-        raise ScenarioError(source, '', problem,
-                            'numbers of at most 4300 digits and valid dates') from None
-    finally:
-        if parser is not None:
-            parser.dispose()
-
-
-def _where(mark) -> str:
-    return f'line {mark.line + 1}, column {mark.column + 1}: ' if mark is not None else ''
-
-
-def _display(path) -> str:
-    """Return a path as messages show it: as given, quoted if it has control characters."""
-    text = os.fsdecode(path) if isinstance(path, (bytes, os.PathLike)) else str(path)
-    return text if text.isprintable() else repr(text)
-
-
-def file_kind(mode: int) -> str:
-    if stat.S_ISDIR(mode):
-        return 'a directory'
-    if stat.S_ISFIFO(mode):
-        return 'a named pipe (FIFO)'
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return 'a device'
-    if stat.S_ISSOCK(mode):
-        return 'a socket'
-    return 'not a regular file'
-
-
-def read_text(path, source: Optional[str] = None) -> str:
-    """
-    Read a scenario file's text: a regular file, at most ``MAX_FILE_BYTES``, UTF-8.
-
-    Never blocks (a FIFO or device is refused from its ``stat`` before it is
-    opened, and opened non-blocking) and never reads more than the bound.
-
-    Raises
-    ------
-    ScenarioError
-        For a file that is missing, unreadable, not regular, too large or not UTF-8.
-
-    """
-    source = source or _display(path)
-    limit = f'at most {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20} MiB)'
-
-    def refuse(problem, expected='a readable, regular YAML scenario file'):
-        raise ScenarioError(source, '', problem, expected)
-
-    try:
-        mode = os.stat(path).st_mode
-        if not stat.S_ISREG(mode):
-            refuse(f'is {file_kind(mode)}')
-        fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0))
-    except (OSError, ValueError) as err:
-        refuse(f'cannot read the file ({getattr(err, "strerror", None) or err})')
-    with os.fdopen(fd, 'rb') as stream:
-        try:
-            info = os.fstat(stream.fileno())    # the file opened, not the one stat saw
-            if not stat.S_ISREG(info.st_mode):
-                refuse(f'is {file_kind(info.st_mode)}')
-            if info.st_size > MAX_FILE_BYTES:
-                refuse(f'is {info.st_size:,} bytes', limit)
-            data = stream.read(MAX_FILE_BYTES + 1)
-        except OSError as err:
-            refuse(f'cannot read the file ({err.strerror or err})')
-    if len(data) > MAX_FILE_BYTES:
-        refuse(f'is more than {MAX_FILE_BYTES:,} bytes', limit)
-    try:
-        return data.decode('utf-8')
-    except UnicodeDecodeError as err:
-        line = data.count(b'\n', 0, err.start) + 1
-        refuse(f'line {line}: byte {err.start} (0x{data[err.start]:02x}) is not UTF-8',
-               'a text file in UTF-8')
-
 
 def load_scenario(path: str, *, duration: Optional[float] = None,
                   dt: Optional[float] = None) -> Model:
@@ -421,26 +109,9 @@ def load_scenario(path: str, *, duration: Optional[float] = None,
         For anything wrong, unreadable file and YAML syntax included.
 
     """
-    source = _display(path)
+    source = display(path)
     document = load_yaml(read_text(path, source), source)
     return parse_scenario(document, source=source, duration=duration, dt=dt)
-
-
-def _clip(text: str, limit: int = 160) -> str:
-    """Return text on one line and at most limit characters."""
-    text = str(text)
-    if len(text) > limit:
-        text = text[:limit - 3] + '...'
-    return text if text.isprintable() else ''.join(c if c.isprintable() else ' ' for c in text)
-
-
-def _show(value: Any) -> str:
-    """Return a short one-line repr of any value, however large or deep."""
-    try:
-        text = _REPR.repr(value)
-    except Exception:  # noqa: B902 - a repr that fails is shown by its type
-        text = f'<{type(value).__name__}>'
-    return _clip(text, 80)
 
 
 def _key(parent: str, name: Any) -> str:
@@ -448,14 +119,14 @@ def _key(parent: str, name: Any) -> str:
     if isinstance(name, str) and name.isprintable() and len(name) <= 80:
         shown = name
     else:
-        shown = f'[{_show(name)}]'
+        shown = f'[{show(name)}]'
     return f'{parent}.{shown}' if parent else shown
 
 
 def _one_of(names) -> str:
     names = [str(n) for n in names]
     shown = ', '.join(names[:8]) + (f' (and {len(names) - 8} more)' if len(names) > 8 else '')
-    return 'one of ' + _clip(shown, 200)
+    return 'one of ' + clip(shown, 200)
 
 
 class _Checker:
@@ -465,12 +136,12 @@ class _Checker:
         self.source = source
 
     def fail(self, key: str, problem: str, expected: str = ''):
-        raise ScenarioError(self.source, _clip(key, 120), _clip(problem, 240),
-                            _clip(expected, 240))
+        raise ScenarioError(self.source, clip(key, 120), clip(problem, 240),
+                            clip(expected, 240))
 
     def mapping(self, value, key: str, allowed, required=()) -> dict:
         if not isinstance(value, dict):
-            self.fail(key, f'is {_show(value)}', 'a mapping')
+            self.fail(key, f'is {show(value)}', 'a mapping')
         for name in value:
             if name not in allowed:
                 self.fail(_key(key, name), 'unknown key', _one_of(allowed))
@@ -486,11 +157,11 @@ class _Checker:
             self.fail(key, f'is {value} as written, a YAML 1.1 {value.kind} number{reading}',
                       'a decimal number (write what you mean, e.g. 90 or 16.0)')
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(key, f'is {_show(value)}', 'a number')
+            self.fail(key, f'is {show(value)}', 'a number')
         try:
             value = float(value)
         except OverflowError:
-            self.fail(key, f'is {_show(value)}, too large for a double', 'a finite number')
+            self.fail(key, f'is {show(value)}, too large for a double', 'a finite number')
         if not math.isfinite(value):
             self.fail(key, f'is {value}', 'a finite number')
         if positive and value <= 0:
@@ -510,7 +181,7 @@ class _Checker:
                 return np.array(numbers)
         if not isinstance(value, (list, tuple)) or len(value) not in lengths:
             want = ' or '.join(str(n) for n in lengths)
-            self.fail(key, f'is {_show(value)}', f'a list of {want} numbers')
+            self.fail(key, f'is {show(value)}', f'a list of {want} numbers')
         return np.array([self.number(v, f'{key}[{i}]', limit=limit)
                          for i, v in enumerate(value)])
 
@@ -526,15 +197,15 @@ class _Checker:
             vector = vector / scale
             scale = 1.0
         if scale == 0.0 or scale * np.linalg.norm(vector / scale) < 1e-12:
-            self.fail(key, f'has zero length {_show(value)}', 'a non-zero direction')
+            self.fail(key, f'has zero length {show(value)}', 'a non-zero direction')
         return vector
 
     def name(self, value, key: str) -> str:
         if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-            self.fail(key, f'{_show(value)} is not a usable name',
+            self.fail(key, f'{show(value)} is not a usable name',
                       'a letter then letters, digits or _ (it becomes a ROS topic name)')
         if len(value) > MAX_NAME_LENGTH:
-            self.fail(key, f'{_show(value)} has {len(value)} characters',
+            self.fail(key, f'{show(value)} has {len(value)} characters',
                       f'a name of at most {MAX_NAME_LENGTH} characters (it becomes part of '
                       'ROS topic names)')
         return value
@@ -588,14 +259,14 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
         For anything wrong, on one line of at most a few hundred characters.
 
     """
-    check = _Checker(_clip(source, 400))
+    check = _Checker(clip(source, 400))
     top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
     default_name = os.path.splitext(os.path.basename(source))[0]
     name = top.get('name', default_name)
     if not isinstance(name, str):
-        check.fail('name', f'is {_show(name)}', 'a string')
+        check.fail('name', f'is {show(name)}', 'a string')
     if 'name' in top and (not name.isprintable() or len(name) > MAX_TITLE_LENGTH):
-        check.fail('name', f'is {_show(name)}',
+        check.fail('name', f'is {show(name)}',
                    f'one line of at most {MAX_TITLE_LENGTH} printable characters')
     frame_id = check.name(top.get('frame_id', 'world'), 'frame_id')
     gravity = (check.vector(top['gravity'], 'gravity') if 'gravity' in top
@@ -625,7 +296,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
 
     bodies_doc = top['bodies']
     if not isinstance(bodies_doc, dict) or not bodies_doc:
-        check.fail('bodies', f'is {_show(bodies_doc)}', 'a non-empty mapping of body names')
+        check.fail('bodies', f'is {show(bodies_doc)}', 'a non-empty mapping of body names')
     bodies = [_parse_body(check, body_name, spec)
               for body_name, spec in bodies_doc.items()]
     if all(b.fixed for b in bodies):
@@ -642,7 +313,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
 
     joints_doc = top.get('joints', {}) or {}
     if not isinstance(joints_doc, dict):
-        check.fail('joints', f'is {_show(joints_doc)}', 'a mapping of joint names')
+        check.fail('joints', f'is {show(joints_doc)}', 'a mapping of joint names')
     joints = [_parse_joint(check, joint_name, spec, index, bodies)
               for joint_name, spec in joints_doc.items()]
     for joint in joints:   # each joint point is a tf frame of its own name (SPEC section 4)
@@ -678,7 +349,7 @@ def _parse_references(check: _Checker, bodies_doc: dict, index: dict, model: Mod
             key = f'{_key("bodies", name)}.reference'
             ref = _body_of(check, spec['reference'], key, index)
             if ref == i:
-                check.fail(key, f'is {_show(spec["reference"])}, the body itself',
+                check.fail(key, f'is {show(spec["reference"])}, the body itself',
                            'another body')
             pairs.append((i, ref))
         elif model.bodies[i].dynamic and model.carrier(i) >= 0:
@@ -692,7 +363,7 @@ def _parse_body(check: _Checker, name, spec) -> Body:
     spec = check.mapping(spec if spec is not None else {}, key, BODY_KEYS)
     fixed = spec.get('fixed', False)
     if not isinstance(fixed, bool):
-        check.fail(f'{key}.fixed', f'is {_show(fixed)}', 'true or false')
+        check.fail(f'{key}.fixed', f'is {show(fixed)}', 'true or false')
     if 'cg_offset' in spec and (fixed or 'motion' in spec):
         check.fail(f'{key}.cg_offset', 'given on a fixed or kinematic body',
                    'no cg_offset (it moves the CG of a body moved by forces)')
@@ -702,7 +373,7 @@ def _parse_body(check: _Checker, name, spec) -> Body:
         mass, inertia = 0.0, np.zeros((3, 3))
         for moving in ('velocity', 'angular_velocity_deg', 'angular_velocity'):
             if moving in spec and np.any(check.vector(spec[moving], f'{key}.{moving}')):
-                check.fail(f'{key}.{moving}', f'is {_show(spec[moving])} on a fixed body',
+                check.fail(f'{key}.{moving}', f'is {show(spec[moving])} on a fixed body',
                            'no velocity (a fixed body never moves)')
         ignored = [k for k in ('mass', 'inertia') if k in spec]
         if ignored:
@@ -857,7 +528,7 @@ def _parse_kinematic(check: _Checker, name, key: str, spec: dict, fixed: bool) -
 
 def _motion_start(data: Motion):
     """Return a table motion's CG position and attitude at t = 0."""
-    from cfem_ros.core import kernel, motion as trajectories  # noqa: F401 - kernel first
+    from cfem_ros.core.engine import kernel, motion as trajectories  # noqa: F401 - kernel first
     probe = Model(name='', frame_id='', gravity=np.zeros(3), duration=1.0, dt=1.0,
                   baumgarte=0.0, bodies=(Body(
                       name='', fixed=False, mass=0.0, inertia=np.zeros((3, 3)),
@@ -878,7 +549,7 @@ def _parse_motion_table(check: _Checker, value, key: str):
             rows.append(check.vector(row, f'{key}[{k}]', length=8))
         rows = np.array(rows, dtype=float).reshape(-1, 8)
     else:
-        check.fail(key, f'is {_show(value)}', 'a CSV file name or a list of rows '
+        check.fail(key, f'is {show(value)}', 'a CSV file name or a list of rows '
                    '[t, x, y, z, qx, qy, qz, qw]')
     if len(rows) < 2:
         check.fail(key, f'has {len(rows)} row(s)', 'at least 2 rows')
@@ -907,7 +578,7 @@ def _read_motion_csv(check: _Checker, name: str, key: str) -> np.ndarray:
     try:
         text = read_text(path, path)
     except ScenarioError as err:
-        check.fail(key, f'{_show(name)} cannot be read ({err})', 'a readable CSV file')
+        check.fail(key, f'{show(name)} cannot be read ({err})', 'a readable CSV file')
     text = text.removeprefix('\ufeff')   # a byte order mark, as a scenario file may have
     lines = [line for line in text.splitlines() if line.strip() and not line.startswith('#')]
     order = list(range(8))
@@ -925,13 +596,13 @@ def _read_motion_csv(check: _Checker, name: str, key: str) -> np.ndarray:
         try:
             values = [float(cells[i]) for i in order]
         except (IndexError, ValueError):
-            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)}',
+            check.fail(f'{key}[{k}]', f'{path}: row {show(line)}',
                        f'{len(order)} numbers {", ".join(MOTION_COLUMNS)}')
         if not np.isfinite(values).all():
-            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)} is not finite',
+            check.fail(f'{key}[{k}]', f'{path}: row {show(line)} is not finite',
                        'finite numbers')
         if max(abs(v) for v in values) > MAX_MAGNITUDE:
-            check.fail(f'{key}[{k}]', f'{path}: row {_show(line)} holds a magnitude beyond '
+            check.fail(f'{key}[{k}]', f'{path}: row {show(line)} holds a magnitude beyond '
                        f'{MAX_MAGNITUDE:g}', f'times (s) and positions (m) of magnitude at most '
                        f'{MAX_MAGNITUDE:g}, as everywhere in a scenario')
         rows[k] = values
@@ -970,17 +641,17 @@ def _parse_inertia(check: _Checker, value, key: str) -> np.ndarray:
         tensor[1, 2] = tensor[2, 1] = iyz
     principal = np.linalg.eigvalsh(tensor)
     if principal[0] <= 0:
-        check.fail(key, f'{_show(value)} is not positive definite (principal moments '
+        check.fail(key, f'{show(value)} is not positive definite (principal moments '
                    f'{", ".join(f"{p:.6g}" for p in principal)})',
                    'a tensor whose principal moments are all > 0')
     largest = principal[2]
     if largest > (principal[0] + principal[1]) * (1 + TRIANGLE_TOLERANCE):
-        check.fail(key, f'{_show(value)} breaks the triangle inequality: principal moment '
+        check.fail(key, f'{show(value)} breaks the triangle inequality: principal moment '
                    f'{largest:.6g} > {principal[0]:.6g} + {principal[1]:.6g}',
                    'each principal moment at most the sum of the other two '
                    '(no real body has such an inertia)')
     if principal[0] < INERTIA_RANGE[0] or largest > INERTIA_RANGE[1]:
-        check.fail(key, f'{_show(value)} has principal moments from {principal[0]:.6g} to '
+        check.fail(key, f'{show(value)} has principal moments from {principal[0]:.6g} to '
                    f'{largest:.6g} kg m^2', f'principal moments from {INERTIA_RANGE[0]:g} '
                    f'to {INERTIA_RANGE[1]:g} kg m^2')
     return tensor
@@ -992,22 +663,22 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
     spec = check.mapping(spec, key, JOINT_KEYS, required=('type', 'parent', 'child', 'anchor'))
     kind = spec['type']
     if not isinstance(kind, str) or kind not in JOINT_TABLE:
-        check.fail(f'{key}.type', f'is {_show(kind)}', _one_of(JOINT_TABLE))
+        check.fail(f'{key}.type', f'is {show(kind)}', _one_of(JOINT_TABLE))
     ends = []
     for end in ('parent', 'child'):
         body = spec[end]
         if not isinstance(body, str) or body not in index:
-            check.fail(f'{key}.{end}', f'{_show(body)} is not a body', _one_of(index))
+            check.fail(f'{key}.{end}', f'{show(body)} is not a body', _one_of(index))
         ends.append(index[body])
     parent, child = ends
     if parent == child:
-        check.fail(f'{key}.child', f'is {_show(spec["child"])}, the same body as the parent',
+        check.fail(f'{key}.child', f'is {show(spec["child"])}, the same body as the parent',
                    'two different bodies')
     if bodies[parent].fixed and bodies[child].fixed:
-        check.fail(f'{key}.child', f'{_show(spec["child"])} and the parent are both fixed',
+        check.fail(f'{key}.child', f'{show(spec["child"])} and the parent are both fixed',
                    'at least one body that can move')
     if not bodies[parent].dynamic and not bodies[child].dynamic:
-        check.fail(f'{key}.child', f'{_show(spec["child"])} and the parent are both fixed '
+        check.fail(f'{key}.child', f'{show(spec["child"])} and the parent are both fixed '
                    'or kinematic', 'at least one body moved by forces')
     anchor = check.vector(spec['anchor'], f'{key}.anchor')
     if kind in AXIS_REQUIRED and 'axis' not in spec:
@@ -1020,7 +691,7 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
         axis2 = check.direction(spec['axis2'], f'{key}.axis2')
         cosine = abs(axis @ axis2) / (np.linalg.norm(axis) * np.linalg.norm(axis2))
         if cosine > PERPENDICULAR_TOLERANCE:
-            check.fail(f'{key}.axis2', f'{_show(spec["axis2"])} is at '
+            check.fail(f'{key}.axis2', f'{show(spec["axis2"])} is at '
                        f'{math.degrees(math.acos(min(cosine, 1.0))):.6g} deg to axis',
                        'a direction perpendicular to axis')
     elif 'axis2' in spec:
@@ -1033,7 +704,7 @@ def _parse_joint(check: _Checker, name, spec, index: dict, bodies) -> Joint:
         compliance = check.vector(spec['compliance'], f'{key}.compliance', length=count,
                                   limit=None)
         if not (compliance > 0.0).all():
-            check.fail(f'{key}.compliance', f'is {_show(spec["compliance"])}',
+            check.fail(f'{key}.compliance', f'is {show(spec["compliance"])}',
                        f'{count} numbers > 0 (m/N per constrained translation, rad/(N m) '
                        'per rotation)')
     return Joint(name=name, kind=kind, parent=parent, child=child, anchor=anchor,
@@ -1045,7 +716,7 @@ def _parse_release_groups(check: _Checker, doc, joints, joints_doc) -> tuple:
     if doc is None:
         return ()
     if not isinstance(doc, dict):
-        check.fail('release_groups', f'is {_show(doc)}', 'a mapping of group names')
+        check.fail('release_groups', f'is {show(doc)}', 'a mapping of group names')
     names = {joint.name: k for k, joint in enumerate(joints)}
     owner, groups = {}, []
     for name, spec in doc.items():
@@ -1057,12 +728,12 @@ def _parse_release_groups(check: _Checker, doc, joints, joints_doc) -> tuple:
         spec = check.mapping(spec, key, GROUP_KEYS, required=('joints',))
         members = spec['joints']
         if not isinstance(members, list) or not members:
-            check.fail(f'{key}.joints', f'is {_show(members)}', 'a non-empty list of joints')
+            check.fail(f'{key}.joints', f'is {show(members)}', 'a non-empty list of joints')
         indices = []
         for i, joint in enumerate(members):
             where = f'{key}.joints[{i}]'
             if not isinstance(joint, str) or joint not in names:
-                check.fail(where, f'{_show(joint)} is not a joint', _one_of(names))
+                check.fail(where, f'{show(joint)} is not a joint', _one_of(names))
             if joint in owner:
                 check.fail(where, f'{joint!r} is already in group {owner[joint]!r}',
                            'a joint in one group at most')
@@ -1097,7 +768,7 @@ def _parse_time_or_release(check: _Checker, value, key: str, releases):
     value = check.mapping(value, key, TIED_KEYS, required=('release',))
     name = value['release']
     if not isinstance(name, str) or name not in releases:
-        check.fail(f'{key}.release', f'{_show(name)} is not a joint or a release group',
+        check.fail(f'{key}.release', f'{show(name)} is not a joint or a release group',
                    _one_of(releases) if releases else 'a joint or a release group (there '
                    'are none)')
     return check.number(value.get('delay', 0.0), f'{key}.delay', minimum=0.0), name
@@ -1128,7 +799,7 @@ def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str, *,
     if doc is None:
         return ()
     if not isinstance(doc, list):
-        check.fail('wrenches', f'is {_show(doc)}', 'a list of wrench mappings')
+        check.fail('wrenches', f'is {show(doc)}', 'a list of wrench mappings')
     wrenches = [_parse_wrench(check, k, spec, index, bodies, frame_id, releases)
                 for k, spec in enumerate(doc)]
     seen = {}
@@ -1143,7 +814,7 @@ def _parse_wrenches(check: _Checker, doc, index: dict, bodies, frame_id: str, *,
 
 def _body_of(check: _Checker, value, key: str, index: dict) -> int:
     if not isinstance(value, str) or value not in index:   # a list is no name (nor hashable)
-        check.fail(key, f'{_show(value)} is not a body', 'one of ' + ', '.join(index))
+        check.fail(key, f'{show(value)} is not a body', 'one of ' + ', '.join(index))
     return index[value]
 
 
@@ -1153,9 +824,9 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
     spec = check.mapping(spec, key, WRENCH_KEYS, required=('body',))
     body = _body_of(check, spec['body'], f'{key}.body', index)
     if bodies[body].fixed:
-        check.fail(f'{key}.body', f'{_show(spec["body"])} is fixed', 'a body that can move')
+        check.fail(f'{key}.body', f'{show(spec["body"])} is fixed', 'a body that can move')
     if not bodies[body].dynamic:
-        check.fail(f'{key}.body', f'{_show(spec["body"])} is kinematic',
+        check.fail(f'{key}.body', f'{show(spec["body"])} is kinematic',
                    'a body moved by forces')
     name = check.name(spec.get('name', f'wrench{k}'), f'{key}.name')
     if name == 'wrench':
@@ -1163,14 +834,14 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
                    'another name')
     frame = spec.get('frame', bodies[body].name)
     if not isinstance(frame, str):   # a list or a mapping is no name (nor hashable)
-        check.fail(f'{key}.frame', f'is {_show(frame)}, not a name',
+        check.fail(f'{key}.frame', f'is {show(frame)}, not a name',
                    f'{frame_id} or one of ' + ', '.join(index))
     if frame == frame_id:
         frame_index = -1
     elif frame in index:
         frame_index = index[frame]
     else:
-        check.fail(f'{key}.frame', f'{_show(frame)} is neither the world frame nor a body',
+        check.fail(f'{key}.frame', f'{show(frame)} is neither the world frame nor a body',
                    f'{frame_id} or one of ' + ', '.join(index))
     point = cgoffset.from_cg(bodies[body], check.vector(spec.get('point', [0, 0, 0]),
                                                         f'{key}.point'))
@@ -1204,7 +875,7 @@ def _parse_wrench(check: _Checker, k: int, spec, index: dict, bodies, frame_id: 
     if spec.get('reacts_on') is not None:
         reacts_on = _body_of(check, spec['reacts_on'], f'{key}.reacts_on', index)
         if reacts_on == body:
-            check.fail(f'{key}.reacts_on', f'is {_show(spec["reacts_on"])}, the loaded body',
+            check.fail(f'{key}.reacts_on', f'is {show(spec["reacts_on"])}, the loaded body',
                        'another body (a load on itself cancels)')
     return Wrench(name=name, body=body, point=point, force=force, moment=moment,
                   frame=frame_index, start=start, end=end, stroke=stroke, reacts_on=reacts_on,
@@ -1217,11 +888,11 @@ def _parse_force_table(check: _Checker, doc, key: str, moment: np.ndarray):
     doc = check.mapping(doc, key, TABLE_KEYS, required=TABLE_KEYS)
     against = doc['against']
     if against not in ('time', 'stroke'):
-        check.fail(f'{key}.against', f'is {_show(against)}',
+        check.fail(f'{key}.against', f'is {show(against)}',
                    'time (s from start) or stroke (m)')
     rows = doc['table']
     if not isinstance(rows, list) or len(rows) < 2:
-        check.fail(f'{key}.table', f'is {_show(rows)}',
+        check.fail(f'{key}.table', f'is {show(rows)}',
                    'a list of at least 2 rows [x, fx, fy, fz]')
     table = np.zeros((len(rows), 7))
     for i, row in enumerate(rows):
@@ -1243,19 +914,19 @@ def _parse_contacts(check: _Checker, doc, index: dict, bodies) -> tuple:
     if doc is None:
         return ()
     if not isinstance(doc, list):
-        check.fail('contacts', f'is {_show(doc)}', 'a list of {bodies: [a, b]} entries')
+        check.fail('contacts', f'is {show(doc)}', 'a list of {bodies: [a, b]} entries')
     out, seen = [], set()
     for k, spec in enumerate(doc):
         key = f'contacts[{k}]'
         spec = check.mapping(spec, key, CONTACT_KEYS, required=('bodies',))
         pair = spec['bodies']
         if not isinstance(pair, list) or len(pair) != 2:
-            check.fail(f'{key}.bodies', f'is {_show(pair)}', 'two body names [a, b]')
+            check.fail(f'{key}.bodies', f'is {show(pair)}', 'two body names [a, b]')
         a, b = (_body_of(check, name, f'{key}.bodies[{i}]', index) for i, name in enumerate(pair))
         if a == b:
-            check.fail(f'{key}.bodies', f'names {_show(pair[0])} twice', 'two different bodies')
+            check.fail(f'{key}.bodies', f'names {show(pair[0])} twice', 'two different bodies')
         if frozenset((a, b)) in seen:
-            check.fail(f'{key}.bodies', f'repeats the pair {_show(pair)}', 'each pair once')
+            check.fail(f'{key}.bodies', f'repeats the pair {show(pair)}', 'each pair once')
         seen.add(frozenset((a, b)))
         if bodies[a].fixed and bodies[b].fixed:
             check.fail(f'{key}.bodies', 'are both fixed, so they never move',
@@ -1270,12 +941,12 @@ def _parse_contacts(check: _Checker, doc, index: dict, bodies) -> tuple:
                 if piece.kind == 'mesh' and not piece.hull:
                     where = '.shape' + (f'.parts[{k}]' if shape.kind == 'compound' else '')
                     check.fail(_key('bodies', name) + where + '.mesh',
-                               f'is {_show(piece.mesh)}, not a local file, so it has no hull '
+                               f'is {show(piece.mesh)}, not a local file, so it has no hull '
                                'to watch', 'a local STL or OBJ file (its convex hull is the '
                                'collision shape)')
         stop = spec.get('on_contact', 'stop')
         if stop not in ('stop', 'continue'):
-            check.fail(f'{key}.on_contact', f'is {_show(stop)}', 'stop or continue')
+            check.fail(f'{key}.on_contact', f'is {show(stop)}', 'stop or continue')
         out.append(Contact(bodies=(a, b), stop=stop == 'stop'))
     return tuple(out)
 
@@ -1295,7 +966,7 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
     not raise. A ``ScenarioError`` here may not be the first one the whole
     parse would name: parse the whole document for the message.
     """
-    check = _Checker(_clip(source, 400))
+    check = _Checker(clip(source, 400))
     top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
     new_bodies = list(model.bodies)
     for name in bodies:

@@ -17,7 +17,7 @@ import json
 import math
 import os
 
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.fit.solve import Fit, FitResult
 import yaml
 
@@ -108,7 +108,7 @@ def write_outputs(fit: Fit, result: FitResult, outdir: str, inputs=(),
 
 def _record(scenario: str, document: dict, output: str, inputs, interpolate_odometry: bool):
     """Run the fitted scenario for its duration and record it, as ``cfem-sim run`` does."""
-    from cfem_ros.core.engine import Simulator
+    from cfem_ros.core.engine.simulator import Simulator
     from cfem_ros.recording import offline
     from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
     model = parse_scenario(document, source=scenario)

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import logging
 import threading
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
-from cfem_ros.core.session import Session
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.run.session import Session
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.fit.measured import relative_poses
 from cfem_ros.study.fit.spec import FitError, FitSpec
 from cfem_ros.study.metrics import Collector

@@ -251,5 +251,5 @@ def _rms(values) -> float:
 
 
 def _dt(spec: FitSpec) -> float:
-    from cfem_ros.core.scenario import parse_scenario
+    from cfem_ros.core.scenario.parse import parse_scenario
     return parse_scenario(spec.document_with(spec.x0), source=spec.scenario).dt

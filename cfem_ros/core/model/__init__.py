@@ -1,0 +1,9 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The model a scenario describes: bodies, joints, releases, loads and shapes, as plain data.
+
+Modules: ``model`` (``Model``, ``Body``, ``Joint``, ``Release`` and the
+joint table) and ``shapes`` (what a body looks like, for markers and contacts).
+Nothing here runs anything: the engine reads these.
+"""
