@@ -95,7 +95,7 @@ def _joint_block(run, name: str, stamps: np.ndarray) -> np.ndarray:
 def _scenario_model(run):
     """Return the recording's scenario parsed (None if its file is gone or invalid)."""
     from cfem_ros.core.errors import CfemError
-    from cfem_ros.core.scenario import load_scenario
+    from cfem_ros.core.scenario.parse import load_scenario
     path = run.metadata.get('scenario')
     if not path or not os.path.isfile(path):
         return None
@@ -112,7 +112,7 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
     From the recorded pose and twist (the air of the scenario: wind,
     altitude, ISA), through the compiled core's ``aero_wrench`` (``core.kernel``).
     """
-    from cfem_ros.core import aeropack, kernel
+    from cfem_ros.core.engine import aeropack, kernel
     out = {}
     for aero in model.aero:
         name = model.bodies[aero.body].name

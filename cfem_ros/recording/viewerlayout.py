@@ -135,7 +135,7 @@ def layout(model, namespace: str = '/cfem') -> dict:
 def main(argv=None) -> int:
     """Write a scenario's layout as JSON (``-o FILE``, else to standard output)."""
     from cfem_ros.core.errors import CfemError
-    from cfem_ros.core.scenario import load_scenario
+    from cfem_ros.core.scenario.parse import load_scenario
     parser = argparse.ArgumentParser(
         prog='python3 -m cfem_ros.recording.viewerlayout',
         description="Write a Foxglove/Lichtblick layout that shows a scenario's separation.")

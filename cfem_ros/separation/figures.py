@@ -96,8 +96,8 @@ def trajectory_sheet(run, reference: str):
 
 def _shapes(run) -> dict:
     """Return each body's convex parts (body axes) from the recording's scenario."""
-    from cfem_ros.core.scenario import load_scenario
-    from cfem_ros.core.shapes import default_shape
+    from cfem_ros.core.model.shapes import default_shape
+    from cfem_ros.core.scenario.parse import load_scenario
     path = run.metadata.get('scenario')
     if not path or not os.path.isfile(path):
         return {}
