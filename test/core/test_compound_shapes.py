@@ -11,11 +11,12 @@ a brute-force bisection of coal's distance along the exact motion says.
 import copy
 import math
 
-from cfem_ros.core import contacts, rotations
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import contacts
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
-from cfem_ros.core.shapes import Shape
+from cfem_ros.core.model.shapes import Shape
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording import visuals
 import numpy as np
 import pytest

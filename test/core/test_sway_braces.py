@@ -15,9 +15,9 @@ import copy
 import math
 
 from cfem_ros import cli
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 

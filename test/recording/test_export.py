@@ -199,7 +199,7 @@ def test_plot_relative_to_draws_the_sheet_and_snapshots_of_a_store_on_a_pylon(
 
 
 def test_outlines_of_a_turned_box_a_cylinder_and_a_compound_shape_are_exact():
-    from cfem_ros.core.shapes import Shape
+    from cfem_ros.core.model.shapes import Shape
     from cfem_ros.separation import outlines
     box = Shape('box', (2.0, 0.4, 0.5), offset=(0.1, 0.0, -0.2))
     pitch = Rotation.from_euler('y', 30, degrees=True)

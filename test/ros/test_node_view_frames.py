@@ -11,8 +11,8 @@ of a banked, turning carrier is checked against the recorder's numbers.
 
 import types
 
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording import viewframes, visuals
 from cfem_ros.ros import node as cfem_node
 import numpy as np

@@ -122,7 +122,7 @@ def _parse_brace(check, k: int, spec, index: dict, bodies) -> SwayBrace:
 
 def _check_near_shape(check, key: str, point: np.ndarray, body):
     """Refuse a brace point farther than ``NEAR_SHAPE`` from the body's shape (inside or out)."""
-    from cfem_ros.core import shapes
+    from cfem_ros.core.model import shapes
 
     shape = body.shape
     if shape is None:
@@ -150,7 +150,8 @@ def surface_distance(pieces, point: np.ndarray) -> float:
     Outside all of them: the least distance (the compiled distance to a point);
     inside: the depth below the surface of the piece it is deepest in.
     """
-    from cfem_ros.core import contacts, shapes
+    from cfem_ros.core.engine import contacts
+    from cfem_ros.core.model import shapes
 
     dot = contacts.pack_shape(shapes.Shape('sphere', (1e-300,), offset=tuple(point)))
     identity, origin = np.array([[0.0, 0.0, 0.0, 1.0]]), np.zeros((1, 3))
@@ -191,7 +192,7 @@ def _edges(size) -> str:
 
 def pack(rows: np.ndarray, first: int, braces):
     """Write the braces' rows from row ``first`` on (their pads placed by ``anchor``)."""
-    from cfem_ros.core.kernel import LOADS
+    from cfem_ros.core.engine.kernel import LOADS
 
     for k, brace in enumerate(braces):
         r = rows[first + k]
@@ -212,7 +213,7 @@ def anchor(rows: np.ndarray, first: int, braces, y: np.ndarray, n: int):
     carrier's axes.
     """
     from cfem_ros.core import rotations
-    from cfem_ros.core.kernel import LOADS
+    from cfem_ros.core.engine.kernel import LOADS
 
     pos = y[:3 * n].reshape(n, 3)
     quat = y[6 * n:10 * n].reshape(n, 4)

@@ -38,8 +38,7 @@ branch there.
 
 from __future__ import annotations
 
-from cfem_ros.core import braces
-from cfem_ros.core.engine import aeropack, contacts, kernel
+from cfem_ros.core.engine import aeropack, braces, contacts, kernel
 from cfem_ros.core.engine.kernel import LOADS
 import numpy as np
 

@@ -23,7 +23,7 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core import braces
+from cfem_ros.core.engine import braces
 from cfem_ros.core.engine import kernel, sampling  # noqa: F401 - sampling kept for users
 from cfem_ros.core.engine.aero import AeroWatch
 from cfem_ros.core.engine.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
@@ -34,7 +34,7 @@ from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOL
                                               NOT_FINITE)
 from cfem_ros.core.engine.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
 from cfem_ros.core.engine.sampling import (  # noqa: F401 - kept for users
-    NumericalFailure, SampleGrid)
+                                           NumericalFailure, SampleGrid)
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.topology import JointTables, Topology
 from cfem_ros.core.model.model import Model

@@ -18,7 +18,8 @@ import os
 import re
 from typing import Any, Optional
 
-from cfem_ros.core import braces, rotations
+from cfem_ros.core import rotations
+from cfem_ros.core.engine import braces
 from cfem_ros.core.engine.atmosphere import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.messages import clip, show
