@@ -10,8 +10,8 @@ table), ``topology`` (the rows of the active joints and their solve plan),
 ``dynamics`` (the equations of motion), ``releases`` and ``groups`` (release
 triggers, groups and events), ``loads``, ``ties``, ``strokes``, ``aeropack``
 and ``contacts`` (applied loads, ejectors, aero tables and shapes packed for
-the kernel), ``braces`` (sway braces), ``aero`` and ``atmosphere`` (the air each body sees, the events
-of leaving a table, the ISA as the kernel computes it), ``motion`` and
-``carrier`` (kinematic bodies), ``sampling`` (what a sample shows) and
-``roots`` (Brent's method).
+the kernel), ``braces`` (sway braces), ``aero`` and ``atmosphere`` (the air
+each body sees, the events of leaving a table, the ISA as the kernel computes
+it), ``motion`` and ``carrier`` (kinematic bodies), ``sampling`` (what a
+sample shows) and ``roots`` (Brent's method).
 """
