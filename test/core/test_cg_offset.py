@@ -3,7 +3,7 @@
 """``cg_offset`` (SPEC section 10): the CG moves, what is given from it stays on the geometry."""
 
 from cfem_ros import Simulator
-from cfem_ros.core.scenario import parse_scenario
+from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation

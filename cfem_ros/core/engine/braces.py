@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cfem_ros.core import cgoffset
+from cfem_ros.core.scenario import cgoffset
 import numpy as np
 
 #: The scenario keys of a brace.
