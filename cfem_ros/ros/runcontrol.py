@@ -24,8 +24,8 @@ import json
 import time
 
 from cfem_ros.core import rotations
-from cfem_ros.core.bodies import state_views
-from cfem_ros.core.engine import Simulator
+from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.engine.simulator import Simulator
 import numpy as np
 from std_msgs.msg import String
 

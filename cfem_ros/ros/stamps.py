@@ -25,7 +25,7 @@ import math
 from typing import Callable, Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.inputs import Input, stamp_problem
+from cfem_ros.core.run.inputs import Input, stamp_problem
 import numpy as np
 
 #: What a position may differ from the velocities' account of it by, beyond what the

@@ -16,7 +16,7 @@ import subprocess
 import sys
 import types
 
-from cfem_ros.core.inputs import odometry_input, wrench_input
+from cfem_ros.core.run.inputs import odometry_input, wrench_input
 from cfem_ros.ros.stamps import divergence_advice, InputTiming, next_ns, OdometryCheck
 import numpy as np
 import pytest

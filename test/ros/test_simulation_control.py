@@ -15,9 +15,9 @@ import pathlib
 import signal
 
 from action_msgs.msg import GoalStatus
-from cfem_ros.core.engine import Simulator
-from cfem_ros.core.scenario import load_scenario
-from cfem_ros.core.session import Session
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.run.session import Session
+from cfem_ros.core.scenario.parse import load_scenario
 import numpy as np
 import pytest
 import rclpy
