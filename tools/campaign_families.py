@@ -1,9 +1,10 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The reliability campaign's families of issue 41: contacts at step boundaries, study sizes,
-damaged study folders, tables of every column type, studies on a full disk, the node's
-clock and stamps.
+The reliability campaign's families of issue 41.
+
+Contacts at step boundaries, study sizes, damaged study folders, tables of every column
+type, studies on a full disk, the node's clock and stamps.
 
 Each family takes the campaign's ``call`` (a cfem-sim command in this process, judged
 by the campaign's rules), ``defect`` (a broken rule of its own) and a random generator.
@@ -281,7 +282,7 @@ def _limited(limit):
 
 
 def study_disks(folder, call, defect, rng, count):
-    """A recorded sweep and a report under a file size limit; the sweep resumed with room."""
+    """Run a recorded sweep and a report under a file size limit; resume the sweep with room."""
     sweep = _small_sweep(folder, 'disk.yaml', 4, criteria=False)
     family = 'studies on a full disk'
     for k in range(count):
