@@ -162,7 +162,8 @@ def test_progress_cuts_the_kernel_calls_not_the_steps(tmp_path):
 def test_a_release_at_a_sample_time_acts_after_that_sample_whatever_its_cause(
         tmp_path, batched):
     # the same release of the elbow at t = 0.1 s (sample 3 at 30 Hz), timed or commanded:
-    # both recordings hold the elbow's load at 0.1 s, and then none
+    # both recordings hold the elbow's load at 0.1 s, then its zero at the release (SPEC 4:
+    # a released joint's wrench goes to zero once, so plots end at zero), and then none
     doc = yaml.safe_load((CONFIG / 'double_pendulum.yaml').read_text())
     timed = yaml.safe_load(yaml.safe_dump(doc))
     timed['joints']['elbow']['release'] = {'time': 0.1}
@@ -175,7 +176,9 @@ def test_a_release_at_a_sample_time_acts_after_that_sample_whatever_its_cause(
         runs[name] = by_topic(read_checked(tmp_path / f'{name}.mcap')[2])
     for run in runs.values():
         loads = run['/cfem/joints/elbow/wrench']
-        assert [t for t, _, _ in loads] == [0, 33333333, 66666667, 100000000]
+        assert [t for t, _, _ in loads] == [0, 33333333, 66666667, 100000000, 100000000]
+        assert any(v != 0.0 for v in loads[3][2][3:]), 'the sample before the release'
+        assert all(v == 0.0 for v in loads[4][2][3:]), 'the zero at the release'
         event = json.loads(run['/cfem/events'][0][2][0])
         assert event['cause'] in ('time', 'command') and event['time'] == 0.1
     elbow = '/cfem/joints/elbow/wrench'
