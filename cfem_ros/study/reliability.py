@@ -167,6 +167,11 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
             raise raised[0] from None
         if isinstance(err, SweepError):
             raise
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            if signal.Signals(signum).name in str(err):
+                # OpenTURNS' own handler took the signal (between two calls) and raised it as
+                # an error: give it to the program's handler, which stops the study there
+                signal.raise_signal(signum)
         # OpenTURNS' own failures (a degenerate sample: no spread left to adapt to)
         why = ' '.join(str(err).split())[:200]
         raise MethodFailed(spec.path, f'--method {method}', f'stopped after {evaluate.count} '

@@ -118,7 +118,8 @@ def test_every_shipped_sweep_file_loads():
         spec = load_sweep(os.path.join(folder, name))
         grids = [len(v.params) for v in spec.variables if v.kind == 'grid']
         assert spec.total == spec.runs * math.prod(grids)
-        assert spec.run_document(0)['bodies']['store']['mass'] != 907.1848
+        # each shipped sweep varies its scenario: some of its first runs differ from it
+        assert any(spec.run_document(k) != spec.document for k in range(min(spec.total, 3)))
 
 
 @pytest.mark.parametrize('path, missing, there', [
