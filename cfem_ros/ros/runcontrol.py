@@ -89,13 +89,14 @@ class RunControl:
         """
         Advance by steps steps of dt, while paused; return how many dt it advanced.
 
-        The run takes the steps it takes unpaced (so a recording still
-        replays offline to the same numbers): from t0 it stops at the last
-        step ending by t0 + steps dt. Where no release, stroke end or contact
-        cut a step in between, that is t0 + steps dt exactly (sample times
-        and inputs on the grid of dt cut nothing); after such a cut the grid
-        of dt starts from it. The run's end stops it early. ControlError if
-        playing, or not started (following /clock, before the first /clock).
+        The run goes from t0 to t0 + steps dt exactly. Where no release,
+        stroke end or contact cuts a step in between, these are the steps
+        the run takes unpaced (sample times and inputs on the grid of dt cut
+        nothing). After such a cut the grid of dt starts from it, and the
+        last step is cut to end on t0 + steps dt, as a sample time cuts one:
+        from there on the run differs from an unpaced one in its last digits.
+        The run's end stops it early. ControlError if playing, or not
+        started (following /clock, before the first /clock).
         """
         node, sim = self.node, self.node.sim
         if not self.paused:
@@ -109,8 +110,11 @@ class RunControl:
         if not node.session.started:
             node.session.start()
         t0 = sim.t
-        # the last step ends by t0 + steps dt; the one after would end past the limit
-        node.session.advance(t0 + (steps + 0.5) * sim.dt)
+        # the steps it takes unpaced that end by t0 + steps dt (to the rounding of t)
+        end = t0 + steps * sim.dt
+        node.session.advance(end + 1e-6 * sim.dt)
+        if end - sim.t > 1e-6 * sim.dt:   # an event cut the grid: the last step lands on end
+            node.session.advance(end, land=True)
         advanced = int(round((sim.t - t0) / sim.dt))
         if announce:
             self.announce({'event': 'step', 'time': t0, 'steps': advanced, 'to': sim.t})

@@ -97,12 +97,15 @@ def pose_of(state):
     return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
 
 
-def offline(scenario, until):
-    """Return the scenario's simulator stepped unpaced to the last step by until (s)."""
+def offline(scenario, until, land=None):
+    """Return the scenario's simulator stepped unpaced to the last step by until (s), then on to land."""
     sim = Simulator(load_scenario(str(scenario)))
     session = Session(sim, rate_hz=100.0)
     session.start()
     session.advance(until)
+    if land is not None:
+        assert sim.t < land   # the grid was cut: the landing is a step of its own
+        session.advance(land, land=True)
     return sim
 
 
@@ -156,8 +159,17 @@ def test_pause_step_state_reset_play_and_the_action(tmp_path, client):
         states = client.call('get_entities_states', filters=GetEntities.Request().filters)
         assert (pose_of(states.states[1]) == pose_of(state)).all()
 
-        # past the release (t = 0.280158914 s) to t = 0.4 s; the store is free then
-        assert client.call('step_simulation', steps=393).result.result == Result.RESULT_OK
+        # past the release (t = 0.280158914 s), which starts the grid of dt again: still
+        # exactly 278 ms on, the last step cut to land there
+        assert client.call('step_simulation', steps=278).result.result == Result.RESULT_OK
+        state = client.state('store')
+        assert stamp_ns(state.header) - start == 285_000_000
+        end = offline(scenario, 0.007 + 1e-9).t + 278 * 0.001   # t0 + N dt as the node sums it
+        sim = offline(scenario, end + 1e-9, land=end)
+        assert sim.t == end == pytest.approx(0.285, abs=1e-15)
+        assert (pose_of(state) == np.r_[sim.position[1], sim.orientation[1]]).all()
+        # on to t = 0.4 s; the store is free then
+        assert client.call('step_simulation', steps=115).result.result == Result.RESULT_OK
         first = client.state('store')
         assert client.call('reset_simulation').result.result == Result.RESULT_OK
         after = client.state('store')
@@ -166,16 +178,18 @@ def test_pause_step_state_reset_play_and_the_action(tmp_path, client):
         second_start = stamp_ns(after.header)
         assert second_start > start + 400_000_000 - 1
 
-        # the action: 400 steps with feedback; the run is the first one again
+        # the action: 285 steps with feedback (its last share of 5 crosses the release and
+        # lands on 0.285 s), then 115: the run is the first one again
         feedback = []
         goal = client.wait(client.action.send_goal_async(
-            SimulateSteps.Goal(steps=400), feedback_callback=lambda m: feedback.append(
+            SimulateSteps.Goal(steps=285), feedback_callback=lambda m: feedback.append(
                 m.feedback.completed_steps)))
         assert goal.accepted
         result = client.wait(goal.get_result_async())
         assert result.status == GoalStatus.STATUS_SUCCEEDED
         assert result.result.result.result == Result.RESULT_OK
-        assert len(feedback) >= 10 and feedback[-1] == 400 and feedback == sorted(feedback)
+        assert len(feedback) >= 10 and feedback[-1] == 285 and feedback == sorted(feedback)
+        assert client.call('step_simulation', steps=115).result.result == Result.RESULT_OK
         again = client.state('store')
         assert (pose_of(again) == pose_of(first)).all()
         assert stamp_ns(again.header) - second_start == stamp_ns(first.header) - start

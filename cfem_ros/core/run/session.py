@@ -160,12 +160,14 @@ class Session:
             return
         self._apply(item)
 
-    def advance(self, limit: float):
+    def advance(self, limit: float, land: bool = False):
         """
         Run on up to simulated time ``limit`` (never beyond it, nor the duration).
 
         Samples and inputs met on the way are taken and applied; the state
-        is left at the last integration step that ends at or before limit.
+        is left at the last integration step that ends at or before limit,
+        or, with ``land``, at limit itself (the last step cut to end there,
+        as a sample time cuts one).
         """
         if not self.started:
             self.start()
@@ -174,6 +176,8 @@ class Session:
             target = min(self.next_sample_time, self.duration)
             if self.inputs.next_time is not None:
                 target = min(target, self.inputs.next_time)
+            if land:
+                target = min(target, limit)
             ok = sim.advance_to(max(target, sim.t), limit=limit, release_at_end=False)
             if not ok:
                 self._emit_events()
