@@ -101,11 +101,11 @@ def circles(graph: dict) -> list:
 
 
 def test_the_layers_are_folders():
-    for layer in ('core', 'recording', 'study', 'ros'):
+    for layer in ('core', 'recording', 'study', 'ros', 'cli'):
         assert (PACKAGE / layer / '__init__.py').is_file()
     flat = sorted(p.name for p in PACKAGE.glob('*.py'))
-    assert flat == ['__init__.py', 'analysis.py', 'batch.py', 'cli.py', 'console.py',
-                    'interrupts.py', 'plots.py', 'study_plots.py'], flat
+    assert flat == ['__init__.py', 'analysis.py', 'batch.py', 'console.py', 'interrupts.py',
+                    'plots.py', 'study_plots.py'], flat
 
 
 def test_imports_only_go_down():

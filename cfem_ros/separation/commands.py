@@ -21,7 +21,7 @@ from cfem_ros.recording.errors import RecordingError
 
 
 def add_export_parser(sub):
-    """Add ``cfem-sim export`` to the command line's subparsers."""
+    """Add ``cfem-sim export`` to the command line's subparsers; return its parser."""
     export = sub.add_parser('export', help="a run's time histories as a CSV or Parquet table",
                             description='Write one row per sample of a recording: time, each '
                             "body's position, attitude, velocity and rates, each joint's "
@@ -37,6 +37,7 @@ def add_export_parser(sub):
                         help='keep the samples at multiples of 1/HZ s (HZ divides the '
                         "recording's rate)")
     export.add_argument('--overwrite', action='store_true', help='replace an existing table')
+    return export
 
 
 def add_plot_options(plot):

@@ -16,6 +16,7 @@ import types
 import warnings
 
 from cfem_ros import cli
+from cfem_ros.cli.run import print_state
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import load_scenario
 import numpy as np
@@ -151,7 +152,7 @@ def test_the_final_state_of_a_failed_run_prints_without_angles_where_none_exist(
         position=np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]]),
         orientation=np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]),
         velocity=np.zeros((2, 3)), rates=np.array([[np.inf, 0, 0], [0, 0, 0]]))
-    cli._print_state(sim)
+    print_state(sim)
     lines = capsys.readouterr().out.splitlines()
     assert 'roll/pitch/yaw undefined (no finite attitude)' in lines[1]
     assert 'roll/pitch/yaw [+0, +0, +0] deg' in lines[2]

@@ -7,6 +7,7 @@ import pathlib
 import struct
 
 from cfem_ros import cli
+from cfem_ros.cli.common import EXIT_CONTACT
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario.parse import load_scenario, parse_scenario
@@ -33,7 +34,7 @@ def contact_time(tmp_path, force_n: float) -> float:
     scenario = tmp_path / f'touch_{force_n:g}.yaml'
     scenario.write_text(yaml.safe_dump(pylon_and_store(force_n)))
     out = tmp_path / f'touch_{force_n:g}.mcap'
-    assert cli.main(['run', str(scenario), '-o', str(out)]) == cli.EXIT_CONTACT
+    assert cli.main(['run', str(scenario), '-o', str(out)]) == EXIT_CONTACT
     with open(out, 'rb') as stream:
         events = [json.loads(m.data[8:].decode().rstrip('\0')) for _, _, m in
                   make_reader(stream).iter_messages(topics=['/cfem/events'])]

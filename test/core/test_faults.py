@@ -13,6 +13,7 @@ import json
 import math
 
 from cfem_ros import cli, parse_scenario, Simulator
+from cfem_ros.cli.common import EXIT_BAD_INPUT, EXIT_FAILED
 from cfem_ros.core.engine import kernel, simulator as engine
 from cfem_ros.core.errors import InputError, ScenarioError
 from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
@@ -106,14 +107,14 @@ def test_a_fault_at_the_first_sample_fails_cleanly(case, tmp_path, capsys):
     except ScenarioError:
         # a loader that refuses the scenario is as clean: one line, exit 2, nothing run
         status, err, out = cli_run(tmp_path, capsys, doc)
-        assert status == cli.EXIT_BAD_INPUT and err.count('\n') == 1 and not out.exists()
+        assert status == EXIT_BAD_INPUT and err.count('\n') == 1 and not out.exists()
         return
     assert sim.status == 'failed'
     assert sim.message.startswith('at t = 0 s: ') and reason in sim.message
     with pytest.raises(engine.NumericalFailure):
         sim.outputs()
     status, err, out = cli_run(tmp_path, capsys, doc)
-    assert status == cli.EXIT_FAILED
+    assert status == EXIT_FAILED
     assert 'Traceback' not in err and 'the run failed at t = 0 s' in err
     assert_finite_recording(out)
 
@@ -172,7 +173,7 @@ def test_a_step_too_large_for_the_chain_fails_with_the_violation(tmp_path, capsy
     assert sim.t > 0 and sim.max_violation <= engine.DIVERGENCE_VIOLATION
     status, err, out = cli_run(tmp_path, capsys, chain(1.0, 1.0), '--dt', '0.2',
                                '--duration', '3', '--rate', '5')
-    assert status == cli.EXIT_FAILED and 'constraint violation' in err
+    assert status == EXIT_FAILED and 'constraint violation' in err
     messages = assert_finite_recording(out)
     stamps = [log_time for topic, log_time, _, _ in messages if topic.endswith('a/pose')]
     assert len(stamps) > 1 and max(stamps) - min(stamps) <= sim.t * 1e9 + 1
@@ -320,7 +321,7 @@ def test_a_truncated_payload_in_an_input_log_is_an_input_error(tmp_path, capsys)
     with pytest.raises(InputError, match='a message cannot be decoded'):
         read_inputs(str(log))
     status, err, out = cli_run(tmp_path, capsys, free_body(), '--inputs', str(log))
-    assert status == cli.EXIT_BAD_INPUT
+    assert status == EXIT_BAD_INPUT
     assert err.startswith(f'ERROR: {log}: a message cannot be decoded') and err.count('\n') == 1
     assert not out.exists()
 

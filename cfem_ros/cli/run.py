@@ -1,0 +1,308 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""``cfem-sim run`` (a scenario, recorded) and ``cfem-sim play`` (a recording, over ROS 2)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import signal
+import sys
+import time
+from typing import Optional
+
+from cfem_ros.cli.common import (cannot_start, contact_parts, error, EXIT_CONTACT, EXIT_FAILED,
+                                 EXIT_OK, output_refused, same_file, signals_to, vec, warn)
+from cfem_ros.core import rotations
+from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.strokes import describe_event
+from cfem_ros.core.errors import CfemError, InputError
+from cfem_ros.core.scenario.parse import load_scenario
+from cfem_ros.interrupts import Interrupted
+from cfem_ros.recording import offline
+from cfem_ros.recording.errors import OutputError
+from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+import numpy as np
+
+
+def add_run_parser(sub):
+    """Add ``cfem-sim run`` to the command line's subparsers."""
+    run = sub.add_parser('run', help='run a scenario as fast as possible and record it',
+                         description='Run a scenario and record it to MCAP (SPEC section 4).')
+    run.add_argument('scenario', metavar='SCENARIO', help='scenario file (YAML)')
+    run.add_argument('-o', '--output', required=True, metavar='OUT.mcap',
+                     help='recording to write')
+    run.add_argument('--rate', type=float, default=100.0, metavar='HZ',
+                     help='sample rate of the recording (default 100 Hz)')
+    run.add_argument('--duration', type=float, metavar='S',
+                     help="run length, overriding the scenario's")
+    run.add_argument('--dt', type=float, metavar='S', help="RK4 step, overriding the scenario's")
+    run.add_argument('--inputs', metavar='LOG.mcap',
+                     help='replay the wrenches and release commands of a recording')
+    run.add_argument('--odometry', choices=('interpolate', 'extrapolate'),
+                     help='how replayed odometry drives a kinematic body: on the cubic between '
+                     'messages, or extrapolated from the latest (default: as the node that '
+                     'recorded the log did, else interpolate)')
+    run.add_argument('--overwrite', action='store_true',
+                     help='replace OUT if it exists (once the new recording is complete)')
+    run.add_argument('--max-samples', type=float, default=offline.MAX_SAMPLES, metavar='N',
+                     help='refuse a run of more samples (default %(default).0f)')
+    run.add_argument('--max-gb', type=float, default=offline.MAX_GB, metavar='GB',
+                     help='refuse a run whose recording would exceed this size '
+                     '(default %(default)g GB)')
+    run.set_defaults(func=run_command)
+
+
+def add_play_parser(sub):
+    """Add ``cfem-sim play`` to the command line's subparsers."""
+    play = sub.add_parser('play', help='publish a recording over ROS 2',
+                          description='Publish the messages of a recording over ROS 2 at '
+                          'their log times, with their recorded types and QoS, like ros2 '
+                          'bag play.')
+    play.add_argument('recording', metavar='LOG.mcap', help='recording to play')
+    play.add_argument('--clock', action='store_true',
+                      help='publish /clock with the log time (for use_sim_time nodes)')
+    play.add_argument('--rate', type=float, default=1.0, metavar='R',
+                      help='playback speed (default 1: real time)')
+    play.add_argument('--topics', nargs='+', metavar='TOPIC', help='play only these topics')
+    play.add_argument('--remap', action='append', default=[], metavar='FROM:=TO',
+                      help='publish topic FROM on TO (repeatable)')
+    play.add_argument('--wait', type=float, default=5.0, metavar='S',
+                      help='wait up to S s for every topic to have a subscriber (default 5)')
+    play.add_argument('--delay', type=float, default=2.0, metavar='S',
+                      help='then wait S s more before the first message (default 2)')
+    play.set_defaults(func=play_command)
+
+
+@dataclasses.dataclass
+class _Run:
+    """A run about to be recorded, and what its recording left."""
+
+    model: object
+    sim: Simulator
+    replay: list
+    interpolate: bool
+    recorder: Optional[Recorder] = None
+    state: Optional[StateRecorder] = None
+    ok: bool = True
+    #: The signal that stopped the run, if one did.
+    stop: Optional[int] = None
+
+    @property
+    def samples(self) -> int:
+        """Return the samples recorded so far."""
+        return self.state.samples if self.state is not None else 0
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """
+    Run a scenario offline and record it; exit status 0, 1, 2, 3 (contact), 130 or 143.
+
+    ``args.odometry`` ('interpolate' or 'extrapolate') says how replayed
+    odometry drives a kinematic body; None: as the node that recorded the
+    inputs did (its ``interpolate_odometry``), else interpolate.
+
+    The recording is written to a partial file next to the output and moved
+    onto it when finished, also after SIGINT (130) or SIGTERM (143), which
+    stop the run between two chunks.
+    """
+    low, high = offline.RATE_RANGE
+    if not (math.isfinite(args.rate) and low <= args.rate <= high):
+        return error(f'--rate: is {args.rate:g}; expected a sample rate from {low:g} to '
+                     f'{high:g} Hz')
+    refused = _output_refused(args)
+    if refused:
+        return error(refused)
+    try:
+        run = _prepare(args)
+    except CfemError as err:
+        return error(str(err))
+    started = time.monotonic()
+    failure = _record(args, run)
+    if failure is not None:
+        return failure
+    if run.stop is not None:
+        print(f'{signal.Signals(run.stop).name}: stopped at t = {run.sim.t:.9g} s; '
+              f'{run.samples} samples ({run.recorder.message_count} messages) in '
+              f'{args.output}, complete', file=sys.stderr)
+        return 128 + run.stop
+    _print_run(run, time.monotonic() - started)
+    print(f'recording: {args.output} ({run.recorder.message_count} messages)')
+    sim = run.sim
+    if sim.status == 'contact':
+        print(f'stopped: {sim.message}; the recording holds everything up to then',
+              file=sys.stderr)
+        return EXIT_CONTACT
+    if not run.ok:
+        print(f'ERROR: the run failed {sim.message}; the recording holds everything '
+              f'up to t = {sim.t:.9g} s', file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _output_refused(args) -> Optional[str]:
+    """Return why -o cannot receive the run's recording (None if it can)."""
+    refused = output_refused(args.output, overwrite=True)
+    if refused:
+        return refused
+    if same_file(args.output, args.scenario):
+        return f'-o {args.output}: is the scenario file itself; choose another output'
+    if args.inputs and same_file(args.output, args.inputs):
+        return f'-o {args.output}: is the --inputs log itself; choose another output'
+    return None
+
+
+def _prepare(args) -> _Run:
+    """Load the scenario and the inputs to replay, and check the run; CfemError if refused."""
+    model = load_scenario(args.scenario, duration=args.duration, dt=args.dt)
+    too_large = _check_run_size(model, args.rate, args.max_samples, args.max_gb)
+    if too_large:
+        raise InputError(too_large)
+    replay = []
+    interpolate = args.odometry != 'extrapolate'
+    if args.inputs:
+        # mcap's reader only to replay
+        from cfem_ros.recording.replay import read_inputs, recorded_interpolation
+        replay = read_inputs(args.inputs)
+        if args.odometry is None:
+            interpolate = recorded_interpolation(args.inputs) is not False
+        late = [item for item in replay if item.time > model.duration]
+        if late:
+            print(f'warning: {len(late)} input(s) of {args.inputs} come after the run ends at '
+                  f't = {model.duration:g} s (the first at t = {late[0].time:.6g} s) and '
+                  'are not replayed; give a longer --duration to replay them',
+                  file=sys.stderr)
+    if os.path.lexists(args.output) and not args.overwrite:
+        raise InputError(f'{args.output}: already exists; pass --overwrite to replace it')
+    sim = Simulator(model)
+    from cfem_ros.core.run.startcheck import start_problems
+    errors, _ = start_problems(sim)   # what check refuses, run refuses (exit 2)
+    if errors:
+        raise InputError(cannot_start(args.scenario, errors))
+    return _Run(model, sim, replay, interpolate)
+
+
+def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
+    """Return why a run is too large to record (None if it is not)."""
+    samples = offline.expected_samples(rate, model.duration)
+    size = offline.estimate_bytes(model, samples)
+    if samples > max_samples:
+        return (f'--rate {rate:g} Hz over {model.duration:g} s: {samples:.4g} samples, more '
+                f'than --max-samples {max_samples:.4g}; lower --rate or --duration, or raise '
+                '--max-samples')
+    if size > max_gb * 1e9:
+        return (f'--rate {rate:g} Hz over {model.duration:g} s: about {size / 1e9:.3g} GB '
+                f'of recording, more than --max-gb {max_gb:g}; lower --rate or --duration, '
+                'or raise --max-gb')
+    return None
+
+
+def _record(args, run: _Run) -> Optional[int]:
+    """
+    Record the run into args.output; return an exit status if it could not be.
+
+    SIGINT and SIGTERM stop the run at the next chunk (``run.stop``); the
+    recording is finished, and moved onto the output, on the way out.
+    """
+    interactive = sys.stderr.isatty()
+    stop = []
+
+    def hold(signum, frame):   # while recording: stop at the next safe point
+        stop.append(signum)
+
+    def progress(t):
+        if stop:
+            raise Interrupted(stop[0])
+        if interactive:
+            print(f'\r  t = {t:.3f} / {run.model.duration:g} s', end='', file=sys.stderr)
+
+    with signals_to(hold):
+        try:
+            with Recorder(args.output, overwrite=args.overwrite, atomic=True,
+                          metadata=run_metadata(run.model, args.scenario, args.rate,
+                                                0)) as run.recorder:
+                try:
+                    if stop:
+                        raise Interrupted(stop[0])
+                    run.state = StateRecorder(run.recorder, run.sim)
+                    run.ok = offline.run(run.sim, run.state, rate_hz=args.rate,
+                                         duration=run.model.duration, inputs=run.replay,
+                                         progress=progress, progress_every=0.2,
+                                         interpolate_odometry=run.interpolate)
+                except Interrupted:
+                    pass   # the recording is finished (and moved onto output) on the way out
+        except OutputError as err:   # a full disk: the run stopped there, nothing half-written
+            print(f'ERROR: the recording failed at t = {run.sim.t:.9g} s ({run.samples} '
+                  f'samples taken): {err}', file=sys.stderr)
+            return EXIT_FAILED
+        except CfemError as err:
+            return error(str(err))
+    if interactive:
+        print('\r' + ' ' * 40 + '\r', end='', file=sys.stderr)
+    run.stop = stop[0] if stop else None
+    return None
+
+
+def _print_run(run: _Run, wall: float):
+    """Print how long the run took, its events and its final state."""
+    sim = run.sim
+    print(f'{run.model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
+          f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
+    for event in sim.events:
+        if event['event'] == 'contact':
+            a, b = event['bodies']
+            x, y, z = event['point']
+            print(f'contact {a} {b} at t = {event["time"]:.9f} s, point '
+                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world){contact_parts(event)}')
+        else:
+            print(describe_event(event))
+    if not any(e['event'] == 'release' for e in sim.events):
+        print('no joint released')
+    print_state(sim)
+
+
+def print_state(sim):
+    """Print each moving body's pose and twist at the simulator's time."""
+    print(f'final state at t = {sim.t:.9g} s:')
+    position, quat = sim.position, sim.orientation
+    velocity, rates = sim.velocity, np.degrees(sim.rates)
+    with np.errstate(all='ignore'):
+        norms = np.linalg.norm(quat, axis=1)
+    # a failed run's state may hold overflowing numbers: such an attitude has no angles
+    rotation = np.isfinite(norms) & (norms > 0.0) & np.isfinite(quat).all(axis=1)
+    rpy = np.full((len(quat), 3), np.nan)
+    if rotation.any():
+        rpy[rotation] = rotations.to_rpy_deg(quat[rotation] / norms[rotation, None])
+    for i, body in enumerate(sim.model.bodies):
+        if body.fixed:
+            continue
+        attitude = f'{vec(rpy[i])} deg' if rotation[i] else 'undefined (no finite attitude)'
+        print(f'  {body.name}: CG {vec(position[i])} m, roll/pitch/yaw {attitude}, '
+              f'velocity {vec(velocity[i])} m/s (world), '
+              f'rates {vec(rates[i])} deg/s (body)')
+
+
+def play_command(args: argparse.Namespace) -> int:
+    """Publish a recording's messages over ROS 2; exit status 0, or 2 for bad input."""
+    if not (math.isfinite(args.rate) and args.rate > 0.0):
+        return error(f'--rate is {args.rate!r}; expected a playback speed > 0 (1: real time)')
+    for name, value in (('--wait', args.wait), ('--delay', args.delay)):
+        if not (math.isfinite(value) and value >= 0.0):
+            return error(f'{name} is {value!r}; expected seconds >= 0')
+    try:
+        from cfem_ros.ros import player
+    except ImportError as err:
+        return error(f'cfem-sim play needs rclpy ({err}); install the ros extra')
+    try:
+        mapping = player.parse_remaps(args.remap)
+        count = player.play(args.recording, clock=args.clock, rate=args.rate,
+                            topics=args.topics, remaps=mapping, wait=args.wait,
+                            delay=args.delay, log=warn)
+    except CfemError as err:
+        return error(str(err))
+    except ValueError as err:
+        return error(str(err))
+    print(f'{args.recording}: {count} messages played')
+    return EXIT_OK
