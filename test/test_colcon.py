@@ -71,6 +71,39 @@ def test_colcon_build_installs_a_working_package(tmp_path):
                          capture_output=True, text=True, env=env, timeout=120)
     assert run.returncode == 0, run.stdout + run.stderr
     assert 'run complete at t = 0.2 s' in run.stdout + run.stderr
+    _drive_with_simulation_interfaces(tmp_path, node, share, env)
+
+
+def _drive_with_simulation_interfaces(folder, executable, share, env):
+    """
+    Pause, step, read, reset and play the installed node with the standard types only.
+
+    On a ROS 2 install rosdep brings ``simulation_interfaces``; here the one
+    ``make interfaces`` built into this venv stands in for it, and the node
+    is the workspace's.
+    """
+    from rosharness import NodeProcess, stamp_ns
+    from simclient import Client, pose_of
+    from simulation_interfaces.msg import Result, SimulationState
+    node = NodeProcess(folder, share / 'config' / 'store_separation.yaml',
+                       executable=executable, env=env, paused=True, duration=0.0)
+    client = Client()
+    try:
+        client.ready(node)
+        assert client.call('get_simulation_state').state.state == SimulationState.STATE_PAUSED
+        start = client.state('store')
+        assert client.call('step_simulation', steps=7).result.result == Result.RESULT_OK
+        stepped = client.state('store')
+        assert stamp_ns(stepped.header) - stamp_ns(start.header) == 7_000_000   # dt = 1 ms
+        assert pose_of(stepped) != pose_of(start)   # the store swings on its hinge
+        assert client.call('reset_simulation').result.result == Result.RESULT_OK
+        assert pose_of(client.state('store')) == pose_of(start)
+        assert client.set_state(SimulationState.STATE_PLAYING).result == Result.RESULT_OK
+        assert client.set_state(SimulationState.STATE_QUITTING).result == Result.RESULT_OK
+        assert node.wait(timeout=60.0) == 0, node.output
+    finally:
+        client.close()
+        node.stop()
 
 
 @pytest.mark.slow

@@ -21,75 +21,14 @@ from cfem_ros.core.scenario.parse import load_scenario
 import numpy as np
 import pytest
 import rclpy
-from rclpy.action import ActionClient
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.signals import SignalHandlerOptions
 from recordings import read_checked
 from rosharness import NodeProcess, Peer, stamp_ns
+from simclient import Client
 from simulation_interfaces.action import SimulateSteps
 from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
-from simulation_interfaces.srv import (
-    GetEntities, GetEntitiesStates, GetEntityState, GetSimulationState, GetSimulatorFeatures,
-    ResetSimulation, SetEntityState, SetSimulationState, StepSimulation)
+from simulation_interfaces.srv import GetEntities, SetSimulationState
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
-SERVICES = {'get_simulator_features': GetSimulatorFeatures,
-            'get_simulation_state': GetSimulationState,
-            'set_simulation_state': SetSimulationState, 'step_simulation': StepSimulation,
-            'reset_simulation': ResetSimulation, 'get_entities': GetEntities,
-            'get_entity_state': GetEntityState, 'get_entities_states': GetEntitiesStates,
-            'set_entity_state': SetEntityState}
-
-
-class Client:
-    """A simulation_interfaces client in its own context; every wait has a deadline."""
-
-    def __init__(self, namespace='/cfem'):
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node('sim_client', context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.clients = {name: self.node.create_client(kind, f'{namespace}/{name}')
-                        for name, kind in SERVICES.items()}
-        self.action = ActionClient(self.node, SimulateSteps, f'{namespace}/simulate_steps')
-
-    def ready(self, node, timeout=120.0):
-        """Wait for the node's services and action (fail at once if the node ended)."""
-        waiting = list(self.clients.values()) + [self.action]
-        for _ in range(int(timeout)):
-            waiting = [c for c in waiting if not (
-                c.server_is_ready() if c is self.action else c.service_is_ready())]
-            if not waiting:
-                return
-            assert node.alive(), node.output
-            self.executor.spin_once(timeout_sec=1.0)
-        raise AssertionError(f'no services after {timeout:g} s: {node.output}')
-
-    def wait(self, future, timeout=60.0):
-        self.executor.spin_until_future_complete(future, timeout_sec=timeout)
-        assert future.done(), 'no answer'
-        return future.result()
-
-    def call(self, name, **fields):
-        request = SERVICES[name].Request()
-        for key, value in fields.items():
-            setattr(request, key, value)
-        return self.wait(self.clients[name].call_async(request))
-
-    def state(self, body):
-        response = self.call('get_entity_state', entity=body)
-        assert response.result.result == Result.RESULT_OK, response.result.error_message
-        return response.state
-
-    def set_state(self, target):
-        request = SimulationState(state=target)
-        return self.call('set_simulation_state', state=request).result
-
-    def close(self):
-        self.action.destroy()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 def pose_of(state):
@@ -98,7 +37,7 @@ def pose_of(state):
 
 
 def offline(scenario, until, land=None):
-    """Return the scenario's simulator stepped unpaced to the last step by until (s), then on to land."""
+    """Return the simulator stepped unpaced to the last step by until (s), then to land."""
     sim = Simulator(load_scenario(str(scenario)))
     session = Session(sim, rate_hz=100.0)
     session.start()
