@@ -22,14 +22,16 @@ except ImportError:   # colcon runs setup.py without build isolation
 package_name = 'cfem_ros'
 CPP = os.path.join('cfem_ros', 'core', 'cpp')
 #: Flags of some sources beyond the others': the crossing search (kernel.locate) rounds
-#: as the Python search does, with no contraction of a * b + c into fused multiply-adds.
+#: as scipy's brentq and numpy do (the tests' reference search), with no contraction of
+#: a * b + c into fused multiply-adds.
 SOURCE_FLAGS = {'events.cpp': ['-ffp-contract=off']}
 #: The instruction set: the build machine's own by default, like any source build;
 #: CFEM_ROS_ARCH=x86-64-v3 (or v2) for a binary that runs on other machines.
 ARCH = os.environ.get('CFEM_ROS_ARCH', 'native')
 #: -O3 without GCC's vectorizer, and without its tuning that splits chains of fused
-#: multiply-adds on some CPUs (AMD Zen): both fuse other multiply-adds than the numba
-#: build (LLVM) did, whose numbers this build keeps (docs/guide/compiled-core.md).
+#: multiply-adds on some CPUs (AMD Zen): with either, which multiply-adds are fused would
+#: depend on the CPU, and differ from earlier builds, whose numbers this build keeps
+#: (docs/guide/compiled-core.md, CHANGELOG.md).
 #: A flag the compiler does not know is left out.
 FLAGS = ['-O3', '-fno-math-errno', '-fno-tree-vectorize', '-fno-tree-slp-vectorize',
          '--param=avoid-fma-max-bits=0', '-Wall'] + ([f'-march={ARCH}'] if ARCH else [])

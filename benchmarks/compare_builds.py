@@ -4,7 +4,7 @@
 A benchmark run with two builds of cfem_ros side by side, in alternating turns.
 
 Runs a benchmark script (``suite.py``, ``bench_sweep.py`` ...) with this build and
-with a reference build (another checkout and its venv, e.g. the numba build),
+with a reference build (another checkout and its venv, e.g. a previous release's),
 one after the other, for several turns, then prints every figure the script
 printed for both, as medians over the turns, with their ratio (reference over
 this build: above 1 when this build is faster, for times). A figure is a
@@ -12,8 +12,8 @@ number in a table row (its label, then columns) or a number followed by a unit
 in a sentence (``us/step``, ``run-steps/s``, ``s``).
 
 Usage:
-  .venv/bin/python benchmarks/compare_builds.py --reference ../numba-ref/.venv/bin/python \
-      --reference-tree ../numba-ref --turns 3 suite.py --quick
+  .venv/bin/python benchmarks/compare_builds.py --reference ../previous/.venv/bin/python \
+      --reference-tree ../previous --turns 3 suite.py --quick
 """
 
 import argparse

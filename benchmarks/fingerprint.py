@@ -8,7 +8,7 @@ duration, or --duration if shorter), the state y, every joint's load (force and
 moment) and the outputs a sample publishes. ``--dump FILE`` writes this
 interpreter's fingerprints as JSON (floats written exactly); ``--reference
 PYTHON --reference-tree DIR`` dumps them with this build and with another
-(e.g. the numba build's venv and its checkout) and prints, per scenario, the
+(e.g. a previous release's checkout and its venv) and prints, per scenario, the
 largest difference relative to the size of the quantity (the largest
 magnitude of that state, load or output vector at that time), the place where
 it occurs, and whether it is within --tolerance. ``--chains`` adds the long
@@ -18,12 +18,12 @@ step is the articulated recursion, which the shipped scenarios barely exercise.
 
 Besides the shipped scenarios, both builds run variants written here for them
 (``VARIANTS``): a scenario whose physics changed on purpose since the
-reference build, rewritten to the physics both builds share, so that the port
-is still compared there.
+reference build, rewritten to the physics both builds share, so that the builds
+are still compared there.
 
 Usage:
-  .venv/bin/python benchmarks/fingerprint.py --reference ../numba-ref/.venv/bin/python \
-      --reference-tree ../numba-ref
+  .venv/bin/python benchmarks/fingerprint.py --reference ../previous/.venv/bin/python \
+      --reference-tree ../previous
 """
 
 import argparse

@@ -75,6 +75,21 @@ def _drop_empty_globs(app, docname, source):
     source[0] = '\n'.join(kept)
 
 
+#: Files of the repository's root that a page of docs/ includes: a page's link to the
+#: file (right on GitHub) is pointed at that page in the HTML guide.
+ROOT_FILES = {'CHANGELOG.md': 'changelog.md'}
+
+
+def _link_root_files(app, docname, source):
+    """Point the links to the files of ROOT_FILES at the pages that include them."""
+    folder = posixpath.dirname(docname)
+    up = '../' * (folder.count('/') + 2 if folder else 1)   # docs/ is one below the root
+    for name, page in ROOT_FILES.items():
+        target = posixpath.relpath(page, folder or '.')
+        source[0] = source[0].replace(f']({up}{name}', f']({target}')
+
+
 def setup(app):
-    """Register the optional toctree entries' filter."""
+    """Register the optional toctree entries' filter and the root files' links."""
     app.connect('source-read', _drop_empty_globs)
+    app.connect('source-read', _link_root_files)

@@ -11,10 +11,11 @@
 namespace cfem {
 
 // x as it is, hidden from the compiler's contraction of a * b + c into a fused
-// multiply-add. LLVM (numba's compiler, whose numbers this build keeps) fuses a product
-// only into its single use; GCC also fuses a product that has several uses, in each of
-// them. A product with several uses (written twice, or kept in a variable) is passed
-// through kept() so that it is rounded once, as LLVM does. No instruction is emitted.
+// multiply-add. LLVM (the compiler of the earlier kernel, whose numbers this one keeps:
+// CHANGELOG.md) fuses a product only into its single use; GCC also fuses a product that
+// has several uses, in each of them. A product with several uses (written twice, or kept
+// in a variable) is passed through kept() so that it is rounded once, as LLVM does. No
+// instruction is emitted.
 inline double kept(double x) {
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
   __asm__("" : "+x"(x));
@@ -49,7 +50,7 @@ inline V3 cross(const V3& a, const V3& b) {
 
 inline double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
-// a . b as numba's kernel rounded it where LLVM had put a.y b.y first: LLVM orders the
+// a . b as the earlier kernel rounded it where LLVM had put a.y b.y first: LLVM orders the
 // operands of a sum by where their values come from before it fuses, then fuses the
 // product it put first. So a.y b.y is fused into a.x b.x, rounded (kept: GCC would fuse
 // whichever of the two products it computes first), then a.z b.z into that.
@@ -76,7 +77,7 @@ inline Products products(double x, double y, double z, double w) {
 }
 
 // R a (R^T a if inverse), R = [[1 - 2 (yy + zz), 2 (xy - wz), 2 (xz + wy)], ...] the matrix
-// of a unit quaternion, written out as numba's kernel writes it.
+// of a unit quaternion, written out as the earlier kernel wrote it (the same roundings).
 inline V3 unit_turn(const Products& p, double a0, double a1, double a2, bool inverse) {
   double r00 = 1 - 2 * (p.yy + p.zz), r01 = 2 * (p.xy - p.wz), r02 = 2 * (p.xz + p.wy);
   double r10 = 2 * (p.xy + p.wz), r11 = 1 - 2 * (p.xx + p.zz), r12 = 2 * (p.yz - p.wx);
@@ -116,7 +117,7 @@ inline Q4 qmul(double ax, double ay, double az, double aw, double bx, double by,
           aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz};
 }
 
-// x ** k for an integer k >= 0, multiplied as numba does (square and multiply).
+// x ** k for an integer k >= 0 by square and multiply (the earlier kernel's roundings).
 inline double ipow(double x, int k) {
   double r = 1.0;
   while (k) {

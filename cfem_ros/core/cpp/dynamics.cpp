@@ -140,7 +140,7 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
         jac[6 + k] = e[k];
         jac[9 + k] = rbe[k];
       }
-      // dot_yx: the products rounded as numba's kernel rounded them (algebra.hpp)
+      // dot_yx: the products rounded as the earlier kernel rounded them (algebra.hpp)
       value = dot_yx(d, e);
       rate = dot_yx(e, d_dot) + dot_yx(d, wa_e);
       // centripetal terms: wb x (wb x rho_b) - wa x (wa x rho_a)

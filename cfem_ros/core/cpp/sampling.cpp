@@ -53,7 +53,7 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
                             + y[q + 3] * y[q + 3]);
     Products p = products(y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm);
     // R^T v with R the body-to-world matrix of the unit quaternion; its first entry, R's
-    // first column . v, summed as numba's kernel rounded it (dot_yx, algebra.hpp)
+    // first column . v, summed as the earlier kernel rounded it (dot_yx, algebra.hpp)
     V3 velocity = {y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2]};
     V3 body = unit_turn(p, velocity.x, velocity.y, velocity.z, true);
     body.x = dot_yx({1 - 2 * (p.yy + p.zz), 2 * (p.xy + p.wz), 2 * (p.xz - p.wy)}, velocity);

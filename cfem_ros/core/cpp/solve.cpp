@@ -74,7 +74,7 @@ namespace {
 
 double normalize(double* v) {
   // kept(): complement() passes a 0 in one entry, which GCC would fold into the sum
-  // (rounding it otherwise than numba's kernel, whose sum takes it as any number)
+  // (rounding it otherwise than the earlier kernel, whose sum takes it as any number)
   double x = kept(v[0]), y = kept(v[1]), z = kept(v[2]);
   double norm = std::sqrt(x * x + y * y + z * z);
   double scale = 1.0 / norm;
@@ -192,7 +192,7 @@ inline void shift_add(const double* x, const double* z, const double* y, idx c, 
   double c00 = X(3, 3), c01 = X(3, 4), c02 = X(3, 5), c11 = X(4, 4), c12 = X(4, 5),
          c22 = X(5, 5);
   // B' = B - A S with S = [[0, -r2, r1], [r2, 0, -r0], [-r1, r0, 0]]
-  // the products used twice, rounded once (kept(): as numba's compiler fuses them)
+  // the products used twice, rounded once (kept(): as the earlier kernel's LLVM fuses them)
   double a01r2 = kept(a01 * r2), a02r1 = kept(a02 * r1), a12r0 = kept(a12 * r0);
   double p00 = b00 - (a01r2 - a02r1);
   double p01 = b01 - (a02 * r0 - a00 * r2);
