@@ -28,7 +28,8 @@ from typing import Any, Optional
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
-from cfem_ros.core.scenario.parse import MAX_MAGNITUDE, parse_scenario
+from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
+from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study import windowed
 from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
 import numpy as np

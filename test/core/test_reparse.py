@@ -10,8 +10,9 @@ from cfem_ros.core.fileio.messages import show as _show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.model.model import triad_from_axes
-from cfem_ros.core.scenario.parse import (
-    _Checker, _parse_inertia, INERTIA_RANGE, parse_scenario, reparse)
+from cfem_ros.core.scenario.bodies import INERTIA_RANGE, parse_inertia
+from cfem_ros.core.scenario.checker import Checker
+from cfem_ros.core.scenario.parse import parse_scenario, reparse
 import numpy as np
 import pytest
 
@@ -95,7 +96,7 @@ def test_a_diagonal_inertia_is_checked_as_its_eigenvalues_are():
     # [a, b, c] is checked without eigvalsh, [a, b, c, 0, 0, 0] with it: the same verdicts
     # at the edges of the triangle inequality and of the range, the same tensor
     rng = np.random.default_rng(6)
-    check = _Checker('inertia.yaml')
+    check = Checker('inertia.yaml')
     low, high = INERTIA_RANGE
     cases = [[1, 1, 2], [1, 2, 3.000000003], [1, 2, 3.000000004], [low, low, low],
              [low * 0.999, 1, 1], [high, high, high], [1e17, 1e17, high], [0, 1, 1],
@@ -110,7 +111,7 @@ def test_a_diagonal_inertia_is_checked_as_its_eigenvalues_are():
         outcomes = []
         for value in (case, case + [0.0, 0.0, 0.0]):
             try:
-                outcomes.append(_parse_inertia(check, value, 'bodies.store.inertia').tobytes())
+                outcomes.append(parse_inertia(check, value, 'bodies.store.inertia').tobytes())
             except ScenarioError as err:   # the message but for how the value is shown
                 outcomes.append(str(err).replace(_show(value), 'the value'))
         assert outcomes[0] == outcomes[1], case
@@ -119,7 +120,7 @@ def test_a_diagonal_inertia_is_checked_as_its_eigenvalues_are():
 
 
 def test_vectors_are_the_numbers_given_and_bad_ones_are_named_as_one_by_one():
-    check = _Checker('vectors.yaml')
+    check = Checker('vectors.yaml')
     items = [0, -0.0, 1, 2.5, -1e9, 1e9, 10 ** 9, 1e-300, 0.1, 10 ** 10, 1e9 * (1 + 1e-15),
              10 ** 400, float('nan'), float('inf'), True, None, '1', np.float64(0.3),
              np.int64(4)]

@@ -13,7 +13,7 @@ import warnings
 from cfem_ros import cli, parse_scenario
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio import textfile, yamlfile
-from cfem_ros.core.scenario import parse as scenario
+from cfem_ros.core.scenario import bodies, checker, parse as scenario
 import numpy as np
 import pytest
 import yaml
@@ -145,8 +145,8 @@ def test_overrides_are_bounded_too():
 
 
 def test_bounds_themselves_are_accepted():
-    doc = doc_with('bodies.A.mass', scenario.MASS_RANGE[0])
-    doc['bodies']['B']['mass'] = scenario.MASS_RANGE[1]
+    doc = doc_with('bodies.A.mass', bodies.MASS_RANGE[0])
+    doc['bodies']['B']['mass'] = bodies.MASS_RANGE[1]
     doc['bodies']['A']['inertia'] = [1e-12, 1e-12, 1e-12]
     doc['bodies']['B']['inertia'] = [1e18, 1e18, 1e18]
     doc['dt'] = 1e-9
@@ -184,7 +184,7 @@ def test_names_the_node_cannot_use_are_refused(name, words):
 
 
 def test_longest_name_is_accepted():
-    name = 'A' * scenario.MAX_NAME_LENGTH
+    name = 'A' * checker.MAX_NAME_LENGTH
     doc = copy.deepcopy(BASE)
     doc['bodies'] = {name if k == 'A' else k: v for k, v in doc['bodies'].items()}
     for joint in doc['joints'].values():

@@ -391,6 +391,36 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class SwayBrace:
+    """
+    A one-sided preloaded spring-damper between a body and its carrier.
+
+    Attributes
+    ----------
+    name : str
+        The load's source name (``bodies/<body>/applied/<name>``).
+    body, carrier : int
+        The body the pad pushes, the body it is mounted on.
+    point : ndarray, shape (3,)
+        The contact point at t = 0, body axes from the CG, m.
+    direction : ndarray, shape (3,)
+        Unit vector, body axes: the pad pushes the body along it.
+    preload, stiffness, damping : float
+        N at t = 0, N/m, N s/m.
+
+    """
+
+    name: str
+    body: int
+    carrier: int
+    point: np.ndarray
+    direction: np.ndarray
+    preload: float
+    stiffness: float
+    damping: float = 0.0
+
+
+@dataclass(frozen=True)
 class Model:
     """
     Everything needed to simulate a scenario; built once, never mutated.
@@ -422,7 +452,7 @@ class Model:
     release_groups : tuple of ReleaseGroup
         Joints released together, none by default.
     braces : tuple of SwayBrace
-        One-sided preloaded pads (``braces.SwayBrace``), none by default.
+        One-sided preloaded pads (``SwayBrace``), none by default.
 
     """
 
