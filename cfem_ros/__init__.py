@@ -21,10 +21,10 @@ import importlib
 __version__ = '0.1.0'
 
 _HOMES = {
-    'Body': 'cfem_ros.core.model.model',
-    'Joint': 'cfem_ros.core.model.model',
+    'Body': 'cfem_ros.core.model.bodies',
+    'Joint': 'cfem_ros.core.model.joints',
     'Model': 'cfem_ros.core.model.model',
-    'Release': 'cfem_ros.core.model.model',
+    'Release': 'cfem_ros.core.model.joints',
     'CfemError': 'cfem_ros.core.errors',
     'ScenarioError': 'cfem_ros.core.errors',
     'RecordingError': 'cfem_ros.recording.errors',

@@ -9,7 +9,7 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.messages import show as _show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
-from cfem_ros.core.model.model import triad_from_axes
+from cfem_ros.core.model.joints import triad_from_axes
 from cfem_ros.core.scenario.bodies import INERTIA_RANGE, parse_inertia
 from cfem_ros.core.scenario.checker import Checker
 from cfem_ros.core.scenario.parse import parse_scenario, reparse

@@ -17,7 +17,7 @@ import warnings
 from cfem_ros import parse_scenario, Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio import yamlfile
-from cfem_ros.core.model.model import JOINT_TABLE
+from cfem_ros.core.model.joints import JOINT_TABLE
 from cfem_ros.core.scenario import parse as scenario
 from hypothesis import given, HealthCheck, settings, strategies as st
 import pytest

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.kernel import AERO_TABLE as T
-from cfem_ros.core.model.model import Aero, Model
+from cfem_ros.core.model.loads import Aero
+from cfem_ros.core.model.model import Model
 import numpy as np
 
 #: Numbers of the header.

@@ -19,7 +19,7 @@ scenario's ``sway_braces`` into ``model.SwayBrace``.
 
 from __future__ import annotations
 
-from cfem_ros.core.model.model import SwayBrace
+from cfem_ros.core.model.loads import SwayBrace
 import numpy as np
 
 

@@ -3,7 +3,10 @@
 """
 The model a scenario describes: bodies, joints, releases, loads and shapes, as plain data.
 
-Modules: ``model`` (``Model``, ``Body``, ``Joint``, ``Release`` and the
-joint table) and ``shapes`` (what a body looks like, for markers and contacts).
+Modules: ``model`` (``Model``, ``Contact``, gravity and the Baumgarte gain),
+``bodies`` (``Body``, ``Motion``), ``joints`` (the joint table, ``Joint``,
+``Release``, ``ReleaseGroup``), ``loads`` (``Wrench``, ``Aero``,
+``Proximity``, ``SwayBrace``) and ``shapes`` (what a body looks like, for
+markers and contacts).
 Nothing here runs anything: the engine reads these.
 """

@@ -9,7 +9,7 @@ import logging
 from cfem_ros.core import rotations
 from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.model import shapes
-from cfem_ros.core.model.model import Body, Motion
+from cfem_ros.core.model.bodies import Body, Motion
 from cfem_ros.core.scenario import cgoffset
 from cfem_ros.core.scenario.checker import Checker, key_path, source_dir
 from cfem_ros.core.scenario.motiontable import motion_start, parse_motion_table

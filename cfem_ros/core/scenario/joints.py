@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core.fileio.messages import show
-from cfem_ros.core.model.model import (
+from cfem_ros.core.model.joints import (
     AXIS_REQUIRED, Joint, JOINT_TABLE, Release, ReleaseGroup, triad_from_axes)
 from cfem_ros.core.scenario.checker import Checker, key_path, one_of
 import numpy as np

@@ -9,7 +9,8 @@ import os
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.fileio.textfile import read_text
-from cfem_ros.core.model.model import Body, Model, Motion
+from cfem_ros.core.model.bodies import Body, Motion
+from cfem_ros.core.model.model import Model
 from cfem_ros.core.scenario.checker import Checker, MAX_MAGNITUDE, MIN_DT
 import numpy as np
 

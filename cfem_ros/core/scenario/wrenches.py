@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from cfem_ros.core.fileio.messages import show
-from cfem_ros.core.model.model import Wrench
+from cfem_ros.core.model.loads import Wrench
 from cfem_ros.core.scenario import cgoffset
 from cfem_ros.core.scenario.checker import body_of, Checker, one_of
 import numpy as np
