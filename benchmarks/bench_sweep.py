@@ -141,9 +141,9 @@ def mujoco_rollout(runs, threads):
 def profile(path, runs):
     """Print where a run's time goes, in this process, one thread (ms per run)."""
     from cfem_ros.core.engine.simulator import Simulator
-    from cfem_ros.study import metrics, sweep as study_sweep
+    from cfem_ros.study import metrics, runmodels, runs as study_runs, sweep as study_sweep
     spec = Sweep.from_file(path).spec
-    models = study_sweep.Models(spec)
+    models = runmodels.Models(spec)
     phases = dict.fromkeys(('whole parse (before)', 'document edit + parse', 'Simulator',
                             'run (kernel, samples taken)', 'sample collection', 'metrics',
                             'rows -> Parquet part'), 0.0)
@@ -151,14 +151,14 @@ def profile(path, runs):
     for k in list(range(min(5, runs))) + list(range(runs)):   # 5 to warm up
         values = spec.run_values(k)
         t0 = time.perf_counter()
-        study_sweep.full_model(spec, k, values)
+        runmodels.full_model(spec, k, values)
         t1 = time.perf_counter()
         model = models.model(k, values)
         t2 = time.perf_counter()
         sim = Simulator(model)
         t3 = time.perf_counter()
         collector = metrics.Collector(sim)
-        study_sweep._session_run(sim, model, spec, collector)
+        study_runs.session_run(sim, model, spec, collector)
         t4 = time.perf_counter()
         samples = collector.samples()
         t5 = time.perf_counter()
@@ -178,8 +178,8 @@ def profile(path, runs):
         table = []
         for k, row in zip(range(runs), rows[-runs:]):   # what run_one adds to the metrics
             values = spec.run_values(k)
-            table.append({'run': k, **{v.path: study_sweep.column_value(
-                values[v.path], study_sweep.numeric(v)) for v in spec.variables},
+            table.append({'run': k, **{v.path: study_runs.column_value(
+                values[v.path], study_runs.numeric(v)) for v in spec.variables},
                 'status': 'ok', 'message': '', **row})
         study_sweep.write_atomic(study_sweep.frame(table, study_sweep.columns(spec)),
                                  os.path.join(folder, 'part.parquet'))

@@ -138,7 +138,7 @@ def rerun_command(args: argparse.Namespace) -> int:
     refused = output_refused(output, overwrite=False)
     if refused:
         return error(refused)
-    from cfem_ros.study.sweep import run_one
+    from cfem_ros.study.runs import run_one
     try:
         row = run_one(spec, run, record=output)
     except (CfemError, OSError) as err:   # the recording could not be written

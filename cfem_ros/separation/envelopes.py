@@ -165,8 +165,8 @@ def write_envelope(outdir: str, reference: str, directory: str) -> list:
 
 def _rerun(outdir: str, manifest: dict, run: int, output: str):
     """Record run ``run`` of a Monte Carlo sweep folder again (None if it cannot be)."""
+    from cfem_ros.study.runs import run_one
     from cfem_ros.study.spec import load_sweep
-    from cfem_ros.study.sweep import run_one
     if manifest.get('method', 'mc') != 'mc':
         return None
     spec = load_sweep(manifest['sweep'], runs=manifest['resolved']['runs'])

@@ -8,7 +8,8 @@ one row per run; ``summarize`` computes the same metrics from recordings.
 Needs the ``study`` extra (dask[distributed], pandas, pyarrow) to run.
 """
 
-from cfem_ros.study.spec import load_sweep, SweepError, SweepSpec
+from cfem_ros.study.errors import SweepError
+from cfem_ros.study.spec import load_sweep, SweepSpec
 from cfem_ros.study.summarize import summarize
 from cfem_ros.study.sweep import Sweep
 

@@ -23,11 +23,14 @@ import os
 import sys
 from typing import Callable, Optional
 
+from cfem_ros.study.draws import RANDOM_NUMBERS
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.folder import read_manifest, read_table
 from cfem_ros.study.resources import ResourceFailure
-from cfem_ros.study.spec import RANDOM_NUMBERS, SweepError, SweepSpec
+from cfem_ros.study.runs import numeric
+from cfem_ros.study.spec import SweepSpec
 from cfem_ros.study.sweep import (
-    _part_of, columns, decide, frame, groups, MANIFEST, numeric, RESULTS, run_task, task_done,
+    _part_of, columns, decide, frame, groups, MANIFEST, RESULTS, run_task, task_done,
     write_atomic)
 import numpy as np
 

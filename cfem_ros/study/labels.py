@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from typing import Optional
 
-from cfem_ros.study.spec import parse_key_path
+from cfem_ros.study.keypaths import parse_key_path
 
 AXES = ('x', 'y', 'z')
 ANGLES = ('roll', 'pitch', 'yaw')

@@ -14,9 +14,10 @@ from __future__ import annotations
 import os
 from typing import Callable, Optional
 
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import DESIGNS, Evaluator, METHODS, write_json
 from cfem_ros.study.reliability import mc_estimate  # noqa: F401 - for cfem-sim sweep
-from cfem_ros.study.spec import SweepError, SweepSpec
+from cfem_ros.study.spec import SweepSpec
 
 ESTIMATE = 'estimate.json'
 SENSITIVITY = 'sensitivity.parquet'

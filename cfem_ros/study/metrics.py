@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.study.metricspec import STROKE_COLUMNS
 from cfem_ros.study.shape_metrics import compute_distance
-from cfem_ros.study.spec import STROKE_COLUMNS
 from cfem_ros.study.windowed import at_after, compute_extremes
 import numpy as np
 

@@ -29,9 +29,11 @@ from typing import Optional
 
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
+from cfem_ros.study.draws import blocks
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import random_variables
 from cfem_ros.study.resources import MethodFailed
-from cfem_ros.study.spec import _blocks, SweepError, SweepSpec
+from cfem_ros.study.spec import SweepSpec
 import numpy as np
 
 #: Runs FORM's search for the design point may take, per parameter (+ 1).
@@ -97,7 +99,7 @@ def distribution(spec: SweepSpec):
             marginals.append(ot.TruncatedNormal(p[0], p[1], p[2], p[3]))
     order = [v.path for v in variables]
     matrix = np.eye(len(order))
-    for paths, block in _blocks(variables, spec.correlations):
+    for paths, block in blocks(variables, spec.correlations):
         index = [order.index(path) for path in paths]
         matrix[np.ix_(index, index)] = block
     if np.linalg.eigvalsh(matrix)[0] < 1e-9:

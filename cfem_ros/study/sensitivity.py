@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import math
 
+from cfem_ros.study.draws import marginal
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import random_variables
-from cfem_ros.study.spec import _marginal, SweepError, SweepSpec
+from cfem_ros.study.spec import SweepSpec
 import numpy as np
 
 #: Probability the Morris grid's levels 0 and 1 stand for (and 1 minus it).
@@ -70,7 +72,7 @@ def design_points(spec: SweepSpec, design: str) -> tuple:
     else:
         raise ValueError(f'design is {design!r}; expected morris or sobol')
     from scipy.special import ndtri
-    values = np.column_stack([np.asarray(_marginal(v, ndtri(probability[:, i])), dtype=float)
+    values = np.column_stack([np.asarray(marginal(v, ndtri(probability[:, i])), dtype=float)
                               for i, v in enumerate(spec.variables)])
     return unit, values
 

@@ -198,7 +198,7 @@ def linear_roll(preloads, stiffness, damping, t):
 
 def test_a_preload_sweep_rolls_as_the_linearised_roll_dynamics_say(tmp_path):
     from cfem_ros.study import load_sweep
-    from cfem_ros.study.sweep import run_rows
+    from cfem_ros.study.runs import run_rows
     import yaml
 
     base = 2000.0

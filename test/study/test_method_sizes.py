@@ -5,9 +5,9 @@
 import json
 import os
 
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.methods import MINIMUM_RUNS, run_study
 from cfem_ros.study.resources import MethodFailed
-from cfem_ros.study.spec import SweepError
 import pytest
 from test_rare_events import _linear_rows, _linear_sweep
 

@@ -5,7 +5,7 @@
 import math
 
 from cfem_ros.study.metrics import compute, Samples
-from cfem_ros.study.spec import At, Clearance, Metrics
+from cfem_ros.study.metricspec import At, Clearance, Metrics
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation

@@ -19,7 +19,8 @@ import os
 
 from cfem_ros.study import load_sweep
 from cfem_ros.study.methods import run_study
-from cfem_ros.study.sweep import columns, run_one
+from cfem_ros.study.runs import run_one
+from cfem_ros.study.sweep import columns
 import numpy as np
 import pytest
 from scipy.stats import norm

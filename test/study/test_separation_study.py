@@ -17,10 +17,11 @@ import re
 from cfem_ros import cli
 from cfem_ros.study import load_sweep
 from cfem_ros.study.criteria import judge, margins
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.expressions import MAX_DEPTH, parse_criterion
 from cfem_ros.study.reliability import mc_estimate
-from cfem_ros.study.spec import SweepError
-from cfem_ros.study.sweep import run_one, Sweep
+from cfem_ros.study.runs import run_one
+from cfem_ros.study.sweep import Sweep
 import numpy as np
 import pandas as pd
 import pytest

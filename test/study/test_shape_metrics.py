@@ -4,8 +4,9 @@
 
 import math
 
-from cfem_ros.study.spec import load_sweep, SweepError
-from cfem_ros.study.sweep import run_one
+from cfem_ros.study.errors import SweepError
+from cfem_ros.study.runs import run_one
+from cfem_ros.study.spec import load_sweep
 import numpy as np
 import pytest
 from sweeps import write_sweep

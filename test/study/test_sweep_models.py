@@ -8,7 +8,8 @@ import os
 
 from cfem_ros.core.rotations import from_rpy_deg
 from cfem_ros.study import Sweep
-from cfem_ros.study.sweep import full_model, Models, run_rows
+from cfem_ros.study.runmodels import full_model, Models
+from cfem_ros.study.runs import run_rows
 import numpy as np
 import pandas as pd
 import pytest

@@ -7,7 +7,8 @@ import math
 import os
 
 from cfem_ros import cli
-from cfem_ros.study.spec import load_sweep, parse_key_path, resolve
+from cfem_ros.study.keypaths import parse_key_path, resolve
+from cfem_ros.study.spec import load_sweep
 import numpy as np
 import pytest
 from sweeps import STORE, VARY, write_sweep

@@ -21,7 +21,7 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.scenario.parse import parse_scenario
-from cfem_ros.study.spec import format_key_path, parse_key_path, resolve
+from cfem_ros.study.keypaths import format_key_path, parse_key_path, resolve
 import numpy as np
 
 TOP_KEYS = ('scenario', 'measured', 'parameters', 'max_evaluations')

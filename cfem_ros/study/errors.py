@@ -1,0 +1,35 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The sweep file's error, and the small checks and renderings its messages are built with."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from cfem_ros.core.errors import ScenarioError
+
+
+class SweepError(ScenarioError):
+    """A sweep file that cannot be run (file, key path, problem, expected)."""
+
+
+def short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + '...'
+
+
+def one_line(text, limit: int) -> str:
+    """Return text on one line and at most limit characters (a key path may be long)."""
+    text = ' '.join(str(text).split())
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def number_list(fail, key, value, length=None):
+    if not isinstance(value, list) or (length is not None and len(value) != length):
+        fail(key, f'is {short(value)}', f'a list of {length} numbers' if length
+             else 'a list of numbers')
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            fail(key, f'holds {short(v)}', 'finite numbers')
+    return [float(v) for v in value]
