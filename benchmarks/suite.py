@@ -25,7 +25,8 @@ import sys
 import tempfile
 import time
 
-from cfem_ros import batch, load_scenario, parse_scenario, Simulator
+from cfem_ros import load_scenario, parse_scenario, Simulator
+from cfem_ros.core.run import batch
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import mujoco

@@ -41,7 +41,7 @@ def layer_of(module: str) -> str:
     parts = module.split('.')
     if len(parts) > 1 and parts[1] in ('core', 'recording', 'study', 'ros'):
         return parts[1]
-    return 'faces'   # cli, plots, and the old names kept for users (analysis, batch)
+    return 'faces'   # cli, plots
 
 
 def modules():
@@ -104,8 +104,8 @@ def test_the_layers_are_folders():
     for layer in ('core', 'recording', 'study', 'ros', 'cli'):
         assert (PACKAGE / layer / '__init__.py').is_file()
     flat = sorted(p.name for p in PACKAGE.glob('*.py'))
-    assert flat == ['__init__.py', 'analysis.py', 'batch.py', 'console.py', 'interrupts.py',
-                    'plots.py', 'study_plots.py'], flat
+    assert flat == ['__init__.py', 'console.py', 'interrupts.py', 'plots.py',
+                    'study_plots.py'], flat
 
 
 def test_imports_only_go_down():

@@ -15,7 +15,8 @@ import logging
 import os
 from typing import Optional
 
-from cfem_ros.core.engine.simulator import REDUNDANT_MESSAGES, Simulator
+from cfem_ros.core.engine.dynamics import REDUNDANT_MESSAGES
+from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.run.session import Session
 from cfem_ros.study.criteria import INVALID

@@ -4,7 +4,8 @@
 
 import pathlib
 
-from cfem_ros import batch, load_scenario, Simulator
+from cfem_ros import load_scenario, Simulator
+from cfem_ros.core.run import batch
 import numpy as np
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'

@@ -442,7 +442,7 @@ def test_odometry_known_too_late_to_interpolate_is_warned(caplog):
 
 
 def test_odometry_stops_beyond_the_horizon_with_a_warning(caplog):
-    from cfem_ros.core.engine.simulator import ODOMETRY_HORIZON
+    from cfem_ros.core.engine.carrier import ODOMETRY_HORIZON
     from cfem_ros.core.run.session import Session
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}

@@ -14,8 +14,9 @@ import math
 
 from cfem_ros import cli, parse_scenario, Simulator
 from cfem_ros.cli.common import EXIT_BAD_INPUT, EXIT_FAILED
-from cfem_ros.core.engine import kernel, simulator as engine
-from cfem_ros.core.errors import InputError, ScenarioError
+from cfem_ros.core.engine import kernel, sampling
+from cfem_ros.core.engine.kernelcalls import DIVERGENCE_VIOLATION
+from cfem_ros.core.errors import CfemError, InputError, ScenarioError
 from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
 from cfem_ros.core.run.session import Session
 from cfem_ros.recording.msgdefs import DEFINITIONS
@@ -111,8 +112,9 @@ def test_a_fault_at_the_first_sample_fails_cleanly(case, tmp_path, capsys):
         return
     assert sim.status == 'failed'
     assert sim.message.startswith('at t = 0 s: ') and reason in sim.message
-    with pytest.raises(engine.NumericalFailure):
+    with pytest.raises(sampling.NumericalFailure) as failure:
         sim.outputs()
+    assert isinstance(failure.value, CfemError)   # the root of every error cfem_ros raises
     status, err, out = cli_run(tmp_path, capsys, doc)
     assert status == EXIT_FAILED
     assert 'Traceback' not in err and 'the run failed at t = 0 s' in err
@@ -143,13 +145,13 @@ def test_non_finite_loads_are_caught_inside_the_kernel_sample_path():
         parse_scenario(fixed_beam(1e308))
     sim = Simulator(with_mass(fixed_beam(1.0), 'beam', 1e308))
     assert np.isfinite(sim.y).all()
-    grid = engine.SampleGrid(100.0)
+    grid = sampling.SampleGrid(100.0)
     rows = np.full((8, sim._outputs_size()), 7.0)
     grid.reset(0, rows)
     assert sim.advance_to(0.05, samples=grid) is False
     assert grid.taken == 0 and sim.t == 0.0
-    assert sim.message == f'at t = 0 s: {engine.sampling.LOADS_NOT_FINITE}'
-    with pytest.raises(engine.NumericalFailure, match='not finite'):
+    assert sim.message == f'at t = 0 s: {sampling.LOADS_NOT_FINITE}'
+    with pytest.raises(sampling.NumericalFailure, match='not finite'):
         sim.joint_wrenches()
 
 
@@ -169,8 +171,8 @@ def test_a_step_too_large_for_the_chain_fails_with_the_violation(tmp_path, capsy
                       rate_hz=5.0)
     assert sim.status == 'failed'
     assert sim.message.startswith(f'at t = {sim.t:.9g} s: constraint violation')
-    assert f'exceeds {engine.DIVERGENCE_VIOLATION:g}' in sim.message
-    assert sim.t > 0 and sim.max_violation <= engine.DIVERGENCE_VIOLATION
+    assert f'exceeds {DIVERGENCE_VIOLATION:g}' in sim.message
+    assert sim.t > 0 and sim.max_violation <= DIVERGENCE_VIOLATION
     status, err, out = cli_run(tmp_path, capsys, chain(1.0, 1.0), '--dt', '0.2',
                                '--duration', '3', '--rate', '5')
     assert status == EXIT_FAILED and 'constraint violation' in err
@@ -334,7 +336,7 @@ def test_a_run_never_ends_on_a_state_beyond_the_tolerance():
     stop = diverging.t          # the last state whose step started within the tolerance
     sim = Simulator(parse_scenario(chain(1.0, 1.0, dt=0.2)))
     assert sim.advance_to(stop - 0.2)
-    assert sim.constraint_violation() <= engine.DIVERGENCE_VIOLATION
+    assert sim.constraint_violation() <= DIVERGENCE_VIOLATION
     ok = sim.advance_to(stop)
     assert sim.t == stop
     assert not ok and sim.status == 'failed', sim.constraint_violation()

@@ -6,12 +6,13 @@ import math
 import os
 import pathlib
 
+from cfem_ros.core.engine.atmosphere import isa_density
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.run import batch
 from cfem_ros.core.run.inputs import wrench_input
 from cfem_ros.core.run.session import Session
-from cfem_ros.core.scenario.parse import isa_density, load_scenario, parse_scenario
+from cfem_ros.core.scenario.parse import load_scenario, parse_scenario
 from crossings import assert_same_location, assert_same_runs, rk4, step_with_condition
 import numpy as np
 import pytest

@@ -13,8 +13,9 @@ import pathlib
 import subprocess
 import sys
 
-from cfem_ros import analysis, cli, load_scenario, plots, Simulator
+from cfem_ros import cli, load_scenario, plots, Simulator
 from cfem_ros.core.run.inputs import release_input
+from cfem_ros.recording import analysis
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import matplotlib.image
@@ -183,7 +184,8 @@ def test_a_third_party_recording_reads_the_same(store, tmp_path):
 def test_reading_needs_no_rclpy(store, tmp_path):
     code = (
         "import sys; sys.modules['rclpy'] = None\n"
-        'from cfem_ros import analysis, cli\n'
+        'from cfem_ros import cli\n'
+        'from cfem_ros.recording import analysis\n'
         f'run = analysis.open_run({str(store)!r})\n'
         "assert run.releases()[0][1] == 'pivot'\n"
         f"assert cli.main(['plot', {str(store)!r}, '-o', {str(tmp_path / 'plots')!r}]) == 0\n"

@@ -4,8 +4,9 @@
 
 import pathlib
 
-from cfem_ros import analysis, cli, load_scenario, Simulator
+from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.run.inputs import wrench_input
+from cfem_ros.recording import analysis
 from cfem_ros.recording.offline import run as run_offline
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np

@@ -13,7 +13,8 @@ by 180 deg); the quaternion angle must report a.
 
 import pathlib
 
-from cfem_ros import analysis, cli, plots
+from cfem_ros import cli, plots
+from cfem_ros.recording import analysis
 import numpy as np
 import pytest
 import yaml

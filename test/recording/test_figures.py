@@ -4,7 +4,8 @@
 
 import pathlib
 
-from cfem_ros import analysis, cli, plots
+from cfem_ros import cli, plots
+from cfem_ros.recording import analysis
 import matplotlib.pyplot as plt
 import pytest
 import yaml

@@ -13,10 +13,10 @@ import math
 import pathlib
 import urllib.parse
 
-from cfem_ros import analysis, cli, load_scenario, parse_scenario
+from cfem_ros import cli, load_scenario, parse_scenario
 from cfem_ros.core import rotations
 from cfem_ros.core.model.shapes import equivalent_box
-from cfem_ros.recording import visuals
+from cfem_ros.recording import analysis, visuals
 import numpy as np
 import pytest
 from recordings import read_rosbags

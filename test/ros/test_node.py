@@ -19,8 +19,9 @@ import subprocess
 import sys
 import time
 
-from cfem_ros import analysis, cli
+from cfem_ros import cli
 from cfem_ros.core import rotations
+from cfem_ros.recording import analysis
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory

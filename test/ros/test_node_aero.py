@@ -5,7 +5,8 @@
 import pathlib
 import signal
 
-from cfem_ros import analysis, cli
+from cfem_ros import cli
+from cfem_ros.recording import analysis
 from cfem_ros.recording.airtracks import read_air
 from geometry_msgs.msg import Vector3Stamped
 import numpy as np

@@ -5,8 +5,9 @@
 import pathlib
 import signal
 
-from cfem_ros import analysis, cli
+from cfem_ros import cli
 from cfem_ros.core import rotations
+from cfem_ros.recording import analysis
 import numpy as np
 import pytest
 from rosharness import clock_through, NodeProcess, Peer, stamp_ns

@@ -8,7 +8,7 @@ import math
 import os
 
 from cfem_ros import cli
-from cfem_ros.core.engine.simulator import REDUNDANT_WARNING
+from cfem_ros.core.engine.dynamics import REDUNDANT_WARNING
 from cfem_ros.core.model.model import STANDARD_GRAVITY
 from cfem_ros.study import Sweep
 from cfem_ros.study.metrics import compute, from_run

@@ -18,6 +18,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine import kernel
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.kernel import PLAN
+from cfem_ros.core.errors import CfemError
 import numpy as np
 
 
@@ -29,7 +30,7 @@ LOADS_NOT_FINITE = ('the joint loads are not finite (masses, inertias or loads b
                     'what double precision holds)')
 
 
-class NumericalFailure(Exception):
+class NumericalFailure(CfemError):
     """Raised inside a step or a sample; turned into ``status = 'failed'``."""
 
 

@@ -24,17 +24,15 @@ import math
 from typing import Optional
 
 from cfem_ros.core.engine import braces
-from cfem_ros.core.engine import kernel, sampling  # noqa: F401 - sampling kept for users
+from cfem_ros.core.engine import kernel
 from cfem_ros.core.engine.aero import AeroWatch
-from cfem_ros.core.engine.carrier import Carriers, ODOMETRY_HORIZON  # noqa: F401 - kept for users
-from cfem_ros.core.engine.dynamics import (  # noqa: F401 - for sweeps
-                                           Dynamics, REDUNDANT_MESSAGES, REDUNDANT_WARNING)
+from cfem_ros.core.engine.carrier import Carriers
+from cfem_ros.core.engine.dynamics import Dynamics
 from cfem_ros.core.engine.groups import ReleaseGroups, row_weights
 from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
                                               NOT_FINITE)
-from cfem_ros.core.engine.releases import Releases, TRIGGER_CAUSES  # noqa: F401 - kept for users
-from cfem_ros.core.engine.sampling import (  # noqa: F401 - kept for users
-                                           NumericalFailure, SampleGrid)
+from cfem_ros.core.engine.releases import Releases
+from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.topology import JointTables, Topology
 from cfem_ros.core.model.model import Model

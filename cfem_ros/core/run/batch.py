@@ -9,7 +9,8 @@ spread over threads, which run in parallel because the compiled step loop
 releases the GIL. A copy differs from the model by its initial state and
 by constant external wrenches::
 
-    from cfem_ros import batch, load_scenario
+    from cfem_ros import load_scenario
+    from cfem_ros.core.run import batch
     model = load_scenario('config/store_separation.yaml')
     results = batch.run(model, [{'loads': {'store': ([0, 0, f], [0, 0, 0])}}
                                 for f in np.linspace(0, 2e4, 1000)])

@@ -37,8 +37,7 @@ import math
 import time
 from typing import Callable, Optional
 
-from cfem_ros.core.engine.sampling import NumericalFailure
-from cfem_ros.core.engine.simulator import SampleGrid
+from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
 from cfem_ros.core.run.inputs import apply_input, Input, input_topic, InputQueue, validate_input
 import numpy as np
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import os
 from typing import Any, Optional
 
-from cfem_ros.core.engine.atmosphere import isa_density  # noqa: F401 - where it has always been
 from cfem_ros.core.fileio.messages import clip, show
 from cfem_ros.core.fileio.textfile import display, read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
