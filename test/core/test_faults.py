@@ -15,7 +15,7 @@ import math
 from cfem_ros import cli, parse_scenario, Simulator
 from cfem_ros.cli.common import EXIT_BAD_INPUT, EXIT_FAILED
 from cfem_ros.core.engine import kernel, sampling
-from cfem_ros.core.engine.kernelcalls import DIVERGENCE_VIOLATION
+from cfem_ros.core.engine.kernelcalls import DIVERGENCE_VIOLATION, kernel_error
 from cfem_ros.core.errors import CfemError, InputError, ScenarioError
 from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
 from cfem_ros.core.run.session import Session
@@ -341,3 +341,28 @@ def test_a_run_never_ends_on_a_state_beyond_the_tolerance():
     assert sim.t == stop
     assert not ok and sim.status == 'failed', sim.constraint_violation()
     assert 'constraint violation' in sim.message
+
+
+def test_every_failure_code_of_the_kernel_is_a_cfem_error_in_our_words():
+    # the codes of cpp/common.hpp, 0 to 9: three end a call normally, the rest fail the run
+    normal = {kernel.REACHED, kernel.CONDITION, kernel.ROWS_FULL}
+    failing = {kernel.NOT_FINITE, kernel.VIOLATION, kernel.SINGULAR, kernel.LOADS_NOT_FINITE,
+               kernel.NAN_VALUE, kernel.SAME_SIGNS, kernel.NO_CONVERGENCE}
+    assert normal | failing == set(range(10)) and not normal & failing
+    assert all(kernel_error(code, 0.0) is None for code in normal)
+    messages = {}
+    for code in failing:
+        failure = kernel_error(code, 2.5e-4)
+        assert isinstance(failure, sampling.NumericalFailure) and isinstance(failure, CfemError)
+        messages[code] = str(failure)
+    assert len(set(messages.values())) == len(failing)   # each code says what it means
+    # the value is where the search stopped (s into the step), or the violation
+    assert '0.00025 s into the step' in messages[kernel.NAN_VALUE]
+    assert messages[kernel.NO_CONVERGENCE].startswith(
+        'the crossing of a release condition or stroke was not found in '
+        f'{kernel.CROSSING_MAXITER} iterations (stopped at 0.00025 s into the step)')
+    assert messages[kernel.VIOLATION].startswith(
+        f'constraint violation 0.00025 exceeds {DIVERGENCE_VIOLATION:g}')
+    # scipy's brentq's own words ("f(a) and f(b) must have different signs", "Failed to
+    # converge after ...") are not passed through
+    assert not [m for m in messages.values() if 'f(a)' in m or 'converge after' in m]
