@@ -35,7 +35,6 @@ from cfem_ros.core.engine.kernel import LOADS
 from cfem_ros.core.engine.sampling import NumericalFailure, SampledState
 from cfem_ros.core.engine.ties import TiedLoads
 from cfem_ros.core.model.model import Model
-from cfem_ros.core.run.inputs import held_wrench
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -212,3 +211,25 @@ class Dynamics(SampledState):
     def joint_index(self, joint) -> int:
         """Return the index of a joint given by name or index."""
         return _index(self.model.joint_index, joint, 'joint')
+
+
+def held_wrench(body, force, torque, point=None):
+    """
+    Check a wrench to hold on a body (``Simulator.set_wrench``); return it as arrays.
+
+    Returns (force, torque, point) as float arrays of 3, point zero (the CG)
+    if None; ValueError if a shape or number is wrong or the body is fixed
+    or kinematic.
+    """
+    force = np.asarray(force, dtype=float)
+    torque = np.asarray(torque, dtype=float)
+    point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
+    if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
+        raise ValueError('force, torque and point must have 3 components each')
+    if not (np.isfinite(force).all() and np.isfinite(torque).all()
+            and np.isfinite(point).all()):
+        raise ValueError('force, torque and point must be finite')
+    if not body.dynamic:
+        what = 'fixed' if body.fixed else 'kinematic (it follows its motion)'
+        raise ValueError(f'body {body.name!r} is {what} and cannot be loaded')
+    return force, torque, point

@@ -113,28 +113,6 @@ def parse_frame_id(frame_id: str):
     return frame, values
 
 
-def held_wrench(body, force, torque, point=None):
-    """
-    Check a wrench to hold on a body (``Simulator.set_wrench``); return it as arrays.
-
-    Returns (force, torque, point) as float arrays of 3, point zero (the CG)
-    if None; ValueError if a shape or number is wrong or the body is fixed
-    or kinematic.
-    """
-    force = np.asarray(force, dtype=float)
-    torque = np.asarray(torque, dtype=float)
-    point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
-    if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
-        raise ValueError('force, torque and point must have 3 components each')
-    if not (np.isfinite(force).all() and np.isfinite(torque).all()
-            and np.isfinite(point).all()):
-        raise ValueError('force, torque and point must be finite')
-    if not body.dynamic:
-        what = 'fixed' if body.fixed else 'kinematic (it follows its motion)'
-        raise ValueError(f'body {body.name!r} is {what} and cannot be loaded')
-    return force, torque, point
-
-
 #: Largest force, torque, point or odometry number an input may carry (a scenario's bound).
 MAX_INPUT_MAGNITUDE = 1e9
 #: Latest header stamp, ns: a ROS Time's seconds are an int32.
