@@ -120,7 +120,6 @@ CORE_MAY_IMPORT = {
 #: may be added.
 CORE_KNOWN_UPWARD = {
     ('cfem_ros.core.scenario.aeroparse', 'cfem_ros.core.engine.atmosphere'),
-    ('cfem_ros.core.scenario.parse', 'cfem_ros.core.engine.atmosphere'),
     ('cfem_ros.core.scenario.braces', 'cfem_ros.core.engine.braces'),
     ('cfem_ros.core.scenario.motiontable', 'cfem_ros.core.engine.kernel'),
     ('cfem_ros.core.scenario.motiontable', 'cfem_ros.core.engine.motion'),
