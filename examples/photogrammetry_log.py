@@ -21,16 +21,17 @@ import tempfile
 
 from cfem_ros import cli
 from cfem_ros.recording.analysis import open_run
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.reader import decoded_messages, open_mcap
-from cfem_ros.recording.recorder import ODOMETRY, POSE, Recorder, STRING
 from cfem_ros.recording.replay import read_inputs_and_start
+from cfem_ros.recording.schema import ODOMETRY_TYPE, POSE_TYPE, STRING_TYPE
 import numpy as np
 from scipy.spatial.transform import Rotation
 import yaml
 
 SCENARIO = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'config', 'fit',
                         'pullup_ejectors.yaml')
-SCHEMAS = {'nav_msgs/msg/Odometry': ODOMETRY, 'std_msgs/msg/String': STRING}
+SCHEMAS = {'nav_msgs/msg/Odometry': ODOMETRY_TYPE, 'std_msgs/msg/String': STRING_TYPE}
 
 
 def _truth(flight: str, forward: float, aft: float, folder: str):
@@ -74,7 +75,7 @@ def write(flight: str, output: str, forward: float, aft: float, seed: int = 37,
                           _as_dict(decoded), message.log_time)
         for k, t in enumerate(store.time):
             t_ns = start_ns + round(t * 1e9)
-            rec.write('/photogrammetry/store', POSE, {
+            rec.write('/photogrammetry/store', POSE_TYPE, {
                 'header': {'stamp': {'sec': t_ns // 10 ** 9, 'nanosec': t_ns % 10 ** 9},
                            'frame_id': 'aircraft'},
                 'pose': {'position': dict(zip('xyz', position[k])),

@@ -16,7 +16,8 @@ import argparse
 import math
 import sys
 
-from cfem_ros.recording.recorder import ODOMETRY, Recorder, STRING
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.schema import ODOMETRY_TYPE, STRING_TYPE
 
 G = 9.80665
 SPEED = 250.0
@@ -44,7 +45,7 @@ def write(path: str, duration: float = 2.0, rate_hz: float = 100.0, release: flo
             t = k / rate_hz
             t_ns = START_NS + round(t * 1e9)
             position, quat, pitch_rate = pullup(t)
-            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY, {
+            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY_TYPE, {
                 'header': {'stamp': _stamp(t_ns), 'frame_id': 'world'},
                 'child_frame_id': 'aircraft',
                 'pose': {'pose': {'position': dict(zip('xyz', position)),
@@ -55,7 +56,7 @@ def write(path: str, duration: float = 2.0, rate_hz: float = 100.0, release: flo
                           'covariance': [0.0] * 36}}, t_ns)
             count += 1
             if abs(t - release) < 0.5 / rate_hz:
-                rec.write('/cfem/release', STRING, {'data': 'hook'}, t_ns)
+                rec.write('/cfem/release', STRING_TYPE, {'data': 'hook'}, t_ns)
                 count += 1
     return count
 

@@ -12,13 +12,11 @@ moment coefficients (the moments about the actual CG).
 from __future__ import annotations
 
 from dataclasses import dataclass
-import re
 
 from cfem_ros.core.engine.aero import AIR_TOPICS
+from cfem_ros.recording import schema
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 import numpy as np
-
-AIR_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/aero/(?P<kind>[a-z_]+)$')
 
 
 @dataclass(frozen=True)
@@ -49,16 +47,16 @@ def read_air(path: str, namespace: str, start_ns: int) -> dict:
     with open_mcap(path, whole=False) as reader:
         summary = reader.get_summary()
         topics = [c.topic for c in summary.channels.values()
-                  for m in [AIR_TOPIC.match(c.topic)]
-                  if m and m['ns'] == namespace and m['kind'] in names]
+                  for m in [schema.AIR.pattern.match(c.topic)]
+                  if m and m['ns'] == namespace and m['quantity'] in names]
         if not topics:
             return {}
         for channel, _, decoded in decoded_messages(reader, path, topics=topics):
-            match = AIR_TOPIC.match(channel.topic)
+            match = schema.AIR.pattern.match(channel.topic)
             stamp = decoded.header.stamp
             when = stamp.sec * 1_000_000_000 + stamp.nanosec
             v = decoded.vector
-            rows.setdefault(match['body'], {}).setdefault(when, {})[match['kind']] = (
+            rows.setdefault(match['body'], {}).setdefault(when, {})[match['quantity']] = (
                 v.x, v.y, v.z)
     tracks = {}
     for body, samples in rows.items():

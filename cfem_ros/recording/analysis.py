@@ -23,6 +23,7 @@ import re
 from typing import Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.recording import schema
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import check_mcap, decoded_messages, open_mcap, reading
 import numpy as np
@@ -31,17 +32,18 @@ from scipy.spatial.transform import Rotation, Slerp
 __all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_deg',
            'check_mcap', 'compare_runs', 'euler_continuous', 'open_run']
 
+#: What ``cfem-sim info`` lists a recording's bodies and joints by (group ``name``); to be
+#: replaced there by ``schema.POSE.pattern`` and ``schema.JOINT_WRENCH.pattern``.
 BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
 JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
-APPLIED_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied/(?P<source>[^/]+)$')
-#: The loads in world axes (SPEC sections 3 and 5): what a ``Run`` holds. Recordings
-#: made before these topics existed had the world axes on the topics above.
-JOINT_WORLD_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench_world$')
-APPLIED_WORLD_TOPIC = re.compile(
-    r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/applied_world/(?P<source>[^/]+)$')
-EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
-RELATIVE_TOPIC = re.compile(
-    r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/relative_(?P<kind>pose|twist)$')
+#: The topics a ``Run`` is read from, with the kind of ``_read_messages``'s rows they make.
+#: The loads in world axes (SPEC sections 3 and 5) are what a ``Run`` holds; recordings
+#: made before the ``_world`` topics existed had the world axes on the others (``*_in``).
+READ = ((schema.RELATIVE_POSE, 'relative_pose'), (schema.RELATIVE_TWIST, 'relative_twist'),
+        (schema.POSE, 'pose'), (schema.TWIST, 'twist'),
+        (schema.JOINT_WRENCH_WORLD, 'joint'), (schema.APPLIED_WORLD, 'applied'),
+        (schema.JOINT_WRENCH, 'joint_in'), (schema.APPLIED, 'applied_in'),
+        (schema.EVENTS, 'events'))
 NAN = float('nan')
 
 #: Near pitch +-90 deg roll and yaw are each undefined (only their sum or
@@ -337,10 +339,9 @@ def open_run(path: str, namespace: Optional[str] = None,
             channel = _renamed(channel, renamed)
             count = (summary.statistics.channel_message_counts.get(channel.id, 0)
                      if summary.statistics else 0)
-            schema = schemas.get(channel.schema_id)
-            topics[channel.topic] = (schema.name if schema else '?', count)
-        spaces = {m['ns'] for t in topics
-                  for m in [BODY_TOPIC.match(t)] if m and m['kind'] == 'pose'}
+            kind = schemas.get(channel.schema_id)
+            topics[channel.topic] = (kind.name if kind else '?', count)
+        spaces = {m['ns'] for t in topics for m in [schema.POSE.pattern.match(t)] if m}
         ns = _choose_namespace(path, spaces, namespace)
         metadata = {}
         for record in reader.iter_metadata():
@@ -365,66 +366,48 @@ def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
            'joint_in': {}, 'applied_in': {}, 'world': set()}   # *_in: loads, frame_id
     for channel, _, decoded in messages:
         topic = (renamed or {}).get(channel.topic, channel.topic)
-        relative = RELATIVE_TOPIC.match(topic)
-        if relative and relative['ns'] == ns:
-            stamp = decoded.header.stamp
-            when = stamp.sec * 1_000_000_000 + stamp.nanosec
-            if relative['kind'] == 'pose':
-                p, q = decoded.pose.position, decoded.pose.orientation
-                values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-                raw['reference'][relative['name']] = decoded.header.frame_id
-            else:
-                a, b = decoded.twist.linear, decoded.twist.angular
-                values = (a.x, a.y, a.z, b.x, b.y, b.z)
-            raw[f'relative_{relative["kind"]}'].setdefault(relative['name'], []).append(
-                (when, values))
+        found = _topic_of(topic, ns)
+        if found is None:
             continue
-        body = BODY_TOPIC.match(topic)
-        if body and body['ns'] == ns and body['kind'] in ('pose', 'twist'):
-            stamp = decoded.header.stamp
-            when = stamp.sec * 1_000_000_000 + stamp.nanosec
-            if body['kind'] == 'pose':
-                p, q = decoded.pose.position, decoded.pose.orientation
-                values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-                raw['world'].add(decoded.header.frame_id)
-            else:
-                a, b = decoded.twist.linear, decoded.twist.angular
-                values = (a.x, a.y, a.z, b.x, b.y, b.z)
-            raw[body['kind']].setdefault(body['name'], []).append((when, values))
-            continue
-        load = _load_topic(topic, ns)
-        if load is not None:
-            kind, name = load
-            stamp = decoded.header.stamp
-            f, m = decoded.wrench.force, decoded.wrench.torque
-            row = (stamp.sec * 1_000_000_000 + stamp.nanosec, (f.x, f.y, f.z, m.x, m.y, m.z))
-            if kind.endswith('_in'):
-                row += (decoded.header.frame_id,)
-            raw[kind].setdefault(name, []).append(row)
-            continue
-        events = EVENTS_TOPIC.match(topic)
-        if events and events['ns'] == ns:
+        kind, match = found
+        if kind == 'events':
             try:
                 event = json.loads(decoded.data)
             except (ValueError, TypeError):
                 event = {'event': 'unparsed', 'data': str(decoded.data)}
             raw['events'].append(event if isinstance(event, dict) else {'event': event})
+            continue
+        stamp = decoded.header.stamp
+        when = stamp.sec * 1_000_000_000 + stamp.nanosec
+        if kind.endswith('pose'):
+            p, q = decoded.pose.position, decoded.pose.orientation
+            values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+            if kind == 'pose':
+                raw['world'].add(decoded.header.frame_id)
+            else:
+                raw['reference'][match['body']] = decoded.header.frame_id
+        elif kind.endswith('twist'):
+            a, b = decoded.twist.linear, decoded.twist.angular
+            values = (a.x, a.y, a.z, b.x, b.y, b.z)
+        else:   # a load
+            f, m = decoded.wrench.force, decoded.wrench.torque
+            row = (when, (f.x, f.y, f.z, m.x, m.y, m.z))
+            if kind.endswith('_in'):
+                row += (decoded.header.frame_id,)
+            name = (match['joint'] if kind.startswith('joint')
+                    else f"{match['body']}/{match['source']}")
+            raw[kind].setdefault(name, []).append(row)
+            continue
+        raw[kind].setdefault(match['body'], []).append((when, values))
     return raw
 
 
-def _load_topic(topic: str, ns: str):
-    """
-    Return (kind, name) of a load topic of namespace ns, else None.
-
-    kind is 'joint' or 'applied' for world axes, 'joint_in' or 'applied_in'
-    for the topics in the axes where the load acts.
-    """
-    for pattern, kind in ((JOINT_WORLD_TOPIC, 'joint'), (APPLIED_WORLD_TOPIC, 'applied'),
-                          (JOINT_TOPIC, 'joint_in'), (APPLIED_TOPIC, 'applied_in')):
-        match = pattern.match(topic)
+def _topic_of(topic: str, ns: str):
+    """Return (kind, match) of a topic of namespace ns that a ``Run`` reads (``READ``)."""
+    for which, kind in READ:
+        match = which.pattern.match(topic)
         if match and match['ns'] == ns:
-            return kind, (match['name'] if kind.startswith('joint')
-                          else f"{match['body']}/{match['source']}")
+            return kind, match
     return None
 
 

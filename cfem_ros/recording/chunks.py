@@ -43,6 +43,12 @@ import numpy as np
 #: The file's magic (MCAP specification; ``mcap.writer.MCAP0_MAGIC``, whose module imports
 #: importlib.metadata and both compressors: not needed here).
 MCAP0_MAGIC = b'\x89MCAP0\r\n'
+#: A recording's chunk size in bytes: small, so that a hard kill loses little.
+CHUNK_SIZE = 64 * 1024
+#: Samples handed over a batch at a time (``Recorder.free_rows``) are
+#: buffered for up to this many chunks before they are written: a batched
+#: run comes back to Python once per batch, not once per chunk.
+BATCH_CHUNKS = 16
 
 #: A Message record up to its data: opcode, record length, channel id,
 #: sequence, log time, publish time.

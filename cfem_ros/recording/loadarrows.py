@@ -33,8 +33,6 @@ from cfem_ros.recording import visuals
 import numpy as np
 
 ARROW, DELETEALL = 0, 3
-#: Seconds of simulated time between two sendings of the arrows.
-PERIOD = 0.1
 #: Colours (r, g, b, a) of the kinds of load.
 COLORS = {
     'joint': (0.9, 0.1, 0.1, 0.95),

@@ -55,7 +55,7 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     for item in inputs:
         session.submit(item, check=False)
     session.run(progress, progress_every)
-    if session.sim.status == 'failed' and hasattr(recorder, 'failed'):
+    if session.sim.status == 'failed' and recorder is not None:
         recorder.failed()   # the recording says why it ends there
     return not session.failed
 

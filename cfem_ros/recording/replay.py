@@ -8,8 +8,8 @@ from dataclasses import replace
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
-from cfem_ros.core.run.inputs import (ODOM_TOPIC, odometry_input, POSE_TOPIC, release_input,
-                                      RELEASE_TOPIC, wrench_input, WRENCH_TOPIC)
+from cfem_ros.core.run.inputs import odometry_input, release_input, wrench_input
+from cfem_ros.recording import schema
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 
@@ -70,7 +70,7 @@ def _read(path: str) -> tuple:
         start_ns = start_stamp_ns(reader)
         found = []
         for channel, message, decoded in decoded_messages(reader, path):
-            wrench = WRENCH_TOPIC.match(channel.topic)
+            wrench = schema.WRENCH_INPUT.pattern.match(channel.topic)
             if wrench:
                 w = decoded.wrench
                 header = decoded.header
@@ -78,11 +78,11 @@ def _read(path: str) -> tuple:
                     wrench['body'], [w.force.x, w.force.y, w.force.z],
                     [w.torque.x, w.torque.y, w.torque.z], header.frame_id,
                     header_ns=header.stamp.sec * 1_000_000_000 + header.stamp.nanosec)))
-            elif RELEASE_TOPIC.match(channel.topic):
+            elif schema.RELEASE_INPUT.pattern.match(channel.topic):
                 found.append((message.log_time, release_input(decoded.data.strip())))
-            elif ODOM_TOPIC.match(channel.topic):
+            elif schema.ODOMETRY_INPUT.pattern.match(channel.topic):
                 found.append((message.log_time, _odometry(
-                    ODOM_TOPIC.match(channel.topic)['body'], decoded)))
+                    schema.ODOMETRY_INPUT.pattern.match(channel.topic)['body'], decoded)))
     return found, start_ns
 
 
@@ -116,7 +116,7 @@ def start_stamp_ns(reader) -> Optional[int]:
         if record.name == 'cfem_ros' and 'start_stamp_ns' in record.metadata:
             return int(record.metadata['start_stamp_ns'])
     poses = [c.id for c in reader.get_summary().channels.values()
-             if POSE_TOPIC.match(c.topic)] if reader.get_summary() else []
+             if schema.POSE.pattern.match(c.topic)] if reader.get_summary() else []
     if poses:
         for _, _, message in reader.iter_messages(
                 topics=None, log_time_order=True):

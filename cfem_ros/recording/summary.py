@@ -13,12 +13,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 import json
-import re
 
+from cfem_ros.recording import schema
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import open_mcap
-
-EVENTS_TOPIC = re.compile(r'^(?P<ns>.*)/events$')
 
 
 @dataclass
@@ -71,13 +69,13 @@ def read_summary(path: str) -> Summary:
         stats = summary.statistics
         topics = {}
         for channel in summary.channels.values():
-            schema = summary.schemas.get(channel.schema_id)
-            topics[channel.topic] = (schema.name if schema else '?',
+            kind = summary.schemas.get(channel.schema_id)
+            topics[channel.topic] = (kind.name if kind else '?',
                                      stats.channel_message_counts.get(channel.id, 0))
         metadata = {record.name: dict(record.metadata)
                     for record in reader.iter_metadata()}
         events = []
-        wanted = [t for t in topics if EVENTS_TOPIC.match(t)]
+        wanted = [t for t in topics if schema.EVENTS.pattern.match(t)]
         if wanted:
             for _, _, message in reader.iter_messages(topics=wanted, log_time_order=True):
                 events.append(_event(message.data))

@@ -24,7 +24,7 @@ import os
 import sys
 
 from cfem_ros.core import rotations
-from cfem_ros.recording import viewframes, visuals
+from cfem_ros.recording import schema, viewframes, visuals
 import numpy as np
 
 #: Which frame keeps its label where several start at one point: lower first.
@@ -94,14 +94,16 @@ def layout(model, namespace: str = '/cfem') -> dict:
     if carrier >= 0:   # follow the carrier, z up; aim below the store: it falls
         follow = viewframes.frame_name(model, model.bodies[carrier].name)
         at = at - turn @ np.asarray(model.bodies[carrier].position, dtype=float)
-        position = [(f'{ns}/bodies/{body.name}/relative_pose.pose.position.{c}',
+        topic = schema.RELATIVE_POSE.absolute(ns, body=body.name)
+        position = [(f'{topic}.pose.position.{c}',
                      f'{body.name} {c} in {model.bodies[carrier].name} axes, m') for c in 'xz']
     else:
         follow = visuals.root_frame(model)
-        position = [(f'{ns}/bodies/{body.name}/pose.pose.position.{c}',
+        topic = schema.POSE.absolute(ns, body=body.name)
+        position = [(f'{topic}.pose.position.{c}',
                      f'{body.name} {c} in {model.frame_id} axes, m') for c in 'xz']
     hooks = [j for j in model.joints if j.child == store]
-    loads = [(f'{ns}/joints/{j.name}/wrench_world.wrench.force.{c}',
+    loads = [(f'{schema.JOINT_WRENCH_WORLD.absolute(ns, joint=j.name)}.wrench.force.{c}',
               f'{j.name} force {c} ({model.frame_id} axes), N') for j in hooks for c in 'xz']
     three_d = {
         'followTf': follow, 'followMode': 'follow-pose',
@@ -111,7 +113,8 @@ def layout(model, namespace: str = '/cfem') -> dict:
                         'target': [0.0, 0.0, 0.0], 'targetOrientation': [0.0, 0.0, 0.0, 1.0]},
         'scene': {'transforms': {'showLabel': True, 'axisScale': _mm(0.15 * size),
                                  'labelSize': _mm(0.04 * size)}},
-        'topics': {f'{ns}/markers': {'visible': True}, f'{ns}/load_markers': {'visible': True}},
+        'topics': {schema.MARKERS.absolute(ns): {'visible': True},
+                   schema.LOAD_MARKERS.absolute(ns): {'visible': True}},
         'transforms': {f'frame:{name}': {'visible': False} for name in hidden_frames(model)},
     }
     return {
@@ -119,7 +122,7 @@ def layout(model, namespace: str = '/cfem') -> dict:
             '3D!cfem': three_d,
             'Plot!position': _plot(position, f'{body.name} position'),
             'Plot!loads': _plot(loads, 'hook loads'),
-            'RawMessages!events': {'topicPath': f'{ns}/events', 'diffEnabled': False,
+            'RawMessages!events': {'topicPath': schema.EVENTS.absolute(ns), 'diffEnabled': False,
                                    'diffMethod': 'custom', 'diffTopicPath': '',
                                    'showFullMessageForDiff': False},
         },

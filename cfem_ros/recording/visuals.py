@@ -18,7 +18,7 @@ The frames (SPEC section 4), each with the axes viewers expect:
   a joint's wrench is stamped with it, so viewers draw it at the joint.
 
 The markers (``visualization_msgs/MarkerArray`` on ``<namespace>/markers``,
-transient local, sent again every ``MARKER_PERIOD``) are frame-locked to
+transient local, sent again every ``schema.MARKERS.period``) are frame-locked to
 those frames, so they move with the frames in RViz and in Foxglove's 3D
 panel: one marker per body (its ``shape``, drawn about its CG; one per part of
 a compound, each part's ``ns`` ending in ``/part<k>`` from the second on), one sphere
@@ -49,9 +49,6 @@ FIXED_COLOR = (0.6, 0.6, 0.6, 0.3)
 CARRIER_ALPHA = 0.3
 #: The z-up root frame (REP-105's ``map``) above a scenario frame that is not z up.
 ROOT_FRAME = 'map'
-#: Seconds of simulated time between two sendings of the markers (for viewers
-#: that subscribe late with volatile durability, RViz's default).
-MARKER_PERIOD = 1.0
 HELD_COLOR = (1.0, 0.8, 0.0, 1.0)
 RELEASED_COLOR = (0.9, 0.1, 0.1, 0.35)
 #: A joint's sphere is this fraction of the thinner of the two bodies it joins (at least 1 cm).

@@ -3,22 +3,23 @@
 """
 The air each body with aero tables sees, published by the node (SPEC section 10).
 
-Four ``geometry_msgs/msg/Vector3Stamped`` topics per body under
-``bodies/<body>/aero/`` (``core.aero.AIR_TOPICS``), ``frame_id`` = the body,
-from the numbers a sample holds (``Simulator.air``), the same the recordings
-hold.
+Four ``schema.AIR`` topics per body (``bodies/<body>/aero/<quantity>``, the
+quantities of ``core.aero.AIR_TOPICS``), ``frame_id`` = the body, from the
+numbers a sample holds (``Simulator.air``), the same the recordings hold.
 """
 
 from __future__ import annotations
 
 from cfem_ros.core.engine.aero import AIR_TOPICS
+from cfem_ros.recording import schema
+from cfem_ros.ros.qos import profile
 from geometry_msgs.msg import Vector3Stamped
 
 
 class AirPublishers:
     """The aero topics of a node's simulator: created once, sent at each sample."""
 
-    def __init__(self, node, sim, qos):
+    def __init__(self, node, sim):
         self.sim = sim
         self.topics = []   # per body with aero tables: (publisher, message) per topic
         for entry in sim.model.aero:
@@ -26,9 +27,10 @@ class AirPublishers:
             pairs = []
             for name, _ in AIR_TOPICS:
                 message = Vector3Stamped()
-                message.header.frame_id = body
-                pairs.append((node.create_publisher(Vector3Stamped, f'bodies/{body}/aero/{name}',
-                                                    qos), message))
+                message.header.frame_id = schema.AIR.frame_id(body=body)
+                pairs.append((node.create_publisher(
+                    Vector3Stamped, schema.AIR.relative(body=body, quantity=name),
+                    profile(schema.AIR.qos)), message))
             self.topics.append(pairs)
 
     def publish(self, stamp_ns: int):

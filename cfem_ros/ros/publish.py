@@ -28,7 +28,8 @@ import sys
 import time
 
 from cfem_ros.core.run.inputs import parse_frame_id
-from cfem_ros.ros.node import TOPIC_QOS
+from cfem_ros.recording import schema
+from cfem_ros.ros.qos import TOPIC_QOS
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 import rclpy
 from std_msgs.msg import String
@@ -96,7 +97,7 @@ def _refusal(args, topic: str):
 
 def _message(args):
     if args.command == 'release':
-        return String, 'release', String(data=' '.join(args.joint))
+        return String, schema.RELEASE_INPUT.relative(), String(data=' '.join(args.joint))
     msg = WrenchStamped()
     sec, nanosec = divmod(int(round(args.stamp * 1e9)), 1_000_000_000)
     msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
@@ -104,7 +105,7 @@ def _message(args):
     force, torque = msg.wrench.force, msg.wrench.torque
     force.x, force.y, force.z = args.force
     torque.x, torque.y, torque.z = args.torque
-    return WrenchStamped, f'bodies/{args.body}/wrench', msg
+    return WrenchStamped, schema.WRENCH_INPUT.relative(body=args.body), msg
 
 
 def main(argv=None) -> int:
@@ -122,9 +123,9 @@ def main(argv=None) -> int:
             print(f'ERROR: wrench: --frame: {err}; the node would refuse it; nothing '
                   'published', file=sys.stderr)
             return 2
-    relative = 'release' if args.command == 'release' else f'bodies/{args.body}/wrench'
     namespace = args.ns.rstrip('/')
-    topic = f'{namespace}/{relative}'
+    topic = (schema.RELEASE_INPUT if args.command == 'release' else schema.WRENCH_INPUT).absolute(
+        namespace, body=args.body)
     refused = _refusal(args, topic)
     if refused:
         print(f'ERROR: {refused}; nothing published', file=sys.stderr)
@@ -136,7 +137,7 @@ def main(argv=None) -> int:
         publisher = node.create_publisher(kind, topic, TOPIC_QOS)
         events = []
         if args.command == 'release':
-            node.create_subscription(String, f'{namespace}/events',
+            node.create_subscription(String, schema.EVENTS.absolute(namespace),
                                      lambda m: events.append(json.loads(m.data)), TOPIC_QOS)
         if not _spin_until(node, lambda: publisher.get_subscription_count() > 0, args.wait):
             print(f'ERROR: nothing subscribes to {topic} after {args.wait:g} s; is cfem_node '
@@ -145,7 +146,7 @@ def main(argv=None) -> int:
         if args.command == 'wrench' and frame != args.body:
             # the world frame is that of the body's poses
             poses = []
-            node.create_subscription(PoseStamped, f'{namespace}/bodies/{args.body}/pose',
+            node.create_subscription(PoseStamped, schema.POSE.absolute(namespace, body=args.body),
                                      poses.append, TOPIC_QOS)
             if _spin_until(node, lambda: poses, min(args.wait, POSE_WAIT)):
                 world = poses[0].header.frame_id

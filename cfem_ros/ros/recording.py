@@ -12,7 +12,8 @@ import os
 from typing import Optional
 
 from cfem_ros.core.errors import CfemError
-from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import run_metadata, StateRecorder
 from cfem_ros.ros.parameters import StartupError
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.core.run.session import RowSink
 from cfem_ros.study.metricspec import STROKE_COLUMNS
 from cfem_ros.study.shape_metrics import compute_distance
 from cfem_ros.study.windowed import at_after, compute_extremes
@@ -93,11 +94,11 @@ def sample_times(times) -> np.ndarray:
     return np.rint(np.asarray(times) * 1e9).astype(np.int64) / 1e9
 
 
-class Collector:
+class Collector(RowSink):
     """
     A ``Session`` output that keeps every sample's bodies and active joints' loads.
 
-    It offers ``sample_rows()``/``took_rows(times)``, so ``Session.run``
+    A row sink (``sample_rows()``/``took_rows(times)``), so ``Session.run``
     lets the kernel write the rows; with ``forward`` (a ``StateRecorder``)
     the rows are the recorder's own and the samples are recorded as well.
 

@@ -375,7 +375,7 @@ def _body_rates(angles, angle_rates):
 
 def test_odometry_between_messages_is_the_cubic_hermite_through_them():
     from cfem_ros.core.run.inputs import odometry_input
-    from cfem_ros.core.run.session import Session
+    from cfem_ros.core.run.session import Session, Sink as SessionSink
     from scipy.interpolate import CubicHermiteSpline
     times = np.arange(0.0, 1.0 + 1e-9, 0.05)   # 20 Hz
     flight = [_flight(t) for t in times]
@@ -384,7 +384,7 @@ def test_odometry_between_messages_is_the_cubic_hermite_through_them():
     sim = Simulator(parse_scenario(_document({'motion': start})))
     samples = []
 
-    class Sink:
+    class Sink(SessionSink):
         def sample(self):
             samples.append((sim.t, sim.position[0].copy(), sim.velocity[0].copy(),
                             sim.orientation[0].copy(), sim.rates[0].copy()))
@@ -463,13 +463,13 @@ def test_odometry_stops_beyond_the_horizon_with_a_warning(caplog):
 
 
 def test_a_carrier_back_from_an_odometry_gap_takes_what_hangs_on_it_along(caplog):
-    from cfem_ros.core.run.session import Session
+    from cfem_ros.core.run.session import Session, Sink as SessionSink
     rate = -G / SPEED
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft)))
     before = []
 
-    class Sink:
+    class Sink(SessionSink):
         def sample(self):
             if abs(sim.t - 0.8) < 1e-12:   # the sample at 0.8 s: before the message acts
                 before.append((sim.position[0].copy(), *_relative(sim)))

@@ -18,7 +18,7 @@ import pathlib
 from cfem_ros import load_scenario, parse_scenario, Simulator
 from cfem_ros.core.run.inputs import release_input, wrench_input
 from cfem_ros.core.run.session import Session
-from cfem_ros.recording import recorder
+from cfem_ros.recording import samplelayout
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 import numpy as np
 import pytest
@@ -71,11 +71,11 @@ def by_topic(messages):
     return topics
 
 
-@pytest.mark.parametrize('batch_chunks', [1, recorder.BATCH_CHUNKS])
+@pytest.mark.parametrize('batch_chunks', [1, samplelayout.BATCH_CHUNKS])
 @pytest.mark.parametrize('case', sorted(CASES))
 def test_kernel_sampling_records_what_sampling_one_by_one_records(case, batch_chunks, tmp_path,
                                                                   monkeypatch):
-    monkeypatch.setattr(recorder, 'BATCH_CHUNKS', batch_chunks)
+    monkeypatch.setattr(samplelayout, 'BATCH_CHUNKS', batch_chunks)
     make_model, make_inputs, rate_hz = CASES[case]
     model = make_model()
     runs = [record(tmp_path / f'{batched}.mcap', model, make_inputs(), rate_hz, batched)

@@ -14,7 +14,10 @@ import zlib
 
 from cfem_ros.recording.chunks import MESSAGE_HEADER
 from cfem_ros.recording.msgdefs import DEFINITIONS
-from cfem_ros.recording.recorder import CHUNK_SIZE, POSE, Recorder, SampleLayout, STRING, TWIST
+from cfem_ros.recording.chunks import CHUNK_SIZE
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.samplelayout import SampleLayout
+from cfem_ros.recording.schema import POSE_TYPE, STRING_TYPE, TWIST_TYPE
 from doctor import diagnose
 from mcap.reader import make_reader
 from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Message, MessageIndex,
@@ -54,7 +57,7 @@ def test_sample_records_are_the_generic_encoders_bytes():
         assert not layout.append(stamp_ns, row)
     records, chans, log_times, offsets = layout.records(first_sequence=40)
     assert chans == channels and list(log_times) == stamps
-    pose, twist = _encoder(POSE), _encoder(TWIST)
+    pose, twist = _encoder(POSE_TYPE), _encoder(TWIST_TYPE)
     sequence = 40
     for s, stamp_ns in enumerate(stamps):
         column = 0
@@ -78,11 +81,11 @@ def _write_mixed(path):
     """Two kinds of sample, switching, with dict messages and metadata between; several chunks."""
     rng = np.random.default_rng(3)
     written = []   # (topic, log time, encoded data) in writing order
-    pose, twist, string = _encoder(POSE), _encoder(TWIST), _encoder(STRING)
+    pose, twist, string = _encoder(POSE_TYPE), _encoder(TWIST_TYPE), _encoder(STRING_TYPE)
     with Recorder(str(path), overwrite=True, metadata={'case': 'mixed'}) as recorder:
         kinds = {
-            'both': [('/a/pose', POSE, 'world', 7), ('/a/twist', TWIST, 'a', 6)],
-            'pose': [('/a/pose', POSE, 'world', 7)],
+            'both': [('/a/pose', POSE_TYPE, 'world', 7), ('/a/twist', TWIST_TYPE, 'a', 6)],
+            'pose': [('/a/pose', POSE_TYPE, 'world', 7)],
         }
         layouts = {key: recorder.layout(m) for key, m in kinds.items()}
         stamp_ns = 0
@@ -95,7 +98,7 @@ def _write_mixed(path):
                 written.append(('/a/twist', stamp_ns,
                                 twist(_twist(stamp_ns, 'a', row[7:]))))
             if k % 700 == 13:
-                recorder.write('/a/events', STRING, {'data': f'event {k}'}, stamp_ns)
+                recorder.write('/a/events', STRING_TYPE, {'data': f'event {k}'}, stamp_ns)
                 written.append(('/a/events', stamp_ns, string({'data': f'event {k}'})))
             stamp_ns += 10_000_000
     return written
@@ -180,11 +183,11 @@ def test_the_doctor_sees_what_it_should(tmp_path):
     """The check above can fail: records written twice, or out of time order, are found."""
     path = tmp_path / 'twice.mcap'
     with Recorder(str(path)) as recorder:
-        recorder.write('/a', STRING, {'data': 'x'}, 10)
+        recorder.write('/a', STRING_TYPE, {'data': 'x'}, 10)
         recorder._writer.close_chunk()
         recorder._writer._chunked_channels.clear()   # as the writer used to: again
         recorder._writer._chunked_schemas.clear()
-        recorder.write('/a', STRING, {'data': 'y'}, 5)
+        recorder.write('/a', STRING_TYPE, {'data': 'y'}, 5)
     found = diagnose(path)
     assert any('duplicate schema' in p for p in found)
     assert any('duplicate channel' in p for p in found)
@@ -194,8 +197,8 @@ def test_the_doctor_sees_what_it_should(tmp_path):
 def test_a_channel_without_messages_is_in_the_data_section_too(tmp_path):
     path = tmp_path / 'unused.mcap'
     with Recorder(str(path)) as recorder:
-        recorder.channel('/never', STRING)
-        recorder.write('/a', STRING, {'data': 'x'}, 10)
+        recorder.channel('/never', STRING_TYPE)
+        recorder.write('/a', STRING_TYPE, {'data': 'x'}, 10)
     assert diagnose(path) == []
     with open(path, 'rb') as stream:
         summary = make_reader(stream).get_summary()

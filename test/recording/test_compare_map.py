@@ -9,7 +9,8 @@ from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording.analysis import compare_runs, open_run
 from cfem_ros.recording.offline import run
-from cfem_ros.recording.recorder import POSE, Recorder, StateRecorder
+from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.schema import POSE_TYPE
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -42,9 +43,9 @@ def _recordings(tmp_path):
     with Recorder(flight) as recorder:
         for k, t_ns in enumerate(aircraft.stamp_ns):
             turn = Rotation.from_quat(aircraft.quaternion[k])
-            recorder.write('/flight/aircraft/pose', POSE, _pose(
+            recorder.write('/flight/aircraft/pose', POSE_TYPE, _pose(
                 int(t_ns), aircraft.position[k], aircraft.quaternion[k]), int(t_ns))
-            recorder.write('/flight/store/pose', POSE, _pose(
+            recorder.write('/flight/store/pose', POSE_TYPE, _pose(
                 int(t_ns), store.position[k] + turn.apply(OFFSET), store.quaternion[k]),
                 int(t_ns))
     return simulated, flight

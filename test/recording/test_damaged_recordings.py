@@ -18,7 +18,8 @@ import pathlib
 import struct
 
 from cfem_ros import cli
-from cfem_ros.recording.recorder import POSE, Recorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.schema import POSE_TYPE
 from cfem_ros.recording.recover import recover
 from cfem_ros.study.summarize import summarize_file
 from mcap.reader import make_reader
@@ -172,7 +173,7 @@ def test_a_zero_norm_quaternion_is_named_not_a_traceback(good, tmp_path, capsys)
     with Recorder(str(path)) as recorder:
         for k in range(3):
             pose['header']['stamp']['nanosec'] = k * 10_000_000
-            recorder.write('/cfem/bodies/store/pose', POSE, pose, k * 10_000_000)
+            recorder.write('/cfem/bodies/store/pose', POSE_TYPE, pose, k * 10_000_000)
     assert cli.main(['compare', str(good), str(path)]) == 2
     err = one_error(capsys, path)
     assert 'quaternion [0, 0, 0, 0]' in err and 'not a rotation' in err

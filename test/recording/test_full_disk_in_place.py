@@ -16,10 +16,12 @@ and ``recover`` gets those messages back.
 import errno
 import io
 
-from cfem_ros.recording import recorder as recorder_module
+from cfem_ros.recording import container as recorder_module
+from cfem_ros.recording.chunks import CHUNK_SIZE
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.errors import OutputError
-from cfem_ros.recording.recorder import CHUNK_SIZE, Recorder, STRING
 from cfem_ros.recording.recover import recover
+from cfem_ros.recording.schema import STRING_TYPE
 from doctor import diagnose
 from mcap.reader import make_reader
 import pytest
@@ -60,7 +62,7 @@ def _record(path, limit=None, metadata_at=None):
         for k in range(MESSAGES):
             if k == metadata_at:
                 recorder.add_metadata({'note': 'y' * 200})
-            recorder.write('/cfem/events', STRING, {'data': f'{k:04d}' + 'x' * 1000},
+            recorder.write('/cfem/events', STRING_TYPE, {'data': f'{k:04d}' + 'x' * 1000},
                            1_000_000 * k)
 
 

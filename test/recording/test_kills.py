@@ -33,7 +33,7 @@ import subprocess
 import sys
 import time
 
-from cfem_ros.recording.recorder import CHUNK_SIZE
+from cfem_ros.recording.chunks import CHUNK_SIZE
 from cfem_ros.recording.recover import recover
 from mcap.reader import make_reader
 import pytest

@@ -13,7 +13,8 @@ import pathlib
 
 from cfem_ros import cli
 from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
-from cfem_ros.recording.recorder import Recorder, WRENCH
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.schema import WRENCH_TYPE
 import numpy as np
 import pytest
 from recordings import read_rosbags
@@ -29,7 +30,7 @@ def near(tmp_path_factory):
     folder = tmp_path_factory.mktemp('load_arrows')
     inputs = folder / 'inputs.mcap'
     with Recorder(str(inputs)) as recorder:
-        recorder.write('/cfem/bodies/store/wrench', WRENCH, {
+        recorder.write('/cfem/bodies/store/wrench', WRENCH_TYPE, {
             'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': 'world@1.0,0,0'},
             'wrench': {'force': dict(zip('xyz', HELD))}}, 0)
     out = folder / 'near.mcap'

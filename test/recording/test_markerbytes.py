@@ -9,13 +9,14 @@ from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import loadarrows, visuals
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
 from cfem_ros.recording.msgdefs import DEFINITIONS
-from cfem_ros.recording.recorder import MARKERS, stamp
+from cfem_ros.recording.recorder import stamp
+from cfem_ros.recording.schema import MARKERS_TYPE
 from hypothesis import given, settings, strategies as st
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
-ENCODE = serialize_dynamic(MARKERS, DEFINITIONS[MARKERS])[MARKERS]
+ENCODE = serialize_dynamic(MARKERS_TYPE, DEFINITIONS[MARKERS_TYPE])[MARKERS_TYPE]
 MODEL = load_scenario(str(CONFIG / 'store_release_two_hooks.yaml'))
 FORCE = st.floats(-1e7, 1e7, allow_nan=False)
 

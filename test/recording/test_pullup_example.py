@@ -51,12 +51,13 @@ def test_replay_of_the_pullup_log(tmp_path):
 
 def _log(path, script, metadata=None, rate_hz=20.0):
     """Write the pull-up's odometry at rate_hz, with a cfem_ros metadata record if given."""
-    from cfem_ros.recording.recorder import ODOMETRY, Recorder
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.schema import ODOMETRY_TYPE
     with Recorder(str(path), metadata=metadata) as rec:
         for k in range(int(round(1.0 * rate_hz)) + 1):
             t_ns = script.START_NS + round(k / rate_hz * 1e9)
             position, quat, pitch_rate = script.pullup(k / rate_hz)
-            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY, {
+            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY_TYPE, {
                 'header': {'stamp': {'sec': t_ns // 10 ** 9, 'nanosec': t_ns % 10 ** 9},
                            'frame_id': 'world'},
                 'child_frame_id': 'aircraft',

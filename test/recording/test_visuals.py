@@ -376,17 +376,18 @@ def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
 
 
 def test_open_run_reads_world_axes_loads_old_and_new(tmp_path, store, store_file):
-    from cfem_ros.recording.recorder import POSE, Recorder, WRENCH
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.schema import POSE_TYPE, WRENCH_TYPE
 
     def header(frame):
         return {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': frame}
     pose = {'header': header('world'), 'pose': {'orientation': {'w': 1.0}}}
     old = tmp_path / 'old.mcap'   # before the _world topics: world axes on wrench
     with Recorder(str(old)) as recorder:
-        recorder.write('/cfem/bodies/store/pose', POSE, pose, 0)
-        recorder.write('/cfem/joints/pivot/wrench', WRENCH, {
+        recorder.write('/cfem/bodies/store/pose', POSE_TYPE, pose, 0)
+        recorder.write('/cfem/joints/pivot/wrench', WRENCH_TYPE, {
             'header': header('world'), 'wrench': {'force': {'z': -5.0}}}, 0)
-        recorder.write('/cfem/joints/other/wrench', WRENCH, {   # in its own axes only
+        recorder.write('/cfem/joints/other/wrench', WRENCH_TYPE, {   # in its own axes only
             'header': header('other'), 'wrench': {'force': {'z': -7.0}}}, 0)
     run = analysis.open_run(str(old))
     assert list(run.joints) == ['pivot'] and run.joints['pivot'].force[0, 2] == -5.0

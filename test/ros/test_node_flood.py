@@ -23,7 +23,7 @@ from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
 from cfem_ros.recording.recorder import Recorder, StateRecorder
 from cfem_ros.recording.replay import read_inputs
-from cfem_ros.ros.node import REFUSED_STRING_BYTES
+from cfem_ros.ros.refusals import REFUSED_STRING_BYTES
 import numpy as np
 from recordings import read_checked
 from rosharness import BIG, Flood, NodeProcess

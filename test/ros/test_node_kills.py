@@ -28,7 +28,7 @@ import random
 import signal
 import time
 
-from cfem_ros.recording.recorder import CHUNK_SIZE
+from cfem_ros.recording.chunks import CHUNK_SIZE
 from cfem_ros.recording.recover import recover
 from mcap.reader import make_reader
 from rosbags.rosbag2.storage_mcap import McapReader

@@ -14,7 +14,7 @@ import types
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording import viewframes, visuals
-from cfem_ros.ros import node as cfem_node
+from cfem_ros.ros import publishers as cfem_publishers
 import numpy as np
 import pytest
 
@@ -56,11 +56,11 @@ class _Node:
 def publishers(monkeypatch):
     pytest.importorskip('geometry_msgs.msg')
     from geometry_msgs.msg import TransformStamped
-    monkeypatch.setattr(cfem_node, 'TFMessage', _TFMessage)
-    monkeypatch.setattr(cfem_node, 'TransformStamped', TransformStamped, raising=False)
+    monkeypatch.setattr(cfem_publishers, 'TFMessage', _TFMessage)
+    monkeypatch.setattr(cfem_publishers, 'TransformStamped', TransformStamped, raising=False)
     sim = Simulator(parse_scenario(SCENARIO))
     node = _Node()
-    return cfem_node._Publishers(node, sim), node, sim
+    return cfem_publishers.Publishers(node, sim), node, sim
 
 
 def test_the_node_s_tf_holds_the_view_frames(publishers):

@@ -12,7 +12,8 @@ played; a damaged file gives one error line with the reason.
 import sys
 
 from cfem_ros import cli
-from cfem_ros.recording.recorder import Recorder, STRING, WRENCH
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.schema import STRING_TYPE, WRENCH_TYPE
 
 
 def _wrench(t_ns):
@@ -25,7 +26,7 @@ def _wrench(t_ns):
 def test_a_remap_to_an_invalid_name_is_refused(tmp_path, capsys):
     log = tmp_path / 'log.mcap'
     with Recorder(str(log)) as recorder:
-        recorder.write('/cfem/release', STRING, {'data': 'pivot'}, 1_000)
+        recorder.write('/cfem/release', STRING_TYPE, {'data': 'pivot'}, 1_000)
     for target in ('//bad', '/a b', '/1abc'):
         assert cli.main(['play', str(log), '--remap', f'/cfem/release:={target}']) == 2
         err = capsys.readouterr().err
@@ -42,8 +43,8 @@ def test_invalid_topics_and_broken_message_libraries_are_skipped_with_a_warning(
     monkeypatch.syspath_prepend(str(tmp_path))
     log = tmp_path / 'log.mcap'
     with Recorder(str(log)) as recorder:
-        recorder.write('/cfem//bad', STRING, {'data': 'x'}, 1_000)
-        recorder.write('/cfem/bodies/store/wrench', WRENCH, _wrench(2_000), 2_000)
+        recorder.write('/cfem//bad', STRING_TYPE, {'data': 'x'}, 1_000)
+        recorder.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(2_000), 2_000)
         # a type of a library that fails to load (its definition is a String's)
         recorder._schemas['broken_msgs/msg/Thing'] = recorder._writer.register_schema(
             name='broken_msgs/msg/Thing', encoding='ros2msg', data=b'string data')
@@ -66,7 +67,7 @@ def test_a_damaged_file_names_its_reason(tmp_path, capsys):
     log = tmp_path / 'log.mcap'
     with Recorder(str(log)) as recorder:
         for k in range(50):
-            recorder.write('/cfem/bodies/store/wrench', WRENCH, _wrench(k * 1000), k * 1000)
+            recorder.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(k * 1000), k * 1000)
     data = bytearray(log.read_bytes())
     data[len(data) // 3] ^= 0xFF
     log.write_bytes(bytes(data))

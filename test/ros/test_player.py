@@ -10,7 +10,8 @@ import sys
 import time
 
 from cfem_ros import cli
-from cfem_ros.recording.recorder import EVENTS_QOS, OFFERED_QOS, Recorder, STRING, WRENCH
+from cfem_ros.recording.container import EVENTS_OFFERED_QOS, OFFERED_QOS, Recorder
+from cfem_ros.recording.schema import STRING_TYPE, WRENCH_TYPE
 from cfem_ros.ros import player
 from geometry_msgs.msg import PoseStamped
 import numpy as np
@@ -46,16 +47,16 @@ def write_log(path):
     # integer-form QoS on the release channel, as older rosbag2 writes it
     integer_qos = '- history: 1\n  depth: 10\n  reliability: 1\n  durability: 2\n'
     with Recorder(str(path)) as rec:
-        rec.write('/cfem/bodies/store/wrench', WRENCH, _wrench(T0, [0, 0, 500.0]), T0)
-        rec.write('/cfem/bodies/store/wrench', WRENCH,
+        rec.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(T0, [0, 0, 500.0]), T0)
+        rec.write('/cfem/bodies/store/wrench', WRENCH_TYPE,
                   _wrench(T0 + 150 * MS, [300.0, 0, 100.0], 'store'), T0 + 150 * MS)
-        rec.write('/cfem/release', STRING, {'data': 'pivot'}, T0 + 350 * MS, qos=integer_qos)
-        rec.write('/cfem/bodies/store/wrench', WRENCH, _wrench(T0 + 500 * MS, [0, 0, 0]),
+        rec.write('/cfem/release', STRING_TYPE, {'data': 'pivot'}, T0 + 350 * MS, qos=integer_qos)
+        rec.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(T0 + 500 * MS, [0, 0, 0]),
                   T0 + 500 * MS)
 
 
 def test_qos_profiles_in_string_and_integer_forms():
-    named = player.parse_qos(EVENTS_QOS)
+    named = player.parse_qos(EVENTS_OFFERED_QOS)
     assert named.reliability == ReliabilityPolicy.RELIABLE
     assert named.durability == DurabilityPolicy.TRANSIENT_LOCAL
     assert named.history == HistoryPolicy.KEEP_LAST and named.depth == 100
@@ -187,7 +188,7 @@ def _odometry(t_ns, position, quat, velocity, rates):
 
 def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
     from cfem_ros.recording.analysis import open_run
-    from cfem_ros.recording.recorder import ODOMETRY
+    from cfem_ros.recording.schema import ODOMETRY_TYPE
     from scipy.spatial.transform import Rotation
     speed, rate = 250.0, -9.80665 / 250.0   # a 2 g pull-up
     scenario = tmp_path / 'carrier.yaml'
@@ -206,14 +207,14 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
             phi = rate * t
             position = [speed / rate * np.sin(phi), 0, speed / rate * (np.cos(phi) - 1)]
             quat = Rotation.from_rotvec([0, phi, 0]).as_quat()
-            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY,
+            rec.write('/cfem/bodies/aircraft/odom', ODOMETRY_TYPE,
                       _odometry(t_ns, position, quat, [speed, 0, 0], [0, rate, 0]), t_ns)
             if k in (10, 20):   # a wrench on the store between two odometry messages
                 force = [0, 0, 800.0] if k == 10 else [0, 0, 0]
-                rec.write('/cfem/bodies/store/wrench', WRENCH, _wrench(t_ns + 3 * MS, force),
+                rec.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(t_ns + 3 * MS, force),
                           t_ns + 3 * MS)
             if k == 30:
-                rec.write('/cfem/release', STRING, {'data': 'hook'}, t_ns + 5 * MS)
+                rec.write('/cfem/release', STRING_TYPE, {'data': 'hook'}, t_ns + 5 * MS)
     recording = tmp_path / 'node.mcap'
     node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
     peer = Peer([], [])

@@ -14,15 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 import heapq
 import itertools
-import re
 from typing import Optional
 
 import numpy as np
-
-WRENCH_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/wrench$')
-ODOM_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<body>[^/]+)/odom$')
-RELEASE_TOPIC = re.compile(r'^(?P<ns>.*)/release$')
-POSE_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/[^/]+/pose$')
 
 
 @dataclass(frozen=True)

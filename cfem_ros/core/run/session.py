@@ -25,9 +25,10 @@ node, so that a recording of the node replays offline to the same numbers:
   included) sets ``sim.status = 'failed'`` and ends the run: nothing
   non-finite reaches an output, and what was taken before stays.
 
-Outputs are duck-typed sinks with ``sample()``, ``events()`` and
-``received(item, t)``; ``recording.StateRecorder`` is one, the node's
-publishers are another. This module never imports rclpy.
+Outputs are ``Sink``s: ``sample()``, ``events()`` and ``received(item, t)``,
+and, for a ``RowSink`` (``takes_rows``), ``sample_rows()`` and
+``took_rows(times)``; ``recording.StateRecorder`` is a row sink, the node's
+publishers are a sink. This module never imports rclpy.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from typing import Callable, Optional
+from typing import Callable, ClassVar, Optional, Protocol, Sequence
 
 from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
 from cfem_ros.core.run.inputs import apply_input, Input, input_topic, InputQueue, validate_input
@@ -46,6 +47,39 @@ LOG = logging.getLogger('cfem_ros')
 #: Samples counted per kernel call when no output takes rows (so that
 #: progress is still reported on long runs).
 COUNT_ONLY = 1000
+
+
+class Sink(Protocol):
+    """
+    A session's output: what it is given of the run, in the run's order.
+
+    A class declares itself a sink by deriving from this one (and a row
+    sink from ``RowSink``): ``takes_rows`` tells the session which it is.
+    """
+
+    #: True for a ``RowSink``: the kernel may write its samples' rows.
+    takes_rows: ClassVar[bool] = False
+
+    def received(self, item: Input, t: float) -> None:
+        """Take an input as it takes effect (or is refused) at simulated time t."""
+
+    def events(self) -> None:
+        """Take the simulator's events not yet taken."""
+
+    def sample(self) -> None:
+        """Take a sample of the simulator's current state."""
+
+
+class RowSink(Sink, Protocol):
+    """A sink whose samples the kernel writes, many at a time (``Session.run``)."""
+
+    takes_rows: ClassVar[bool] = True
+
+    def sample_rows(self) -> np.ndarray:
+        """Return rows (k, ``Simulator.outputs`` size) for the next samples."""
+
+    def took_rows(self, times: np.ndarray) -> None:
+        """Take the samples at these simulated times (s), in the first rows given."""
 
 
 class Session:
@@ -60,7 +94,7 @@ class Session:
         Sample rate; sample k is taken at exactly k / rate_hz s.
     duration : float
         Where the run ends, s; ``math.inf`` runs until the caller stops.
-    outputs : sequence of sinks
+    outputs : sequence of Sink
         Each gets ``received(item, t)`` for every input as it takes effect (or is
         refused), then ``events()`` and ``sample()`` at every sample time.
     warn : callable, optional
@@ -74,7 +108,8 @@ class Session:
 
     """
 
-    def __init__(self, sim, *, rate_hz: float, duration: float = math.inf, outputs=(),
+    def __init__(self, sim, *, rate_hz: float, duration: float = math.inf,
+                 outputs: Sequence[Sink] = (),
                  warn: Optional[Callable[[str], None]] = None,
                  interpolate_odometry: bool = True):
         if not (math.isfinite(rate_hz) and rate_hz > 0):
@@ -197,9 +232,8 @@ class Session:
         Run to the duration unpaced, the kernel taking the samples on its way.
 
         The same steps, samples, inputs and events as ``advance`` over
-        every sample time, in far fewer calls from Python: an output
-        that offers ``sample_rows()`` and ``took_rows(times)`` (as
-        ``StateRecorder`` does) gets its rows filled by the kernel, a
+        every sample time, in far fewer calls from Python: a ``RowSink``
+        (as ``StateRecorder``) gets its rows filled by the kernel, a
         buffer (``recording.BATCH_CHUNKS`` chunks) at a time. With any
         other output, or more than one, this is ``advance`` sample by
         sample. ``progress`` is called with the simulated time about every
@@ -212,7 +246,7 @@ class Session:
             raise ValueError('run() needs a finite duration')
         self.start()
         sink = self.outputs[0] if len(self.outputs) == 1 else None
-        if len(self.outputs) > 1 or (sink is not None and not hasattr(sink, 'sample_rows')):
+        if len(self.outputs) > 1 or (sink is not None and not sink.takes_rows):
             return self._run_per_sample(progress, progress_every)
         sim = self.sim
         grid = SampleGrid(self.rate_hz)

@@ -25,7 +25,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
-from cfem_ros.recording.analysis import BODY_TOPIC, open_run
+from cfem_ros.recording import schema
+from cfem_ros.recording.analysis import open_run
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 from cfem_ros.recording.relative import relative_pose
@@ -109,7 +110,7 @@ def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
     try:
         if spec.measured_file.lower().endswith('.csv'):
             measured = _from_csv(spec)
-        elif BODY_TOPIC.match(spec.topic) and BODY_TOPIC.match(spec.topic)['kind'] == 'pose':
+        elif schema.POSE.pattern.match(spec.topic):
             measured = _from_recording(spec)
         else:
             measured = _from_topic(spec, start_ns)
@@ -150,8 +151,9 @@ def _from_csv(spec: FitSpec) -> Measured:
 
 
 def _from_recording(spec: FitSpec) -> Measured:
-    run = open_run(spec.measured_file, namespace=BODY_TOPIC.match(spec.topic)['ns'])
-    name = BODY_TOPIC.match(spec.topic)['name']
+    pose = schema.POSE.pattern.match(spec.topic)
+    run = open_run(spec.measured_file, namespace=pose['ns'])
+    name = pose['body']
     if name != spec.body:
         raise FitError(spec.path, 'measured.topic', f'is the pose of {name}',
                        f'the pose topic of the measured body {spec.body}')

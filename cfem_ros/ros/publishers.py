@@ -1,0 +1,296 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The node's outputs (SPEC section 3): a ``Session`` sink that publishes samples and events.
+
+Topics, types, frames, QoS and periods are the output schema's
+(``recording.schema``), the same the recorder writes.
+"""
+
+from __future__ import annotations
+
+import json
+
+from cfem_ros.core import rotations
+from cfem_ros.core.engine.strokes import describe_event
+from cfem_ros.core.run.session import Sink
+from cfem_ros.recording import loadarrows, schema, viewframes, visuals
+from cfem_ros.ros.airtopics import AirPublishers
+from cfem_ros.ros.qos import profile
+from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
+import numpy as np
+from rclpy.node import Node
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+try:   # in a ROS 2 install; the pip wheels have no tf2_msgs (recordings carry /tf anyway)
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+except ImportError:   # pragma: no cover - depends on the install
+    TFMessage = None
+
+
+def _vector3(msg, v):
+    msg.x, msg.y, msg.z = float(v[0]), float(v[1]), float(v[2])
+
+
+def _time_msg(msg, stamp_ns: int):
+    msg.sec, msg.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+
+
+def _fill(msg, values: dict):
+    """Set a message's fields from a dict of the same shape (nested dicts for nested messages)."""
+    for name, value in values.items():
+        if isinstance(value, dict):
+            _fill(getattr(msg, name), value)
+        elif name == 'points':   # a triangle list's vertices, an arrow's ends
+            setattr(msg, name, [_fill(Point(), p) for p in value])
+        else:
+            setattr(msg, name, value)
+    return msg
+
+
+class Publishers(Sink):
+    """
+    Session sink that publishes samples and events (SPEC section 3).
+
+    The publishers it creates on the node are the schema's topics of the
+    model (``schema.run_topics``; /tf and /tf_static only where tf2_msgs is
+    installed).
+
+    One message object per topic is built once and refilled at each sample
+    (publishing serializes it), which halves the cost of a sample.
+    """
+
+    def __init__(self, node: Node, sim):
+        self.node = node
+        self.sim = sim
+        self.start_ns = 0
+        model = sim.model
+        self.world = world = model.frame_id
+        self.poses, self.twists = [], []
+        for body in model.bodies:
+            self.poses.append(self._publisher(schema.POSE, PoseStamped, body=body.name))
+            self.twists.append(self._publisher(schema.TWIST, TwistStamped, body=body.name))
+        # loads in the frames where they act (the joint's frame, the loaded body's),
+        # and in world axes on <topic>_world (SPEC sections 3 and 5)
+        self.wrenches = {}   # joint index -> its two (publisher, message)
+        self._joint_wrenches()
+        self.children = [joint.child for joint in model.joints]
+        self.relative = []   # poses and twists in a carrier's frame, per model.references
+        for body, ref in model.references:
+            names = {'body': model.bodies[body].name, 'reference': model.bodies[ref].name}
+            self.relative.append(self._publisher(schema.RELATIVE_POSE, PoseStamped, **names)
+                                 + self._publisher(schema.RELATIVE_TWIST, TwistStamped, **names))
+        self.air = AirPublishers(node, sim)   # the air each body sees (aero)
+        self.applied = []   # scheduled loads, per source: the body's, and world axes
+        for body, source in sim.applied_sources:
+            self.applied.append((
+                self._publisher(schema.APPLIED, WrenchStamped, body=body, source=source),
+                self._publisher(schema.APPLIED_WORLD, WrenchStamped, body=body, source=source),
+                model.body_index(body)))
+        self.event_publisher = self._publisher(schema.EVENTS, String)
+        self._events_sent = 0
+        self._retired = []   # released joints' publishers, destroyed at the next events
+        # what viewers draw: markers on the bodies' tf frames (recording.visuals)
+        self.marker_publisher = self._publisher(schema.MARKERS, MarkerArray)
+        self.namespace = node.get_namespace().rstrip('/')
+        self.tf = None
+        self.carriers, self.up = viewframes.carriers(model), visuals.up_rotation(model.gravity)
+        moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
+        if TFMessage is not None:
+            self.tf_static = self._publisher(schema.TF_STATIC, TFMessage)
+            if moving:   # the moving bodies, then the carriers' z-up view frames
+                self.tf = (self._publisher(schema.TF, TFMessage), TFMessage(
+                    transforms=[_fill(TransformStamped(), {
+                        'header': {'frame_id': world}, 'child_frame_id': model.bodies[i].name})
+                        for i in moving] + [_fill(TransformStamped(), t) for t in
+                                            viewframes.transforms(model, {}, sim.position,
+                                                                  sim.orientation)]), moving)
+        self._scene_sent = False
+        # the next sendings: the markers one period after the scene's, the arrows at once
+        self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
+        self._arrow_cadence = schema.Cadence(schema.LOAD_MARKERS.period, first=0)
+        self.arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
+        self.arrow_publisher = (self._publisher(schema.LOAD_MARKERS, MarkerArray)
+                                if any(not b.fixed for b in model.bodies) else None)
+
+    def _publisher(self, topic: schema.Topic, kind, **names):
+        """
+        Return a publisher of a schema topic of these names, or it and its message.
+
+        With a frame, the message is made once, stamped in that frame, and
+        refilled at each sample.
+        """
+        publisher = self.node.create_publisher(kind, topic.relative(**names),
+                                               profile(topic.qos))
+        if topic.frame is None:
+            return publisher
+        message = kind()
+        message.header.frame_id = topic.frame_id(world=self.world, **names)
+        return publisher, message
+
+    def _joint_wrenches(self):
+        """Publish the loads of every joint that has no publishers (all, or the released)."""
+        for k, joint in enumerate(self.sim.model.joints):
+            if k not in self.wrenches:
+                self.wrenches[k] = tuple(self._publisher(topic, WrenchStamped, joint=joint.name)
+                                         for topic in (schema.JOINT_WRENCH,
+                                                       schema.JOINT_WRENCH_WORLD))
+
+    def restart(self, sim, start_ns: int):
+        """Publish a new run of the same model (a reset): sim, from stamp start_ns on."""
+        self.sim, self.start_ns = sim, int(start_ns)
+        self.air.sim = sim
+        self._events_sent = 0
+        self._marker_cadence.restart()
+        self._arrow_cadence.restart()
+        self._joint_wrenches()   # the joints released in the run before are joined again
+        self._scene(self.start_ns)
+
+    def _scene(self, stamp_ns: int):
+        """Publish the markers (and, the first time, the frames on /tf_static)."""
+        model = self.sim.model
+        stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
+        released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
+        contacts = [e for e in self.sim.events if e.get('event') == 'contact']
+        self.marker_publisher.publish(MarkerArray(markers=[
+            _fill(Marker(), m) for m in visuals.markers(
+                model, stamp, self.namespace, released, contacts)['markers']]))
+        if TFMessage is not None and not self._scene_sent:
+            self.tf_static.publish(TFMessage(transforms=[
+                _fill(TransformStamped(), t)
+                for t in visuals.static_transforms(model, stamp)['transforms']]))
+        self._scene_sent = True
+
+    def stamp_ns(self, t: float) -> int:
+        return self.start_ns + int(round(t * 1e9))
+
+    def _arrows(self, stamp_ns: int):
+        """Publish the load arrows (``recording.loadarrows``) at the current state."""
+        sim = self.sim
+        stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
+        array, _ = self.arrows.message(stamp, sim.outputs(), sim.active_joints,
+                                       sim.held_wrenches())
+        self.arrow_publisher.publish(MarkerArray(markers=[
+            _fill(Marker(), m) for m in array['markers']]))
+
+    def sample(self):
+        sim = self.sim
+        stamp_ns = self.stamp_ns(sim.t)
+        if not self._scene_sent:
+            self._scene(stamp_ns)
+        elif self._marker_cadence.take(sim.t):
+            self._scene(stamp_ns)   # again, for viewers that subscribe late
+        position, quat = sim.position, sim.orientation
+        velocity, rates = sim.velocity_body(), sim.rates
+        if self.tf is not None:
+            publisher, message, moving = self.tf
+            views = viewframes.view_poses(self.up, position[self.carriers], quat[self.carriers])
+            for transform, values in zip(message.transforms, np.vstack(
+                    [np.hstack([position[moving], quat[moving]]), views])):
+                _time_msg(transform.header.stamp, stamp_ns)
+                _vector3(transform.transform.translation, values[:3])
+                r = transform.transform.rotation
+                r.x, r.y, r.z, r.w = (float(c) for c in values[3:])
+            publisher.publish(message)
+        for i in range(len(self.poses)):
+            publisher, pose = self.poses[i]
+            _time_msg(pose.header.stamp, stamp_ns)
+            _vector3(pose.pose.position, position[i])
+            q = pose.pose.orientation
+            q.x, q.y, q.z, q.w = (float(c) for c in quat[i])
+            publisher.publish(pose)
+            publisher, twist = self.twists[i]
+            _time_msg(twist.header.stamp, stamp_ns)
+            _vector3(twist.twist.linear, velocity[i])
+            _vector3(twist.twist.angular, rates[i])
+            publisher.publish(twist)
+        if self.arrow_publisher is not None and self._arrow_cadence.take(sim.t):
+            self._arrows(stamp_ns)   # a few per second
+        if self.wrenches:
+            force, moment = sim.joint_wrenches()
+            turned = quat[self.children]
+            axes = rotations.to_body(turned, force), rotations.to_body(turned, moment)
+            for k, publishers in self.wrenches.items():
+                for (publisher, wrench), (f, m) in zip(publishers, (
+                        (axes[0][k], axes[1][k]), (force[k], moment[k]))):
+                    _time_msg(wrench.header.stamp, stamp_ns)
+                    _vector3(wrench.wrench.force, f)
+                    _vector3(wrench.wrench.torque, m)
+                    publisher.publish(wrench)
+        if self.applied:
+            loads = sim.applied_loads()
+            turned = quat[[body for _, _, body in self.applied]]
+            axes = np.hstack([rotations.to_body(turned, loads[:, :3]),
+                              rotations.to_body(turned, loads[:, 3:])])
+            for (local, world, _), load, load_axes in zip(self.applied, loads, axes):
+                for (publisher, wrench), values in ((local, load_axes), (world, load)):
+                    _time_msg(wrench.header.stamp, stamp_ns)
+                    _vector3(wrench.wrench.force, values[:3])
+                    _vector3(wrench.wrench.torque, values[3:])
+                    publisher.publish(wrench)
+        self.air.publish(stamp_ns)
+        if self.relative:
+            for (pose_pub, pose, twist_pub, twist), state in zip(
+                    self.relative, sim.relative_states()):
+                _time_msg(pose.header.stamp, stamp_ns)
+                _vector3(pose.pose.position, state[:3])
+                q = pose.pose.orientation
+                q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+                pose_pub.publish(pose)
+                _time_msg(twist.header.stamp, stamp_ns)
+                _vector3(twist.twist.linear, state[7:10])
+                _vector3(twist.twist.angular, state[10:])
+                twist_pub.publish(twist)
+
+    def prepare(self):
+        """Fill every message once without publishing (the first sample's set-up)."""
+        sim = self.sim
+        position, quat = sim.position, sim.orientation
+        velocity, rates = sim.velocity_body(), sim.rates
+        for i, ((_, pose), (_, twist)) in enumerate(zip(self.poses, self.twists)):
+            _vector3(pose.pose.position, position[i])
+            _vector3(twist.twist.linear, velocity[i])
+            _vector3(twist.twist.angular, rates[i])
+            q = pose.pose.orientation
+            q.x, q.y, q.z, q.w = (float(c) for c in quat[i])
+        if self.wrenches:
+            force, moment = sim.joint_wrenches()
+            for k, publishers in self.wrenches.items():
+                for _, wrench in publishers:
+                    _vector3(wrench.wrench.force, force[k])
+                    _vector3(wrench.wrench.torque, moment[k])
+
+    def events(self):
+        for publisher in self._retired:   # their zero went out at the last call
+            self.node.destroy_publisher(publisher)
+        self._retired = []
+        for event in self.sim.events[self._events_sent:]:
+            self.event_publisher.publish(String(data=json.dumps(event)))
+            if event['event'] == 'contact':
+                self.node.get_logger().warning(
+                    f"contact between {' and '.join(event['bodies'])} at t = "
+                    f"{event['time']:.9g} s, point {event['point']} (world, m), "
+                    f"parts {event.get('parts', [0, 0])}")
+                continue
+            if event.get('event') != 'release':
+                self.node.get_logger().info(describe_event(event))
+                continue
+            group = f" in group {event['group']!r}" if event.get('group') else ''
+            self.node.get_logger().info(
+                f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
+                f"(cause: {event['cause']}){group}")
+            k = self.sim.model.joint_index(event['joint'])
+            for publisher, wrench in self.wrenches.pop(k, ()):   # zero once: plots end at 0
+                _time_msg(wrench.header.stamp, self.stamp_ns(event['time']))
+                _vector3(wrench.wrench.force, (0.0, 0.0, 0.0))
+                _vector3(wrench.wrench.torque, (0.0, 0.0, 0.0))
+                publisher.publish(wrench)
+                self._retired.append(publisher)
+        if self._scene_sent and len(self.sim.events) > self._events_sent:
+            self._scene(self.stamp_ns(self.sim.events[-1]['time']))   # released joints
+        self._events_sent = len(self.sim.events)
+
+    def received(self, item, t):
+        """Leave inputs alone: they are not published back."""
+

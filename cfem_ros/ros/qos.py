@@ -1,0 +1,20 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""The node's QoS profiles, made from the output schema's (``recording.schema``)."""
+
+from cfem_ros.recording import schema
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+
+def profile(qos: schema.Qos) -> QoSProfile:
+    """Return the rclpy profile of a schema QoS: reliable, keep last, volatile or latched."""
+    return QoSProfile(depth=qos.depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if qos.latched
+                      else DurabilityPolicy.VOLATILE)
+
+
+#: Outputs and inputs: what ``ros2 topic pub``, ``ros2 topic echo`` and
+#: ``ros2 bag play`` use by default (reliable, volatile, keep last 10).
+TOPIC_QOS = profile(schema.OUTPUT_QOS)
+#: /clock: best effort, as ``ros2 bag play --clock`` and rclpy publish it.
+CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)

@@ -1,0 +1,106 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The node's inputs (SPEC section 3): wrenches, odometry and release commands to the session.
+
+Each message becomes an ``Input`` (strings bounded, ``refusals.bounded``),
+timed (``stamps.InputTiming``) and given to the session; a refused one is
+counted and logged, throttled. ``Subscriptions`` is a part of
+``node.CfemNode``, on its state.
+"""
+
+import time
+from typing import Optional
+
+from cfem_ros.core.run.inputs import Input, odometry_input, release_input, wrench_input
+from cfem_ros.recording import schema
+from cfem_ros.ros.qos import TOPIC_QOS
+from cfem_ros.ros.refusals import bounded
+from geometry_msgs.msg import WrenchStamped
+from nav_msgs.msg import Odometry
+from std_msgs.msg import String
+
+
+class Subscriptions:
+    """The input topics and what the node does with their messages (a part of ``CfemNode``)."""
+
+    def _subscribe(self, model):
+        """Subscribe to every body's wrenches (and a kinematic body's odometry)."""
+        for body in model.bodies:
+            self.create_subscription(
+                WrenchStamped, schema.WRENCH_INPUT.relative(body=body.name),
+                lambda msg, name=body.name: self._on_wrench(name, msg), TOPIC_QOS)
+            if body.motion is not None:   # a kinematic body may follow odometry
+                self.create_subscription(
+                    Odometry, schema.ODOMETRY_INPUT.relative(body=body.name),
+                    lambda msg, name=body.name: self._on_odometry(name, msg), TOPIC_QOS)
+
+    def _subscribe_release(self):
+        self._release_sub = self.create_subscription(
+            String, schema.RELEASE_INPUT.relative(), self._on_release, TOPIC_QOS)
+
+    def _on_wrench(self, body: str, msg: WrenchStamped):
+        stamp = msg.header.stamp
+        header_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        f, m = msg.wrench.force, msg.wrench.torque
+        topic = self.resolve_topic_name(schema.WRENCH_INPUT.relative(body=body))
+        self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
+                                         bounded(msg.header.frame_id), header_ns=header_ns))
+
+    def _on_odometry(self, body: str, msg: Odometry):
+        self.gate.seen += 1
+        stamp = msg.header.stamp
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        v, w = msg.twist.twist.linear, msg.twist.twist.angular
+        topic = self.resolve_topic_name(schema.ODOMETRY_INPUT.relative(body=body))
+        self._submit(topic, odometry_input(
+            body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z], [w.x, w.y, w.z],
+            bounded(msg.header.frame_id),
+            header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec))
+
+    def _on_release(self, msg: String):
+        self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())))
+
+    def _arrival_time(self) -> Optional[float]:
+        """
+        Return the simulated time at which an input arriving now takes effect (None: at once).
+
+        In real time, where the wall clock says the simulation is, in whole
+        nanoseconds (as the recording logs it, so a replay applies it at the
+        same time), never past the end of the run.
+        """
+        if self.sim_time or self.pace.factor == 0:
+            return None
+        target = self.pace.target(time.monotonic())
+        return min(round(target * 1e9) / 1e9, self.duration)
+
+    def _submit(self, topic: str, item: Input):
+        """
+        Give an input to the session; a refused one is logged (throttled) and counted.
+
+        Strings are already cut to ``REFUSED_STRING_BYTES`` (``bounded``):
+        longer ones never name a frame or joint, so they are refused, and
+        recorded and logged in that bounded form.
+        """
+        if self.exit_code is not None:
+            return
+        if self.start_ns is None:
+            self._early.append((topic, item))
+            return
+        # at its stamp if that is still ahead; else at the clock's time, which is ahead of
+        # the simulation while it waits for odometry (``OdometryGate``), or at once
+        self.odometry_check.check(topic, item)
+        item = self.timing.timed(topic, item,
+                                 self._clock_limit if self.sim_time else self._arrival_time())
+        try:
+            self.session.submit(item)
+        except ValueError as err:
+            self._refused[topic] = self._refused.get(topic, 0) + 1
+            self._refusals.warning(f'{topic}: message not applied: {err}')
+        if item.kind == 'odom' and self.gate.interpolate:   # what waited for it goes on
+            if self.sim_time and self._clock_limit is not None:
+                self._catch_up()
+            elif not self.sim_time and self.pace.factor > 0:
+                self._run_to(self.pace.target(time.monotonic()))
+        if self.session.finished and self.exit_code is None:
+            self._end()
