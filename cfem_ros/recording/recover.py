@@ -34,30 +34,18 @@ import io
 import mmap
 import os
 import struct
-import zlib
 
 from cfem_ros.recording.chunks import signals_held
 from cfem_ros.recording.errors import OutputError, RecordingError
 from cfem_ros.recording.reader import open_recording, READ_ERRORS, reading
-from mcap.data_stream import ReadDataStream
-from mcap.exceptions import EndOfFile
+from cfem_ros.recording.salvage import (chunk_records, Damaged, DATA_OPCODES, MAGIC, parse_exact,
+                                        read_header, RECORD, resync, summary_definitions)
 from mcap.opcode import Opcode
 from mcap.reader import make_reader
-from mcap.records import (Channel, Chunk, Footer, Header, Message, MessageIndex, Metadata,
-                          Schema)
+from mcap.records import Channel, Chunk, Message, MessageIndex, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 from mcap_ros2.decoder import DecoderFactory
 
-MAGIC = b'\x89MCAP0\r\n'
-_RECORD = struct.Struct('<BQ')
-#: A decompressed chunk may hold at most this many times its compressed bytes
-#: (zstd's best ratio on the most regular data is about 10^4), and at most
-#: ``MAX_CHUNK`` bytes: a damaged size field cannot ask for gigabytes.
-MAX_RATIO = 1 << 16
-MAX_CHUNK = 1 << 30
-#: Records that may appear in the data section.
-_DATA_OPCODES = {Opcode.HEADER, Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Opcode.CHUNK,
-                 Opcode.MESSAGE_INDEX, Opcode.ATTACHMENT, Opcode.METADATA, Opcode.DATA_END}
 #: Most damaged places listed one by one in the report.
 MAX_LISTED = 20
 
@@ -108,94 +96,6 @@ class Recovery:
     end_ns: int = 0
     note: str = ''
     damage: list = field(default_factory=list)
-
-
-class _Damaged(Exception):
-    """A record that does not check out (its message says why)."""
-
-
-class _ExactStream(ReadDataStream):
-    """mcap's record stream, refusing a short read (a length field beyond the record)."""
-
-    def read(self, length: int) -> bytes:
-        data = super().read(length)
-        if len(data) != length:
-            raise EndOfFile()
-        return data
-
-
-def _stream(data) -> ReadDataStream:
-    return _ExactStream(io.BytesIO(bytes(data)))
-
-
-def _parse_exact(kind, body):
-    """Parse a record of kind from body, which it must fill exactly."""
-    stream = _stream(body)
-    try:
-        record = kind.read(stream)
-    except READ_ERRORS as err:
-        raise _Damaged(f'{kind.__name__} record does not parse ({type(err).__name__})') from None
-    if stream.count != len(body):
-        raise _Damaged(f'{kind.__name__} record of {len(body)} bytes holds {stream.count}')
-    return record
-
-
-def _chunk_records(chunk: Chunk, partial: bool = False) -> list:
-    """
-    Return the records of a chunk, after checking its size, CRC and every record's length.
-
-    ``partial``: the chunk's bytes were cut by the end of the file (an
-    uncompressed chunk only): the complete records before the cut.
-    """
-    if partial:
-        data = chunk.data
-    elif chunk.compression == '':
-        data = chunk.data
-    elif chunk.compression == 'zstd':
-        if chunk.uncompressed_size > min(MAX_CHUNK, MAX_RATIO * max(1, len(chunk.data))):
-            raise _Damaged(f'declares {chunk.uncompressed_size} bytes uncompressed')
-        try:
-            import zstandard
-            data = zstandard.ZstdDecompressor().decompress(
-                chunk.data, max_output_size=chunk.uncompressed_size)
-        except Exception as err:  # noqa: B902 - any decompression failure is damage
-            raise _Damaged(f'zstd data does not decompress ({type(err).__name__})') from None
-    elif chunk.compression == 'lz4':
-        try:
-            import lz4.frame
-            data = lz4.frame.decompress(chunk.data)
-        except Exception as err:  # noqa: B902 - any decompression failure is damage
-            raise _Damaged(f'lz4 data does not decompress ({type(err).__name__})') from None
-    else:
-        raise _Damaged(f'unknown compression {chunk.compression[:20]!r}')
-    if not partial:
-        if len(data) != chunk.uncompressed_size:
-            raise _Damaged(f'holds {len(data)} bytes, not the {chunk.uncompressed_size} declared')
-        if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
-            raise _Damaged('its CRC does not hold')
-    records, position = [], 0
-    kinds = {Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel}
-    while position < len(data):
-        if position + 9 > len(data):
-            if partial:
-                break
-            raise _Damaged('ends inside a record header')
-        opcode, length = _RECORD.unpack_from(data, position)
-        body = data[position + 9:position + 9 + length]
-        if len(body) < length:
-            if partial:
-                break
-            raise _Damaged(f'a record (opcode 0x{opcode:02x}) runs past its end')
-        if opcode == Opcode.MESSAGE:
-            if length < 22:
-                raise _Damaged(f'a message record of {length} bytes')
-            records.append(Message.read(_stream(body), length))
-        elif opcode in kinds:
-            records.append(_parse_exact(kinds[opcode], body))
-        elif not partial and chunk.uncompressed_crc == 0:
-            raise _Damaged(f'unknown record opcode 0x{opcode:02x} (and no CRC)')
-        position += 9 + length
-    return records
 
 
 class _Keeper:
@@ -274,65 +174,6 @@ class _Keeper:
         return True
 
 
-def _summary_definitions(data, size: int) -> tuple:
-    """Schemas and channels of the summary section, if the footer's summary CRC holds."""
-    schemas, channels = {}, {}
-    footer_at = size - len(MAGIC) - 9 - 20
-    if footer_at < len(MAGIC) or data[size - len(MAGIC):size] != MAGIC \
-            or data[footer_at] != Opcode.FOOTER:
-        return schemas, channels
-    try:
-        footer = _parse_exact(Footer, data[footer_at + 9:footer_at + 29])
-    except _Damaged:
-        return schemas, channels
-    start = footer.summary_start
-    if not footer.summary_crc or not len(MAGIC) < start < footer_at:
-        return schemas, channels
-    # the CRC covers the summary section and the footer up to its CRC field
-    if zlib.crc32(data[start:footer_at + 9 + 16]) != footer.summary_crc:
-        return schemas, channels
-    position = start
-    while position + 9 <= footer_at:
-        opcode, length = _RECORD.unpack_from(data, position)
-        body = data[position + 9:position + 9 + length]
-        try:
-            if opcode == Opcode.SCHEMA:
-                record = _parse_exact(Schema, body)
-                schemas[record.id] = record
-            elif opcode == Opcode.CHANNEL:
-                record = _parse_exact(Channel, body)
-                channels[record.id] = record
-        except _Damaged:
-            pass
-        position += 9 + length
-    return schemas, channels
-
-
-def _chunk_at(data, position: int, size: int):
-    """Return (Chunk, end) of a plausible, checked chunk record at position, or None."""
-    if position + 9 > size or data[position] != Opcode.CHUNK:
-        return None
-    length = _RECORD.unpack_from(data, position)[1]
-    if length < 40 or position + 9 + length > size:
-        return None
-    try:
-        chunk = _parse_exact(Chunk, data[position + 9:position + 9 + length])
-        _chunk_records(chunk)
-    except (_Damaged, *READ_ERRORS):
-        return None
-    return chunk, position + 9 + length
-
-
-def _resync(data, position: int, size: int) -> int:
-    """Return the offset of the next chunk that checks out after position, or size."""
-    position = data.find(bytes([Opcode.CHUNK]), position)
-    while 0 <= position < size:
-        if _chunk_at(data, position, size) is not None:
-            return position
-        position = data.find(bytes([Opcode.CHUNK]), position + 1)
-    return size
-
-
 class _Scan:
     """One pass over the data section, keeping what checks out."""
 
@@ -356,9 +197,9 @@ class _Scan:
                 else:
                     report.note = 'ends after a record'
                 return
-            opcode, length = _RECORD.unpack_from(data, position)
+            opcode, length = RECORD.unpack_from(data, position)
             end = position + 9 + length
-            if opcode not in _DATA_OPCODES:
+            if opcode not in DATA_OPCODES:
                 position = self.skip(position, f'no record starts here (opcode 0x{opcode:02x})')
                 continue
             if end > size:
@@ -379,15 +220,15 @@ class _Scan:
                 return
             try:
                 self.take(opcode, body, position)
-            except _Damaged as err:
+            except Damaged as err:
                 position = self.skip(position, str(err), chunk=opcode == Opcode.CHUNK)
                 continue
             position = end
 
     def take(self, opcode: int, body, position: int):
         if opcode == Opcode.CHUNK:
-            chunk = _parse_exact(Chunk, body)
-            records = _chunk_records(chunk)
+            chunk = parse_exact(Chunk, body)
+            records = chunk_records(chunk)
             kept, skipped = self.keeper.chunk(records, verified=bool(chunk.uncompressed_crc))
             self.report.chunks += 1
             self.report.messages += kept
@@ -396,10 +237,10 @@ class _Scan:
                 self.damaged(position, f'chunk: {skipped} message(s) without an intact '
                              'channel or schema, or not decoding')
         elif opcode == Opcode.METADATA:
-            record = _parse_exact(Metadata, body)
+            record = parse_exact(Metadata, body)
             self.keeper.writer.add_metadata(record.name, dict(record.metadata))
         elif opcode == Opcode.MESSAGE_INDEX:
-            _parse_exact(MessageIndex, body)
+            parse_exact(MessageIndex, body)
         elif opcode == Opcode.MESSAGE:
             self.damaged(position, 'a message outside any chunk (no CRC); skipped')
             self.report.skipped += 1
@@ -410,7 +251,7 @@ class _Scan:
         if chunk:
             self.report.bad_chunks += 1
             self.report.skipped += self.count_messages(position)
-        following = _resync(self.data, position + 1, self.size)
+        following = resync(self.data, position + 1, self.size)
         gap = '' if following >= self.size else f'; reading goes on at byte {following}'
         self.damaged(position, what + gap)
         return following
@@ -418,14 +259,14 @@ class _Scan:
     def count_messages(self, position: int) -> int:
         """Count the message records a damaged uncompressed chunk seems to hold (best effort)."""
         data, count = self.data, 0
-        length = _RECORD.unpack_from(data, position)[1]
+        length = RECORD.unpack_from(data, position)[1]
         end = min(self.size, position + 9 + length)
         fixed = position + 9 + 8 + 8 + 8 + 4
         if fixed + 4 > end or struct.unpack_from('<I', data, fixed)[0] != 0:
             return 0   # compressed: its records cannot be walked
         cursor = fixed + 4 + 8
         while cursor + 9 <= end and count < 1_000_000:
-            opcode, inner = _RECORD.unpack_from(data, cursor)
+            opcode, inner = RECORD.unpack_from(data, cursor)
             if opcode not in (Opcode.MESSAGE, Opcode.SCHEMA, Opcode.CHANNEL):
                 break
             count += opcode == Opcode.MESSAGE
@@ -446,28 +287,13 @@ class _Scan:
                       uncompressed_size=head[2], uncompressed_crc=head[3], compression='',
                       data=bytes(data[start:size]))
         try:
-            records = _chunk_records(chunk, partial=True)
-        except (_Damaged, *READ_ERRORS):
+            records = chunk_records(chunk, partial=True)
+        except (Damaged, *READ_ERRORS):
             return
         kept, skipped = self.keeper.chunk(records, verified=False)
         self.report.messages += kept
         self.report.unverified += kept
         self.report.skipped += skipped
-
-
-def _header(data, size: int):
-    """Return (profile, library) of the header record, or None if it is damaged."""
-    start = len(MAGIC)
-    if start + 9 > size or data[start] != Opcode.HEADER:
-        return None, start
-    length = _RECORD.unpack_from(data, start)[1]
-    if start + 9 + length > size:
-        return None, start
-    try:
-        header = _parse_exact(Header, data[start + 9:start + 9 + length])
-    except _Damaged:
-        return None, start
-    return (header.profile, header.library), start + 9 + length
 
 
 def _verify(fixed: str, expected: int):
@@ -516,16 +342,16 @@ def _recover(data, size: int, broken: str, fixed: str, bad_magic: bool) -> Recov
     report = Recovery(size=size)
     try:
         with target:
-            header, position = _header(data, size)
+            header, position = read_header(data, size)
             writer = Writer(target, chunk_size=1024 * 1024, compression=CompressionType.NONE)
             writer.start(*(header or ('ros2', 'cfem-sim recover')))
-            keeper = _Keeper(writer, report, _summary_definitions(data, size))
+            keeper = _Keeper(writer, report, summary_definitions(data, size))
             scan = _Scan(data, size, keeper)
             if bad_magic:
                 scan.damaged(0, 'the magic bytes are damaged')
             if header is None:
                 scan.damaged(len(MAGIC), 'the header record is damaged')
-                position = _resync(data, len(MAGIC), size)
+                position = resync(data, len(MAGIC), size)
             scan.run(position)
             with signals_held():
                 writer.finish()
