@@ -124,8 +124,8 @@ def main(argv=None) -> int:
                   'published', file=sys.stderr)
             return 2
     namespace = args.ns.rstrip('/')
-    topic = (schema.RELEASE_INPUT if args.command == 'release' else schema.WRENCH_INPUT).absolute(
-        namespace, body=args.body)
+    topic = (schema.RELEASE_INPUT.absolute(namespace) if args.command == 'release'
+             else schema.WRENCH_INPUT.absolute(namespace, body=args.body))
     refused = _refusal(args, topic)
     if refused:
         print(f'ERROR: {refused}; nothing published', file=sys.stderr)
