@@ -16,7 +16,8 @@ import time
 
 from cfem_ros import load_scenario, Simulator
 from cfem_ros.recording import offline
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 
 CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
 SCENARIOS = ('fixed_joint_spin', 'double_pendulum', 'store_separation')

@@ -35,7 +35,8 @@ from cfem_ros.cli import main
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
-from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import run_metadata, StateRecorder
 t1 = time.perf_counter()
 model = load_scenario(sys.argv[1])
 t2 = time.perf_counter()

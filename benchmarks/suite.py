@@ -28,7 +28,8 @@ import time
 from cfem_ros import load_scenario, parse_scenario, Simulator
 from cfem_ros.core.run import batch
 from cfem_ros.recording import offline
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 import mujoco
 import numpy as np
 

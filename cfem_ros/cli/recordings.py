@@ -99,10 +99,10 @@ def info_command(args: argparse.Namespace) -> int:
 
 def _print_names(topics):
     """Print the bodies and joints a recording's topics are about."""
-    from cfem_ros.recording import analysis   # the reader only for the commands that read
-    bodies = sorted({m['name'] for t in topics for m in [analysis.BODY_TOPIC.match(t)]
-                     if m and m['kind'] == 'pose'})
-    joints = sorted({m['name'] for t in topics for m in [analysis.JOINT_TOPIC.match(t)] if m})
+    from cfem_ros.recording import schema
+    bodies = sorted({m['body'] for t in topics for m in [schema.POSE.pattern.match(t)] if m})
+    joints = sorted({m['joint'] for t in topics for m in [schema.JOINT_WRENCH.pattern.match(t)]
+                     if m})
     print(f'  bodies: {", ".join(bodies) or "none"}; joints: {", ".join(joints) or "none"}')
 
 

@@ -22,8 +22,9 @@ from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.interrupts import Interrupted
 from cfem_ros.recording import offline
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.errors import OutputError
-from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+from cfem_ros.recording.recorder import run_metadata, StateRecorder
 import numpy as np
 
 

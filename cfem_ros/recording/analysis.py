@@ -18,7 +18,6 @@ Times are seconds from the run's start: the ``cfem_ros`` metadata's
 from __future__ import annotations
 
 import json
-import re
 from typing import Optional
 
 from cfem_ros.core import rotations
@@ -33,10 +32,6 @@ import numpy as np
 __all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_deg',
            'check_mcap', 'compare_runs', 'euler_continuous', 'open_run']
 
-#: What ``cfem-sim info`` lists a recording's bodies and joints by (group ``name``); to be
-#: replaced there by ``schema.POSE.pattern`` and ``schema.JOINT_WRENCH.pattern``.
-BODY_TOPIC = re.compile(r'^(?P<ns>.*)/bodies/(?P<name>[^/]+)/(?P<kind>pose|twist|wrench)$')
-JOINT_TOPIC = re.compile(r'^(?P<ns>.*)/joints/(?P<name>[^/]+)/wrench$')
 #: The topics a ``Run`` is read from, with the kind of ``_read_messages``'s rows they make.
 #: The loads in world axes (SPEC sections 3 and 5) are what a ``Run`` holds; recordings
 #: made before the ``_world`` topics existed had the world axes on the others (``*_in``).

@@ -293,4 +293,3 @@ class Publishers(Sink):
 
     def received(self, item, t):
         """Leave inputs alone: they are not published back."""
-

@@ -93,7 +93,8 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
             collector = Collector(sim)
             session_run(sim, model, spec, collector)
         else:
-            from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+            from cfem_ros.recording.container import Recorder
+            from cfem_ros.recording.recorder import run_metadata, StateRecorder
             meta = run_metadata(model, spec.scenario, spec.rate_hz, 0,
                                 sweep=os.path.abspath(spec.path), run=k,
                                 values=json.dumps(values))

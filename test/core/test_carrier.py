@@ -287,7 +287,8 @@ def test_recording_has_the_relative_topics_and_plot(tmp_path):
     from cfem_ros import plots
     from cfem_ros.recording.analysis import open_run
     from cfem_ros.recording.offline import run
-    from cfem_ros.recording.recorder import Recorder, StateRecorder
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.recorder import StateRecorder
     rate = math.radians(20.0)
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}
     sim = Simulator(parse_scenario(_document(aircraft, release=0.3)))

@@ -19,8 +19,9 @@ from cfem_ros.core.engine.kernelcalls import DIVERGENCE_VIOLATION, kernel_error
 from cfem_ros.core.errors import CfemError, InputError, ScenarioError
 from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
 from cfem_ros.core.run.session import Session
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.msgdefs import DEFINITIONS
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.recorder import StateRecorder
 from cfem_ros.recording.replay import read_inputs
 from mcap.writer import Writer
 import numpy as np

@@ -19,7 +19,8 @@ from cfem_ros import load_scenario, parse_scenario, Simulator
 from cfem_ros.core.run.inputs import release_input, wrench_input
 from cfem_ros.core.run.session import Session
 from cfem_ros.recording import samplelayout
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 import numpy as np
 import pytest
 from recordings import fields, read_checked

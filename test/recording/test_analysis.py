@@ -16,8 +16,9 @@ import sys
 from cfem_ros import cli, load_scenario, plots, Simulator
 from cfem_ros.core.run.inputs import release_input
 from cfem_ros.recording import analysis
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.errors import RecordingError
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.recorder import StateRecorder
 import matplotlib.image
 import numpy as np
 import pytest

@@ -7,8 +7,9 @@ import pathlib
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.run.inputs import wrench_input
 from cfem_ros.recording import analysis
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.offline import run as run_offline
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.recorder import StateRecorder
 import numpy as np
 import yaml
 

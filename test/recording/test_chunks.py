@@ -12,10 +12,9 @@ reader (CRCs checked) and by following every index to its record.
 import io
 import zlib
 
-from cfem_ros.recording.chunks import MESSAGE_HEADER
-from cfem_ros.recording.msgdefs import DEFINITIONS
-from cfem_ros.recording.chunks import CHUNK_SIZE
+from cfem_ros.recording.chunks import CHUNK_SIZE, MESSAGE_HEADER
 from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.msgdefs import DEFINITIONS
 from cfem_ros.recording.samplelayout import SampleLayout
 from cfem_ros.recording.schema import POSE_TYPE, STRING_TYPE, TWIST_TYPE
 from doctor import diagnose

@@ -15,7 +15,8 @@ import sys
 
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.run.inputs import release_input, wrench_input
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 from doctor import diagnose
 import numpy as np
 import pytest
@@ -142,7 +143,8 @@ def test_failed_run_exits_1_and_keeps_a_complete_recording(tmp_path, capsys):
 
 def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
     # a recording with inputs: the spec's own topics, from a cfem-sim run
-    from cfem_ros.recording.recorder import Recorder, StateRecorder
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.recorder import StateRecorder
     model = load_scenario(str(CONFIG / 'store_separation.yaml'))
     log = tmp_path / 'inputs.mcap'
     with Recorder(str(log), metadata={'start_stamp_ns': 0}) as recorder:

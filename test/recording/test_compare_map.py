@@ -8,8 +8,9 @@ from cfem_ros import cli
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording.analysis import compare_runs, open_run
+from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.offline import run
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.recorder import StateRecorder
 from cfem_ros.recording.schema import POSE_TYPE
 import numpy as np
 from scipy.spatial.transform import Rotation

@@ -19,8 +19,8 @@ import struct
 
 from cfem_ros import cli
 from cfem_ros.recording.container import Recorder
-from cfem_ros.recording.schema import POSE_TYPE
 from cfem_ros.recording.recover import recover
+from cfem_ros.recording.schema import POSE_TYPE
 from cfem_ros.study.summarize import summarize_file
 from mcap.reader import make_reader
 import pytest

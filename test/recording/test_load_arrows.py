@@ -12,8 +12,8 @@ applied topics in body axes, the joint's in its frame).
 import pathlib
 
 from cfem_ros import cli
-from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
 from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
 from cfem_ros.recording.schema import WRENCH_TYPE
 import numpy as np
 import pytest

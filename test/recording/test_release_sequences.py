@@ -13,7 +13,8 @@ import pathlib
 from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.core.run.inputs import release_input
 from cfem_ros.recording.analysis import open_run
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 import numpy as np
 import pytest
 from recordings import read_checked

@@ -23,7 +23,8 @@ from cfem_ros import cli, load_scenario, Simulator
 from cfem_ros.recording import offline
 from cfem_ros.recording.chunks import CHUNK_SIZE
 from cfem_ros.recording.container import partial_path
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 from cfem_ros.recording.recover import recover
 from mcap.reader import make_reader
 from mcap.records import Channel, Chunk, Message, Schema

@@ -21,7 +21,8 @@ import signal
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
-from cfem_ros.recording.recorder import Recorder, StateRecorder
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.recorder import StateRecorder
 from cfem_ros.recording.replay import read_inputs
 from cfem_ros.ros.refusals import REFUSED_STRING_BYTES
 import numpy as np

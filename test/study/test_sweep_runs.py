@@ -212,7 +212,8 @@ def test_collected_samples_are_the_recordings_numbers_at_any_rate(tmp_path):
     from cfem_ros.core.run.session import Session
     from cfem_ros.core.scenario.parse import parse_scenario
     from cfem_ros.recording.analysis import open_run
-    from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.recorder import run_metadata, StateRecorder
     from cfem_ros.study.metrics import Collector
     sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, vary={}, rate_hz=30))
     model = parse_scenario(sweep.scenario(0))

@@ -110,7 +110,8 @@ def _record(scenario: str, document: dict, output: str, inputs, interpolate_odom
     """Run the fitted scenario for its duration and record it, as ``cfem-sim run`` does."""
     from cfem_ros.core.engine.simulator import Simulator
     from cfem_ros.recording import offline
-    from cfem_ros.recording.recorder import Recorder, run_metadata, StateRecorder
+    from cfem_ros.recording.container import Recorder
+    from cfem_ros.recording.recorder import run_metadata, StateRecorder
     model = parse_scenario(document, source=scenario)
     rate = min(1.0 / model.dt, 1000.0)
     sim = Simulator(model)
