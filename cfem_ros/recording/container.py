@@ -317,7 +317,7 @@ class Recorder:
 
         An atomic recording's partial file is removed (an existing file at
         path is untouched); a direct one is cut back to its last whole chunk
-        and finished there (``_keep_complete``), or, if even the summary
+        and finished there (``keep_complete``), or, if even the summary
         cannot be written, left cut there for ``cfem-sim recover``; removed
         if no whole chunk reached the disk.
         """
@@ -335,52 +335,58 @@ class Recorder:
             kept = (f'the partial recording {self.writing_path} was removed'
                     + ('' if not os.path.lexists(self.path) else f'; {self.path} is untouched'))
             return OutputError(f'{failure} after {self.message_count} messages; {kept}')
-        return self._keep_complete(failure)
-
-    def _keep_complete(self, failure: str) -> OutputError:
-        """Cut the file back to its last whole chunk and finish it there; say what is kept."""
-        try:
-            mark = self._writer.whole_part(os.path.getsize(self.path))
-            if mark is None or not mark['statistics'].message_count:
-                os.unlink(self.path)   # nothing to keep
-                return OutputError(f'{failure} after {self.message_count} messages; no '
-                                   f'whole chunk of them reached the disk: {self.path} '
-                                   'was removed')
-            offset, statistics = mark['offset'], mark['statistics']
-            error = OutputError(failure, kept_messages=statistics.message_count,
-                                kept_until_ns=statistics.message_end_time
-                                if statistics.message_count else None)
-            stream = open(self.path, 'r+b')
-            try:
-                stream.truncate(offset)
-                stream.seek(offset)
-                self._writer.finish_complete(stream, mark)   # flushed at its end
-                stream.close()
-                error.complete = True
-            except OSError:
-                try:
-                    stream.close()
-                except OSError:
-                    pass   # the summary that did not fit
-                os.truncate(self.path, offset)   # as a hard kill between two chunks leaves it
-        except OSError as again:
-            return OutputError(f'{failure}; the file {self.path} could not be cut back to its '
-                               f'whole chunks either ({again.strerror or again}): '
-                               f'`cfem-sim recover {self.path} -o FIXED.mcap` keeps them')
-        kept = f'{statistics.message_count} of {self.message_count} messages'
-        if error.complete:
-            error.args = (f'{failure}; {self.path} is kept complete up to its last whole '
-                          f'chunk ({kept}), a finished recording of the run so far',)
-        else:
-            error.args = (f'{failure}; {self.path} is kept cut after its last whole chunk '
-                          f'({kept}) without a summary (no room for it): '
-                          f'`cfem-sim recover {self.path} -o FIXED.mcap` makes it complete',)
-        return error
+        return keep_complete(self._writer, self.path, failure, self.message_count)
 
     def __exit__(self, exc_type, exc, traceback):
         if isinstance(exc, OSError) and not self._finished:   # a write failed (disk full)
             raise self.abandon(exc) from exc
         self.finish()
+
+
+def keep_complete(writer: ChunkedWriter, path: str, failure: str, written: int) -> OutputError:
+    """
+    Cut a recording back to its last whole chunk and finish it there; say what is kept.
+
+    writer: the recording's writer (its stream closed); written: the
+    messages given to it. ``Recorder.abandon`` of a direct recording.
+    """
+    try:
+        mark = writer.whole_part(os.path.getsize(path))
+        if mark is None or not mark['statistics'].message_count:
+            os.unlink(path)   # nothing to keep
+            return OutputError(f'{failure} after {written} messages; no '
+                               f'whole chunk of them reached the disk: {path} '
+                               'was removed')
+        offset, statistics = mark['offset'], mark['statistics']
+        error = OutputError(failure, kept_messages=statistics.message_count,
+                            kept_until_ns=statistics.message_end_time
+                            if statistics.message_count else None)
+        stream = open(path, 'r+b')
+        try:
+            stream.truncate(offset)
+            stream.seek(offset)
+            writer.finish_complete(stream, mark)   # flushed at its end
+            stream.close()
+            error.complete = True
+        except OSError:
+            try:
+                stream.close()
+            except OSError:
+                pass   # the summary that did not fit
+            os.truncate(path, offset)   # as a hard kill between two chunks leaves it
+    except OSError as again:
+        return OutputError(f'{failure}; the file {path} could not be cut back to its '
+                           f'whole chunks either ({again.strerror or again}): '
+                           f'`cfem-sim recover {path} -o FIXED.mcap` keeps them')
+    kept = f'{statistics.message_count} of {written} messages'
+    if error.complete:
+        error.args = (f'{failure}; {path} is kept complete up to its last whole '
+                      f'chunk ({kept}), a finished recording of the run so far',)
+    else:
+        error.args = (f'{failure}; {path} is kept cut after its last whole chunk '
+                      f'({kept}) without a summary (no room for it): '
+                      f'`cfem-sim recover {path} -o FIXED.mcap` makes it complete',)
+    return error
 
 
 @functools.lru_cache(maxsize=None)
