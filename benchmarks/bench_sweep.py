@@ -70,7 +70,7 @@ def sweep_file(folder, runs, scenario='hinge'):
 
 def _warm():
     """Import what a task needs (a warm worker has run a task before)."""
-    from cfem_ros.core.engine import kernel  # noqa: F401 - loads the compiled kernel
+    from cfem_ros.core.native import kernel  # noqa: F401 - loads the compiled kernel
     from cfem_ros.study import sweep  # noqa: F401
     import pandas  # noqa: F401
     import pyarrow.parquet  # noqa: F401

@@ -50,7 +50,7 @@ def scenarios(root: pathlib.Path) -> list:
 
 def fixed_density(text: str) -> str:
     """Return the scenario with its aero density held at the reference altitude's ISA value."""
-    from cfem_ros.core.engine.atmosphere import isa_density
+    from cfem_ros.core.native.atmosphere import isa_density
 
     line = next(x for x in text.splitlines() if x.strip().startswith('altitude:'))
     altitude = float(line.split(':')[1].split('#')[0])

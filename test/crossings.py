@@ -15,10 +15,12 @@ same way: ``events.cpp`` is compiled without fused multiply-adds).
 
 import math
 
-from cfem_ros.core.engine import kernel, kernelcalls
-from cfem_ros.core.engine.kernel import LOADS
+from cfem_ros.core.engine import kernelcalls
+
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 from scipy.optimize import brentq
 

@@ -53,7 +53,7 @@ def run_modules(tmp_path, scenario='store_separation.yaml'):
 
 def test_a_run_imports_only_what_it_uses(tmp_path):
     modules = run_modules(tmp_path)
-    assert {'cfem_ros.core.engine.kernel', 'cfem_ros.core._kernel', 'cfem_ros.recording.recorder',
+    assert {'cfem_ros.core.native.kernel', 'cfem_ros.core._kernel', 'cfem_ros.recording.recorder',
             'numpy', 'yaml'} <= modules
     unused = {name: why for name, why in UNUSED.items() if name in modules}
     assert not unused, f'a run imported modules it does not use: {unused}'

@@ -112,7 +112,8 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
     From the recorded pose and twist (the air of the scenario: wind,
     altitude, ISA), through the compiled core's ``aero_wrench`` (``core.kernel``).
     """
-    from cfem_ros.core.engine import aeropack, kernel
+    from cfem_ros.core.engine import aeropack
+    from cfem_ros.core.native import kernel
     out = {}
     for aero in model.aero:
         name = model.bodies[aero.body].name

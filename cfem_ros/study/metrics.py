@@ -191,7 +191,7 @@ class Collector(RowSink):
 
 def _kernel():
     """Return the compiled kernel (imported on first use: ``summarize`` may not need it)."""
-    from cfem_ros.core.engine import kernel
+    from cfem_ros.core.native import kernel
     return kernel
 
 

@@ -19,7 +19,7 @@ import math
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import contacts
+from cfem_ros.core.native import contacts
 import numpy as np
 
 NAN = float('nan')

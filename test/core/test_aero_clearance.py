@@ -13,8 +13,8 @@ table, against the closed form of its fall.
 import math
 
 from cfem_ros import Simulator
-from cfem_ros.core.engine import atmosphere
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.native import atmosphere
 from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest

@@ -4,8 +4,10 @@
 
 import math
 
-from cfem_ros.core.engine import aeropack, atmosphere, kernel
+from cfem_ros.core.engine import aeropack
+
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.native import atmosphere, kernel
 from cfem_ros.core.scenario import aeroparse
 from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np

@@ -6,9 +6,9 @@ import copy
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import motion
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.native import motion
 from cfem_ros.core.scenario.parse import parse_scenario
 import numpy as np
 import pytest

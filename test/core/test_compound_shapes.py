@@ -12,10 +12,10 @@ import copy
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import contacts
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.model.shapes import Shape
+from cfem_ros.core.native import contacts
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.recording import visuals
 import numpy as np

@@ -13,7 +13,7 @@ import threading
 
 from cfem_ros import load_scenario, Simulator
 from cfem_ros.core import _kernel
-from cfem_ros.core.engine import kernel
+from cfem_ros.core.native import kernel
 import numpy as np
 import pytest
 

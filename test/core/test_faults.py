@@ -14,9 +14,10 @@ import math
 
 from cfem_ros import cli, parse_scenario, Simulator
 from cfem_ros.cli.common import EXIT_BAD_INPUT, EXIT_FAILED
-from cfem_ros.core.engine import kernel, sampling
+from cfem_ros.core.engine import sampling
 from cfem_ros.core.engine.kernelcalls import DIVERGENCE_VIOLATION, kernel_error
 from cfem_ros.core.errors import CfemError, InputError, ScenarioError
+from cfem_ros.core.native import kernel
 from cfem_ros.core.run.inputs import apply_input, validate_input, wrench_input
 from cfem_ros.core.run.session import Session
 from cfem_ros.recording.container import Recorder

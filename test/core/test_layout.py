@@ -15,7 +15,8 @@ import pathlib
 import re
 
 from cfem_ros.core import _kernel
-from cfem_ros.core.engine import kernel, loads, motion
+from cfem_ros.core.engine import loads
+from cfem_ros.core.native import kernel, motion
 import numpy as np
 import pytest
 

@@ -6,9 +6,9 @@ import math
 import os
 import pathlib
 
-from cfem_ros.core.engine.atmosphere import isa_density
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.native.atmosphere import isa_density
 from cfem_ros.core.run import batch
 from cfem_ros.core.run.inputs import wrench_input
 from cfem_ros.core.run.session import Session

@@ -5,8 +5,8 @@
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import contacts
 from cfem_ros.core.model.shapes import Shape
+from cfem_ros.core.native import contacts
 import numpy as np
 import pytest
 

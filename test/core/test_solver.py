@@ -15,7 +15,7 @@ relative, a thousand times the rounding seen (about 1e-13).
 import logging
 
 from cfem_ros import parse_scenario, Simulator
-from cfem_ros.core.engine import kernel
+from cfem_ros.core.native import kernel
 import numpy as np
 from reference import quat_matrix
 

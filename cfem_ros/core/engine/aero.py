@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import math
 
-from cfem_ros.core.engine import kernel
-from cfem_ros.core.engine.kernel import LOADS
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 
 #: The topics of the air a body sees, under ``bodies/<body>/aero/`` (Vector3Stamped):

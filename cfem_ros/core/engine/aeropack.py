@@ -13,9 +13,9 @@ Cn per node, alpha slowest, then beta, then Mach), then the proximity grids
 from __future__ import annotations
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine.kernel import AERO_TABLE as T
 from cfem_ros.core.model.loads import Aero
 from cfem_ros.core.model.model import Model
+from cfem_ros.core.native.kernel import AERO_TABLE as T
 import numpy as np
 
 #: Numbers of the header.

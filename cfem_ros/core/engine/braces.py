@@ -23,52 +23,9 @@ from cfem_ros.core.model.loads import SwayBrace
 import numpy as np
 
 
-def surface_distance(pieces, point: np.ndarray) -> float:
-    """
-    Return a point's distance to the surface of a union of convex shapes, m (< 0 inside).
-
-    Outside all of them: the least distance (the compiled distance to a point);
-    inside: the depth below the surface of the piece it is deepest in.
-    """
-    from cfem_ros.core.engine import contacts
-    from cfem_ros.core.model import shapes
-
-    dot = contacts.pack_shape(shapes.Shape('sphere', (1e-300,), offset=tuple(point)))
-    identity, origin = np.array([[0.0, 0.0, 0.0, 1.0]]), np.zeros((1, 3))
-    outside = []
-    for piece in pieces:
-        d = float(contacts.distances(dot, identity, origin, contacts.pack_shape(piece),
-                                     identity, origin)[0][0])
-        outside.append(d)
-    if min(outside) > 0.0:
-        return min(outside)
-    return -max(_depth(piece, point) for piece, d in zip(pieces, outside) if d <= 0.0)
-
-
-def _depth(shape, point: np.ndarray) -> float:
-    """Return how deep a point lies inside a convex shape, m (its distance to the surface)."""
-    from cfem_ros.core import rotations
-
-    axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
-    p = axes.T @ (np.asarray(point, dtype=float) - np.asarray(shape.offset))
-    size = shape.size
-    if shape.kind == 'box':
-        return float(np.min(0.5 * np.asarray(size) - np.abs(p)))
-    if shape.kind == 'sphere':
-        return float(size[0] - np.linalg.norm(p))
-    if shape.kind == 'cylinder':
-        return float(min(size[0] - np.hypot(p[1], p[2]), 0.5 * size[1] - abs(p[0])))
-    if shape.kind == 'capsule':
-        half = 0.5 * size[1] - size[0]
-        return float(size[0] - np.linalg.norm([max(abs(p[0]) - half, 0.0), p[1], p[2]]))
-    from scipy.spatial import ConvexHull
-    equations = ConvexHull(np.array(shape.hull)).equations   # outward normals, offsets
-    return float(np.min(-(equations[:, :3] @ p + equations[:, 3])))
-
-
 def pack(rows: np.ndarray, first: int, braces):
     """Write the braces' rows from row ``first`` on (their pads placed by ``anchor``)."""
-    from cfem_ros.core.engine.kernel import LOADS
+    from cfem_ros.core.native.kernel import LOADS
 
     for k, brace in enumerate(braces):
         r = rows[first + k]
@@ -89,7 +46,7 @@ def anchor(rows: np.ndarray, first: int, braces, y: np.ndarray, n: int):
     carrier's axes.
     """
     from cfem_ros.core import rotations
-    from cfem_ros.core.engine.kernel import LOADS
+    from cfem_ros.core.native.kernel import LOADS
 
     pos = y[:3 * n].reshape(n, 3)
     quat = y[6 * n:10 * n].reshape(n, 4)

@@ -19,8 +19,8 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel, motion
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.native import kernel, motion
 import numpy as np
 
 #: How long after its last odometry message a kinematic body is extrapolated to

@@ -29,12 +29,13 @@ import math
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel, motion, sampling
+from cfem_ros.core.engine import sampling
 from cfem_ros.core.engine.bodies import initial_state, mass_table
-from cfem_ros.core.engine.kernel import LOADS
 from cfem_ros.core.engine.sampling import NumericalFailure, SampledState
 from cfem_ros.core.engine.ties import TiedLoads
 from cfem_ros.core.model.model import Model
+from cfem_ros.core.native import kernel, motion
+from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')

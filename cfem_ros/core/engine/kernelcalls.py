@@ -15,10 +15,12 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Optional
 
-from cfem_ros.core.engine import kernel, sampling
-from cfem_ros.core.engine.kernel import ADVANCE_INFO, LOCATE_INFO
+from cfem_ros.core.engine import sampling
+
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
 from cfem_ros.core.engine.sampling import NumericalFailure
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import ADVANCE_INFO, LOCATE_INFO
 import numpy as np
 
 #: Constraint violation (m, or rad for rotation rows) beyond which a run is

@@ -38,8 +38,10 @@ branch there.
 
 from __future__ import annotations
 
-from cfem_ros.core.engine import aeropack, braces, contacts, kernel
-from cfem_ros.core.engine.kernel import LOADS
+from cfem_ros.core.engine import aeropack, braces
+
+from cfem_ros.core.native import contacts, kernel
+from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).

@@ -15,10 +15,10 @@ from __future__ import annotations
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel
 from cfem_ros.core.engine.bodies import state_views
-from cfem_ros.core.engine.kernel import PLAN
 from cfem_ros.core.errors import CfemError
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import PLAN
 import numpy as np
 
 

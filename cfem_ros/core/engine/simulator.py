@@ -24,7 +24,6 @@ import math
 from typing import Optional
 
 from cfem_ros.core.engine import braces
-from cfem_ros.core.engine import kernel
 from cfem_ros.core.engine.aero import AeroWatch
 from cfem_ros.core.engine.carrier import Carriers
 from cfem_ros.core.engine.dynamics import Dynamics
@@ -36,6 +35,7 @@ from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.topology import JointTables, Topology
 from cfem_ros.core.model.model import Model
+from cfem_ros.core.native import kernel
 import numpy as np
 
 

@@ -13,8 +13,8 @@ like any scheduled time. Everything else is ``loads.ScheduledLoads``.
 
 from __future__ import annotations
 
-from cfem_ros.core.engine.kernel import LOADS
 from cfem_ros.core.engine.loads import ScheduledLoads
+from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 
 

@@ -15,9 +15,9 @@ import os
 import resource
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel
-from cfem_ros.core.engine.kernel import JOINTS_F, JOINTS_I, PLAN, ROWS_F, ROWS_I
 from cfem_ros.core.errors import CfemError
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import JOINTS_F, JOINTS_I, PLAN, ROWS_F, ROWS_I
 import numpy as np
 
 

@@ -21,8 +21,8 @@ import math
 import os
 from typing import Optional
 
-from cfem_ros.core.engine.atmosphere import ALTITUDE_RANGE, isa_density, OFFSET_RANGE
 from cfem_ros.core.model.loads import Aero, Proximity
+from cfem_ros.core.native.atmosphere import ALTITUDE_RANGE, isa_density, OFFSET_RANGE
 import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'atmosphere', 'freestream', 'wind',

@@ -9,8 +9,8 @@ Each brace is checked against its body (a pad touches the body's skin:
 
 from __future__ import annotations
 
-from cfem_ros.core.engine.braces import surface_distance
 from cfem_ros.core.model.loads import SwayBrace
+from cfem_ros.core.native.contacts import surface_distance
 from cfem_ros.core.scenario import cgoffset
 import numpy as np
 

@@ -22,7 +22,7 @@ MOTION_QUATERNION_TOLERANCE = 1e-3
 
 def motion_start(data: Motion):
     """Return a table motion's CG position and attitude at t = 0."""
-    from cfem_ros.core.engine import kernel, motion as trajectories  # noqa: F401 - kernel first
+    from cfem_ros.core.native import kernel, motion as trajectories  # noqa: F401 - kernel first
     probe = Model(name='', frame_id='', gravity=np.zeros(3), duration=1.0, dt=1.0,
                   baumgarte=0.0, bodies=(Body(
                       name='', fixed=False, mass=0.0, inertia=np.zeros((3, 3)),

@@ -37,8 +37,8 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel
-from cfem_ros.core.engine.kernel import BODIES
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import BODIES
 import numpy as np
 
 #: The columns (``kernel.BODIES``, laid out in ``cpp/layout.hpp``): those the

@@ -24,14 +24,14 @@ def isa(altitude: float, temperature_offset: float = 0.0) -> tuple:
     ``temperature_offset`` (K) is added to the ISA temperature; the pressure
     stays ISA.
     """
-    from cfem_ros.core.engine import kernel
+    from cfem_ros.core.native import kernel
     density, sound, _, _ = kernel.isa(float(altitude), float(temperature_offset))
     return density, sound
 
 
 def isa_state(altitude: float, temperature_offset: float = 0.0) -> tuple:
     """Return (density, speed of sound, temperature K, pressure Pa) at an altitude (m)."""
-    from cfem_ros.core.engine import kernel
+    from cfem_ros.core.native import kernel
     return kernel.isa(float(altitude), float(temperature_offset))
 
 

@@ -6,6 +6,8 @@ Collision shapes packed for the compiled distance (``cpp/distance.hpp``), and di
 A packed shape is ``SHAPE_HEADER`` numbers (kind, size (3), the shape's
 axes in its body's (row-major 3x3), its centre from the CG (body axes, m),
 the hull's vertex count) and then the hull's vertices (shape axes, m).
+``surface_distance`` is a point's distance to a compound shape's surface (a
+sway brace's pad on its body, checked by the scenario).
 A compound shape (SPEC section 11) is ``SHAPE_HEADER`` numbers (``COMPOUND``,
 its part count, zeros) and then per part the radius of a sphere about the
 part's centre that holds it (m) and the part packed as above.
@@ -14,8 +16,8 @@ part's centre that holds it (m) and the part packed as above.
 from __future__ import annotations
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import kernel
 from cfem_ros.core.model.shapes import Shape
+from cfem_ros.core.native import kernel
 import numpy as np
 
 #: Kind codes (``cfem::shapes::kSphere`` ..).
@@ -122,3 +124,40 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
     rot_b = rotations.matrices(np.asarray(quat_b, dtype=float)).reshape(-1, 9)
     found = kernel.distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b)
     return found if parts else found[:2]
+
+
+def surface_distance(pieces, point: np.ndarray) -> float:
+    """
+    Return a point's distance to the surface of a union of convex shapes, m (< 0 inside).
+
+    Outside all of them: the least distance (the compiled distance to a point);
+    inside: the depth below the surface of the piece it is deepest in.
+    """
+    dot = pack_shape(Shape('sphere', (1e-300,), offset=tuple(point)))
+    identity, origin = np.array([[0.0, 0.0, 0.0, 1.0]]), np.zeros((1, 3))
+    outside = []
+    for piece in pieces:
+        d = float(distances(dot, identity, origin, pack_shape(piece), identity, origin)[0][0])
+        outside.append(d)
+    if min(outside) > 0.0:
+        return min(outside)
+    return -max(_depth(piece, point) for piece, d in zip(pieces, outside) if d <= 0.0)
+
+
+def _depth(shape, point: np.ndarray) -> float:
+    """Return how deep a point lies inside a convex shape, m (its distance to the surface)."""
+    axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
+    p = axes.T @ (np.asarray(point, dtype=float) - np.asarray(shape.offset))
+    size = shape.size
+    if shape.kind == 'box':
+        return float(np.min(0.5 * np.asarray(size) - np.abs(p)))
+    if shape.kind == 'sphere':
+        return float(size[0] - np.linalg.norm(p))
+    if shape.kind == 'cylinder':
+        return float(min(size[0] - np.hypot(p[1], p[2]), 0.5 * size[1] - abs(p[0])))
+    if shape.kind == 'capsule':
+        half = 0.5 * size[1] - size[0]
+        return float(size[0] - np.linalg.norm([max(abs(p[0]) - half, 0.0), p[1], p[2]]))
+    from scipy.spatial import ConvexHull
+    equations = ConvexHull(np.array(shape.hull)).equations   # outward normals, offsets
+    return float(np.min(-(equations[:, :3] @ p + equations[:, 3])))
