@@ -88,12 +88,12 @@ separation-figures: $(TOOLS)
 	@mkdir -p runs $(SEPARATION)
 	$(BIN)/cfem-sim run config/store_release_near_pylon.yaml -o runs/near_pylon.mcap --overwrite
 	rm -rf runs/near_pylon_figures runs/near_pylon_envelope
-	$(BIN)/cfem-sim plot runs/near_pylon.mcap -o runs/near_pylon_figures --relative-to pylon
+	$(BIN)/cfem-sim plot runs/near_pylon.mcap -o runs/near_pylon_figures --relative-to pylon --overwrite
 	cp runs/near_pylon_figures/separation_pylon.png runs/near_pylon_figures/snapshots_pylon.png \
 	  $(SEPARATION)/
 	$(BIN)/cfem-sim sweep config/sweeps/store_release_near_pylon_envelope.yaml \
 	  -o runs/near_pylon_envelope --record all --workers 2
-	$(BIN)/cfem-sim plot runs/near_pylon_envelope -o runs/near_pylon_envelope/figures \
+	$(BIN)/cfem-sim plot runs/near_pylon_envelope -o runs/near_pylon_envelope/figures --overwrite \
 	  --relative-to pylon
 	cp runs/near_pylon_envelope/figures/envelope_relative_pylon.png $(SEPARATION)/
 	$(BIN)/python -c "import shutil, sys; from cfem_ros.separation.envelopes import \

@@ -11,6 +11,7 @@ import sys
 from cfem_ros.cli.cluster import study_imports
 from cfem_ros.cli.common import (contact_parts, error, EXIT_FAILED, EXIT_OK, output_refused,
                                  same_file)
+from cfem_ros.cli.figures import write_figures
 from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError
 from cfem_ros.recording.errors import OutputError
@@ -26,6 +27,8 @@ def add_plot_parser(sub):
                       help='recording to read, or a sweep folder')
     plot.add_argument('-o', '--output', required=True, metavar='DIR',
                       help='folder to write the PNG files to')
+    plot.add_argument('--overwrite', action='store_true',
+                      help='replace figures of the same names in DIR')
     plot.add_argument('--metric', metavar='COLUMN',
                       help='sweep folder: metric to scatter against the varied parameters '
                       '(default the first clearance minimum)')
@@ -67,6 +70,8 @@ def add_compare_parser(sub):
     compare.add_argument('first', metavar='A.mcap', help='reference recording')
     compare.add_argument('second', metavar='B.mcap', help='recording to compare with A')
     compare.add_argument('-o', '--output', metavar='DIR', help='write overlay figures here')
+    compare.add_argument('--overwrite', action='store_true',
+                         help='replace figures of the same names in DIR')
     compare.add_argument('--map', action='append', default=[], metavar='A_TOPIC=B_TOPIC',
                          help="read B's topic B_TOPIC as A's A_TOPIC (repeatable)")
     compare.set_defaults(func=compare_command)
@@ -170,11 +175,15 @@ def plot_command(args: argparse.Namespace) -> int:
             separation.check_relative(run, relative_to, args.snapshots)
     except CfemError as err:
         return error(str(err))
-    try:
+
+    def draw(folder):
         from cfem_ros import plots   # matplotlib only for the commands that draw
-        paths = plots.write_figures(run, directory)
+        paths = plots.write_figures(run, folder)
         if relative_to is not None:
-            paths += separation.plot_relative(run, relative_to, directory, args.snapshots)
+            paths += separation.plot_relative(run, relative_to, folder, args.snapshots)
+        return paths
+    try:
+        paths = write_figures(directory, args.overwrite, draw)
     except CfemError as err:
         return error(str(err))
     except OSError as err:
@@ -190,24 +199,20 @@ def _plot_sweep(args) -> int:
     if not os.path.exists(os.path.join(outdir, 'results.parquet')):
         return error(f'{outdir}: no results.parquet; expected a finished sweep folder '
                      '(cfem-sim sweep ... -o OUTDIR) or a recording')
-    try:
+
+    def draw(folder):
         study_imports()
         from cfem_ros import study_plots
-        paths = study_plots.write_sweep_figures(outdir, directory, args.metric)
-    except CfemError as err:
-        return error(str(err))
-    except ValueError as err:
+        paths = study_plots.write_sweep_figures(outdir, folder, args.metric)
+        if args.relative_to is not None:
+            paths += separation.plot_sweep_relative(outdir, args.relative_to, folder)
+        return paths
+    try:
+        paths = write_figures(directory, args.overwrite, draw)
+    except (CfemError, ValueError) as err:
         return error(str(err))
     except OSError as err:
         return error(f'{directory}: cannot write ({err.strerror or err})')
-    for path in paths:
-        print(path)
-    if args.relative_to is None:
-        return EXIT_OK
-    try:
-        paths = separation.plot_sweep_relative(outdir, args.relative_to, directory)
-    except CfemError as err:
-        return error(str(err))
     print('\n'.join(paths))
     return EXIT_OK
 
@@ -242,9 +247,13 @@ def compare_command(args: argparse.Namespace) -> int:
         return error(f'{first} and {second} share no body or joint; nothing to compare')
     _print_comparison(args, _compared_span(a, b), rows, only_a, only_b)
     if args.output:
-        try:
+        def draw(folder):
             from cfem_ros import plots
-            paths = plots.write_comparison(a, b, args.output)
+            return plots.write_comparison(a, b, folder)
+        try:
+            paths = write_figures(args.output, args.overwrite, draw)
+        except CfemError as err:
+            return error(str(err))
         except OSError as err:
             return error(f'{args.output}: cannot write ({err.strerror or err})')
         for path in paths:

@@ -75,7 +75,10 @@ def _on_cluster(args, spec, outdir: str) -> tuple:
     client = cluster = None
     with signals_to(raise_interrupted):
         try:
-            client, cluster = dask_client(args.workers, args.scheduler)
+            try:
+                client, cluster = dask_client(args.workers, args.scheduler)
+            except OSError as err:
+                return error(f'{args.scheduler or "local cluster"}: {err}'), None
             found = methods.run_study(spec, outdir, method=args.method, design=args.design,
                                       client=client, target_cov=args.cov, record=args.record,
                                       log=lambda line: print(f'{name}: {line}',
@@ -92,8 +95,10 @@ def _on_cluster(args, spec, outdir: str) -> tuple:
             return failed(str(err)), None
         except CfemError as err:
             return error(str(err)), None
-        except OSError as err:
-            return error(f'{args.scheduler or "local cluster"}: {err}'), None
+        except OSError as err:   # writing the study's files: what is written is kept
+            return failed(f'{err.filename2 or err.filename or outdir}: cannot write '
+                          f'({err.strerror or err}); the runs done are '
+                          'saved: run the same command again to resume'), None
         finally:
             close(client, cluster)
     return None, found

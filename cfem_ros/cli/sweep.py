@@ -136,7 +136,10 @@ def _on_cluster(args, sweep, outdir: str, todo: list) -> tuple:
     with signals_to(raise_interrupted):
         try:
             if todo:
-                client, cluster = dask_client(args.workers, args.scheduler)
+                try:
+                    client, cluster = dask_client(args.workers, args.scheduler)
+                except OSError as err:
+                    return error(f'{args.scheduler or "local cluster"}: {err}'), None, None
             meter = Progress(sweep.total, sweep.total - len(todo))
             table = sweep.run(client, outdir, record=args.record, csv=args.csv,
                               progress=meter.update)
@@ -151,8 +154,10 @@ def _on_cluster(args, sweep, outdir: str, todo: list) -> tuple:
             return stop.exit_status, None, None
         except ResourceFailure as err:
             return failed(str(err)), None, None
-        except OSError as err:
-            return error(f'{args.scheduler or "local cluster"}: {err}'), None, None
+        except OSError as err:   # writing the sweep's files: what is written is kept
+            return failed(f'{err.filename2 or err.filename or outdir}: cannot write '
+                          f'({err.strerror or err}); the runs done are '
+                          'saved: run the same command again to resume'), None, None
         finally:
             late = close(client, cluster)
     return None, table, late

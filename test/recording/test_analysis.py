@@ -228,6 +228,28 @@ def test_plot_writes_every_figure_with_labelled_axes(store, tmp_path, capsys):
     assert any('pivot released' in t.get_text() for t in ax.get_legend().get_texts())
 
 
+def test_figures_replace_same_named_files_only_with_overwrite(store, tmp_path, capsys):
+    # issue 41: plot and compare -o DIR replaced figures there without being told
+    out = tmp_path / 'figures'
+    out.mkdir()
+    (out / 'joint_pivot.png').write_bytes(b'mine')
+    (out / 'notes.txt').write_text('kept')
+    assert cli.main(['plot', str(store), '-o', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f'ERROR: {out}: already holds joint_pivot.png; pass --overwrite')
+    assert sorted(p.name for p in out.iterdir()) == ['joint_pivot.png', 'notes.txt']
+    assert (out / 'joint_pivot.png').read_bytes() == b'mine'
+    assert cli.main(['plot', str(store), '-o', str(out), '--overwrite']) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        'body_store.png', 'joint_pivot.png', 'notes.txt', 'trajectories_3d.png']
+    assert (out / 'joint_pivot.png').read_bytes()[:4] == b'\x89PNG'
+    assert cli.main(['compare', str(store), str(store), '-o', str(out)]) == 0
+    assert cli.main(['compare', str(store), str(store), '-o', str(out)]) == 2
+    assert 'already holds compare_body_store.png, compare_joint_pivot.png' in \
+        capsys.readouterr().err
+    assert cli.main(['compare', str(store), str(store), '-o', str(out), '--overwrite']) == 0
+
+
 def test_info_lists_topics_counts_and_events(store, capsys):
     assert cli.main(['info', str(store)]) == 0
     out = capsys.readouterr().out

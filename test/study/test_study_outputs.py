@@ -104,3 +104,18 @@ def test_a_recording_that_cannot_be_written_is_no_failed_run_and_is_redone(folde
     table = Sweep.from_file(sweep_file).run(None, str(out), record='all', threads=1)
     assert table['status'].tolist() == ['ok', 'ok']
     assert sorted(os.listdir(out / 'runs')) == ['run_0.mcap', 'run_1.mcap']
+
+
+def test_a_sweep_whose_table_cannot_be_written_fails_with_its_path_and_keeps_the_runs(
+        folder, capsys):
+    # the final table's write failing was reported as the cluster's fault, exit 2
+    base, _, sweep_file = folder
+    out = base / 'table_taken'
+    (out / 'results.parquet').mkdir(parents=True)
+    status = cli.main(['sweep', str(sweep_file), '-o', str(out), '--workers', '1'])
+    err = capsys.readouterr().err
+    assert status == 1, err
+    assert f'ERROR: {out / "results.parquet"}: cannot write (Is a directory); the runs done ' \
+           'are saved' in err
+    assert 'cluster' not in err
+    assert len(os.listdir(out / 'parts')) == 2
