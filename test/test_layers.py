@@ -210,7 +210,7 @@ def test_circles_finds_a_long_circle_and_only_it():
 def test_import_graph_sees_imports_inside_functions():
     graph = import_graph()
     assert 'cfem_ros.cli' in graph['cfem_ros.console']   # console.main imports cli lazily
-    # from cfem_ros.core.engine import kernel: a submodule, not the package
+    # from cfem_ros.core.native import kernel: a submodule, not the package
     assert 'cfem_ros.core.native.kernel' in graph['cfem_ros.core.engine.simulator']
 
 
