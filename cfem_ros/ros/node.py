@@ -146,6 +146,9 @@ class CfemNode(Stepping, Subscriptions, Node):
         except CfemError as err:
             raise StartupError(str(err)) from None
 
+        if self.sim_time:   # before the inputs: in each wait, /clock is taken before them,
+            # so that a command that came after a /clock is timed by it
+            self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
         # topics first: a name ROS refuses stops the node before a file is made
         try:
             self._publishers_sink = Publishers(self, self.sim)
@@ -179,7 +182,6 @@ class CfemNode(Stepping, Subscriptions, Node):
             + (f"; recording to {values['record']}" if values['record'] else ''))
         warm_up(model, self._publishers_sink)
         if self.sim_time:
-            self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
             self.get_logger().info('waiting for /clock (use_sim_time is true)')
         else:
             self._begin(None)

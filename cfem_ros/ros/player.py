@@ -156,7 +156,7 @@ def read_log(path: str, topics=None) -> tuple:
 
 def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, remaps=None,
          node: Optional[Node] = None, log: Callable[[str], None] = print,
-         wait: float = 5.0, delay: float = 2.0, settle: float = 0.02) -> int:
+         wait: float = 5.0, delay: float = 2.0, settle: float = 0.1) -> int:
     """
     Publish a recording's messages; return how many were published.
 
@@ -187,9 +187,11 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
         With ``clock``: wall-clock seconds between a /clock message at a
         message's log time and the message, so that a node following the
         clock has reached that time when the message arrives (a command
-        applied on arrival then acts at its recorded time). Only for
-        messages without a header: a stamped one acts at its stamp, so a
-        100 Hz odometry stream plays at its own pace.
+        applied on arrival then acts at its recorded time), and again
+        between the message and the next /clock (the playback's wall time
+        is that much longer). Only for messages without a header: a stamped
+        one acts at its stamp, so a 100 Hz odometry stream plays at its own
+        pace.
 
     """
     if not rate > 0.0:
@@ -269,9 +271,17 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
             if clock_pub is not None and log_time != last_clock:
                 send_clock(log_time)
                 last_clock, settled = log_time, False
-            if clock_pub is not None and cid in unstamped and not settled:
+            if clock_pub is not None and cid in unstamped:
+                # the command alone between two /clock messages, settle apart from both: a
+                # node that takes /clock first times it by the /clock before it
+                held = time.monotonic()
+                if not settled:
+                    time.sleep(settle)
+                publishers[cid].publish(data)
                 time.sleep(settle)
+                start += time.monotonic() - held   # the log's times keep their spacing
                 settled = True
+                continue
             publishers[cid].publish(data)
         time.sleep(LINGER)   # reliable messages still in flight reach their readers
         return len(messages)

@@ -17,4 +17,7 @@ def profile(qos: schema.Qos) -> QoSProfile:
 #: ``ros2 bag play`` use by default (reliable, volatile, keep last 10).
 TOPIC_QOS = profile(schema.OUTPUT_QOS)
 #: /clock: best effort, as ``ros2 bag play --clock`` and rclpy publish it.
-CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: Only the latest /clock is kept (as rclpy's own time source keeps it): the node goes
+#: to the newest time, and a command that arrives with it is timed by it, not by an
+#: older /clock still queued.
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
