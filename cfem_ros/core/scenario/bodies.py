@@ -63,21 +63,7 @@ def parse_body(check: Checker, name, spec) -> Body:
             check.fail(f'{key}.mass', f'is {mass:g} kg',
                        f'a mass from {MASS_RANGE[0]:g} to {MASS_RANGE[1]:g} kg')
         inertia = parse_inertia(check, spec['inertia'], f'{key}.inertia')
-    position = check.vector(spec.get('position', [0, 0, 0]), f'{key}.position')
-    if 'orientation_rpy_deg' in spec and 'orientation_xyzw' in spec:
-        check.fail(f'{key}.orientation_xyzw', 'given together with orientation_rpy_deg',
-                   'one of the two')
-    if 'orientation_xyzw' in spec:
-        quat = check.vector(spec['orientation_xyzw'], f'{key}.orientation_xyzw', 4)
-        norm = np.linalg.norm(quat)
-        if abs(norm - 1.0) > 1e-6:
-            check.fail(f'{key}.orientation_xyzw', f'has norm {norm:.9g}',
-                       'a unit quaternion [x, y, z, w]')
-        quat = quat / norm
-    else:
-        rpy = check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
-                           f'{key}.orientation_rpy_deg')
-        quat = from_rpy_deg(rpy)
+    position, quat = _pose(check, spec, key)
     velocity = check.vector(spec.get('velocity', [0, 0, 0]), f'{key}.velocity')
     if 'angular_velocity_deg' in spec and 'angular_velocity' in spec:
         check.fail(f'{key}.angular_velocity', 'given together with angular_velocity_deg',
@@ -169,20 +155,7 @@ def parse_kinematic(check: Checker, name, key: str, spec: dict, fixed: bool) -> 
     else:
         rates = np.radians(check.vector(motion.get('angular_velocity_deg', [0, 0, 0]),
                                         f'{mkey}.angular_velocity_deg'))
-    position = check.vector(spec.get('position', [0, 0, 0]), f'{key}.position')
-    if 'orientation_rpy_deg' in spec and 'orientation_xyzw' in spec:
-        check.fail(f'{key}.orientation_xyzw', 'given together with orientation_rpy_deg',
-                   'one of the two')
-    if 'orientation_xyzw' in spec:
-        quat = check.vector(spec['orientation_xyzw'], f'{key}.orientation_xyzw', 4)
-        norm = np.linalg.norm(quat)
-        if abs(norm - 1.0) > 1e-6:
-            check.fail(f'{key}.orientation_xyzw', f'has norm {norm:.9g}',
-                       'a unit quaternion [x, y, z, w]')
-        quat = quat / norm
-    else:
-        quat = from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
-                                         f'{key}.orientation_rpy_deg'))
+    position, quat = _pose(check, spec, key)
     return Body(name=name, fixed=False, mass=0.0, inertia=np.zeros((3, 3)), position=position,
                 orientation_xyzw=quat, velocity_world=velocity, rates_body=rates, shape=shape,
                 motion=Motion(velocity=velocity, rates=rates))
@@ -226,3 +199,20 @@ def parse_inertia(check: Checker, value, key: str) -> np.ndarray:
                    f'{largest:.6g} kg m^2', f'principal moments from {INERTIA_RANGE[0]:g} '
                    f'to {INERTIA_RANGE[1]:g} kg m^2')
     return tensor
+
+
+def _pose(check, spec: dict, key: str):
+    """Return a body's position (m) and unit quaternion [x, y, z, w] at t = 0."""
+    position = check.vector(spec.get('position', [0, 0, 0]), f'{key}.position')
+    if 'orientation_rpy_deg' in spec and 'orientation_xyzw' in spec:
+        check.fail(f'{key}.orientation_xyzw', 'given together with orientation_rpy_deg',
+                   'one of the two')
+    if 'orientation_xyzw' in spec:
+        quat = check.vector(spec['orientation_xyzw'], f'{key}.orientation_xyzw', 4)
+        norm = np.linalg.norm(quat)
+        if abs(norm - 1.0) > 1e-6:
+            check.fail(f'{key}.orientation_xyzw', f'has norm {norm:.9g}',
+                       'a unit quaternion [x, y, z, w]')
+        return position, quat / norm
+    return position, from_rpy_deg(check.vector(spec.get('orientation_rpy_deg', [0, 0, 0]),
+                                               f'{key}.orientation_rpy_deg'))
