@@ -30,6 +30,20 @@ PLANAR = {
     'joints': {'surface': {'type': 'planar', 'parent': 'ground', 'child': 'puck',
                            'anchor': [0, 0, -0.05], 'axis': [0, 0, 1]}},
 }
+#: Solvable at t = 0 but not within the first step: B a billion metres from its hinge
+#: (reliability campaign of 2026-11-27, a mutated double pendulum).
+PENDULUM = {
+    'name': 'double_pendulum', 'duration': 0.2, 'dt': 0.001,
+    'bodies': {'O': {'fixed': True},
+               'A': {'mass': 3900, 'inertia': [162.5, 1381.25, 1381.25], 'position': [1.0, 0, 0],
+                     'angular_velocity_deg': [45, 0, 0]},
+               'B': {'mass': 1950, 'inertia': [81.25, 203.125, 203.125], 'position': [2, 0, 0],
+                     'angular_velocity_deg': [45, 0, 0]}},
+    'joints': {'shoulder': {'type': 'universal', 'parent': 'O', 'child': 'A',
+                            'anchor': [0, 0, 0], 'axis': [1, 0, 0], 'axis2': [0, 1, 0]},
+               'elbow': {'type': 'hinge', 'parent': 'A', 'child': 'B',
+                         'anchor': [2.0, 0, -0.25], 'axis': [0, 1, 0]}},
+}
 AERO = {
     'name': 'aero', 'duration': 0.2, 'dt': 0.001, 'gravity': [0, 0, 9.80665],
     'bodies': {'store': {'mass': 907.0, 'inertia': [27.0, 488.0, 488.0],
@@ -59,6 +73,9 @@ def changed(document, where, value):
 @pytest.mark.parametrize('base, where, value, words', [
     (PLANAR, ('joints', 'surface', 'anchor'), [1e8, 0, -0.05], "joint 'surface': its anchor"),
     (PLANAR, ('bodies', 'puck', 'position'), [-1e9, -1e9, -1e9], 'from the CG of puck'),
+    (PENDULUM, ('bodies', 'B', 'position'), [-1e9, 0, 0],
+     'the first step cannot be solved (the constraint system is singular or too '
+     "ill-conditioned to solve): joint 'elbow': its anchor"),
     (AERO, ('aero', 'store', 'CX'), 1e300, 'aerodynamic loads overflow'),
     (AERO, ('aero', 'store', 'density'), 1e300, 'aerodynamic loads overflow'),
     (AERO, ('aero', 'store', 'Cmq'), -1e300, 'aerodynamic loads overflow'),

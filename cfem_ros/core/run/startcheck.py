@@ -15,9 +15,10 @@ returned as a warning.
 
 from __future__ import annotations
 
+import logging
 import math
 
-from cfem_ros.core.engine.sampling import NumericalFailure
+from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
 import numpy as np
 
 __all__ = ['RK4_STABILITY', 'start_problems']
@@ -32,6 +33,10 @@ MAX_TURN_PER_STEP = 1.0
 FAR_ANCHOR = 1e4
 #: Steps over which the aerodynamic loads' feedback on speed and rates is followed.
 FIRST_STEPS = 5
+#: The trial step's simulator says nothing (the scenario's own has said it).
+_SILENT = logging.getLogger('cfem_ros.startcheck.trial')
+_SILENT.addHandler(logging.NullHandler())
+_SILENT.propagate = False
 
 
 def _size(body) -> float:
@@ -152,14 +157,43 @@ def start_problems(sim) -> tuple:
             derivative = sim.derivative(sim.y)
             force, moment = sim.joint_wrenches()
     except NumericalFailure as err:
-        ratio, where = _farthest_anchor(model)
-        reason = (where + '; the joint rows then span more than double precision can solve; '
-                  'expected anchors near the bodies they join' if ratio >= FAR_ANCHOR
-                  else 'joint axes parallel or degenerate?')
-        errors.append(f'the joints cannot be solved at t = 0 ({err}): {reason}')
+        errors.append(f'the joints cannot be solved at t = 0 ({err}): {_why_singular(model)}')
         return errors, warnings
     if not (np.isfinite(derivative).all() and np.isfinite(force).all()
             and np.isfinite(moment).all()):
         errors.append('the accelerations or joint loads at t = 0 are not finite: masses, '
                       'inertias or loads whose products are beyond double precision')
+        return errors, warnings
+    failed = _first_step_failure(sim)
+    if failed:
+        errors.append(f'the first step cannot be solved ({failed}): {_why_singular(model)}')
     return errors, warnings
+
+
+def _why_singular(model) -> str:
+    """Return the likely reason why the joints' rows cannot be solved."""
+    ratio, where = _farthest_anchor(model)
+    if ratio >= FAR_ANCHOR:
+        return (where + '; the joint rows then span more than double precision can solve; '
+                'expected anchors near the bodies they join')
+    return 'joint axes parallel or degenerate?'
+
+
+def _first_step_failure(sim) -> str:
+    """
+    Return why the run's first step of dt fails on a singular solve ('' if it does not).
+
+    The step is taken by a new simulator of the same model (the one given
+    stays at t = 0), with the scenario's own loads and no inputs; only a
+    solve that fails there is the scenario's own fault: what grows later
+    is the run's to tell.
+    """
+    model = sim.model
+    if not model.duration > 0.0:
+        return ''
+    with np.errstate(all='ignore'):
+        trial = type(sim)(model, logger=_SILENT)
+        if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
+            return ''
+    singular = trial.message.endswith(SINGULAR) and trial.t == 0.0
+    return SINGULAR if singular else ''
