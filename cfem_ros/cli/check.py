@@ -8,9 +8,9 @@ import argparse
 import math
 import sys
 
-from cfem_ros.cli.common import cannot_start, error, EXIT_OK, vec
+from cfem_ros.cli.common import cannot_start, error, EXIT_OK, vec, warnings_held
 from cfem_ros.core.engine.simulator import Simulator
-from cfem_ros.core.errors import CfemError
+from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.scenario.aeroparse import describe as describe_aero
 from cfem_ros.core.scenario.parse import load_scenario
 import numpy as np
@@ -30,18 +30,19 @@ def check_command(args: argparse.Namespace) -> int:
     from cfem_ros.core.run.startcheck import start_problems
     scenario = args.scenario
     try:
-        model = load_scenario(scenario)
-        with np.errstate(all='raise', under='ignore'):
-            sim = Simulator(model)
-        errors, warnings = start_problems(sim)
+        with warnings_held():   # a refused scenario says only its ERROR line
+            model = load_scenario(scenario)
+            with np.errstate(all='raise', under='ignore'):
+                sim = Simulator(model)
+            errors, warnings = start_problems(sim)
+            if errors:
+                raise InputError(cannot_start(scenario, errors))
     except CfemError as err:
         return error(str(err))
     except (ArithmeticError, np.linalg.LinAlgError) as err:
         why = ' '.join(str(err).split())[:120]
         return error(f'{scenario}: the joints cannot be analysed at t = 0 '
                      f'({type(err).__name__}: {why}); expected a regular configuration')
-    if errors:
-        return error(cannot_start(scenario, errors))
     for text in warnings:
         print(f'WARNING: {scenario}: {text}', file=sys.stderr)
     print(f'{scenario}: valid scenario {model.name!r}')

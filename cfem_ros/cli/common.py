@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import sys
@@ -87,3 +88,29 @@ def signals_to(handler):
     finally:
         for s, before in zip(STOPS, previous):
             signal.signal(s, before)
+
+
+@contextlib.contextmanager
+def warnings_held():
+    """
+    Hold the package's warnings while a scenario is read and checked; say them after.
+
+    A command refused in the block says only its one ``ERROR:`` line; one
+    that goes on says the held warnings when the block ends.
+    """
+    log = logging.getLogger('cfem_ros')
+    held = []
+
+    def hold(record):
+        held.append(record)
+        return False
+    log.addFilter(hold)
+    try:
+        yield
+    except BaseException:
+        held.clear()
+        raise
+    finally:
+        log.removeFilter(hold)
+        for record in held:
+            log.handle(record)

@@ -14,7 +14,8 @@ import time
 from typing import Optional
 
 from cfem_ros.cli.common import (cannot_start, contact_parts, error, EXIT_CONTACT, EXIT_FAILED,
-                                 EXIT_OK, output_refused, same_file, signals_to, vec, warn)
+                                 EXIT_OK, output_refused, same_file, signals_to, vec, warn,
+                                 warnings_held)
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.engine.strokes import describe_event
@@ -117,7 +118,8 @@ def run_command(args: argparse.Namespace) -> int:
     if refused:
         return error(refused)
     try:
-        run = _prepare(args)
+        with warnings_held():   # a refused run says only its ERROR line
+            run = _prepare(args)
     except CfemError as err:
         return error(str(err))
     started = time.monotonic()
