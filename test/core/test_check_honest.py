@@ -83,6 +83,8 @@ def changed(document, where, value):
      'the first step cannot be solved (the constraint system is singular or too '
      "ill-conditioned to solve): joint 'elbow': its anchor"),
     (AERO, ('aero', 'store', 'CX'), 1e300, 'aerodynamic loads overflow'),
+    # a table value reached within the first step (campaign: run failed at t = 0)
+    (AERO, ('aero', 'store', 'Cm'), [0.75, 0, 1e300], 'the first step of dt 0.001 s fails'),
     # the warning about the redundant hooks is not said: only the ERROR line (campaign)
     (TWO_HOOKS, ('aero', 'store', 'CX'), 1e308, 'cannot start: '),
     (AERO, ('aero', 'store', 'density'), 1e300, 'aerodynamic loads overflow'),

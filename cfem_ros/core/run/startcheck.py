@@ -165,8 +165,12 @@ def start_problems(sim) -> tuple:
                       'inertias or loads whose products are beyond double precision')
         return errors, warnings
     failed = _first_step_failure(sim)
-    if failed:
+    if failed == SINGULAR:
         errors.append(f'the first step cannot be solved ({failed}): {_why_singular(model)}')
+    elif failed:
+        errors.append(f'the first step of dt {model.dt:g} s fails ({failed}): loads, masses, '
+                      'inertias or rates (a table value, a coefficient) whose products go '
+                      'beyond double precision within a step; expected realistic values')
     return errors, warnings
 
 
@@ -181,12 +185,12 @@ def _why_singular(model) -> str:
 
 def _first_step_failure(sim) -> str:
     """
-    Return why the run's first step of dt fails on a singular solve ('' if it does not).
+    Return why the run's first step of dt fails ('' if it does not).
 
     The step is taken by a new simulator of the same model (the one given
-    stays at t = 0), with the scenario's own loads and no inputs; only a
-    solve that fails there is the scenario's own fault: what grows later
-    is the run's to tell.
+    stays at t = 0), with the scenario's own loads and no inputs: a run
+    that fails there never starts, which is the scenario's own fault; what
+    grows later is the run's to tell.
     """
     model = sim.model
     if not model.duration > 0.0:
@@ -195,5 +199,6 @@ def _first_step_failure(sim) -> str:
         trial = type(sim)(model, logger=_SILENT)
         if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
             return ''
-    singular = trial.message.endswith(SINGULAR) and trial.t == 0.0
-    return SINGULAR if singular else ''
+    if trial.status != 'failed' or trial.t != 0.0:
+        return ''
+    return SINGULAR if trial.message.endswith(SINGULAR) else trial.message.split(': ', 1)[-1]
