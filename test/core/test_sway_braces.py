@@ -234,6 +234,9 @@ def test_a_preload_sweep_rolls_as_the_linearised_roll_dynamics_say(tmp_path):
     (('body', 'pylon'), 'sway_braces[1].body', 'fixed'),
     (('carrier', 'store'), 'sway_braces[1].carrier', 'another body'),
     (('carrier', 'wing'), 'sway_braces[1].carrier', 'not a body'),
+    # a list or a mapping is no name: refused, not a TypeError (reliability campaign)
+    (('carrier', ['pylon']), 'sway_braces[1].carrier', 'not a body'),
+    (('body', {'store': 1}), 'sway_braces[1].body', 'not a body'),
     (('name', 'fwd_left'), 'sway_braces[1].name', 'already names'),
 ])
 def test_bad_braces_are_refused_with_the_key_path(change, key, words):

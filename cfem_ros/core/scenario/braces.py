@@ -12,6 +12,7 @@ from __future__ import annotations
 from cfem_ros.core.model.loads import SwayBrace
 from cfem_ros.core.native.contacts import surface_distance
 from cfem_ros.core.scenario import cgoffset
+from cfem_ros.core.scenario.checker import body_of
 import numpy as np
 
 #: The scenario keys of a brace.
@@ -56,11 +57,8 @@ def _parse_brace(check, k: int, spec, index: dict, bodies) -> SwayBrace:
     spec = check.mapping(spec, key, BRACE_KEYS,
                          required=('body', 'carrier', 'point', 'direction', 'preload',
                                    'stiffness'))
-    names = ', '.join(index)
-    for side in ('body', 'carrier'):
-        if spec[side] not in index:
-            check.fail(f'{key}.{side}', f'{spec[side]!r:.80} is not a body', f'one of {names}')
-    body, carrier = index[spec['body']], index[spec['carrier']]
+    body = body_of(check, spec['body'], f'{key}.body', index)   # a list is no name
+    carrier = body_of(check, spec['carrier'], f'{key}.carrier', index)
     if not bodies[body].dynamic:
         check.fail(f'{key}.body', f'{spec["body"]!r} is fixed or kinematic',
                    'a body moved by forces (the pad pushes it)')
