@@ -16,7 +16,8 @@
 // ``bodies`` (n, BODY_COLUMNS), then the columns of kinematic bodies (motion.cpp) when the
 // model has any: the step's start time, the accelerations at the last time evaluated (CG,
 // world; angular, world), 1 + the body whose frame this body is sampled in (0 none), then
-// its trajectory (motion.py packs it: constant, or a table of SEGMENT numbers a piece).
+// its trajectory (motion.py packs it: constant, a steady manoeuvre (arc), or a table of
+// SEGMENT numbers a piece).
 #define CFEM_BODIES_LAYOUT(COLUMN, NUMBER)                                                 \
   COLUMN(body, B_MASS, 0, 1)                                                               \
   COLUMN(body, B_INV_MASS, 1, 1)                                                           \
@@ -31,6 +32,7 @@
   NUMBER(double, KIND_NONE, 0.0)                                                           \
   NUMBER(double, KIND_CONSTANT, 1.0)                                                       \
   NUMBER(double, KIND_TABLE, 2.0)                                                          \
+  NUMBER(double, KIND_ARC, 3.0)                                                            \
   NUMBER(int, SEGMENT, 28)
 
 // ``loads`` (n + rows, WIDTH): per body the held wrench (force, torque, 1.0 if in body
@@ -38,7 +40,8 @@
 // (S_*), per body with aerodynamic tables (A_*), per watched contact pair (C_*; S_ON is
 // 1.0 while armed: its shapes apart), per sway brace (BR_*: body, carrier, 1.0 while its
 // pad touches, its point and direction in the body's axes, preload, stiffness, damping,
-// the pad's point in the carrier's axes; braces.hpp); then the rows of their tables (T_*, or AERO_ROW
+// the pad's point, its axis in the carrier's axes, its radius and the force band a pad
+// that let go must exceed to touch again; braces.hpp); then the rows of their tables (T_*, or AERO_ROW
 // numbers a row of a packed aerodynamic table or shape); then one scratch row.
 #define CFEM_LOADS_LAYOUT(COLUMN, NUMBER)                                                  \
   NUMBER(int, WIDTH, 24)                                                                   \
@@ -84,6 +87,9 @@
   COLUMN(brace, BR_STIFFNESS, 11, 1)                                                       \
   COLUMN(brace, BR_DAMPING, 12, 1)                                                         \
   COLUMN(brace, BR_PAD, 14, 3)                                                             \
+  COLUMN(brace, BR_AXIS, 17, 3)                                                            \
+  COLUMN(brace, BR_RADIUS, 20, 1)                                                          \
+  COLUMN(brace, BR_BAND, 21, 1)                                                            \
   COLUMN(table, T_ABSCISSA, 0, 1)                                                          \
   COLUMN(table, T_FORCE, 1, 3)                                                             \
   COLUMN(table, T_MOMENT, 4, 3)                                                            \

@@ -125,6 +125,47 @@ V3 turn(double x, double y, double z, double w, double a0, double a1, double a2,
   return unit_turn(products(x, y, z, w), a0, a1, a2, inverse);
 }
 
+// A steady manoeuvre (KIND_ARC, a scenario's flight:): the same numbers as ``constant`` but
+// the velocity v is in body axes and turns with the body, whose body rates w are constant:
+// R(t) = R0 exp([w] t), velocity R(t) v, acceleration R(t) (w x v), and the position in
+// closed form, p0 + R0 (t v + t^2 k1 (w x v) + t^3 k2 (w x (w x v))), k1 = (1 - cos a) / a^2,
+// k2 = (a - sin a) / a^3, a = |w| t (the integral of exp([w] s) v from 0 to t).
+void arc(const Mat& bodies, idx i, double t, double* y, idx n) {
+  const int c = M_DATA;
+  constant(bodies, i, t, y, n);  // the attitude and the body rates; the rest below
+  V3 v{bodies(i, c + 3), bodies(i, c + 4), bodies(i, c + 5)};
+  V3 w{bodies(i, c + 10), bodies(i, c + 11), bodies(i, c + 12)};
+  double a = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z) * t;
+  double k1, k2;
+  if (a < 1e-2) {  // the series, to rounding (the closed forms cancel)
+    double a2 = a * a;
+    k1 = 0.5 - a2 / 24.0 * (1.0 - a2 / 30.0 * (1.0 - a2 / 56.0));
+    k2 = 1.0 / 6.0 - a2 / 120.0 * (1.0 - a2 / 42.0 * (1.0 - a2 / 72.0));
+  } else {
+    k1 = (1.0 - std::cos(a)) / (a * a);
+    k2 = (a - std::sin(a)) / (a * a * a);
+  }
+  V3 wv = cross(w, v);
+  V3 wwv = cross(w, wv);
+  double s1 = t * t * k1, s2 = t * t * t * k2;
+  const double* q0 = &bodies(i, c + 6);
+  V3 moved = turn(q0[0], q0[1], q0[2], q0[3], t * v.x + s1 * wv.x + s2 * wwv.x,
+                  t * v.y + s1 * wv.y + s2 * wwv.y, t * v.z + s1 * wv.z + s2 * wwv.z, false);
+  const double* q = y + 6 * n + 4 * i;
+  Products now = products(q[0], q[1], q[2], q[3]);
+  V3 velocity = unit_turn(now, v.x, v.y, v.z, false);
+  V3 acceleration = unit_turn(now, wv.x, wv.y, wv.z, false);
+  y[3 * i] = bodies(i, c) + moved.x;
+  y[3 * i + 1] = bodies(i, c + 1) + moved.y;
+  y[3 * i + 2] = bodies(i, c + 2) + moved.z;
+  y[3 * n + 3 * i] = velocity.x;
+  y[3 * n + 3 * i + 1] = velocity.y;
+  y[3 * n + 3 * i + 2] = velocity.z;
+  bodies(i, M_ACC) = acceleration.x;
+  bodies(i, M_ACC + 1) = acceleration.y;
+  bodies(i, M_ACC + 2) = acceleration.z;
+}
+
 }  // namespace
 
 void place(double* y, const Mat& bodies, double offset) {
@@ -135,6 +176,8 @@ void place(double* y, const Mat& bodies, double offset) {
       constant(bodies, i, bodies(i, M_T0) + offset, y, n);
     } else if (kind == KIND_TABLE) {
       table(bodies, i, bodies(i, M_T0) + offset, y, n);
+    } else if (kind == KIND_ARC) {
+      arc(bodies, i, bodies(i, M_T0) + offset, y, n);
     }
   }
 }
