@@ -16,10 +16,12 @@ session give it messages (``set_odometry``, ``expect_odometry``).
 
 from __future__ import annotations
 
+import collections
 import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.model.graph import adjacency
 from cfem_ros.core.native import kernel, motion
 import numpy as np
 
@@ -77,14 +79,11 @@ class Carriers:
         pos, vel, quat, rates = state_views(self.sim.y, self.sim.n)
         rot = rotations.matrices(quat)
         carrier = [i if b.motion is not None else -1 for i, b in enumerate(model.bodies)]
-        queue = [i for i in range(n) if carrier[i] >= 0]
+        links = adjacency(n, model.joints)     # built once: linear in the bodies
+        queue = collections.deque(i for i in range(n) if carrier[i] >= 0)
         while queue:
-            i = queue.pop(0)
-            for joint in model.joints:
-                ends = (joint.parent, joint.child)
-                if i not in ends:
-                    continue
-                other = ends[1] if ends[0] == i else ends[0]
+            i = queue.popleft()
+            for _, other in links[i]:
                 if carrier[other] >= 0 or not model.bodies[other].dynamic:
                     continue
                 carrier[other] = carrier[i]

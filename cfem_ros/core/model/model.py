@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from cfem_ros.core.model.graph import carriers
 import numpy as np
 
 #: Standard gravity, m/s^2.
@@ -102,23 +103,10 @@ class Model:
         Through any number of other bodies: a store on a pylon fixed to a
         moving aircraft is carried by the aircraft. The nearest one (fewest
         joints away), the first joint's first when several are as near.
+        Linear in the bodies and joints; ``graph.carriers`` gives every
+        body's at the same cost.
         """
-        seen, front = {body}, [body]
-        while front:
-            after = []
-            for here in front:
-                for joint in self.joints:
-                    if here not in (joint.parent, joint.child):
-                        continue
-                    other = joint.child if joint.parent == here else joint.parent
-                    if other in seen:
-                        continue
-                    if self.bodies[other].motion is not None:
-                        return other
-                    seen.add(other)
-                    after.append(other)
-            front = after
-        return -1
+        return carriers(self.bodies, self.joints)[body]
 
     def joint_index(self, name: str) -> int:
         """Return the index of the joint called name (ValueError if none)."""

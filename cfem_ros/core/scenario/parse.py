@@ -18,6 +18,7 @@ from typing import Any, Optional
 from cfem_ros.core.fileio.messages import clip, show
 from cfem_ros.core.fileio.textfile import display, read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
+from cfem_ros.core.model.graph import carriers
 from cfem_ros.core.model.model import (
     BAUMGARTE_DT_LIMIT, default_baumgarte, Model, STANDARD_GRAVITY)
 from cfem_ros.core.scenario import aeroparse, braces
@@ -165,6 +166,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
 def _parse_references(check: Checker, bodies_doc: dict, index: dict, model: Model) -> tuple:
     """Pair each body with its ``reference`` body, or the kinematic body it is joined to."""
     pairs = []
+    carried = carriers(model.bodies, model.joints)     # all at once: linear, not per body
     for name, spec in bodies_doc.items():
         i = index[name]
         if isinstance(spec, dict) and 'reference' in spec:
@@ -174,8 +176,8 @@ def _parse_references(check: Checker, bodies_doc: dict, index: dict, model: Mode
                 check.fail(key, f'is {show(spec["reference"])}, the body itself',
                            'another body')
             pairs.append((i, ref))
-        elif model.bodies[i].dynamic and model.carrier(i) >= 0:
-            pairs.append((i, model.carrier(i)))
+        elif model.bodies[i].dynamic and carried[i] >= 0:
+            pairs.append((i, carried[i]))
     return tuple(pairs)
 
 
