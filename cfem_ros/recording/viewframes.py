@@ -1,7 +1,7 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-The z-up frames that follow the carriers, ``<body>_view`` (SPEC section 4).
+The z-up frames that follow the bodies: ``<body>_view`` and ``<body>_chase`` (SPEC section 4).
 
 A carrier's body axes are the scenario's (x forward, y right, z down in the
 store examples): a viewer following the carrier's own frame shows the scene
@@ -10,6 +10,12 @@ child of the z-up root (``visuals.root_frame``): origin at the body's CG,
 z along -gravity, x along the body's x axis projected on the level plane
 (heading only: no pitch, no roll). A viewer whose display frame follows it
 keeps the separation in view, right way up.
+
+Each free body gets a frame ``<body>_chase``, child of the root too: origin
+at the body's CG, z up, x along the first carrier's ``<carrier>_view`` x axis
+(the root's x when there is no carrier). A viewer following it keeps that
+body in view to the end of the run, right way up however it tumbles, seen
+from the carrier's side.
 """
 
 from __future__ import annotations
@@ -23,6 +29,8 @@ import numpy as np
 
 #: Suffix of a carrier's view frame: ``aircraft`` -> ``aircraft_view``.
 SUFFIX = '_view'
+#: Suffix of a free body's chase frame: ``store`` -> ``store_chase``.
+CHASE = '_chase'
 
 
 def carriers(model) -> list:
@@ -30,14 +38,24 @@ def carriers(model) -> list:
     return [i for i, body in enumerate(model.bodies) if not body.fixed and not body.dynamic]
 
 
-def frame_name(model, body: str) -> str:
+def free_bodies(model) -> list:
+    """Return the indices of the free bodies (moved by their loads), in model order."""
+    return [i for i, body in enumerate(model.bodies) if body.dynamic]
+
+
+def frame_name(model, body: str, suffix: str = SUFFIX) -> str:
     """Return the view frame of a body: ``<body>_view`` (``_z_up`` added while that is taken)."""
     taken = ({model.frame_id, visuals.root_frame(model)} | {b.name for b in model.bodies}
              | {j.name for j in model.joints})
-    name = body + SUFFIX
+    name = body + suffix
     while name in taken:
         name += '_z_up'
     return name
+
+
+def chase_name(model, body: str) -> str:
+    """Return the chase frame of a free body: ``<body>_chase`` (``_z_up`` added if taken)."""
+    return frame_name(model, body, CHASE)
 
 
 def view_poses(up_xyzw: Optional[tuple], position: np.ndarray,
@@ -78,53 +96,75 @@ def view_poses(up_xyzw: Optional[tuple], position: np.ndarray,
 @dataclass(frozen=True)
 class ViewFrames:
     """
-    A sample's view frames, computed from the bodies' poses in the sample.
+    A sample's z-up frames, computed from the bodies' poses in the sample.
 
     ``numbers(block)`` turns samples (rows in ``Simulator.outputs`` order:
-    13 numbers per body, the pose first) into 7 numbers per view frame
-    (translation, rotation x y z w from ``root`` to each of ``names``).
+    13 numbers per body, the pose first) into 7 numbers per frame
+    (translation, rotation x y z w from ``root`` to each of ``names``): the
+    carriers' view frames (their poses at ``pose_columns``), then the free
+    bodies' chase frames (at ``chase_columns``).
     """
 
     root: str
     names: tuple
     pose_columns: tuple
     up_xyzw: Optional[tuple]
+    chase_columns: tuple = ()
 
     @property
     def size(self) -> int:
-        """Return how many numbers a sample's view frames take."""
-        return 7 * len(self.pose_columns)
+        """Return how many numbers a sample's frames take."""
+        return 7 * (len(self.pose_columns) + len(self.chase_columns))
 
     def numbers(self, block: np.ndarray) -> np.ndarray:
-        """Return the view frames of samples (k, columns) as (k, 7 per frame)."""
-        return np.hstack([view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
-                          for c in self.pose_columns])
+        """Return the frames of samples (k, columns) as (k, 7 per frame)."""
+        views = [view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
+                 for c in self.pose_columns]
+        chases = []
+        for c in self.chase_columns:   # at the CG, turned as the first carrier's view
+            chase = view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
+            chase[:, 3:] = views[0][:, 3:] if views else (0.0, 0.0, 0.0, 1.0)
+            chases.append(chase)
+        return np.hstack(views + chases)
 
 
 def of_model(model) -> Optional[ViewFrames]:
-    """Return the view frames of a model's kinematic bodies, None if it has none."""
-    bodies = carriers(model)
-    if not bodies:
+    """Return the view and chase frames of a model, None if it has neither."""
+    bodies, free = carriers(model), free_bodies(model)
+    if not bodies and not free:
         return None
-    names = tuple(frame_name(model, model.bodies[i].name) for i in bodies)
+    names = tuple(frame_name(model, model.bodies[i].name) for i in bodies) + tuple(
+        chase_name(model, model.bodies[i].name) for i in free)
     return ViewFrames(visuals.root_frame(model), names, tuple(13 * i for i in bodies),
-                      visuals.up_rotation(model.gravity))
+                      visuals.up_rotation(model.gravity), tuple(13 * i for i in free))
+
+
+def state_poses(model, position: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
+    """
+    Return the view and chase frames' poses at one state, (frames, 7), as ``of_model`` names them.
+
+    position, quat_xyzw: every body's CG (world, m) and attitude, (n, 3) and (n, 4).
+    """
+    frames = of_model(model)
+    if frames is None:
+        return np.zeros((0, 7))
+    state = np.zeros((1, 13 * len(model.bodies)))
+    rows = state.reshape(len(model.bodies), 13)
+    rows[:, :3], rows[:, 3:7] = position, quat_xyzw
+    return frames.numbers(state).reshape(-1, 7)
 
 
 def transforms(model, stamp: dict, position: np.ndarray, quat_xyzw: np.ndarray) -> list:
     """
-    Return the view frames at one state as TransformStamped dicts (for the node).
+    Return the view and chase frames at one state as TransformStamped dicts (for the node).
 
     position, quat_xyzw: every body's CG (world, m) and attitude, (n, 3) and (n, 4).
     """
-    bodies = carriers(model)
-    if not bodies:
+    frames = of_model(model)
+    if frames is None:
         return []
-    poses = view_poses(visuals.up_rotation(model.gravity), np.asarray(position)[bodies],
-                       np.asarray(quat_xyzw)[bodies])
-    root = visuals.root_frame(model)
-    return [{'header': {'stamp': stamp, 'frame_id': root},
-             'child_frame_id': frame_name(model, model.bodies[i].name),
+    poses = state_poses(model, position, quat_xyzw)
+    return [{'header': {'stamp': stamp, 'frame_id': frames.root}, 'child_frame_id': name,
              'transform': {'translation': dict(zip('xyz', map(float, pose[:3]))),
                            'rotation': dict(zip('xyzw', map(float, pose[3:])))}}
-            for i, pose in zip(bodies, poses)]
+            for name, pose in zip(frames.names, poses)]

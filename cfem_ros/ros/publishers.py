@@ -95,7 +95,6 @@ class Publishers(Sink):
         self.marker_publisher = self._publisher(schema.MARKERS, MarkerArray)
         self.namespace = node.get_namespace().rstrip('/')
         self.tf = None
-        self.carriers, self.up = viewframes.carriers(model), visuals.up_rotation(model.gravity)
         moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
         if TFMessage is not None:
             self.tf_static = self._publisher(schema.TF_STATIC, TFMessage)
@@ -185,7 +184,7 @@ class Publishers(Sink):
         velocity, rates = sim.velocity_body(), sim.rates
         if self.tf is not None:
             publisher, message, moving = self.tf
-            views = viewframes.view_poses(self.up, position[self.carriers], quat[self.carriers])
+            views = viewframes.state_poses(sim.model, position, quat)   # view, chase
             for transform, values in zip(message.transforms, np.vstack(
                     [np.hstack([position[moving], quat[moving]]), views])):
                 _time_msg(transform.header.stamp, stamp_ns)

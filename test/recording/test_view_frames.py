@@ -1,13 +1,14 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
 """
-A carrier's ``<body>_view`` frame follows it right way up (SPEC section 4).
+A carrier's ``<body>_view`` and a free body's ``<body>_chase`` follow them right way up (SPEC 4).
 
 A banked, pitched, turning carrier under a slanted gravity; the recording is
 read back with rosbags and every frame composed to the root from ``/tf`` and
 ``/tf_static`` with scipy's rotations (not cfem_ros's): the view frame's
 origin is the carrier's CG as its pose says, its z axis is -gravity, its x
-axis the carrier's x projected on the level plane.
+axis the carrier's x projected on the level plane; the store's chase frame
+is at the store's CG, z up, x the view frame's x.
 """
 
 from cfem_ros import cli
@@ -91,10 +92,28 @@ def test_view_frame_is_the_carrier_right_way_up(frames):
     assert min(levels) < 0.95   # the carrier pitches: the projection is a real one
 
 
+def test_chase_frame_at_the_cg_right_way_up_along_the_view(frames):
+    poses = {t: m.pose for topic, t, m in frames if topic == '/cfem/bodies/store/pose'}
+    assert len(poses) == 31
+    _, _, world_in_root = _in_root(_tree(frames, 0), 'world')
+    up = world_in_root.apply(-GRAVITY / np.linalg.norm(GRAVITY))
+    for stamp, pose in poses.items():
+        tree = _tree(frames, stamp)
+        root, origin, chase = _in_root(tree, 'store_chase')
+        assert root == 'map' and tree['store_chase'][0] == 'map'
+        p = pose.position
+        np.testing.assert_allclose(origin, world_in_root.apply([p.x, p.y, p.z]), atol=1e-9)
+        np.testing.assert_allclose(chase.apply([0, 0, 1]), up, atol=1e-12)
+        x_chase = chase.apply([1, 0, 0])
+        assert abs(x_chase @ up) < 1e-12   # horizontal
+        np.testing.assert_allclose(x_chase, _in_root(tree, 'aircraft_view')[2].apply([1, 0, 0]),
+                                   atol=1e-12)
+
+
 def test_only_carriers_get_a_view_frame(frames):
     children = {tf.child_frame_id for topic, _, m in frames if topic in ('/tf', '/tf_static')
                 for tf in m.transforms}
-    assert children == {'world', 'aircraft', 'store', 'aircraft_view'}
+    assert children == {'world', 'aircraft', 'store', 'aircraft_view', 'store_chase'}
     # one /tf message per sample: a viewer that seeks shows the last one before the time
     stamps = [t for topic, t, _ in frames if topic == '/tf']
     assert len(stamps) == len(set(stamps)) == 31

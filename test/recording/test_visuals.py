@@ -48,8 +48,9 @@ def test_tf_carries_every_pose_and_static_the_fixed_bodies(store):
     tfs = [(t, m) for topic, t, m in store if topic == '/tf']
     assert len(tfs) == len(poses) == 151
     for t, message in tfs:
-        (transform,) = message.transforms
+        transform, chase = message.transforms   # the store, its chase frame (test_view_frames)
         assert (transform.header.frame_id, transform.child_frame_id) == ('world', 'store')
+        assert chase.child_frame_id == 'store_chase'
         pose = poses[t].pose
         a, b = transform.transform.translation, transform.transform.rotation
         assert (a.x, a.y, a.z) == (pose.position.x, pose.position.y, pose.position.z)

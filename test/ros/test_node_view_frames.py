@@ -69,9 +69,15 @@ def test_the_node_s_tf_holds_the_view_frames(publishers):
     out.sample()
     (sent,) = node.published['/tf']
     assert [(parent, child) for parent, child, *_ in sent] == [
-        ('world', 'aircraft'), ('world', 'store'), ('map', 'aircraft_view')]
+        ('world', 'aircraft'), ('world', 'store'), ('map', 'aircraft_view'),
+        ('map', 'store_chase')]
     expected = viewframes.view_poses(visuals.up_rotation(sim.model.gravity),
                                      sim.position[:1], sim.orientation[:1])[0]
     _, _, z, qz, qw = sent[2]
     np.testing.assert_allclose([z, qz, qw], expected[[2, 5, 6]], rtol=0, atol=1e-15)
     assert abs(qz) > 0.1   # the carrier's heading, turned into the z-up root
+    # the store's chase frame: at its CG (z up), turned as the carrier's view frame
+    _, _, z, qz_chase, qw_chase = sent[3]
+    chase = viewframes.state_poses(sim.model, sim.position, sim.orientation)[1]
+    np.testing.assert_allclose([z, qz_chase, qw_chase], chase[[2, 5, 6]], rtol=0, atol=1e-15)
+    assert (qz_chase, qw_chase) == (qz, qw)
