@@ -17,10 +17,13 @@ worlds, named poses, bounds, tags, categories, entity info.
 
 from __future__ import annotations
 
+import math
 import re
+import time
 
 from cfem_ros.core import rotations
-from cfem_ros.ros.runcontrol import ControlError, PAUSED, PLAYING, STOPPED
+from cfem_ros.ros.refusals import bounded
+from cfem_ros.ros.runcontrol import ControlError, PAUSED, PLAYING, StepRun, STOPPED
 import numpy as np
 from rclpy.clock import Clock, ClockType
 
@@ -42,6 +45,11 @@ HOW_TO_GET = ('simulation control (pause, step, reset, entity states) is off: th
               '(ros-$ROS_DISTRO-simulation-interfaces)')
 #: Feedback messages a SimulateSteps goal gets, about.
 FEEDBACKS = 20
+#: Most steps one step_simulation call takes: its answer (and the node, signals
+#: included) waits for them all; the action takes more, a slice at a time.
+MAX_SERVICE_STEPS = 10_000
+#: Wall time a simulate_steps goal steps before the node answers anything else, s.
+STEP_BUDGET = 0.05
 
 
 def serve(node, control):
@@ -82,8 +90,11 @@ class SimulationServices:
             node, SimulateSteps, 'simulate_steps', self._finish_goal,
             handle_accepted_callback=self._goal_accepted,
             cancel_callback=lambda request: CancelResponse.ACCEPT)
-        self._goal = None   # [goal handle, steps asked, steps done, time at the start]
+        self._goal = None   # the StepRun of the goal being stepped, and its handle
+        self._goal_handle = None
+        self._told, self._told_at = 0, 0.0   # steps done at the last feedback, and when
         self._timer = None
+        self.finished_at = -math.inf   # when the last goal's result was made (monotonic)
         self._results = {}   # goal id -> the Result it ends with
 
     # ---------------------------------------------------------------- states
@@ -143,13 +154,21 @@ class SimulationServices:
         return response
 
     def _step(self, request, response):
+        steps = int(request.steps)
         try:
-            taken = self.control.step(int(request.steps))
+            if self._goal is not None:
+                raise ControlError('a simulate_steps goal is running; cancel it or wait')
+            if steps > MAX_SERVICE_STEPS:
+                raise ControlError(
+                    f'steps is {steps}; step_simulation takes at most {MAX_SERVICE_STEPS} '
+                    'steps a call (its answer waits for them all); the simulate_steps action '
+                    'takes any number, with feedback, and can be cancelled')
+            taken = self.control.step(steps)
         except ControlError as err:
             response.result = _result(Result.RESULT_OPERATION_FAILED, str(err))
             return response
-        response.result = (_result() if taken == request.steps else _result(
-            Result.RESULT_OPERATION_FAILED, f'{taken} of {request.steps} steps: the run ended'))
+        response.result = (_result() if taken == steps else _result(
+            Result.RESULT_OPERATION_FAILED, f'{taken} of {steps} steps: the run ended'))
         return response
 
     def _reset(self, request, response):
@@ -175,10 +194,18 @@ class SimulationServices:
                 or filters.bounds.type != filters.bounds.TYPE_EMPTY):
             return _result(Result.RESULT_FEATURE_UNSUPPORTED,
                            'only a name filter (no categories, tags or bounds)')
+        shown = bounded(filters.filter, 64)
         try:
             pattern = re.compile(filters.filter)
         except re.error as err:
-            return _result(Result.RESULT_OPERATION_FAILED, f'filter {filters.filter!r}: {err}')
+            return _result(Result.RESULT_OPERATION_FAILED, f'filter {shown!r}: {err}')
+        except (RecursionError, OverflowError, MemoryError, ValueError) as err:
+            # nested too deep, a repeat count beyond the engine's: not re.error
+            return _result(Result.RESULT_OPERATION_FAILED,
+                           f'filter {shown!r}: Python cannot compile it as a regular '
+                           f'expression ({type(err).__name__}: {str(err)[:80]}); expected a '
+                           'regular expression of plain nesting and repeat counts, e.g. '
+                           "'^store' or 'pylon|store'")
         return [b.name for b in self.node.sim.model.bodies if pattern.search(b.name)]
 
     def _entities(self, request, response):
@@ -258,43 +285,60 @@ class SimulationServices:
     # ---------------------------------------------------------------- action
 
     def _goal_accepted(self, goal_handle):
-        """Step the goal's steps a share at a time, with feedback after each (a steady timer)."""
-        if self._goal is not None or not self.control.paused:
-            why = ('another simulate_steps goal is running' if self._goal is not None
-                   else 'the simulation is playing; pause it first')
-            self._done(goal_handle, _result(Result.RESULT_OPERATION_FAILED, why))
+        """Step the goal's steps a slice of wall time at a time, with feedback (a timer)."""
+        try:
+            if self._goal is not None:
+                raise ControlError('another simulate_steps goal is running')
+            self._goal = StepRun(self.control, int(goal_handle.request.steps))
+        except ControlError as err:
+            self._done(goal_handle, _result(Result.RESULT_OPERATION_FAILED, str(err)))
             return
-        self._goal = [goal_handle, int(goal_handle.request.steps), 0, self.node.sim.t]
+        self._goal_handle, self._told, self._told_at = goal_handle, 0, time.monotonic()
         self._timer = self.node.create_timer(
             0.001, self._step_goal, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _step_goal(self):
-        goal_handle, asked, done, _ = self._goal
+        """
+        Take the goal's next slice (``STEP_BUDGET`` of wall time at most).
+
+        Feedback at each of ``FEEDBACKS`` shares of the steps, and at least
+        every half second of wall time (a goal of 10^12 steps runs for hours).
+        """
+        run, goal_handle = self._goal, self._goal_handle
         if goal_handle.is_cancel_requested:
             return self._end_goal(_result(Result.RESULT_OPERATION_FAILED,
-                                          f'canceled after {done} of {asked} steps'))
-        share = min(max(1, asked // FEEDBACKS), asked - done)
-        try:
-            taken = self.control.step(share, announce=False) if share else 0
-        except ControlError as err:
-            return self._end_goal(_result(Result.RESULT_OPERATION_FAILED, str(err)))
-        done = self._goal[2] = done + taken
-        feedback = SimulateSteps.Feedback(completed_steps=done, remaining_steps=asked - done)
-        goal_handle.publish_feedback(feedback)
-        if done == asked:
+                                          f'canceled after {run.done} of {run.steps} steps'))
+        if not self.control.paused or self.node.sim is not run.sim:
+            why = 'reset' if self.node.sim is not run.sim else 'played'
+            return self._end_goal(_result(Result.RESULT_OPERATION_FAILED,
+                                          f'{run.done} of {run.steps} steps: the simulation '
+                                          f'was {why}'))
+        every = max(1, run.steps // FEEDBACKS)   # a feedback at each such share at least
+        run.go(deadline=time.monotonic() + STEP_BUDGET, until=(run.done // every + 1) * every)
+        done = run.done
+        now = time.monotonic()
+        if done // every > self._told // every or run.over or now - self._told_at > 0.5:
+            self._told, self._told_at = done, now
+            goal_handle.publish_feedback(SimulateSteps.Feedback(
+                completed_steps=done, remaining_steps=max(run.steps - done, 0)))
+        if not run.over:
+            return
+        if run.sim.t >= run.end:
             self._end_goal(_result())
-        elif taken < share:
+        else:
             self._end_goal(_result(Result.RESULT_OPERATION_FAILED,
-                                   f'{done} of {asked} steps: the run ended'))
+                                   f'{done} of {run.steps} steps: the run ended'))
 
     def _end_goal(self, result):
         self.node.destroy_timer(self._timer)
-        goal_handle, _, done, start = self._goal
-        self._goal = None
-        if done:
-            self.control.announce({'event': 'step', 'time': start, 'steps': done,
-                                   'to': self.node.sim.t})
-        self._done(goal_handle, result)
+        run, goal_handle = self._goal, self._goal_handle
+        self._goal = self._goal_handle = None
+        self._done(goal_handle, result)   # before the run's end can end the node
+        run.finish()
+
+    def settling(self) -> bool:
+        """Tell whether a goal's result is still on its way to the client."""
+        return self._goal is not None or bool(self._results)
 
     def _done(self, goal_handle, result):
         self._results[bytes(goal_handle.goal_id.uuid)] = result
@@ -302,6 +346,7 @@ class SimulationServices:
 
     def _finish_goal(self, goal_handle):
         result = self._results.pop(bytes(goal_handle.goal_id.uuid))
+        self.finished_at = time.monotonic()
         if goal_handle.is_cancel_requested:
             goal_handle.canceled()
         elif result.result == Result.RESULT_OK:

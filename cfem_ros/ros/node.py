@@ -56,6 +56,10 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 #: Environment variable: seconds to sleep at the end of set-up (tests use it
 #: to prove that the start stamp is taken after set-up).
 SETUP_DELAY_ENV = 'CFEM_NODE_SETUP_DELAY'
+#: Most wall time the node spins on after its run ended for a goal's result, s; and
+#: how long after the result was made (sending it takes a few turns of the executor).
+SETTLE_S = 2.0
+SETTLE_AFTER_S = 0.2
 
 
 def _topic_name_error(node, model, err) -> str:
@@ -244,6 +248,23 @@ class CfemNode(Stepping, Subscriptions, Node):
         self.exit_code = EXIT_FAILED
 
 
+def settle(executor, node):
+    """
+    Spin on after the run ended until a simulate_steps goal's result is out (SETTLE_S at most).
+
+    A goal whose steps reach the run's end gets its result before the node
+    exits: the result is made in a task of the executor, then sent when the
+    client's request for it is served.
+    """
+    services = node.simulation_services
+    if services is None:
+        return
+    deadline = time.monotonic() + SETTLE_S
+    while rclpy.ok() and time.monotonic() < deadline and (
+            services.settling() or time.monotonic() - services.finished_at < SETTLE_AFTER_S):
+        executor.spin_once(timeout_sec=0.01)
+
+
 def main(args=None) -> int:
     """Entry point of the cfem_node console script; return the exit status."""
     args = sys.argv if args is None else args
@@ -270,6 +291,8 @@ def main(args=None) -> int:
             except ValueError as err:   # rclpy's time source on a /clock it cannot hold
                 node.get_logger().warning(f'a message was not applied: {err}',
                                           throttle_duration_sec=5.0)
+        if not stop:
+            settle(executor, node)
         if stop:
             node.get_logger().info(
                 f'{signal.Signals(stop[0]).name} received at simulated t = {node.sim.t:.9g} s;'

@@ -21,15 +21,21 @@ recording (SPEC section 3):
 from __future__ import annotations
 
 import json
+import math
 import time
+from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
 from std_msgs.msg import String
 
 PLAYING, PAUSED, STOPPED = 'playing', 'paused', 'stopped'
+#: Most steps taken between two looks at the wall clock (``StepRun.go``).
+SLICE_STEPS = 100
 
 
 class ControlError(Exception):
@@ -89,16 +95,17 @@ class RunControl:
         """
         Advance by steps steps of dt, while paused; return how many dt it advanced.
 
-        The run goes from t0 to t0 + steps dt exactly. Where no release,
-        stroke end or contact cuts a step in between, these are the steps
-        the run takes unpaced (sample times and inputs on the grid of dt cut
-        nothing). After such a cut the grid of dt starts from it, and the
-        last step is cut to end on t0 + steps dt, as a sample time cuts one:
-        from there on the run differs from an unpaced one in its last digits.
-        The run's end stops it early. ControlError if playing, or not
-        started (following /clock, before the first /clock).
+        The run goes from t0 to t0 + steps dt exactly (``StepRun``). The
+        run's end stops it early. ControlError if playing, or not started
+        (following /clock, before the first /clock).
         """
-        node, sim = self.node, self.node.sim
+        run = StepRun(self, steps)
+        run.go()
+        return run.finish(announce)
+
+    def _check_step(self, steps: int):
+        """Raise ControlError if the run cannot take steps now."""
+        node = self.node
         if not self.paused:
             raise ControlError('the simulation is playing; pause it first')
         if node.start_ns is None:
@@ -106,21 +113,7 @@ class RunControl:
         if steps < 1:
             raise ControlError(f'steps is {steps}; expected 1 or more')
         if node.session.finished:
-            raise ControlError(f'the run is over (t = {sim.t:.9g} s)')
-        if not node.session.started:
-            node.session.start()
-        t0 = sim.t
-        # the steps it takes unpaced that end by t0 + steps dt (to the rounding of t)
-        end = t0 + steps * sim.dt
-        node.session.advance(end + 1e-6 * sim.dt)
-        if end - sim.t > 1e-6 * sim.dt:   # an event cut the grid: the last step lands on end
-            node.session.advance(end, land=True)
-        advanced = int(round((sim.t - t0) / sim.dt))
-        if announce:
-            self.announce({'event': 'step', 'time': t0, 'steps': advanced, 'to': sim.t})
-        if node.session.finished and node.exit_code is None:
-            node._end()
-        return advanced
+            raise ControlError(f'the run is over (t = {node.sim.t:.9g} s)')
 
     def reset(self):
         """
@@ -186,16 +179,36 @@ class RunControl:
         i = self.free_body(name)
         values = [np.asarray(v, dtype=float) for v in
                   (position, quaternion, velocity, angular_velocity)]
-        if not all(np.isfinite(v).all() for v in values):
-            raise ValueError('the state must be finite numbers')
+        for what, unit, v in zip(('position', 'quaternion', 'velocity', 'angular velocity'),
+                                 ('m', '', 'm/s', 'rad/s'), values):
+            if not np.isfinite(v).all():
+                raise ValueError(f'the {what} {v.tolist()} is not finite; expected finite '
+                                 'numbers')
+            if np.abs(v).max() > MAX_MAGNITUDE:
+                raise ValueError(f'the {what} {v.tolist()} has a component of magnitude '
+                                 f'{np.abs(v).max():g} {unit}'.rstrip() + ', beyond any '
+                                 f'physical state; expected components of magnitude at most '
+                                 f'{MAX_MAGNITUDE:g}, as in a scenario')
         norm = np.linalg.norm(values[1])
         if not 0.5 < norm < 1.5:
             raise ValueError(f'the quaternion has norm {norm:.6g}; expected a unit quaternion')
         quat = values[1] / norm
         sim = self.node.sim
-        pos, vel, q, rates = state_views(sim.y, sim.n)
+        y = sim.y.copy()
+        pos, vel, q, rates = state_views(y, sim.n)
         pos[i], vel[i], q[i] = values[0], values[2], quat
         rates[i] = rotations.to_body(quat[None], values[3][None])[0]
+        try:
+            with np.errstate(all='ignore'):
+                finite = np.isfinite(sim.derivative(y)).all()
+        except NumericalFailure as err:
+            raise ValueError(f'at that state the joints cannot be solved ({err}); nothing '
+                             'changed') from None
+        if not finite:
+            raise ValueError('at that state the accelerations are not finite (loads such as '
+                             'the aerodynamic ones beyond double precision at that speed); '
+                             'expected a state the run can go on from; nothing changed')
+        sim.y[:] = y
         self.announce({'event': 'set_state', 'time': sim.t, 'body': name})
 
     # ---------------------------------------------------------------- events
@@ -209,3 +222,70 @@ class RunControl:
         details = ', '.join(f'{k} {v}' for k, v in event.items() if k not in ('event', 'time'))
         node.get_logger().info(f"{event['event']} at t = {event['time']:.9g} s"
                                + (f' ({details})' if details else ''))
+
+
+class StepRun:
+    """
+    N steps of dt from where a paused run is, taken a slice at a time (``go``).
+
+    The run goes from t0 to t0 + N dt exactly. Where no release, stroke end
+    or contact cuts a step in between, these are the steps the run takes
+    unpaced (sample times and inputs on the grid of dt cut nothing). After
+    such a cut the grid of dt starts from it, and the last step is cut to
+    end on t0 + N dt, as a sample time cuts one: from there on the run
+    differs from an unpaced one in its last digits. How the steps are
+    sliced (``go``'s wall deadline and step bound) changes when they are
+    taken, never which: N steps in one call or in many are the same run.
+    """
+
+    def __init__(self, control: RunControl, steps: int):
+        control._check_step(steps)
+        self.control, self.node = control, control.node
+        self.sim = self.node.sim
+        if not self.node.session.started:
+            self.node.session.start()
+        self.steps = steps
+        self.t0 = self.sim.t
+        self.end = self.t0 + steps * self.sim.dt
+
+    @property
+    def done(self) -> int:
+        """Return the steps of dt taken so far."""
+        return int(round((self.sim.t - self.t0) / self.sim.dt))
+
+    @property
+    def over(self) -> bool:
+        """Tell whether all steps are taken or the run ended (or was reset) first."""
+        return (self.node.sim is not self.sim or self.node.session.finished
+                or self.sim.t >= self.end)
+
+    def go(self, deadline: float = math.inf, until: Optional[int] = None):
+        """
+        Take steps until ``until`` of them are done (all: None) or the wall deadline passes.
+
+        The wall clock is read between slices of ``SLICE_STEPS`` steps: a
+        slice is the most that runs between two looks at it.
+        """
+        session, dt = self.node.session, self.sim.dt
+        until = self.steps if until is None else min(until, self.steps)
+        goal = self.t0 + until * dt
+        while not self.over:
+            aim = min(self.sim.t + SLICE_STEPS * dt, goal)
+            session.advance(aim + 1e-6 * dt)
+            if aim >= goal:   # every step that ends by the goal is taken
+                break
+            if time.monotonic() >= deadline:
+                return
+        if (until == self.steps and not self.over
+                and self.end - self.sim.t > 1e-6 * dt):   # an event cut the grid
+            session.advance(self.end, land=True)
+
+    def finish(self, announce: bool = True) -> int:
+        """Announce the steps taken (a ``step`` event) and end the run if it is over."""
+        advanced = self.done if self.node.sim is self.sim else 0
+        if announce and advanced:
+            self.control.announce({'event': 'step', 'time': self.t0, 'steps': advanced,
+                                   'to': self.sim.t})
+        if self.node.session.finished and self.node.exit_code is None:
+            self.node._end()
+        return advanced
