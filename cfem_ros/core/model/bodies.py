@@ -19,7 +19,8 @@ class Motion:
     Attributes
     ----------
     velocity : ndarray, shape (3,)
-        Constant CG velocity, world axes, m/s (without a table).
+        Constant CG velocity, world axes, m/s (without a table); with
+        ``velocity_body``, the velocity at t = 0.
     rates : ndarray, shape (3,)
         Constant angular velocity, body axes, rad/s (without a table).
     times : ndarray, shape (k,)
@@ -28,6 +29,9 @@ class Motion:
         Table CG positions, world, m.
     quaternions : ndarray, shape (k, 4)
         Table attitudes, x y z w, body to world.
+    velocity_body : ndarray, shape (3,), or None
+        A steady manoeuvre (scenario ``flight``): the CG velocity constant in
+        the body's axes, m/s, turning with the body at its constant ``rates``.
 
     """
 
@@ -36,6 +40,7 @@ class Motion:
     times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     quaternions: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    velocity_body: Optional[np.ndarray] = None
 
 
 @dataclass(frozen=True)

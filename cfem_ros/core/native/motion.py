@@ -10,7 +10,8 @@ which has them only when the model has a kinematic body (so that the other
 models' arrays, and results, are those without this module):
 
 - ``M_KIND``: 0 a body that is not kinematic, 1 constant velocity and body
-  rates, 2 a table;
+  rates, 2 a table, 3 a steady manoeuvre (``flight``: the velocity constant
+  in body axes, turning with the body);
 - ``M_T0``: the time of the step's start, s (the kernel's RK4 adds the
   stage's offset);
 - ``M_ACC`` (6): the acceleration of the CG and the angular acceleration
@@ -19,7 +20,8 @@ models' arrays, and results, are those without this module):
 - ``M_REF``: 1 + the index of the body whose frame this body's relative
   pose and twist are sampled in (``sample_relative``), 0 for none;
 - from ``M_DATA``: constant motion, p0 (3), v (3, world), q0 (4, x y z w),
-  body rates (3): p = p0 + v t, q = q0 exp(w t / 2); a table, the number of
+  body rates (3): p = p0 + v t, q = q0 exp(w t / 2); a steady manoeuvre, the
+  same numbers with v in body axes: velocity R(t) v, p in closed form; a table, the number of
   segments k, the k + 1 breakpoints, then per segment the cubic
   coefficients of the CG position (3 axes x 4, highest power first: scipy
   ``CubicSpline``), the key attitude (4) and the cubic coefficients of the
@@ -46,8 +48,8 @@ import numpy as np
 #: per table segment (position coefficients, key quaternion, rotation vector ones).
 BODY_COLUMNS, M_KIND, M_T0, M_ACC, M_REF, M_DATA = (
     BODIES.BODY_COLUMNS, BODIES.M_KIND, BODIES.M_T0, BODIES.M_ACC, BODIES.M_REF, BODIES.M_DATA)
-KIND_NONE, KIND_CONSTANT, KIND_TABLE, SEGMENT = (
-    BODIES.KIND_NONE, BODIES.KIND_CONSTANT, BODIES.KIND_TABLE, BODIES.SEGMENT)
+KIND_NONE, KIND_CONSTANT, KIND_TABLE, KIND_ARC, SEGMENT = (
+    BODIES.KIND_NONE, BODIES.KIND_CONSTANT, BODIES.KIND_TABLE, BODIES.KIND_ARC, BODIES.SEGMENT)
 
 
 # ------------------------------------------------------------- Python part
@@ -72,6 +74,10 @@ def columns(model) -> np.ndarray:
         if len(motion.times):
             head[M_KIND - BODY_COLUMNS] = KIND_TABLE
             data = _table_data(motion)
+        elif getattr(motion, 'velocity_body', None) is not None:
+            head[M_KIND - BODY_COLUMNS] = KIND_ARC
+            data = np.concatenate([body.position, motion.velocity_body, body.orientation_xyzw,
+                                   motion.rates])
         else:
             head[M_KIND - BODY_COLUMNS] = KIND_CONSTANT
             data = np.concatenate([body.position, motion.velocity, body.orientation_xyzw,

@@ -21,7 +21,7 @@ from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.model.graph import carriers
 from cfem_ros.core.model.model import (
     BAUMGARTE_DT_LIMIT, default_baumgarte, Model, STANDARD_GRAVITY)
-from cfem_ros.core.scenario import aeroparse, braces
+from cfem_ros.core.scenario import aeroparse, braces, flight
 from cfem_ros.core.scenario.bodies import parse_body
 from cfem_ros.core.scenario.checker import (
     body_of, Checker, key_path, MAX_STEPS, MIN_DT, source_dir)
@@ -33,7 +33,7 @@ import numpy as np
 
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces')
+            'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces', 'flight')
 
 #: Longest scenario ``name`` (it goes into recordings, not topics).
 MAX_TITLE_LENGTH = 200
@@ -120,8 +120,15 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     bodies_doc = top['bodies']
     if not isinstance(bodies_doc, dict) or not bodies_doc:
         check.fail('bodies', f'is {show(bodies_doc)}', 'a non-empty mapping of body names')
-    bodies = [parse_body(check, body_name, spec)
-              for body_name, spec in bodies_doc.items()]
+    flown = flight.parse_flight(check, top) if 'flight' in top else None
+    if flown is not None:
+        gravity = flight.gravity_vector(flown)
+    bodies = [flight.carrier_body(check, flown, spec) if flown and body_name == flown.carrier
+              else parse_body(check, body_name, spec) for body_name, spec in bodies_doc.items()]
+    aero_doc = top.get('aero')
+    if flown is not None:
+        aero_doc = flight.flown_aero(check, flown, aero_doc, bodies[list(bodies_doc).index(
+            flown.carrier)])
     if all(b.fixed for b in bodies):
         check.fail('bodies', 'every body is fixed, so nothing can move',
                    'at least one body without fixed: true')
@@ -152,8 +159,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                   dt=step, baumgarte=eta, bodies=tuple(bodies), joints=tuple(joints),
                   wrenches=wrenches, contacts=parse_contacts(check, top.get('contacts'),
                                                              index, bodies),
-                  aero=aeroparse.parse_aero(check, top.get('aero'), index, bodies,
-                                            source_dir(check)),
+                  aero=aeroparse.parse_aero(check, aero_doc, index, bodies, source_dir(check)),
                   release_groups=groups,
                   braces=braces.parse_braces(check, top.get('sway_braces'), index, bodies,
                                              wrenches))
@@ -199,8 +205,11 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
     check = Checker(clip(source, 400))
     top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
     new_bodies = list(model.bodies)
+    flown = flight.parse_flight(check, top) if 'flight' in top else None
     for name in bodies:
         i = model.body_index(name)
+        if flown is not None and name == flown.carrier:
+            raise ValueError('the carrier of flight: sets the aero atmosphere, a whole parse')
         new_bodies[i] = parse_body(check, name, top['bodies'][name])
         if new_bodies[i].fixed != model.bodies[i].fixed:
             check.fail(key_path('bodies', name) + '.fixed', 'changed', 'a whole parse')
