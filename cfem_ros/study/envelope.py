@@ -1,0 +1,222 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The release envelope (SPEC section 14): a grid of flight conditions, each with its dispersions.
+
+A sweep file whose ``vary`` names grids of conditions (``flight.mach: {grid:
+[...]}``) and dispersions: the envelope's axes are two or three of those
+grids. Each point of the axes' grid is the sweep with the axes' values
+written into the scenario and the other variables drawn as the sweep draws
+them (the same seed at every point: common random numbers), run by the
+sweep's own machinery in ``OUTDIR/points/point_<k>`` (Monte Carlo: ``Sweep``;
+a rare-event method: ``methods.run_study``), so a point is resumed as a
+sweep is. Each point gets its estimate of P(any criterion fails), its
+one-sided bound and, with a ``target``, its decision (section 9);
+``envelope.parquet`` holds one row per point (``envelope_chart`` draws it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+import math
+import os
+from typing import Callable, Optional
+
+from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.scenario.parse import parse_scenario
+from cfem_ros.study.draws import draw
+from cfem_ros.study.errors import SweepError
+from cfem_ros.study.keypaths import apply_values
+from cfem_ros.study.spec import load_sweep, SweepSpec
+
+ENVELOPE = 'envelope.parquet'
+MANIFEST = 'envelope.json'
+#: Where each point's sweep folder is, under OUTDIR.
+POINTS = 'points'
+#: The table's columns after the axes.
+COLUMNS = ('point', 'method', 'runs', 'failed_runs', 'pass_fraction', 'probability',
+           'p_upper', 'confidence', 'target', 'decision', 'folder')
+
+
+@dataclasses.dataclass
+class Envelope:
+    """
+    A checked envelope: the sweep, its axes and the points of their grid.
+
+    Attributes
+    ----------
+    spec : SweepSpec
+        The whole sweep (axes and dispersions).
+    axes : list of str
+        The key paths of the axes (x, y and maybe z), each a ``grid`` of ``vary``.
+    points : list of tuple
+        Every combination of the axes' values, x slowest.
+
+    """
+
+    spec: SweepSpec
+    axes: list
+    points: list
+
+    def point_values(self, k: int) -> dict:
+        """Return point k's value of each axis."""
+        return dict(zip(self.axes, self.points[k]))
+
+    def point_spec(self, k: int) -> SweepSpec:
+        """
+        Return point k's sweep: the axes' values in the scenario, the other variables drawn.
+
+        What a sweep file with those values written in its scenario and the
+        axes left out of ``vary`` gives (the same draws: the same seed).
+        """
+        return point_spec(self.spec, self.point_values(k))
+
+
+def point_spec(spec: SweepSpec, values: dict) -> SweepSpec:
+    """Return the sweep with these key paths fixed at these values (out of ``vary``)."""
+    fixed = [v for v in spec.variables if v.path in values]
+    others = [v for v in spec.variables if v.path not in values]
+    document = apply_values(spec.document, fixed, values)
+    correlations = [c for c in spec.correlations if c[0] not in values and c[1] not in values]
+    return dataclasses.replace(spec, document=document, variables=others,
+                               values=draw(others, spec.runs, spec.seed, correlations),
+                               correlations=correlations)
+
+
+def load_envelope(path: str, axes, runs: Optional[int] = None) -> Envelope:
+    """
+    Read a sweep file and check the envelope's axes against it, before any run.
+
+    Raises
+    ------
+    SweepError
+        An axis that is not a grid of ``vary``, an axis twice, a sweep
+        without criteria (a point's answer is P(a criterion fails)), or a
+        point whose scenario is refused (named with its values).
+
+    """
+    spec = load_sweep(path, runs=runs)
+    grids = {v.path: v for v in spec.variables if v.kind == 'grid'}
+    for name, axis in zip(('--x', '--y', '--z'), axes):
+        if axis in grids:
+            continue
+        what = ('is varied as ' + next(v.kind for v in spec.variables if v.path == axis)
+                if any(v.path == axis for v in spec.variables) else 'is not in vary')
+        raise SweepError(path, f'vary.{axis}', f'{what} ({name} {axis})',
+                         f'a grid of the conditions: vary: {{{axis}: {{grid: [...]}}}}; '
+                         'grids here: ' + (', '.join(grids) or 'none'))
+    if len(set(axes)) != len(axes):
+        raise SweepError(path, 'vary', f'the axes {", ".join(axes)} name a key path twice',
+                         'two or three different grids of vary')
+    if not spec.criteria:
+        raise SweepError(path, 'criteria', 'missing: each point of an envelope is judged by '
+                         'them', 'criteria as in SPEC section 9 (and a target for decisions)')
+    points = list(itertools.product(*(grids[a].params for a in axes)))
+    envelope = Envelope(spec=spec, axes=list(axes), points=points)
+    for k in range(len(points)):
+        _check_point(envelope, k)
+    return envelope
+
+
+def _check_point(envelope: Envelope, k: int):
+    """Refuse a point whose scenario (with the axes' values, before the draws) is refused."""
+    spec = envelope.spec
+    fixed = [v for v in spec.variables if v.path in envelope.axes]
+    document = apply_values(spec.document, fixed, envelope.point_values(k))
+    try:
+        parse_scenario(document, source=spec.scenario)
+    except ScenarioError as err:
+        where = ', '.join(f'{a} = {v!r}' for a, v in envelope.point_values(k).items())
+        raise SweepError(spec.path, 'vary', f'the point {where} gives a scenario that is '
+                         f'refused: {err}', 'grids of conditions the scenario accepts') from err
+
+
+def point_folder(outdir: str, k: int) -> str:
+    """Return point k's sweep folder."""
+    return os.path.join(outdir, POINTS, f'point_{k:04d}')
+
+
+def write_manifest(envelope: Envelope, outdir: str, method: str):
+    """Write ``envelope.json``: the axes, the points and their folders (refused if another)."""
+    path = os.path.join(outdir, MANIFEST)
+    held = {'sweep': os.path.abspath(envelope.spec.path), 'axes': envelope.axes,
+            'points': [list(p) for p in envelope.points], 'method': method,
+            'digest': envelope.spec.digest()}
+    if os.path.exists(path):
+        with open(path, encoding='utf-8') as stream:
+            try:
+                before = json.load(stream)
+            except ValueError:
+                before = None
+        if before != json.loads(json.dumps(held, default=repr)):
+            raise SweepError(outdir, MANIFEST, 'holds another envelope (other sweep, axes, '
+                             'grid or method)', 'a new -o OUTDIR, or the same command as '
+                             'before to resume')
+    os.makedirs(os.path.join(outdir, POINTS), exist_ok=True)
+    tmp = f'{path}.tmp-{os.getpid()}'
+    with open(tmp, 'w', encoding='utf-8') as stream:
+        json.dump(held, stream, indent=1, default=repr)
+    os.replace(tmp, path)
+
+
+def run_point(envelope: Envelope, k: int, outdir: str, *, method: str = 'mc',
+              client=None, progress: Optional[Callable[[int, int], None]] = None):
+    """Run point k's sweep (or study) in its folder, resuming it; return its ``Estimate``."""
+    from cfem_ros.study import methods
+    spec = envelope.point_spec(k)
+    folder = point_folder(outdir, k)
+    if method == 'mc':
+        from cfem_ros.study.reliability import mc_estimate
+        from cfem_ros.study.sweep import Sweep
+        table = Sweep(spec).run(client, folder, progress=progress)
+        estimate = mc_estimate(spec, table)
+        methods.write_estimate(folder, estimate, spec.target)
+        return estimate
+    return methods.run_study(spec, folder, method=method, client=client)['estimate']
+
+
+def row(envelope: Envelope, k: int, estimate, outdir: str) -> dict:
+    """Return point k's row of ``envelope.parquet``."""
+    spec = envelope.spec
+    out = dict(envelope.point_values(k))
+    decision = getattr(estimate, 'decision', None)
+    p_upper = estimate.p_upper
+    out.update(point=k, method=estimate.method, runs=int(estimate.runs),
+               failed_runs=(-1 if estimate.failed_runs is None else int(estimate.failed_runs)),
+               pass_fraction=1.0 - float(estimate.probability),
+               probability=float(estimate.probability),
+               p_upper=math.nan if p_upper is None else float(p_upper),
+               confidence=float(spec.confidence),
+               target=math.nan if spec.target is None else float(spec.target),
+               decision=decision if decision else 'no_target',
+               folder=os.path.relpath(point_folder(outdir, k), outdir))
+    return out
+
+
+def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=None,
+                 log: Optional[Callable[[str], None]] = None):
+    """
+    Run every point (resuming each) and write ``envelope.parquet``; return its table.
+
+    The table: one row per point, the axes' columns (named by their key
+    paths) then ``COLUMNS``; ``decision`` is meets, does_not_meet or
+    undecided with a target, ``no_target`` without.
+    """
+    import pandas as pd
+    from cfem_ros.study.sweep import write_atomic
+    write_manifest(envelope, outdir, method)
+    rows = []
+    for k in range(len(envelope.points)):
+        estimate = run_point(envelope, k, outdir, method=method, client=client)
+        rows.append(row(envelope, k, estimate, outdir))
+        if log is not None:
+            where = ', '.join(f'{a} = {v:g}' if isinstance(v, (int, float)) else f'{a} = {v}'
+                              for a, v in envelope.point_values(k).items())
+            log(f'point {k + 1}/{len(envelope.points)} ({where}): P(fail) '
+                f'{rows[-1]["probability"]:.3g} over {rows[-1]["runs"]} runs, '
+                f'{rows[-1]["decision"].replace("_", " ")}')
+    table = pd.DataFrame(rows, columns=list(envelope.axes) + list(COLUMNS))
+    write_atomic(table, os.path.join(outdir, ENVELOPE))
+    return table
