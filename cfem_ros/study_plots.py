@@ -201,8 +201,10 @@ def _print_estimate(outdir: str, method: str):
         from cfem_ros.study.reliability import Estimate
         with open(path, encoding='utf-8') as stream:
             held = json.load(stream)
-        held['cov'] = float('inf') if held['cov'] is None else held['cov']
-        print(Estimate(**held).sentence())
+        found = Estimate.from_dict(held)
+        print(found.sentence())
+        if found.decision_sentence:
+            print(found.decision_sentence)
 
 
 def fractions_figure(table, criteria, level: float, sampled: bool = True):

@@ -42,6 +42,8 @@ def study_command(args: argparse.Namespace) -> int:
           f'not finish, {time.monotonic() - started:.3g} s')
     if args.design is None:
         print(found['estimate'].sentence())
+        if found['estimate'].decision_sentence:
+            print(found['estimate'].decision_sentence)
         print(os.path.join(outdir, methods.ESTIMATE))
     else:
         _print_indices(found['indices'], args.design)
@@ -81,6 +83,7 @@ def _on_cluster(args, spec, outdir: str) -> tuple:
                 return error(f'{args.scheduler or "local cluster"}: {err}'), None
             found = methods.run_study(spec, outdir, method=args.method, design=args.design,
                                       client=client, target_cov=args.cov, record=args.record,
+                                      repeat=getattr(args, 'repeat', 5),
                                       log=lambda line: print(f'{name}: {line}',
                                                              file=sys.stderr, flush=True))
         except Interrupted as stop:

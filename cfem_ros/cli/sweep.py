@@ -49,6 +49,10 @@ def add_parser(sub):
     sweep.add_argument('--cov', type=float, default=0.1, metavar='COV',
                        help='--method form: sample until this coefficient of variation '
                        '(default 0.1)')
+    sweep.add_argument('--repeat', type=int, default=5, metavar='K',
+                       help='--method subset: independent repetitions, each with its own '
+                       'seed; --method form: least importance-sampling batches; their spread '
+                       'gives the one-sided bound p_upper (default 5)')
     sweep.add_argument('--plan', metavar='P,C',
                        help='print how many runs without failure show P(success) >= P at '
                        'confidence C (0.95,0.95 -> 59), and exit')
@@ -89,6 +93,9 @@ def _refused(args) -> Optional[str]:
         return f'--workers: is {args.workers}; expected a number of workers >= 1'
     if args.design is not None and args.method != 'mc':
         return f'--method {args.method} and --design {args.design}: expected one of them'
+    if getattr(args, 'repeat', 5) < 2:
+        return (f'--repeat: is {args.repeat}; expected at least 2 independent repetitions '
+                '(their spread is the bound; 5 by default)')
     if os.path.exists(args.output) and not os.path.isdir(args.output):
         return (f'-o {args.output}: is not a folder; expected the sweep folder (new, or one '
                 'to resume)')
@@ -181,5 +188,8 @@ def _print_sweep(sweep, table, outdir: str, wall: float) -> int:
         from cfem_ros.study.confidence import fractions
         for fraction in fractions(table, sweep.spec.criteria, sweep.spec.confidence):
             print(fraction.sentence())
-        methods.write_estimate(outdir, methods.mc_estimate(sweep.spec, table))
+        found = methods.mc_estimate(sweep.spec, table)
+        methods.write_estimate(outdir, found, sweep.spec.target)
+        if found.decision_sentence:
+            print(found.decision_sentence)
     return runs_failed

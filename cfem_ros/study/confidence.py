@@ -46,6 +46,14 @@ def upper_bound(failures: int, runs: int, level: float = 0.95) -> float:
     return float(stats.beta.ppf(level, failures + 1, runs - failures))
 
 
+def lower_bound(failures: int, runs: int, level: float = 0.95) -> float:
+    """Return x with "P(fail) >= x at this confidence" (exact, one-sided)."""
+    _check(failures, runs, level)
+    if failures == 0:
+        return 0.0
+    return float(stats.beta.ppf(1 - level, failures, runs - failures + 1))
+
+
 def runs_needed(success: float, level: float = 0.95, failures: int = 0) -> int:
     """
     Return the fewest runs that show P(success) >= success at this confidence.

@@ -170,12 +170,13 @@ def decide(estimate, target: float, confidence: float,
     upper = estimate.p_upper
     upper = math.nan if upper is None else float(upper)
     tail_p = tail_upper = None
-    if tail is not None:
+    if tail is not None and tail.probability is not None \
+            and math.isfinite(tail.probability):   # else: no tail check made (tail_note)
         tail_p = float(tail.probability)
         tail_upper = math.nan if tail.p_upper is None else float(tail.p_upper)
     first = verdict(p, upper, target)
     final = first
-    if tail is not None and verdict(tail_p, tail_upper, target) != first:
+    if tail_p is not None and verdict(tail_p, tail_upper, target) != first:
         final = UNDECIDED
     return Decision(final, p, upper, float(target), float(confidence), tail_p, tail_upper,
                     tail_note)
@@ -197,3 +198,11 @@ def decide_runs(failures: int, runs: int, target: float, confidence: float) -> D
     _check(target, confidence)
     bound = upper_bound(int(failures), int(runs), confidence)
     return decide(_Counted(failures / runs, bound), target, confidence)
+
+
+def decide_estimate(estimate, target: float) -> Decision:
+    """Return the decision of an ``Estimate`` (its bound, its tail check) against a target."""
+    tail = None
+    if estimate.tail_probability is not None:
+        tail = _Counted(estimate.tail_probability, estimate.tail_p_upper)
+    return decide(estimate, target, estimate.level, tail, estimate.tail_note)

@@ -16,7 +16,7 @@ from typing import Callable, Optional
 
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import DESIGNS, Evaluator, METHODS, write_json
-from cfem_ros.study.reliability import mc_estimate  # noqa: F401 - for cfem-sim sweep
+from cfem_ros.study.reliability import mc_estimate, REPEAT  # noqa: F401 - for cfem-sim sweep
 from cfem_ros.study.spec import SweepSpec
 
 ESTIMATE = 'estimate.json'
@@ -42,15 +42,21 @@ def check_size(spec: SweepSpec, name: str):
                          f'at least {least}{times} (--runs N)')
 
 
-def write_estimate(outdir: str, estimate):
-    """Write ``estimate.json`` (SPEC section 9)."""
+def write_estimate(outdir: str, estimate, target: Optional[float] = None):
+    """Write ``estimate.json`` (SPEC section 9), with the decision against a target if given."""
+    if target is not None:
+        from cfem_ros.study.decision import decide_estimate
+        found = decide_estimate(estimate, target)
+        estimate.target, estimate.decision = target, found.decision
+        estimate.decision_sentence = found.sentence()
     write_json(os.path.join(outdir, ESTIMATE), estimate.as_dict())
 
 
 def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
               design: Optional[str] = None, client=None, target_cov: float = 0.1,
               rows: Optional[Callable] = None, record: str = 'none',
-              threads: int = 1, log: Optional[Callable[[str], None]] = None) -> dict:
+              threads: int = 1, log: Optional[Callable[[str], None]] = None,
+              repeat: int = REPEAT) -> dict:
     """
     Run a rare-event method or a sensitivity design and write its results.
 
@@ -68,6 +74,9 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
         As ``Evaluator``'s.
     target_cov : float
         FORM's importance sampling stops at this coefficient of variation.
+    repeat : int
+        Subset sampling's independent repetitions; FORM's least importance
+        sampling batches (``--repeat``).
 
     Returns
     -------
@@ -85,6 +94,8 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
     options = {'runs': spec.runs, 'seed': spec.seed}
     if name == 'form':
         options['target_cov'] = target_cov
+    if name in ('form', 'subset'):
+        options['repeat'] = repeat
     evaluate = Evaluator(spec, outdir, name, options, client=client, rows=rows, record=record,
                          threads=threads, log=log)
     if design is not None:
@@ -96,9 +107,9 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
         return {'table': evaluate.assemble(), 'indices': found}
     from cfem_ros.study.reliability import estimate
     result = estimate(spec, method, evaluate, spec.criteria, target_cov=target_cov,
-                      runs=spec.runs)
+                      runs=spec.runs, repeat=repeat)
     table = evaluate.assemble()
     from cfem_ros.study.criteria import valid_runs   # invalid draws: no pass, no failure
     result.failed_runs = int((~valid_runs(table)['pass'].to_numpy(dtype=bool)).sum())
-    write_estimate(outdir, result)
+    write_estimate(outdir, result, spec.target)
     return {'table': table, 'estimate': result}

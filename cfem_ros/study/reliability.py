@@ -11,17 +11,21 @@ margin (``criteria.margins``, < 0 where a criterion fails); every batch
 of points a method asks for is run as sweep runs (``Evaluator``).
 
 - ``subset``: subset sampling (conditional probability 0.1), ``runs`` points per
-  level, in batches of ``runs`` x 0.1 (one step of every Markov chain).
+  level, in batches of ``runs`` x 0.1 (one step of every Markov chain),
+  repeated K times (``--repeat``), each with its own seed.
 - ``nais``: non-parametric adaptive importance sampling, ``runs`` per step.
 - ``form``: FORM (Abdo-Rackwitz, finite-difference gradients in batches),
   then importance sampling around its design point, ``runs`` per batch,
-  until the coefficient of variation reaches the target.
-- ``mc``: the sweep's own draws, the failure fraction with its exact interval.
+  at least K batches, until the coefficient of variation reaches the target.
+- ``mc``: the sweep's own draws, the failure fraction with its exact bounds.
+
+Every method gives a one-sided bound ``p_upper`` (``samplers``, ``bounds``)
+and the tail check (``tails``); ``decision`` turns them into a decision.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 import math
 import signal
 import threading
@@ -29,24 +33,33 @@ from typing import Optional
 
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
+from cfem_ros.study.decision import up
 from cfem_ros.study.draws import blocks
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import random_variables
 from cfem_ros.study.resources import MethodFailed
 from cfem_ros.study.spec import SweepSpec
+from cfem_ros.study.tails import DOF, mc_tail, normals, SCALE, Tail
 import numpy as np
 
 #: Runs FORM's search for the design point may take, per parameter (+ 1).
 FORM_CALLS = 150
-#: Batches importance sampling may run after FORM, at most.
-MAX_BATCHES = 100
-#: Conditional probability of each subset level; quantile level of NAIS.
-LEVEL_PROBABILITY = 0.1
+#: Independent repetitions of subset sampling (--repeat); least batches after FORM.
+REPEAT = 5
 
 
 @dataclass
 class Estimate:
-    """What ``estimate.json`` holds (SPEC section 9), with the level of the interval."""
+    """
+    What ``estimate.json`` holds (SPEC section 9), with the level of its bounds.
+
+    ``ci_low``/``ci_high`` are two-sided and ``p_upper`` one-sided at
+    ``level``: exact (Clopper-Pearson) for Monte Carlo, Student-t over
+    independent batches or repetitions for the others (``bound`` says
+    which); NaN when the runs cannot bound P. ``tail_*`` is the tail check,
+    ``target``/``decision``/``decision_sentence`` the decision
+    (``decision``), when the sweep file has a ``target``.
+    """
 
     probability: float
     cov: float
@@ -56,28 +69,62 @@ class Estimate:
     method: str
     level: float = 0.95
     failed_runs: Optional[int] = None   # runs that failed a criterion (None: not counted)
+    p_upper: float = math.nan
+    p_lower: float = math.nan
+    bound: str = ''
+    tail_probability: Optional[float] = None
+    tail_p_upper: Optional[float] = None
+    tail_note: str = ''
+    form_probability: Optional[float] = None
+    disagreement: str = ''
+    target: Optional[float] = None
+    decision: Optional[str] = None
+    decision_sentence: str = ''
 
     def as_dict(self) -> dict:
-        """Return the fields as plain JSON values."""
+        """Return the fields as plain JSON values (NaN and inf as None)."""
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                 for k, v in asdict(self).items()}
 
+    @classmethod
+    def from_dict(cls, held: dict) -> 'Estimate':
+        """Return the estimate an ``estimate.json`` holds (None read back as NaN or inf)."""
+        names = {f.name for f in fields(cls)}
+        values = {k: v for k, v in held.items() if k in names}
+        for key in ('cov', 'ci_low', 'ci_high', 'p_upper', 'p_lower', 'probability'):
+            if values.get(key, 0) is None:
+                values[key] = math.inf if key == 'cov' else math.nan
+        return cls(**values)
+
     def sentence(self) -> str:
         """Return the line ``cfem-sim sweep`` prints."""
+        pct = f'{100 * self.level:g} %'
         line = (f'P(any criterion fails) = {self.probability:.4g} by {self.method}, '
-                f'coefficient of variation {self.cov:.3g}, {100 * self.level:g} % interval '
-                f'[{self.ci_low:.4g}, {self.ci_high:.4g}], {self.runs} runs')
+                f'coefficient of variation {self.cov:.3g}, {pct} interval '
+                f'[{self.ci_low:.4g}, {self.ci_high:.4g}]')
+        if math.isfinite(self.p_upper):
+            line += f', P <= {up(self.p_upper)} at {pct} one-sided'
+        elif self.method != 'mc':
+            line += ', no bound (too few failed runs)'
+        if self.bound:
+            line += f' ({self.bound})'
+        line += f', {self.runs} runs'
         if self.failed_runs == 0 and self.method == 'mc':
-            line += f'; no run failed: P is at most {self.ci_high:.4g} at this confidence'
+            line += f'; no run failed: P is at most {up(self.p_upper)} at this confidence'
         elif self.failed_runs == 0:
             line += ('; no run failed: the estimate rests on no failure (extrapolated from '
                      'the runs nearest to failing), not a measured probability')
+        if self.disagreement:
+            line += f'; {self.disagreement}'
         return line
 
 
-def distribution(spec: SweepSpec):
+def distribution(spec: SweepSpec, heavier: bool = False):
     """
     Return the sweep's joint input distribution as an OpenTURNS distribution.
+
+    heavier: each normal input a Student-t of the same median and standard
+    deviation (the tail check, ``tails``), the rest as they are.
 
     Raises
     ------
@@ -91,7 +138,9 @@ def distribution(spec: SweepSpec):
     marginals = []
     for v in variables:
         p = v.params
-        if v.kind == 'normal':
+        if v.kind == 'normal' and heavier:
+            marginals.append(ot.Student(float(DOF), p[0], p[1] * SCALE))
+        elif v.kind == 'normal':
             marginals.append(ot.Normal(p[0], p[1]))
         elif v.kind == 'uniform':
             marginals.append(ot.Uniform(p[0], p[1]))
@@ -113,7 +162,7 @@ def distribution(spec: SweepSpec):
 
 
 def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float = 0.1,
-             runs: int = 1000) -> Estimate:
+             runs: int = 1000, repeat: int = REPEAT) -> Estimate:
     """
     Estimate P(any criterion fails) by a rare-event method.
 
@@ -131,6 +180,9 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
         FORM's importance sampling stops at this coefficient of variation.
     runs : int
         Points per level (subset), per step (nais), per batch (form).
+    repeat : int
+        Independent repetitions of subset sampling; least importance
+        sampling batches after FORM.
 
     """
     import openturns as ot
@@ -163,7 +215,7 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
         return margins(table, criteria).reshape(-1, 1)
 
     try:
-        found = _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs)
+        found = _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs, repeat)
     except Exception as err:   # noqa: B902 (what the limit state raised, not its wrapping)
         if raised:
             raise raised[0] from None
@@ -192,69 +244,88 @@ def _handlers() -> dict:
     return {s: h for s, h in found.items() if h is not None}
 
 
-def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs) -> Estimate:
-    """Run one OpenTURNS method on the limit state and return its estimate."""
-    dimension = joint.getDimension()
-    function = ot.MemoizeFunction(ot.PythonFunction(dimension, 1, func_sample=limit_state))
-    output = ot.CompositeRandomVector(function, ot.RandomVector(joint))
-    event = ot.ThresholdEvent(output, ot.Less(), 0.0)
-    if method == 'subset':
-        # the chains (runs x p0 of them) advance one step per batch: asking for a whole
-        # level at once (block size = runs) gives estimates biased low in OpenTURNS 1.27
-        chains = max(1, round(runs * LEVEL_PROBABILITY))
-        algorithm = ot.SubsetSampling(ot.StandardEvent(event), 2.0, LEVEL_PROBABILITY)
-        algorithm.setBlockSize(chains)
-        algorithm.setMaximumOuterSampling(max(1, round(runs / chains)))
-    elif method == 'nais':
-        algorithm = ot.NAIS(ot.StandardEvent(event), LEVEL_PROBABILITY)
-        algorithm.setBlockSize(runs)
-        algorithm.setMaximumOuterSampling(1)
-    elif method == 'form':
-        optimizer = ot.AbdoRackwitz()
-        optimizer.setMaximumCallsNumber(FORM_CALLS * (dimension + 1))
-        optimizer.setStartingPoint(joint.getMean())   # physical space
-        form = ot.FORM(optimizer, event)
+def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
+         repeat) -> Estimate:
+    """Run one method on the limit state; return its estimate, bounds and tail check."""
+    from cfem_ros.study import samplers
+    from cfem_ros.study.bounds import student_bounds
+    level = spec.confidence
+
+    def margins_of(points):
+        return np.asarray(limit_state(points), dtype=float).ravel()
+
+    def said(result, physical):
+        point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(spec.variables, physical))
+        evaluate.log(f'design point {point}; reliability index '
+                     f'{result.getHasoferReliabilityIndex():.4g}, P(fail) by FORM '
+                     f'{result.getEventProbability():.4g}; importance sampling around it')
+
+    def sample(inputs, seed):
+        if method == 'subset':
+            return samplers.subset(ot, inputs, margins_of, runs, seed, repeat)
+        if method == 'nais':
+            return samplers.nais(ot, inputs, margins_of, runs, seed)
+        calls = FORM_CALLS * (inputs.getDimension() + 1)
         try:
-            form.run()
+            return samplers.form(ot, inputs, margins_of, runs, seed, repeat, target_cov,
+                                 calls, said)
         except RuntimeError as err:   # no design point within the budget
             if 'maximum calls' not in str(err):
                 raise
             raise MethodFailed(spec.path, '--method form', f'found no design point in '
-                               f'{FORM_CALLS * (dimension + 1)} runs (the search did not '
-                               'converge)', 'a failure region FORM can reach, or --method '
-                               'nais or subset') from None
-        found = form.getResult()
-        point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(
-            spec.variables, found.getPhysicalSpaceDesignPoint()))
-        evaluate.log(f'design point {point}; reliability index '
-                     f'{found.getHasoferReliabilityIndex():.4g}, P(fail) by FORM '
-                     f'{found.getEventProbability():.4g}; importance sampling around it')
-        algorithm = ot.PostAnalyticalImportanceSampling(found)
-        algorithm.setBlockSize(runs)
-        algorithm.setMaximumOuterSampling(MAX_BATCHES)
-        algorithm.setMaximumCoefficientOfVariation(target_cov)
-    else:
+                               f'{calls} runs (the search did not converge)', 'a failure '
+                               'region FORM can reach, or --method nais or subset') from None
+
+    if method not in ('subset', 'nais', 'form'):
         raise ValueError(f'method is {method!r}; expected one of mc, subset, nais, form')
-    algorithm.run()
-    result = algorithm.getResult()
-    p = float(result.getProbabilityEstimate())
-    cov = float(result.getCoefficientOfVariation()) if p > 0 else math.inf
-    low = high = p
-    if p > 0:   # the normal law of the estimate that OpenTURNS gives
-        interval = result.getProbabilityDistribution().computeBilateralConfidenceInterval(
-            spec.confidence)
-        low, high = interval.getLowerBound()[0], interval.getUpperBound()[0]
-    return Estimate(p, cov, max(0.0, low), min(1.0, high), evaluate.count, method,
-                    spec.confidence)
+    found = sample(joint, spec.seed)
+    b = student_bounds(found.replicates, level, found.failed)
+    how = {'subset': f'{len(found.replicates)} independent repetitions',
+           'nais': f'{len(found.replicates)} batches of the weighted estimator',
+           'form': f'{len(found.replicates)} independent importance-sampling batches'}
+    result = Estimate(b.probability, b.cov, b.ci_low, b.ci_high, 0, method, level,
+                      p_upper=b.p_upper, p_lower=b.p_lower,
+                      bound=f'Student-t over {how[method]}',
+                      form_probability=found.form_probability)
+    if found.form_probability is not None and math.isfinite(b.ci_high) \
+            and not b.ci_low <= found.form_probability <= b.ci_high:
+        result.disagreement = (
+            f"FORM's first-order P(fail) {found.form_probability:.3g} is outside the "
+            f"importance sampling's {100 * level:g} % interval [{b.ci_low:.3g}, "
+            f'{b.ci_high:.3g}]: the methods disagree beyond their bounds (the limit state '
+            'is not linear near the design point); the sampled estimate is the one used')
+    tail = None
+    if normals(spec):   # importance weights of heavier tails than q's have no variance:
+        # the method is run again on the heavier-tailed inputs, its own seeds
+        evaluate.log('tail check: the same method on the heavier-tailed inputs')
+        heavy = sample(distribution(spec, heavier=True), samplers.seeds(spec.seed, 2)[1])
+        h = student_bounds(heavy.replicates, level, heavy.failed)
+        tail = Tail(h.probability, h.p_upper, '' if math.isfinite(h.p_upper) else
+                    f'{heavy.failed} failed runs: too few for a bound')
+    _tail(result, tail, spec)
+    result.runs = evaluate.count
+    return result
+
+
+def _tail(result: Estimate, tail, spec: SweepSpec):
+    """Put the tail check in the estimate (or why there is none)."""
+    if tail is None:
+        result.tail_note = 'no normal input: no tail check'
+        return
+    result.tail_probability = tail.probability
+    result.tail_p_upper = tail.p_upper
+    result.tail_note = tail.note
 
 
 def mc_estimate(spec: SweepSpec, table):
-    """Return the estimate of a judged Monte Carlo table: fraction, exact interval (valid runs)."""
+    """Return the estimate of a judged Monte Carlo table: fraction, exact bounds (valid runs)."""
+    from cfem_ros.study.confidence import lower_bound, upper_bound
     from cfem_ros.study.criteria import judge, valid_runs
     if 'pass' not in table:
         table = judge(table, spec.criteria)
     table = valid_runs(table)   # invalid draws: not run, neither pass nor failure
-    failed = int((~table['pass'].to_numpy(dtype=bool)).sum())
+    bad = ~table['pass'].to_numpy(dtype=bool)
+    failed = int(bad.sum())
     n = len(table)
     if not n:
         raise SweepError(spec.path, 'vary', "gives no valid draw: the scenario's checks "
@@ -262,4 +333,19 @@ def mc_estimate(spec: SweepSpec, table):
     p = failed / n
     low, high = clopper_pearson(failed, n, spec.confidence)
     cov = math.sqrt((1 - p) / (n * p)) if failed else math.inf
-    return Estimate(p, cov, low, high, n, 'mc', spec.confidence, failed_runs=failed)
+    result = Estimate(p, cov, low, high, n, 'mc', spec.confidence, failed_runs=failed,
+                      p_upper=upper_bound(failed, n, spec.confidence),
+                      p_lower=lower_bound(failed, n, spec.confidence),
+                      bound='exact Clopper-Pearson')
+    tail = None
+    if normals(spec):
+        points = np.column_stack([pd_column(table, v.path) for v in spec.variables])
+        tail = mc_tail(spec, points, bad, spec.confidence)
+    _tail(result, tail, spec)
+    return result
+
+
+def pd_column(table, path: str) -> np.ndarray:
+    """Return a varied key path's column as floats (NaN where it is not a number)."""
+    import pandas as pd
+    return pd.to_numeric(table[path], errors='coerce').to_numpy(dtype=float)

@@ -33,6 +33,7 @@ th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
 th { background: #f0f0f0; } td.num { text-align: right; font-family: monospace; }
 code { background: #f4f4f4; padding: 1px 4px; font-size: 0.85em; }
 .fail { color: #b00; font-weight: bold; } .pass { color: #060; font-weight: bold; }
+.undecided { color: #a60; font-weight: bold; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
 """
 
@@ -69,6 +70,36 @@ def _image(path: str) -> str:
         data = base64.b64encode(stream.read()).decode('ascii')
     name = os.path.basename(path)
     return f'<figure><img alt="{_e(name)}" src="data:image/png;base64,{data}"></figure>'
+
+
+_DECISION_CLASS = {'meets': 'pass', 'does_not_meet': 'fail', 'undecided': 'undecided'}
+
+
+def _bound(value) -> str:
+    from cfem_ros.study.decision import up
+    return 'none (too few failed runs)' if value is None else f'P <= {up(value)}'
+
+
+def _estimate_section(est: dict, level: float) -> list:
+    """Return the estimate's heading, its table (with the tail check) and its notes."""
+    pct = f'{100 * est.get("level", level):g} %'
+    cov = (est['cov'] if est['cov'] is not None and est['probability'] > 0
+           else 'undefined (no failure)')   # no failure seen: no coefficient of variation
+    interval = ('none' if est['ci_low'] is None or est['ci_high'] is None
+                else f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]')
+    rows = [['inputs as given', est['method'], est['probability'], cov, interval,
+             _bound(est.get('p_upper')), est.get('bound', ''), est['runs']]]
+    if est.get('tail_probability') is not None:
+        rows.append(['heavier tails (each normal input a Student-t, 5 dof, same median and '
+                     'standard deviation)', est['method'], est['tail_probability'], '', '',
+                     _bound(est.get('tail_p_upper')), est.get('tail_note') or '', ''])
+    out = ['<h2>Estimate of P(any criterion fails)</h2>',
+           _table(['inputs', 'method', 'probability', 'coefficient of variation',
+                   f'{pct} interval', f'{pct} one-sided bound', 'bound from', 'runs'], rows)]
+    notes = [n for n in (est.get('disagreement'), est.get('tail_note')
+                         if est.get('tail_probability') is None else '') if n]
+    out.extend(f'<p>{_e(n)}</p>' for n in notes)
+    return out
 
 
 def rerun_command(outdir: str, run: int) -> str:
@@ -157,14 +188,7 @@ def build(outdir: str, figures=()) -> str:
     if os.path.exists(estimate):
         with open(estimate, encoding='utf-8') as stream:
             est = json.load(stream)
-        parts.append('<h2>Estimate of P(any criterion fails)</h2>')
-        parts.append(_table(['method', 'probability', 'coefficient of variation',
-                             f'{100 * est.get("level", level):g} % interval', 'runs'],
-                            [[est['method'], est['probability'],
-                              # no failure seen: the coefficient of variation is undefined
-                              est['cov'] if est['cov'] is not None and est['probability'] > 0
-                              else 'undefined (no failure)',
-                              f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]', est['runs']]]))
+        parts.extend(_estimate_section(est, level))
     worst = worst_runs(table, criteria)
     if criteria:
         why = ('The runs with the least margin to a criterion (margin in units of the '
@@ -195,6 +219,9 @@ def build(outdir: str, figures=()) -> str:
     if figures:
         parts.append('<h2>Figures</h2>')
         parts.extend(_image(p) for p in figures)
+    if os.path.exists(estimate) and est.get('decision_sentence'):
+        parts.append(f'<h2>Decision</h2><p class="{_DECISION_CLASS[est["decision"]]}">'
+                     f'{_e(est["decision_sentence"])}</p>')
     return ('<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             f'<title>Separation study {_e(document.get("name", ""))}</title>'
             f'<style>{STYLE}</style></head><body>\n' + '\n'.join(parts)

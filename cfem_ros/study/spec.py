@@ -33,7 +33,7 @@ from cfem_ros.study.metricspec import check_unique_at, Metrics, parse_metrics
 from cfem_ros.study.shape_metrics import Window
 
 TOP_KEYS = ('scenario', 'runs', 'seed', 'rate_hz', 'vary', 'correlate', 'metrics', 'criteria',
-            'confidence')
+            'confidence', 'target')
 
 
 @dataclass
@@ -64,6 +64,8 @@ class SweepSpec:
         The ``criteria`` rules, in file order (SPEC section 9).
     confidence : float
         The level of the intervals (``confidence``, default 0.95).
+    target : float, optional
+        The P(any criterion fails) a decision is made against (``target``).
 
     """
 
@@ -79,6 +81,7 @@ class SweepSpec:
     correlations: list = field(default_factory=list)
     criteria: list = field(default_factory=list)
     confidence: float = 0.95
+    target: Optional[float] = None
 
     @property
     def total(self) -> int:
@@ -178,11 +181,13 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     metrics = parse_metrics(fail, document.get('metrics') or {}, base, rate, model)
     check_unique_at(fail, metrics)
     criteria, confidence = _parse_decision(fail, document, variables, metrics)
+    target = _parse_target(fail, document, criteria)
     values = draw(variables, count, seed, correlations)
     _check_new_keys(fail, base, variables, values, scenario)
     return SweepSpec(path=path, scenario=scenario, document=base, runs=count, seed=seed,
                      rate_hz=rate, variables=variables, metrics=metrics, values=values,
-                     correlations=correlations, criteria=criteria, confidence=confidence)
+                     correlations=correlations, criteria=criteria, confidence=confidence,
+                     target=target)
 
 
 def _load_yaml(path: str, what: str):
@@ -231,6 +236,21 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
                      'one of ' + ', '.join(allowed))
         criteria.append(criterion)
     return criteria, float(level)
+
+
+def _parse_target(fail, document, criteria) -> Optional[float]:
+    """Check ``target`` (SPEC section 9): a probability, with criteria to decide on."""
+    target = document.get('target')
+    if target is None:
+        return None
+    if isinstance(target, bool) or not isinstance(target, (int, float)) \
+            or not 0 < target < 1:
+        fail('target', f'is {short(target)}', 'the probability P(any criterion fails) must '
+             'be shown below, 0 < target < 1 (1.0e-6)')
+    if not criteria:
+        fail('target', f'is {target!r} but the sweep has no criteria',
+             'criteria (SPEC section 9): the target is a probability that one fails')
+    return float(target)
 
 
 def _check_runs(fail, key: str, count):

@@ -5,6 +5,7 @@
 import json
 import os
 
+from cfem_ros.study.decision import up
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.methods import MINIMUM_RUNS, run_study
 from cfem_ros.study.resources import MethodFailed
@@ -42,7 +43,10 @@ def test_an_estimate_without_any_failed_run_says_so(tmp_path):
     estimate = found['estimate']
     assert estimate.failed_runs == 0 and found['table']['pass'].all()
     assert estimate.probability == 0.0
-    assert f'no run failed: P is at most {estimate.ci_high:.4g}' in estimate.sentence()
+    # the one-sided bound of 0 failures in n runs: 1 - (1 - c)^(1 / n), said rounded upward
+    assert estimate.p_upper == pytest.approx(1 - 0.05 ** (1 / 100), rel=1e-12)
+    assert f'no run failed: P is at most {up(estimate.p_upper)}' in estimate.sentence()
+    assert float(up(estimate.p_upper)) >= estimate.p_upper
     with open(os.path.join(out, 'estimate.json')) as stream:
         assert json.load(stream)['failed_runs'] == 0
 
