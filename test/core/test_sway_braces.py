@@ -179,14 +179,18 @@ def test_the_carrier_takes_the_opposite_push():
 def linear_roll(preloads, stiffness, damping, t):
     """Return the roll about the hook line at t of the linearised dynamics, rad (from rest)."""
     axis = np.array([0.0, 0.0, -0.25])
-    arms = []
+    arms, reach = [], []
     for x, side in PADS:
         point, direction = pad(x, side)
         arms.append(np.cross(np.array(point) - axis, direction)[0])
+        reach.append(np.dot(np.array(point) - axis, direction))
     arms = np.array(arms)
     moment = float(np.dot(preloads, arms))
     inertia = INERTIA[0] + MASS * 0.25 ** 2
-    spring = stiffness * float(np.sum(arms ** 2)) + MASS * G * 0.25
+    # the pads' axes stay in the pylon's axes while the point turns with the store about
+    # the hook line: a push f along a at r gives -theta f (r . a) more roll moment
+    spring = (stiffness * float(np.sum(arms ** 2)) + MASS * G * 0.25
+              + float(np.dot(preloads, reach)))
     dashpot = damping * float(np.sum(arms ** 2))
     w = math.sqrt(spring / inertia)
     zeta = dashpot / (2.0 * math.sqrt(spring * inertia))

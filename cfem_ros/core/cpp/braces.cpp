@@ -2,6 +2,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "braces.hpp"
 
+#include <cmath>
+
 #include "algebra.hpp"
 #include "loads.hpp"
 
@@ -30,7 +32,7 @@ void cross(const double* a, const double* b, double* out) {
 }  // namespace
 
 double push(const double* y, const double* rot, const Mat& loads, idx row, idx n,
-            double* point, double* direction) {
+            double* point, double* direction, double* lateral) {
   const double* br = loads.row(row);
   idx b = static_cast<idx>(br[loads::BR_BODY]), c = static_cast<idx>(br[loads::BR_CARRIER]);
   double own_b[9], own_c[9], arm_b[3], arm_c[3], omega_b[3], omega_c[3], spin_b[3], spin_c[3];
@@ -41,7 +43,7 @@ double push(const double* y, const double* rot, const Mat& loads, idx row, idx n
     matrix(y, n, c, own_c);
   }
   turn(rb, br + loads::BR_POINT, arm_b);
-  turn(rb, br + loads::BR_DIRECTION, direction);
+  turn(rc, br + loads::BR_AXIS, direction);   // the pad's axis turns with the carrier
   turn(rc, br + loads::BR_PAD, arm_c);
   turn(rb, y + 10 * n + 3 * b, omega_b);
   turn(rc, y + 10 * n + 3 * c, omega_c);
@@ -53,12 +55,21 @@ double push(const double* y, const double* rot, const Mat& loads, idx row, idx n
     gap[k] = point[k] - (y[3 * c + k] + arm_c[k]);
     closing[k] = (y[3 * n + 3 * b + k] + spin_b[k]) - (y[3 * n + 3 * c + k] + spin_c[k]);
   }
-  cross(omega_b, direction, turning);
-  // s = -gap . d, and ds/dt = -(d gap/dt . d + gap . (omega_b x d))
-  double s = -(gap[0] * direction[0] + gap[1] * direction[1] + gap[2] * direction[2]);
+  cross(omega_c, direction, turning);
+  // s = -gap . a, and ds/dt = -(d gap/dt . a + gap . (omega_c x a)), a the pad's axis
+  double along = gap[0] * direction[0] + gap[1] * direction[1] + gap[2] * direction[2];
+  double s = -along;
   double rate = -(closing[0] * direction[0] + closing[1] * direction[1]
                   + closing[2] * direction[2])
                 - (gap[0] * turning[0] + gap[1] * turning[1] + gap[2] * turning[2]);
+  if (lateral) {   // the contact point's distance from the pad's axis
+    double side = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      double e = gap[k] - along * direction[k];
+      side += e * e;
+    }
+    *lateral = std::sqrt(side);
+  }
   return br[loads::BR_PRELOAD] + br[loads::BR_STIFFNESS] * s + br[loads::BR_DAMPING] * rate;
 }
 
@@ -70,7 +81,7 @@ bool wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n
   }
   double* point = out + 6;
   double direction[3];
-  double f = push(y, rot, loads, row, n, point, direction);
+  double f = push(y, rot, loads, row, n, point, direction, nullptr);
   idx b = static_cast<idx>(loads(row, loads::BR_BODY));
   double r[3] = {point[0] - y[3 * b], point[1] - y[3 * b + 1], point[2] - y[3 * b + 2]};
   for (int k = 0; k < 3; ++k) out[k] = f * direction[k];
@@ -83,9 +94,13 @@ bool switched(const double* y, const Mat& loads, idx row, idx n) {
 }
 
 double excess(const double* y, const Mat& loads, idx row, idx n) {
-  double point[3], direction[3];
-  double f = push(y, nullptr, loads, row, n, point, direction);
-  return loads(row, loads::BR_ON) > 0.0 ? -f : f;
+  double point[3], direction[3], lateral;
+  double f = push(y, nullptr, loads, row, n, point, direction, &lateral);
+  double radius = loads(row, loads::BR_RADIUS);
+  if (loads(row, loads::BR_ON) > 0.0) return std::fmax(-f, lateral - radius);
+  // out of contact: back within the band of the pad's face and pushing more than the band
+  double band = loads(row, loads::BR_BAND);
+  return std::fmin(f - band, radius * (1.0 - RADIUS_BAND) - lateral);
 }
 
 }  // namespace braces

@@ -170,9 +170,13 @@ class SwayBrace:
     point : ndarray, shape (3,)
         The contact point at t = 0, body axes from the CG, m.
     direction : ndarray, shape (3,)
-        Unit vector, body axes: the pad pushes the body along it.
+        Unit vector, body axes at t = 0: the pad pushes the body along it;
+        from then on the pad's axis is fixed in the carrier's axes.
     preload, stiffness, damping : float
         N at t = 0, N/m, N s/m.
+    pad_radius : float
+        m: the pad touches only where the body's point lies within this
+        distance of its axis.
 
     """
 
@@ -184,3 +188,4 @@ class SwayBrace:
     preload: float
     stiffness: float
     damping: float = 0.0
+    pad_radius: float = 0.05

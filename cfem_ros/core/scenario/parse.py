@@ -162,7 +162,7 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                   aero=aeroparse.parse_aero(check, aero_doc, index, bodies, source_dir(check)),
                   release_groups=groups,
                   braces=braces.parse_braces(check, top.get('sway_braces'), index, bodies,
-                                             wrenches))
+                                             wrenches, dt=step))
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
         return model

@@ -1,0 +1,106 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Sway braces against the step: a pad RK4 cannot follow with dt is refused.
+
+A stiff pad makes the motion of its body a fast oscillation (or, heavily
+damped, a fast decay); explicit RK4 with step dt follows it only while
+every eigenvalue lambda of the braced bodies' linearised motion has
+``|R(lambda dt)| <= 1``, R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24 (RK4's
+amplification). Beyond it the run's pads gain energy at every step and
+let go and touch again without end. The bodies are taken free, at t = 0,
+all pads touching, the carriers that do not move held: a joint only takes
+degrees of freedom away, which lowers the fastest eigenvalue, so this is
+the motion after the release, the stiffest the pads meet.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cfem_ros.core import rotations
+import numpy as np
+
+#: The stability bound is taken with this margin (RK4's region is left at |R| = 1).
+MARGIN = 0.9
+
+
+def amplification(z: np.ndarray) -> np.ndarray:
+    """Return |R(z)| of RK4 at the complex numbers z = lambda dt."""
+    return np.abs(1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0))))
+
+
+def eigenvalues(braces, bodies) -> np.ndarray:
+    """Return the eigenvalues (1/s) of the braced bodies' linearised motion at t = 0."""
+    moving = sorted({i for b in braces for i in (b.body, b.carrier) if bodies[i].dynamic})
+    slot = {i: k for k, i in enumerate(moving)}
+    size = 6 * len(moving)
+    mass = np.zeros((size, size))
+    for i, k in slot.items():
+        turn = rotations.matrices(np.asarray(bodies[i].orientation_xyzw, dtype=float)[None])[0]
+        mass[6 * k:6 * k + 3, 6 * k:6 * k + 3] = bodies[i].mass * np.eye(3)
+        mass[6 * k + 3:6 * k + 6, 6 * k + 3:6 * k + 6] = turn @ bodies[i].inertia @ turn.T
+    spring, dashpot = np.zeros((size, size)), np.zeros((size, size))
+    for brace in braces:
+        body = bodies[brace.body]
+        turn = rotations.matrices(np.asarray(body.orientation_xyzw, dtype=float)[None])[0]
+        axis, arm = turn @ brace.direction, turn @ brace.point
+        row = np.zeros(size)
+        k = slot[brace.body]
+        row[6 * k:6 * k + 3], row[6 * k + 3:6 * k + 6] = axis, np.cross(arm, axis)
+        if brace.carrier in slot:   # the carrier takes the opposite push at the same point
+            c = slot[brace.carrier]
+            lever = body.position + arm - bodies[brace.carrier].position
+            row[6 * c:6 * c + 3], row[6 * c + 3:6 * c + 6] = -axis, -np.cross(lever, axis)
+        spring += brace.stiffness * np.outer(row, row)
+        dashpot += brace.damping * np.outer(row, row)
+    inverse = np.linalg.inv(mass)
+    system = np.block([[np.zeros((size, size)), np.eye(size)],
+                       [-inverse @ spring, -inverse @ dashpot]])
+    with np.errstate(all='ignore'):
+        return np.linalg.eigvals(system)
+
+
+def stable_step(lams: np.ndarray, dt: float) -> float:
+    """Return the longest step <= dt (s) with every |R(lambda h)| <= 1, found by bisection."""
+    if np.all(amplification(lams * dt) <= 1.0 + 1e-12):
+        return dt
+    low, high = 0.0, dt
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        if np.all(amplification(lams * mid) <= 1.0 + 1e-12):
+            low = mid
+        else:
+            high = mid
+    return low
+
+
+def check_step(check, braces, bodies, dt: float):
+    """Refuse braces whose linearised motion RK4 cannot follow with dt (naming the dt that would)."""
+    if not braces:
+        return
+    lams = eigenvalues(braces, bodies)
+    if not np.all(np.isfinite(lams)):
+        return   # the inertia checks have refused what could make them so
+    # the free bodies' rigid motions are zero eigenvalues, found to round-off
+    lams = lams[np.abs(lams) > 1e-6 * float(np.max(np.abs(lams), initial=0.0))]
+    h = stable_step(lams, dt)
+    if h >= dt:
+        return
+    stiffest = max(range(len(braces)), key=lambda k: (braces[k].stiffness, braces[k].damping))
+    fastest = float(np.max(np.abs(lams)))
+    would = _round_down(MARGIN * h)
+    brace = braces[stiffest]
+    check.fail(f'sway_braces[{stiffest}].stiffness',
+               f'is {brace.stiffness:g} N/m (damping {brace.damping:g} N s/m): the braced '
+               f'bodies move at up to {fastest:.4g} 1/s, which RK4 with dt = {dt:g} s cannot '
+               'follow (the pads would gain energy at every step and chatter)',
+               f'dt <= {would:.2g} s with these braces, or a softer pad')
+
+
+def _round_down(value: float) -> float:
+    """Return value rounded down to two significant digits."""
+    if value <= 0.0:
+        return value
+    scale = 10.0 ** (math.floor(math.log10(value)) - 1)
+    return math.floor(value / scale) * scale
