@@ -17,33 +17,35 @@ QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'de
 
 
 def relative_histories(fit, values, times) -> np.ndarray:
-    """Return the six quantities (m, deg, Z-Y-X) of a run at values, at times (n, 6)."""
+    """Return the six quantities (m, deg, Z-Y-X) of a flight's run at values, at times."""
     position, attitude = fit.trajectories.run(values).poses(times)
     return np.hstack([position, attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
 
 
-def _axes_time(result) -> tuple:
-    release = result.window[2]
+def _axes_time(window) -> tuple:
+    release = window[2]
     if release is None:
         return 0.0, 'time (s)'
     return release, 'time from release (s)'
 
 
-def draw(fit, result, trajectory_path: str, residuals_path: str):
-    """Write fit_trajectory.png and fit_residuals.png."""
+def draw(fit, values, trajectory_path: str, residuals_path: str):
+    """Write a flight's (``FlightFit``) trajectory and residual figures."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    data = fit.data
+    data, flight = fit.data, fit.flight
     measured = np.hstack([data.position,
                           data.attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
-    zero, label = _axes_time(result)
-    start, end = result.window[:2]
+    zero, label = _axes_time(fit.window)
+    start, end = fit.window[:2]
     dense = np.linspace(start, end, 400)
-    fitted_dense = relative_histories(fit, result.values, dense)
+    fitted_dense = relative_histories(fit, values, dense)
     before = relative_histories(fit, fit.spec.x0, dense)
-    fitted = relative_histories(fit, result.values, data.time)
-    title = f'{fit.spec.body} relative to {fit.spec.relative_to} ({fit.spec.relative_to} axes)'
+    fitted = relative_histories(fit, values, data.time)
+    title = f'{flight.body} relative to {flight.relative_to} ({flight.relative_to} axes)'
+    if len(fit.spec.flights) > 1:
+        title += f', {flight.key}'
 
     figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
     for k, (name, unit) in enumerate(QUANTITIES):
@@ -63,7 +65,7 @@ def draw(fit, result, trajectory_path: str, residuals_path: str):
 
     residual = measured - fitted
     residual[:, 3:] = (residual[:, 3:] + 180.0) % 360.0 - 180.0
-    sigmas = [fit.spec.sigma_position] * 3 + [fit.spec.sigma_attitude_deg] * 3
+    sigmas = [flight.sigma_position] * 3 + [flight.sigma_attitude_deg] * 3
     figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
     for k, (name, unit) in enumerate(QUANTITIES):
         ax = axes[k % 3, k // 3]

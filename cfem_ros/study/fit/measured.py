@@ -31,12 +31,17 @@ from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 from cfem_ros.recording.relative import relative_pose
 from cfem_ros.recording.replay import start_stamp_ns
-from cfem_ros.study.fit.spec import FitError, FitSpec
+from cfem_ros.study.fit.flights import FitError, Flight
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 POSE_SCHEMA = 'geometry_msgs/msg/PoseStamped'
 CSV_QUANTITIES = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg')
+#: A measured position farther than this from the reference (m) is no measurement of a
+#: store near its carrier (1000 km): refused, as a value that is not finite is.
+LARGEST_POSITION = 1e6
+#: A measured angle beyond this (deg, about 2,800 turns) is refused likewise.
+LARGEST_ANGLE_DEG = 1e6
 
 
 @dataclass
@@ -69,6 +74,11 @@ class Measured:
         return Measured(self.time[keep], self.position[keep], self.attitude[keep],
                         self.releases)
 
+    def last_before(self, end: float) -> float:
+        """Return the time of the last sample at or before end (s; the first if none is)."""
+        before = self.time[self.time <= end]
+        return float(before[-1]) if before.size else float(self.time[0])
+
 
 def relative_poses(position, quaternion, position_ref, quaternion_ref) -> tuple:
     """
@@ -92,9 +102,9 @@ def relative_poses(position, quaternion, position_ref, quaternion_ref) -> tuple:
     return moved, Rotation.from_quat(attitude)
 
 
-def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
+def read_measured(path: str, spec: Flight, start_ns: Optional[int] = None) -> Measured:
     """
-    Read the fit's measured poses.
+    Read one flight's measured poses (path: the fit file, for messages).
 
     start_ns: the stamp of simulated time 0 (the replayed inputs' start, so
     that measured poses and inputs share one clock); by default the measured
@@ -104,21 +114,22 @@ def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
     ------
     FitError
         If the file cannot be read, lacks the topic or columns, names another
-        frame, or holds fewer than two samples.
+        frame, holds a value that is not finite (or a position beyond 1000 km,
+        a quaternion of length 0), or fewer than two samples.
 
     """
     try:
         if spec.measured_file.lower().endswith('.csv'):
-            measured = _from_csv(spec)
+            measured = _from_csv(path, spec)
         elif schema.POSE.pattern.match(spec.topic):
-            measured = _from_recording(spec)
+            measured = _from_recording(path, spec)
         else:
-            measured = _from_topic(spec, start_ns)
+            measured = _from_topic(path, spec, start_ns)
     except RecordingError as err:
-        raise FitError(spec.path, 'measured.file', str(err), 'a readable MCAP recording') \
+        raise FitError(path, f'{spec.key}.file', str(err), 'a readable MCAP recording') \
             from err
     if len(measured.time) < 2:
-        raise FitError(spec.path, 'measured', f'{spec.measured_file} holds '
+        raise FitError(path, spec.key, f'{spec.measured_file} holds '
                        f'{len(measured.time)} pose(s) of {spec.body}', 'a trajectory: '
                        'poses at two times or more')
     order = np.argsort(measured.time, kind='stable')
@@ -126,41 +137,44 @@ def read_measured(spec: FitSpec, start_ns: Optional[int] = None) -> Measured:
                     measured.attitude[order], measured.releases)
 
 
-def _from_csv(spec: FitSpec) -> Measured:
+def _from_csv(path: str, spec: Flight) -> Measured:
     import pandas as pd
     try:
         table = pd.read_csv(spec.measured_file, encoding='utf-8-sig')
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise FitError(spec.path, 'measured.file', f'{spec.measured_file} cannot be read '
+        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} cannot be read '
                        f'as CSV ({err})', 'a CSV written by cfem-sim export') from err
     names = ['time'] + [f'{spec.body}_{q}' for q in CSV_QUANTITIES]
     missing = [n for n in names if n not in table.columns]
     if missing:
-        raise FitError(spec.path, 'measured.file', f'{spec.measured_file} has no column '
+        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} has no column '
                        + ', '.join(missing), 'the columns of cfem-sim export --relative-to '
                        f'{spec.relative_to} (time, {spec.body}_x, ..., {spec.body}_yaw_deg)')
     try:
         values = table[names].to_numpy(dtype=float)
     except ValueError as err:
-        raise FitError(spec.path, 'measured.file', f'{spec.measured_file}: a column is not '
+        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file}: a column is not '
                        f'numeric ({err})', 'numbers') from err
-    values = values[np.all(np.isfinite(values), axis=1)]
+    _refuse_rows(path, spec, values[:, 0], values[:, 1:4], values[:, 4:7], rows=2,
+                 what='line')
     yaw_pitch_roll = values[:, [6, 5, 4]]
     return Measured(values[:, 0], values[:, 1:4],
                     Rotation.from_euler('ZYX', yaw_pitch_roll, degrees=True))
 
 
-def _from_recording(spec: FitSpec) -> Measured:
+def _from_recording(path: str, spec: Flight) -> Measured:
     pose = schema.POSE.pattern.match(spec.topic)
     run = open_run(spec.measured_file, namespace=pose['ns'])
     name = pose['body']
     if name != spec.body:
-        raise FitError(spec.path, 'measured.topic', f'is the pose of {name}',
+        raise FitError(path, f'{spec.key}.topic', f'is the pose of {name}',
                        f'the pose topic of the measured body {spec.body}')
     releases = {}
     for t, joint, _ in run.releases():
         releases.setdefault(joint, float(t))
     track = run.bodies[name]
+    _refuse_rows(path, spec, track.time, track.position, quaternions=track.quaternion,
+                 what='sample')
     if spec.relative_to not in run.bodies:   # the world frame
         return Measured(track.time, track.position, Rotation.from_quat(track.quaternion),
                         releases)
@@ -173,19 +187,19 @@ def _from_recording(spec: FitSpec) -> Measured:
     return Measured(track.time[mine], position, attitude, releases)
 
 
-def _from_topic(spec: FitSpec, start_ns: Optional[int]) -> Measured:
+def _from_topic(path: str, spec: Flight, start_ns: Optional[int]) -> Measured:
     stamps, positions, quaternions, frames = [], [], [], set()
     with open_mcap(spec.measured_file) as reader:
         summary = reader.get_summary()
         topics = {c.topic: summary.schemas[c.schema_id].name
                   for c in summary.channels.values()} if summary else {}
         if spec.topic not in topics:
-            raise FitError(spec.path, 'measured.topic', f'{spec.topic} is not in '
+            raise FitError(path, f'{spec.key}.topic', f'{spec.topic} is not in '
                            f'{spec.measured_file}',
                            'one of its PoseStamped topics: ' + ', '.join(
                                t for t, s in sorted(topics.items()) if s == POSE_SCHEMA))
         if topics[spec.topic] != POSE_SCHEMA:
-            raise FitError(spec.path, 'measured.topic', f'{spec.topic} carries '
+            raise FitError(path, f'{spec.key}.topic', f'{spec.topic} carries '
                            f'{topics[spec.topic]}', POSE_SCHEMA)
         start = start_stamp_ns(reader) if start_ns is None else start_ns
         for _, _, decoded in decoded_messages(reader, spec.measured_file, topics=[spec.topic]):
@@ -196,13 +210,52 @@ def _from_topic(spec: FitSpec, start_ns: Optional[int]) -> Measured:
             quaternions.append([q.x, q.y, q.z, q.w])
             frames.add(decoded.header.frame_id)
     if frames - {spec.relative_to, ''}:
-        raise FitError(spec.path, 'measured.relative_to', f'is {spec.relative_to}, but '
+        raise FitError(path, f'{spec.key}.relative_to', f'is {spec.relative_to}, but '
                        f'{spec.topic} is in frame ' + ', '.join(sorted(frames)),
                        'the frame_id of the measured poses')
     if not stamps:
-        raise FitError(spec.path, 'measured.topic', f'{spec.topic} holds no message',
+        raise FitError(path, f'{spec.key}.topic', f'{spec.topic} holds no message',
                        f'the measured poses of {spec.body}')
     stamps = np.array(stamps, dtype=np.int64)
     start = int(stamps.min()) if start is None else start
-    return Measured((stamps - start) / 1e9, np.array(positions, dtype=float),
-                    Rotation.from_quat(np.array(quaternions, dtype=float)))
+    positions, quaternions = np.array(positions, dtype=float), np.array(quaternions, float)
+    _refuse_rows(path, spec, stamps.astype(float), positions, quaternions=quaternions,
+                 rows=1, what='message')
+    return Measured((stamps - start) / 1e9, positions, Rotation.from_quat(quaternions))
+
+
+def _refuse_rows(path: str, spec: Flight, time, position, angles=None, quaternions=None,
+                 rows: int = 1, what: str = 'row'):
+    """
+    Refuse a measured sample that is not finite or cannot be a pose, naming its row.
+
+    rows: the number of the first sample (a CSV's first data line is 2, a
+    topic's first message 1).
+    """
+    problems = []
+    with np.errstate(invalid='ignore', over='ignore'):
+        problems.append((~np.isfinite(time), 'a time that is not finite'))
+        problems.append((~np.all(np.isfinite(position), axis=1), 'a position that is not '
+                         'finite'))
+        problems.append((np.any(np.abs(position) > LARGEST_POSITION, axis=1),
+                         f'a position beyond {LARGEST_POSITION:g} m of {spec.relative_to}'))
+        if angles is not None:
+            problems.append((~np.all(np.isfinite(angles), axis=1), 'an angle that is not '
+                             'finite'))
+            problems.append((np.any(np.abs(angles) > LARGEST_ANGLE_DEG, axis=1),
+                             f'an angle beyond {LARGEST_ANGLE_DEG:g} deg'))
+        if quaternions is not None:
+            norm = np.linalg.norm(quaternions, axis=1)
+            problems.append((~np.isfinite(norm), 'a quaternion that is not finite'))
+            problems.append((norm < 1e-6, 'a quaternion of length 0 (no attitude)'))
+    for bad, problem in problems:
+        if bad.any():
+            first = int(np.flatnonzero(bad)[0])
+            more = f' (and {int(bad.sum()) - 1} more)' if bad.sum() > 1 else ''
+            values = np.concatenate([np.atleast_1d(position[first]),
+                                     np.atleast_1d((angles if angles is not None
+                                                    else quaternions)[first])])
+            raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} {what} '
+                           f'{first + rows}{more} holds {problem} '
+                           f'({", ".join(f"{v:.6g}" for v in values)})',
+                           'finite measured poses (drop the sample, or repair it)')

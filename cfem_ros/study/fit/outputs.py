@@ -3,12 +3,19 @@
 """
 What a fit leaves in its folder (SPEC section 13), and the sentence it ends with.
 
-``fit.json`` (values, standard errors, correlations, residual RMS, runs,
-status), ``fitted.yaml`` (the scenario with the fitted values; file names
-in it rewritten relative to the folder so that it runs from there),
-``fitted.mcap`` (its run, with the measured inputs replayed) and the
-figures ``fit_trajectory.png`` and ``fit_residuals.png``. Each file is
-written to a temporary name and moved into place.
+``fit.json`` (values, standard errors plain and scaled, correlations,
+residual RMS overall and per flight, the reduced chi-square, runs,
+status), ``fitted.yaml`` (the fit's scenario with the fitted values, the
+undetermined at their start; file names in it rewritten relative to the
+folder so that it runs from there), ``fitted.mcap`` (the first flight's
+run at the fitted values, its inputs replayed) and per flight the figures
+``fit_trajectory.png`` and ``fit_residuals.png`` (``_K`` appended,
+K = 0, 1, ... of ``measured[K]``, when there are several flights).
+
+The folder is checked before the fit starts (``folder_problem``); the
+outputs are written into a hidden folder inside it and moved into place by
+renames, with SIGINT and SIGTERM held during the renames: an interrupted
+write leaves the folder as it was.
 """
 
 from __future__ import annotations
@@ -16,17 +23,59 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
+import signal
+import stat
+import tempfile
 
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.fit.solve import Fit, FitResult
 import yaml
 
-#: The files a fit writes into its folder.
-OUTPUTS = ('fit.json', 'fitted.yaml', 'fitted.mcap', 'fit_trajectory.png', 'fit_residuals.png')
+#: Free space a fit's folder needs before the fit starts (its outputs are a few MB).
+FREE_BYTES = 16 * 1024 * 1024
 
 
-def _replace(tmp: str, path: str):
-    os.replace(tmp, path)
+def output_names(flights: int) -> tuple:
+    """Return the files a fit of so many flights writes into its folder."""
+    figures = (('fit_trajectory.png', 'fit_residuals.png') if flights == 1 else
+               tuple(f'fit_{what}_{k}.png' for k in range(flights)
+                     for what in ('trajectory', 'residuals')))
+    return ('fit.json', 'fitted.yaml', 'fitted.mcap') + figures
+
+
+def folder_problem(outdir: str, names, overwrite: bool) -> str:
+    """Return why outdir cannot take a fit's outputs ('' if it can), before any run."""
+    try:
+        mode = os.stat(outdir).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as err:
+        return f'-o {outdir}: cannot be examined ({err.strerror})'
+    if mode is not None and not stat.S_ISDIR(mode):
+        return f'-o {outdir}: is not a folder; expected a folder (new or existing)'
+    held = [n for n in names if os.path.lexists(os.path.join(outdir, n))]
+    if held and not overwrite:
+        return (f'-o {outdir}: already holds {", ".join(held)}; pass --overwrite to replace '
+                'them, or choose a new folder')
+    folder = os.path.abspath(outdir)
+    while not os.path.exists(folder):
+        folder = os.path.dirname(folder)
+    if not os.path.isdir(folder):
+        return f'-o {outdir}: {folder} is not a folder; expected a path in a folder'
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f'-o {outdir}: {folder} cannot be written (read-only or not yours)'
+    try:
+        probe = tempfile.TemporaryFile(dir=folder)
+        probe.close()
+        room = os.statvfs(folder)
+    except OSError as err:
+        return f'-o {outdir}: {folder} cannot be written ({err.strerror})'
+    free = room.f_bavail * room.f_frsize
+    if free < FREE_BYTES:
+        return (f'-o {outdir}: {folder} has {free / 1e6:.3g} MB free; the outputs need '
+                f'{FREE_BYTES / 1e6:.3g} MB')
+    return ''
 
 
 def _number(value: float):
@@ -34,43 +83,70 @@ def _number(value: float):
     return None if not math.isfinite(value) else float(value)
 
 
+def _window(window) -> dict:
+    start, end, release = window
+    return {'from': start, 'to': end, 'release': _number(release)
+            if release is not None else None}
+
+
+def _flight_json(flight, summary: dict) -> dict:
+    return {'file': os.path.abspath(flight.measured_file), 'topic': flight.topic,
+            'body': flight.body, 'relative_to': flight.relative_to,
+            'scenario': os.path.abspath(flight.scenario), 'set': flight.settings,
+            'sigma': {'position': flight.sigma_position,
+                      'attitude_deg': flight.sigma_attitude_deg},
+            'window': _window(summary['window']), 'samples': summary['samples'],
+            'residual_rms': {k: float(v) for k, v in summary['residual_rms'].items()},
+            'chi2': summary['chi2']}
+
+
 def fit_json(fit: Fit, result: FitResult) -> dict:
     """Return the content of ``fit.json``."""
-    spec = fit.spec
+    spec, u = fit.spec, result.uncertainty
     parameters = {}
     for j, p in enumerate(spec.parameters):
         parameters[p.path] = {'value': float(result.values[j]),
-                              'standard_error': _number(result.standard_errors[j]),
+                              'standard_error': _number(u.standard_errors[j]),
+                              'standard_error_scaled': _number(u.standard_errors_scaled[j]),
                               'start': p.start, 'bounds': [p.low, p.high], 'step': p.step,
-                              'determined': bool(result.determined[j]), 'name': p.name,
+                              'determined': bool(u.determined[j]), 'name': p.name,
                               'unit': p.unit}
-    start, end, release = result.window
-    return {'parameters': parameters,
-            'correlation': [[_number(c) for c in row] for row in result.correlation],
-            'residual_rms': {k: float(v) for k, v in result.residual_rms.items()},
-            'runs': result.runs, 'evaluations': result.evaluations, 'status': result.status,
-            'problems': result.problems, 'optimizer': result.message,
-            'reduced_chi_square': _number(result.reduced_chi_square),
-            'samples': int(len(fit.data.time)),
-            'window': {'from': start, 'to': end, 'release': _number(release)
-                       if release is not None else None},
-            'measured': {'file': os.path.abspath(spec.measured_file), 'topic': spec.topic,
-                         'body': spec.body, 'relative_to': spec.relative_to,
-                         'sigma': {'position': spec.sigma_position,
-                                   'attitude_deg': spec.sigma_attitude_deg}},
-            'scenario': os.path.abspath(spec.scenario)}
+        if result.intervals is not None:
+            low, high = result.intervals[j]
+            parameters[p.path]['interval'] = [_number(low), _number(high)]
+    flights = [_flight_json(f, s) for f, s in zip(spec.flights, result.flights)]
+    out = {'parameters': parameters,
+           'correlation': [[_number(c) for c in row] for row in u.correlation],
+           'covariance_scaled': [[_number(c * _chi2_scale(u.reduced_chi2)) for c in row]
+                                 for row in u.covariance],
+           'reduced_chi2': _number(u.reduced_chi2), 'chi2': u.chi2,
+           'degrees_of_freedom': u.dof,
+           'residual_rms': {k: float(v) for k, v in result.residual_rms.items()},
+           'runs': result.runs, 'evaluations': result.evaluations, 'status': result.status,
+           'problems': result.problems, 'optimizer': result.message,
+           'samples': sum(f['samples'] for f in flights),
+           'window': flights[0]['window'], 'flights': flights,
+           'measured': {k: flights[0][k]
+                        for k in ('file', 'topic', 'body', 'relative_to', 'sigma')},
+           'scenario': os.path.abspath(spec.scenario)}
+    if result.intervals is not None:
+        out['confidence'] = spec.confidence
+    return out
 
 
-def fitted_document(fit: Fit, values, outdir: str) -> dict:
+def _chi2_scale(reduced: float) -> float:
+    return max(1.0, reduced) if math.isfinite(reduced) else 1.0
+
+
+def fitted_document(document: dict, scenario: str, outdir: str) -> dict:
     """
-    Return the scenario with the fitted values, its file names relative to outdir.
+    Return a scenario document with its file names relative to outdir.
 
     A string value that names an existing file relative to the scenario's
     folder (a motion table, a mesh, an aero table) is rewritten relative to
     outdir, so that ``fitted.yaml`` runs where it is written.
     """
-    document = fit.spec.document_with(values)
-    folder = os.path.dirname(os.path.abspath(fit.spec.scenario))
+    folder = os.path.dirname(os.path.abspath(scenario))
 
     def moved(node):
         if isinstance(node, dict):
@@ -85,29 +161,43 @@ def fitted_document(fit: Fit, values, outdir: str) -> dict:
     return moved(document)
 
 
-def write_outputs(fit: Fit, result: FitResult, outdir: str, inputs=(),
-                  interpolate_odometry: bool = True) -> dict:
-    """Write every output into outdir; return {what: path}."""
+def write_outputs(fit: Fit, result: FitResult, outdir: str) -> dict:
+    """Write every output into outdir (by renames from a hidden folder); return the paths."""
+    spec = fit.spec
+    names = output_names(len(spec.flights))
     os.makedirs(outdir, exist_ok=True)
-    paths = {name: os.path.join(outdir, name) for name in OUTPUTS}
-    tmp = f'.tmp-{os.getpid()}'
-    with open(paths['fit.json'] + tmp, 'w', encoding='utf-8') as stream:
-        json.dump(fit_json(fit, result), stream, indent=1)
-    _replace(paths['fit.json'] + tmp, paths['fit.json'])
-    document = fitted_document(fit, result.values, outdir)
-    with open(paths['fitted.yaml'] + tmp, 'w', encoding='utf-8') as stream:
-        stream.write(f'# {fit.spec.scenario} with the parameters fitted by cfem-sim fit '
-                     f'({fit.spec.path}); see fit.json\n')
-        yaml.safe_dump(document, stream, sort_keys=False, default_flow_style=None)
-    _replace(paths['fitted.yaml'] + tmp, paths['fitted.yaml'])
-    _record(paths['fitted.yaml'], document, paths['fitted.mcap'], inputs, interpolate_odometry)
-    from cfem_ros.study.fit.figures import draw
-    draw(fit, result, paths['fit_trajectory.png'], paths['fit_residuals.png'])
-    return paths
+    staging = tempfile.mkdtemp(prefix='.cfem-fit-', dir=outdir)
+    try:
+        local = {name: os.path.join(staging, name) for name in names}
+        with open(local['fit.json'], 'w', encoding='utf-8') as stream:
+            json.dump(fit_json(fit, result), stream, indent=1, allow_nan=False)
+        document = fitted_document(spec.document_with(result.values), spec.scenario, outdir)
+        with open(local['fitted.yaml'], 'w', encoding='utf-8') as stream:
+            stream.write(f'# {spec.scenario} with the parameters fitted by cfem-sim fit '
+                         f'({spec.path}); see fit.json\n')
+            yaml.safe_dump(document, stream, sort_keys=False, default_flow_style=None)
+        first = fit.flights[0]
+        run = first.flight.document_with(spec.parameters, result.values)
+        _record(first.flight.scenario, run, local['fitted.mcap'], first.trajectories.inputs,
+                first.trajectories.interpolate)
+        from cfem_ros.study.fit.figures import draw
+        figures = names[3:]
+        for k, flight in enumerate(fit.flights):
+            draw(flight, result.values, local[figures[2 * k]], local[figures[2 * k + 1]])
+        paths = {name: os.path.join(outdir, name) for name in names}
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            for name in names:
+                os.replace(local[name], paths[name])
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        return paths
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _record(scenario: str, document: dict, output: str, inputs, interpolate_odometry: bool):
-    """Run the fitted scenario for its duration and record it, as ``cfem-sim run`` does."""
+    """Run a fitted scenario for its duration and record it, as ``cfem-sim run`` does."""
     from cfem_ros.core.engine.simulator import Simulator
     from cfem_ros.recording import offline
     from cfem_ros.recording.container import Recorder
@@ -120,41 +210,3 @@ def _record(scenario: str, document: dict, output: str, inputs, interpolate_odom
         offline.run(sim, StateRecorder(recorder, sim), rate_hz=rate, duration=model.duration,
                     inputs=[i for i in inputs if i.time <= model.duration],
                     interpolate_odometry=interpolate_odometry)
-
-
-def estimate_text(value: float, error: float, unit: str = '') -> str:
-    """
-    Return 'value ± error unit', the value rounded where its standard error says.
-
-    Two significant digits of the error; the value to the same decimal; an
-    undetermined error (NaN) prints 'not determined'.
-    """
-    suffix = f' {unit}' if unit else ''
-    if not math.isfinite(error):
-        return f'{value:.6g}{suffix} (not determined)'
-    if error == 0:
-        return f'{value:.9g} ± 0{suffix}'
-    decimals = 1 - int(math.floor(math.log10(abs(error))))
-    if decimals > 0:
-        return f'{value:.{decimals}f} ± {error:.{decimals}f}{suffix}'
-    step = 10.0 ** (-decimals)
-    return f'{round(value / step) * step:.0f} ± {round(error / step) * step:.0f}{suffix}'
-
-
-def sentence(fit: Fit, result: FitResult) -> str:
-    """Return what the fit found, and how well, in one sentence."""
-    parts = [f'{p.name} {estimate_text(result.values[j], result.standard_errors[j], p.unit)}'
-             for j, p in enumerate(fit.spec.parameters)]
-    n = len(parts)
-    for i in range(n):
-        for k in range(i + 1, n):
-            c = result.correlation[i, k]
-            if math.isfinite(c) and abs(c) >= 0.3:
-                parts.append(f'correlation {fit.spec.parameters[i].name} / '
-                             f'{fit.spec.parameters[k].name} {c:+.2f}')
-    rms = result.residual_rms
-    parts.append(f'residual {rms["position"] * 1000:.3g} mm, {rms["attitude_deg"]:.3g} deg')
-    text = ', '.join(parts) + f' ({result.status}, {result.runs} runs)'
-    if result.problems:
-        text += '\n' + '\n'.join(f'note: {p}' for p in result.problems)
-    return text

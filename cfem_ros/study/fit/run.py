@@ -1,26 +1,38 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""One fit from its file to its folder: what ``cfem-sim fit`` does."""
+"""One fit from its file to its result: what ``cfem-sim fit`` does before it writes."""
 
 from __future__ import annotations
 
 from typing import Callable, Optional
 
 from cfem_ros.study.fit.measured import read_measured
-from cfem_ros.study.fit.outputs import sentence, write_outputs
-from cfem_ros.study.fit.solve import Fit, FitResult
-from cfem_ros.study.fit.spec import load_fit
+from cfem_ros.study.fit.solve import Fit, FitResult, Observed
+from cfem_ros.study.fit.spec import FitSpec, load_fit
 
 
-def fit_file(path: str, outdir: str, threads: Optional[int] = None,
+def observed_flights(spec: FitSpec) -> list:
+    """Return each flight's measured poses and the inputs its runs replay."""
+    out = []
+    for flight in spec.flights:
+        inputs, interpolate, start_ns = [], flight.odometry != 'extrapolate', None
+        if flight.inputs:
+            from cfem_ros.recording.replay import read_inputs_and_start, recorded_interpolation
+            inputs, start_ns = read_inputs_and_start(flight.inputs)
+            if flight.odometry is None:
+                interpolate = recorded_interpolation(flight.inputs) is not False
+        out.append(Observed(read_measured(spec.path, flight, start_ns), inputs, interpolate))
+    return out
+
+
+def fit_file(path: str, threads: Optional[int] = None, profile: bool = False,
              log: Optional[Callable[[str], None]] = None) -> tuple:
     """
-    Fit the parameters of a fit file and write its outputs into outdir.
+    Fit the parameters of a fit file (with ``--profile``'s intervals if asked).
 
     Returns
     -------
-    (Fit, FitResult, str)
-        The fit, what it found, and the sentence that says it.
+    (Fit, FitResult)
 
     Raises
     ------
@@ -30,14 +42,9 @@ def fit_file(path: str, outdir: str, threads: Optional[int] = None,
 
     """
     spec = load_fit(path)
-    inputs, interpolate, start_ns = [], spec.odometry != 'extrapolate', None
-    if spec.inputs:
-        from cfem_ros.recording.replay import read_inputs_and_start, recorded_interpolation
-        inputs, start_ns = read_inputs_and_start(spec.inputs)
-        if spec.odometry is None:
-            interpolate = recorded_interpolation(spec.inputs) is not False
-    measured = read_measured(spec, start_ns)
-    fit = Fit(spec, measured, inputs, interpolate, threads=threads, log=log)
+    fit = Fit(spec, observed_flights(spec), threads=threads, log=log)
     result: FitResult = fit.solve()
-    write_outputs(fit, result, outdir, inputs, interpolate)
-    return fit, result, sentence(fit, result)
+    if profile:
+        from cfem_ros.study.fit.likelihood import profile_intervals
+        result.intervals = profile_intervals(fit, result)
+    return fit, result

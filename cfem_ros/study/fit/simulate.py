@@ -21,8 +21,9 @@ import threading
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.run.session import Session
 from cfem_ros.core.scenario.parse import parse_scenario
+from cfem_ros.study.fit.flights import FitError, Flight
 from cfem_ros.study.fit.measured import relative_poses
-from cfem_ros.study.fit.spec import FitError, FitSpec
+from cfem_ros.study.fit.spec import FitSpec
 from cfem_ros.study.metrics import Collector
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -49,11 +50,13 @@ class Trajectory:
 
 class Trajectories:
     """
-    Run a fit's scenario at parameter values.
+    Run one flight's scenario at parameter values.
 
     Parameters
     ----------
     spec : FitSpec
+    flight : Flight
+        The flight whose scenario (with its ``set:``) runs, and whose body is read.
     inputs : list of Input
         Replayed in every run (``recording.replay.read_inputs``).
     interpolate_odometry : bool
@@ -63,9 +66,10 @@ class Trajectories:
 
     """
 
-    def __init__(self, spec: FitSpec, inputs=(), interpolate_odometry: bool = True,
-                 duration: float = 0.0):
+    def __init__(self, spec: FitSpec, flight: Flight, inputs=(),
+                 interpolate_odometry: bool = True, duration: float = 0.0):
         self.spec = spec
+        self.flight = flight
         self.inputs = list(inputs)
         self.interpolate = interpolate_odometry
         self.duration = duration
@@ -83,13 +87,15 @@ class Trajectories:
             stops before its end (a contact).
 
         """
-        spec = self.spec
+        spec, flight = self.spec, self.flight
         with self._lock:
             self.runs += 1
         shown = ', '.join(f'{p.path} = {v:.9g}' for p, v in zip(spec.parameters, values))
+        if len(spec.flights) > 1:
+            shown += f' ({flight.key})'
         try:
-            model = parse_scenario(spec.document_with(values), source=spec.scenario,
-                                   duration=self.duration or None)
+            model = parse_scenario(flight.document_with(spec.parameters, values),
+                                   source=flight.scenario, duration=self.duration or None)
         except FitError:
             raise
         except Exception as err:   # noqa: B902 (the scenario's own refusal, with the values)
@@ -108,9 +114,9 @@ class Trajectories:
             raise FitError(spec.path, 'parameters', f'the run with {shown} failed '
                            f'{sim.message}', 'bounds within which the scenario runs')
         samples = collector.samples()
-        times, position, quaternion = samples.bodies[spec.body]
-        if spec.relative_to in samples.bodies:
-            _, position_ref, quaternion_ref = samples.bodies[spec.relative_to]
+        times, position, quaternion = samples.bodies[flight.body]
+        if flight.relative_to in samples.bodies:
+            _, position_ref, quaternion_ref = samples.bodies[flight.relative_to]
             relative, attitude = relative_poses(position, quaternion, position_ref,
                                                 quaternion_ref)
         else:   # the world frame

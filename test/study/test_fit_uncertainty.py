@@ -1,0 +1,148 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Honest uncertainty of ``cfem-sim fit`` (SPEC section 13) on synthetic flights of known truth.
+
+The reduced chi-square scales the standard errors exactly (a fit whose
+sigmas are stated 3 times too small reports, scaled, the errors of the
+fit that states them right); parameters the data cannot tell apart are
+named together and keep their start values; the profile-likelihood
+intervals cover the truth at their stated rate over 20 noise seeds.
+"""
+
+import copy
+import json
+import math
+
+from cfem_ros import cli
+import fitflights as ff
+from cfem_ros.study.fit.likelihood import profile_intervals
+from cfem_ros.study.fit.measured import Measured
+from cfem_ros.study.fit.solve import Fit
+from cfem_ros.study.fit.spec import load_fit
+import numpy as np
+import pytest
+from scipy.stats import binom, chi2
+import yaml
+
+
+@pytest.fixture(scope='module')
+def flight(tmp_path_factory):
+    """Record the ejection at the true forces; return (folder, scenario, poses)."""
+    folder = tmp_path_factory.mktemp('flight')
+    poses = ff.truth(folder, 'truth')
+    return folder, ff.write(folder / 'scenario.yaml', ff.EJECTED), poses
+
+
+def _fit(tmp_path, name, scenario, measured, parameters, *options, sigma=1.0):
+    entry = ff.measured_entry(measured)
+    entry['sigma'] = {'position': sigma * ff.SIGMA_POSITION,
+                      'attitude_deg': sigma * ff.SIGMA_ATTITUDE}
+    path = ff.fit_file(tmp_path, scenario, entry, parameters, name=f'{name}.yaml')
+    out = tmp_path / name
+    assert cli.main(['fit', path, '-o', str(out), '--threads', '2', *options]) == 0
+    return json.loads((out / 'fit.json').read_text()), out
+
+
+def test_the_reduced_chi_square_scales_the_errors_exactly(flight, tmp_path, capsys):
+    # the noise is 3 times the sigma the first fit states; the second states it right
+    _, scenario, poses = flight
+    measured = ff.csv(tmp_path / 'measured.csv', *ff.noisy(poses, 5, factor=3.0))
+    small, _ = _fit(tmp_path, 'small', scenario, measured, ff.FORCES)
+    said = capsys.readouterr()
+    right, _ = _fit(tmp_path, 'right', scenario, measured, ff.FORCES, sigma=3.0)
+    said_right = capsys.readouterr()
+    # chi-square over its degrees of freedom, 6 residuals per pose less 2 parameters
+    assert small['degrees_of_freedom'] == 6 * small['samples'] - 2
+    assert small['reduced_chi2'] == pytest.approx(small['chi2'] / small['degrees_of_freedom'],
+                                                  rel=1e-12)
+    # the noise is 9 times the stated variance: within 5 standard deviations of chi2/dof
+    spread = 9 * math.sqrt(2 / small['degrees_of_freedom'])
+    assert abs(small['reduced_chi2'] - 9) < 5 * spread
+    for key in ff.FORCES:
+        low, good = small['parameters'][key], right['parameters'][key]
+        scale = math.sqrt(max(1.0, small['reduced_chi2']))
+        assert low['standard_error_scaled'] == pytest.approx(low['standard_error'] * scale,
+                                                             rel=1e-12)
+        # the same estimate; its scaled error is the error of the fit stated right
+        assert low['value'] == pytest.approx(good['value'], abs=0.01 * good['standard_error'])
+        assert low['standard_error'] * 3 == pytest.approx(good['standard_error'], rel=1e-3)
+        # SE / 3 * sqrt(9 chi2 / dof) of the fit stated right: its error times its own
+        # sqrt(chi2 / dof), exactly (that one is near 1, and not scaled itself)
+        assert low['standard_error_scaled'] == pytest.approx(
+            good['standard_error'] * math.sqrt(right['reduced_chi2']), rel=1e-3)
+        assert good['standard_error_scaled'] == good['standard_error'] * math.sqrt(
+            max(1.0, right['reduced_chi2']))
+        # the printed error is the scaled one
+        printed = f"{low['standard_error_scaled']:.0f}"
+        assert f'± {printed[:2]}' in said.out, said.out
+    assert 'WARNING: reduced chi-square' in said.err and '> 2' in said.err
+    assert 'reduced chi-square' not in said_right.err   # about 1: no warning
+    assert right['reduced_chi2'] == pytest.approx(1.0, abs=5 * math.sqrt(
+        2 / right['degrees_of_freedom']))
+
+
+def test_interchangeable_parameters_are_named_together_and_keep_their_start(
+        flight, tmp_path, capsys):
+    # a second aft ejector at the same point: only the sum of the two acts on the store;
+    # a late push acts after the window: the poses there do not change with it at all
+    folder, _, poses = flight
+    scenario = copy.deepcopy(ff.EJECTED)
+    scenario['wrenches'].append(dict(scenario['wrenches'][1], name='aft_twin',
+                                     force=[0, 0, 0.0]))
+    scenario['wrenches'].append({'name': 'late_push', 'body': 'store',
+                                 'force': [0, 0, 100.0], 'start': 0.15})
+    path = ff.write(tmp_path / 'twin.yaml', scenario)
+    measured = ff.csv(tmp_path / 'measured.csv', *ff.noisy(poses, 2))
+    parameters = dict(ff.FORCES)
+    parameters['wrenches[2].force[2]'] = {'start': 1000, 'bounds': [-20000, 20000],
+                                          'name': 'aft twin', 'unit': 'N'}
+    parameters['wrenches[3].force[2]'] = {'start': 100, 'bounds': [0, 1000],
+                                          'name': 'late push', 'unit': 'N'}
+    fit = ff.fit_file(tmp_path, path, ff.measured_entry(measured, {'from': 0, 'to': 0.12}),
+                      parameters)
+    out = tmp_path / 'out'
+    assert cli.main(['fit', fit, '-o', str(out), '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    found = json.loads((out / 'fit.json').read_text())
+    named = [p for p in found['problems'] if 'interchangeable' in p]
+    assert len(named) == 1, found['problems']
+    assert named[0].startswith('aft ejector force and aft twin are interchangeable here: '
+                               'correlation -1.0000')
+    assert 'fix one' in named[0] and 'do not change with it' not in named[0]
+    late = [p for p in found['problems'] if p.startswith('late push')]
+    assert len(late) == 1 and 'do not change with it' in late[0]
+    fitted = yaml.safe_load((out / 'fitted.yaml').read_text())
+    for key, index, start in (('wrenches[1].force[2]', 1, 38000.0),
+                              ('wrenches[2].force[2]', 2, 1000.0),
+                              ('wrenches[3].force[2]', 3, 100.0)):
+        entry = found['parameters'][key]
+        assert entry['determined'] is False and entry['standard_error'] is None
+        assert entry['value'] == start and fitted['wrenches'][index]['force'][2] == start
+    forward = found['parameters']['wrenches[0].force[2]']
+    assert forward['determined'] is True and forward['standard_error'] > 0
+    assert 'aft twin 1000 N (not determined)' in said
+
+
+def test_profile_intervals_cover_the_truth_at_their_rate_over_20_seeds(flight, tmp_path):
+    _, scenario, poses = flight
+    measured = ff.csv(tmp_path / 'measured.csv', *poses)
+    spec = load_fit(ff.fit_file(tmp_path, scenario, ff.measured_entry(
+        measured, {'from': 0, 'to': 0.1}), ff.FORCES))
+    assert spec.confidence == 0.95
+    truth = np.array([ff.FORWARD, ff.AFT])
+    covered = np.zeros(2, dtype=int)
+    for seed in range(20):
+        fit = Fit(spec, Measured(*ff.noisy(poses, 300 + seed)), threads=2,
+                  log=lambda line: None)
+        result = fit.solve()
+        intervals = np.array(profile_intervals(fit, result))
+        covered += (intervals[:, 0] <= truth) & (truth <= intervals[:, 1])
+        # nearly linear here: each end near the quadratic one, value -/+ z * scaled error
+        z = math.sqrt(chi2.ppf(0.95, 1))
+        half = z * result.uncertainty.standard_errors_scaled
+        assert np.allclose(intervals[:, 0], result.values - half, rtol=0, atol=0.1 * half)
+        assert np.allclose(intervals[:, 1], result.values + half, rtol=0, atol=0.1 * half)
+    # 95 % of 20: 19 expected; fewer than 16 has a probability of 0.3 % if the rate is right
+    assert binom.cdf(15, 20, 0.95) < 0.003
+    assert np.all(covered >= 16), covered
