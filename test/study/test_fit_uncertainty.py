@@ -15,11 +15,11 @@ import json
 import math
 
 from cfem_ros import cli
-import fitflights as ff
 from cfem_ros.study.fit.likelihood import profile_intervals
 from cfem_ros.study.fit.measured import Measured
 from cfem_ros.study.fit.solve import Fit
 from cfem_ros.study.fit.spec import load_fit
+import fitflights as ff
 import numpy as np
 import pytest
 from scipy.stats import binom, chi2
