@@ -135,6 +135,8 @@ class CfemNode(Stepping, Subscriptions, Node):
         self.sim_time = bool(self.get_parameter('use_sim_time').value)
         self.rate_hz = values['rate_hz']
         self.pace = WallPace(values['real_time_factor'])
+        #: Simulated seconds the run stays behind /clock (use_sim_time).
+        self.input_window = values['input_window'] if self.sim_time else 0.0
         self.scenario_path = values['scenario']
         #: Refused inputs: one warning line per topic and reason per second.
         self._refusals = Throttle(self.get_logger())
@@ -156,10 +158,9 @@ class CfemNode(Stepping, Subscriptions, Node):
         # topics first: a name ROS refuses stops the node before a file is made
         try:
             self._publishers_sink = Publishers(self, self.sim)
-            self._subscribe(model)
+            self._subscribe(model, values['input_queue_depth'])
         except InvalidTopicNameException as err:
             raise StartupError(_topic_name_error(self, model, err)) from None
-        self._subscribe_release()
 
         self.recording = (NodeRecording(self, self.sim, values['record'], values['overwrite'])
                           if values['record'] else None)
@@ -167,6 +168,8 @@ class CfemNode(Stepping, Subscriptions, Node):
         self.odometry_check = OdometryCheck(self.get_logger().warning)
         self.new_session()
         self._clock_limit: Optional[float] = None   # simulated time /clock last gave
+        self._clock_wall = math.inf   # when /clock last moved on (monotonic s)
+        self._clock_still = 0   # the clock watch's looks since then
         self.start_ns: Optional[int] = None
         self._early = []
         self._last_lag_warning = -math.inf
@@ -186,7 +189,8 @@ class CfemNode(Stepping, Subscriptions, Node):
             + (f"; recording to {values['record']}" if values['record'] else ''))
         warm_up(model, self._publishers_sink)
         if self.sim_time:
-            self.get_logger().info('waiting for /clock (use_sim_time is true)')
+            self.get_logger().info(f'waiting for /clock (use_sim_time is true); the simulation '
+                                   f'stays input_window {self.input_window:g} s behind it')
         else:
             self._begin(None)
 
@@ -227,7 +231,8 @@ class CfemNode(Stepping, Subscriptions, Node):
             self._refused = {}
         if getattr(self, 'timing', None) is not None and not self._diagnosed:
             self._diagnosed = True
-            self.get_logger().info(f'diagnostics: late_inputs {self.timing.late_inputs}')
+            self.get_logger().info(f'diagnostics: late_inputs {self.timing.late_inputs}, '
+                                   f'dropped_inputs {self._queues.total}')
         if self.recording is not None:
             recording, self.recording = self.recording, None
             recording.finish()

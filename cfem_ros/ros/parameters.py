@@ -9,7 +9,7 @@ that the node does not have.
 """
 
 from cfem_ros.core.errors import CfemError
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import ParameterException
 
 #: Parameters rclpy itself reads: never reported as unknown.
@@ -24,6 +24,12 @@ def _double(description: str, low: float, high: float, read_only: bool = True):
     return ParameterDescriptor(
         description=description, read_only=read_only,
         floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)])
+
+
+def _integer(description: str, low: int, high: int):
+    return ParameterDescriptor(description=description, read_only=True,
+                               integer_range=[IntegerRange(from_value=low, to_value=high,
+                                                           step=1)])
 
 
 #: name -> (default, descriptor, what a right value is)
@@ -59,6 +65,16 @@ PARAMETERS = {
         'horizon of clock time), so it runs up to one odometry period behind the clock; '
         'false: extrapolated from the latest message, never behind', read_only=True),
         'true or false'),
+    'input_window': (0.05, _double(
+        'with use_sim_time: simulated seconds the simulation stays behind /clock, so that an '
+        'input stamped before a /clock that arrives up to that much later still takes effect '
+        'at its stamp (a replay gives the same run on a loaded machine); when /clock stands '
+        'still (the end of a replay) the simulation goes on to it', 0.0, 10.0),
+        'a double of simulated seconds from 0 to 10, e.g. -p input_window:=0.05'),
+    'input_queue_depth': (1000, _integer(
+        'messages each input topic keeps until the node takes them (a full queue loses the '
+        'oldest: counted as dropped_inputs and warned about)', 1, 1_000_000),
+        'an integer from 1 to 1000000, e.g. -p input_queue_depth:=1000'),
 }
 
 

@@ -31,6 +31,9 @@ import yaml
 
 #: Log time between two /clock messages when no message falls in between, s.
 CLOCK_PERIOD = 0.01
+#: With clock: log time /clock goes on past the last message, s (more than a node's
+#: default input_window, 0.05 s, so that it simulates up to the log's end).
+CLOCK_TAIL = 0.1
 #: Wall-clock seconds the publishers stay after the last message.
 LINGER = 0.5
 #: QoS of /clock, as ``ros2 bag play --clock``.
@@ -283,6 +286,11 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
                 settled = True
                 continue
             publishers[cid].publish(data)
+        if clock_pub is not None:   # a node input_window behind /clock reaches the log's end
+            while last_clock < log_time + int(CLOCK_TAIL * 1e9):
+                last_clock += period
+                _sleep_until(start + (last_clock - first) * 1e-9 / rate)
+                send_clock(last_clock)
         time.sleep(LINGER)   # reliable messages still in flight reach their readers
         return len(messages)
     finally:

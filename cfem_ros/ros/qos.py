@@ -13,9 +13,17 @@ def profile(qos: schema.Qos) -> QoSProfile:
                       else DurabilityPolicy.VOLATILE)
 
 
-#: Outputs and inputs: what ``ros2 topic pub``, ``ros2 topic echo`` and
+#: Outputs: what ``ros2 topic pub``, ``ros2 topic echo`` and
 #: ``ros2 bag play`` use by default (reliable, volatile, keep last 10).
 TOPIC_QOS = profile(schema.OUTPUT_QOS)
+
+
+def input_qos(depth: int) -> QoSProfile:
+    """Return the inputs' profile: reliable, volatile, keep the last depth (SPEC section 3)."""
+    return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+
+
 #: /clock: best effort, as ``ros2 bag play --clock`` and rclpy publish it.
 #: Only the latest /clock is kept (as rclpy's own time source keeps it): the node goes
 #: to the newest time, and a command that arrives with it is timed by it, not by an

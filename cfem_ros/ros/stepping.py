@@ -32,6 +32,8 @@ LAG_WARNING_PERIOD = 5.0
 #: Most simulated seconds one /clock message may move the simulation on (a jump beyond is
 #: ignored with a warning); a jump within it is simulated TICK_BUDGET of wall time at a go.
 MAX_CLOCK_JUMP = 3600.0
+#: Wall seconds /clock stands still before the run goes on to it, past input_window.
+CLOCK_STILL_S = 1.0
 
 
 class Stepping:
@@ -53,6 +55,9 @@ class Stepping:
         self.start_ns = self.timing.start_ns = int(start_ns)
         if self.sim_time:
             self._clock_limit = 0.0
+            self._clock_wall = time.monotonic()
+            self.create_timer(CLOCK_STILL_S / 2, self._watch_clock,
+                              clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._publishers_sink.start_ns = self.start_ns
         if self.recording is not None:
             self.recording.begin(self.start_ns, self.scenario_path, self.rate_hz,
@@ -120,15 +125,41 @@ class Stepping:
                 f't = {self.sim.t:.6g} s); more than {MAX_CLOCK_JUMP:g} s at once is ignored '
                 '(restart the node to follow a clock that far away)')
             return
+        if limit > self._clock_limit:
+            self._clock_wall, self._clock_still = time.monotonic(), 0
         self._clock_limit = limit
         self._catch_up()
 
+    def _clock_target(self) -> float:
+        """
+        Return the simulated time the run may go to: ``input_window`` behind /clock.
+
+        When /clock stands still (the end of a replay: ``CLOCK_STILL_S`` of
+        wall time, seen by two looks of the clock watch with the node's
+        queues taken in between), the run goes on to /clock itself.
+        """
+        if self._clock_still >= 2:
+            return self._clock_limit
+        return self._clock_limit - self.input_window
+
+    def _watch_clock(self):
+        """Count the looks that find /clock still for CLOCK_STILL_S; then run on to it."""
+        if self._clock_limit is None or self.exit_code is not None:
+            return
+        if time.monotonic() - self._clock_wall < CLOCK_STILL_S:
+            self._clock_still = 0
+            return
+        self._clock_still += 1
+        if self._clock_still == 2:
+            self._catch_up()
+
     def _catch_up(self):
         """Run toward /clock's time for TICK_BUDGET of wall time; a timer does the rest."""
-        self._run_to(self._clock_limit, deadline=time.monotonic() + TICK_BUDGET)
+        target = self._clock_target()
+        self._run_to(target, deadline=time.monotonic() + TICK_BUDGET)
         session = self.session
         behind = (self.exit_code is None and not session.finished
-                  and session.next_sample_time <= self.gate.held(self._clock_limit))
+                  and session.next_sample_time <= self.gate.held(target))
         if behind and self._catch_up_timer is None:   # signals and messages come between
             self._catch_up_timer = self.create_timer(
                 0.001, self._catch_up, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -142,6 +173,8 @@ class Stepping:
         if self.control.paused:
             return
         limit = self.gate.held(limit)
+        if limit < 0.0 and not session.started:   # following /clock: t = 0 not yet
+            return
         while (not session.finished and session.next_sample_time <= limit
                and time.monotonic() < deadline):
             session.advance(session.next_sample_time)

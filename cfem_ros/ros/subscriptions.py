@@ -14,51 +14,95 @@ from typing import Optional
 
 from cfem_ros.core.run.inputs import Input, odometry_input, release_input, wrench_input
 from cfem_ros.recording import schema
-from cfem_ros.ros.qos import TOPIC_QOS
+from cfem_ros.ros.qos import input_qos
 from cfem_ros.ros.refusals import bounded
 from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from std_msgs.msg import String
 
 
+class QueueWatch:
+    """
+    Count the input messages a full queue lost, from the publishers' sequence numbers.
+
+    A publisher numbers its messages 1, 2, 3...; a reader whose queue was
+    full when the next came lost the oldest it held: the numbers the node
+    takes then skip. Counted per topic (``dropped``) and warned about
+    (the first time per topic, then counted), never silent. Messages sent
+    before the node saw the publisher are not counted.
+    """
+
+    def __init__(self, depth: int, warn):
+        self.depth, self.warn = depth, warn
+        self.dropped = {}   # topic -> messages lost
+        self._last = {}     # (topic, publisher gid) -> the last sequence number taken
+
+    def took(self, topic: str, info):
+        """Take the MessageInfo of a message the node takes from topic."""
+        number = info.get('publication_sequence_number') if info else None
+        gid = (info.get('publisher_gid') or {}).get('data') if info else None
+        if not number or gid is None:   # an rmw that does not number its messages
+            return
+        last = self._last.get((topic, gid))
+        self._last[(topic, gid)] = max(number, last or 0)
+        if last is None or number <= last + 1:
+            return
+        lost = number - last - 1
+        first = topic not in self.dropped
+        self.dropped[topic] = self.dropped.get(topic, 0) + lost
+        if first:
+            self.warn(f'{topic}: {lost} messages were lost before the node took them: the '
+                      f'input queue (input_queue_depth {self.depth}) was full while the node '
+                      'was busy; raise input_queue_depth, or lower the rate of the inputs. '
+                      'Further losses are counted (dropped_inputs)')
+
+    @property
+    def total(self) -> int:
+        """Return the messages lost on every topic."""
+        return sum(self.dropped.values())
+
+
 class Subscriptions:
     """The input topics and what the node does with their messages (a part of ``CfemNode``)."""
 
-    def _subscribe(self, model):
+    def _subscribe(self, model, depth: int):
         """Subscribe to every body's wrenches (and a kinematic body's odometry)."""
+        self._queues = QueueWatch(depth, self._refusals.warning)
+        qos = input_qos(depth)
         for body in model.bodies:
             self.create_subscription(
                 WrenchStamped, schema.WRENCH_INPUT.relative(body=body.name),
-                lambda msg, name=body.name: self._on_wrench(name, msg), TOPIC_QOS)
+                lambda msg, info, name=body.name: self._on_wrench(name, msg, info), qos)
             if body.motion is not None:   # a kinematic body may follow odometry
                 self.create_subscription(
                     Odometry, schema.ODOMETRY_INPUT.relative(body=body.name),
-                    lambda msg, name=body.name: self._on_odometry(name, msg), TOPIC_QOS)
-
-    def _subscribe_release(self):
+                    lambda msg, info, name=body.name: self._on_odometry(name, msg, info), qos)
         self._release_sub = self.create_subscription(
-            String, schema.RELEASE_INPUT.relative(), self._on_release, TOPIC_QOS)
+            String, schema.RELEASE_INPUT.relative(), self._on_release, qos)
 
-    def _on_wrench(self, body: str, msg: WrenchStamped):
+    def _on_wrench(self, body: str, msg: WrenchStamped, info):
         stamp = msg.header.stamp
         header_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
         f, m = msg.wrench.force, msg.wrench.torque
         topic = self.resolve_topic_name(schema.WRENCH_INPUT.relative(body=body))
+        self._queues.took(topic, info)
         self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
                                          bounded(msg.header.frame_id), header_ns=header_ns))
 
-    def _on_odometry(self, body: str, msg: Odometry):
+    def _on_odometry(self, body: str, msg: Odometry, info):
         self.gate.seen += 1
         stamp = msg.header.stamp
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
         topic = self.resolve_topic_name(schema.ODOMETRY_INPUT.relative(body=body))
+        self._queues.took(topic, info)
         self._submit(topic, odometry_input(
             body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z], [w.x, w.y, w.z],
             bounded(msg.header.frame_id),
             header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec))
 
-    def _on_release(self, msg: String):
+    def _on_release(self, msg: String, info):
+        self._queues.took(self._release_sub.topic_name, info)
         self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())))
 
     def _arrival_time(self) -> Optional[float]:
