@@ -10,18 +10,25 @@ an input: each from its point of action along its force, in the frame of the
 body it acts on (frame-locked, so it rides with the body between sendings),
 coloured by kind. Moments are not drawn (plot them).
 
-Where the point of action is not given (a reaction, an aerodynamic load, a
-brace) the arrow is drawn on the load's line of action, at its point nearest
-the CG (force x moment / |force|^2, the central axis), or at the CG when that
-point lies outside the body.
+Points of action: a scheduled wrench's ``point`` on its body; its reaction
+at the ejector on the carrier (where the point was, in the carrier's axes,
+when the load came on); a sway brace at its pad on each body (the body's
+contact point, fixed on the body, and that point where it is now in the
+carrier's axes: the carrier takes the opposite force at the same point);
+a wrench held by an input at its point. An aerodynamic load has no point: it
+is drawn on its line of action, at its point nearest the CG (force x moment
+/ |force|^2, the central axis), or at the CG when that point lies outside
+the body.
 
-Scale: the largest force of the scene so far (from the start: the scheduled
-wrenches' own sizes) is drawn about the size of the largest body that moves
-under its loads, at 1, 2 or 5 times a power of ten newtons per metre. The
-scale only grows, so that arrows of two times compare; it is stated in each
-arrow's text (``fwd_hook joint: 8.897e+03 N, 1 m = 5e+03 N``), always as
-wide, so that a recording encodes the arrows from one template
-(``markerbytes``).
+Scale: 1, 2 or 5 times a power of ten newtons per metre, the largest force
+drawn about the size of the largest body that moves under its loads. A
+recording draws every arrow at one scale, its largest load's (``ArrowLog``:
+the arrows are kept and written when the recording closes), so that arrows
+of two instants compare; the node, which cannot know the future, publishes
+with the largest force so far (from the start: the scheduled wrenches' own
+sizes). The scale is stated in each arrow's text (``fwd_hook joint:
+8.897e+03 N, 1 m = 5e+03 N``), always as wide, so that a recording encodes
+the arrows from one template (``markerbytes``).
 """
 
 from __future__ import annotations
@@ -80,21 +87,30 @@ def scheduled_largest(model) -> float:
 
 def source_kind(model, body: int, source: str) -> tuple:
     """
-    Return the kind of an applied load and its point (body axes, m, or None: not given).
+    Return the kind of an applied load and where it acts: (kind, place).
 
-    A scheduled wrench acting on its own body is an ejector (with a stroke)
-    or a load, at its ``point``; on its ``reacts_on`` body it is a reaction;
-    ``aero`` is aerodynamic; any other source (a sway brace) is a brace.
+    place: ('point', p) a point fixed on the body (body axes, m); ('anchor',
+    wrench) a reaction, at the wrench's point in this body's axes when it
+    came on; ('contact', brace) a brace's reaction on its carrier, at the
+    pad's contact point where it is now; ('line', None) on the line of
+    action (aero). A scheduled wrench acting on its own body is an ejector
+    (with a stroke) or a load; on its ``reacts_on`` body it is a reaction;
+    ``aero`` is aerodynamic; a sway brace is a brace.
     """
     if source == 'aero':
-        return 'aero', None
+        return 'aero', ('line', None)
     for wrench in model.wrenches:
         if wrench.name == source:
             if wrench.body != body:
-                return 'reaction', None
+                return 'reaction', ('anchor', wrench)
             kind = 'ejector' if wrench.stroke is not None else 'load'
-            return kind, np.asarray(wrench.point, dtype=float)
-    return 'brace', None
+            return kind, ('point', np.asarray(wrench.point, dtype=float))
+    for brace in model.braces:
+        if brace.name == source:
+            if brace.body != body:
+                return 'brace', ('contact', brace)
+            return 'brace', ('point', np.asarray(brace.point, dtype=float))
+    return 'load', ('line', None)
 
 
 class LoadArrows:
@@ -120,19 +136,22 @@ class LoadArrows:
         self.half_extents = [0.5 * visuals.extent(visuals.body_shape(b)) for b in model.bodies]
         self._scale = {'x': SHAFT * self.size, 'y': HEAD * self.size,
                        'z': HEAD_LENGTH * self.size}
-        #: The largest force drawn so far, N: the scale's (it only grows).
+        #: The reactions' points, carrier axes, m, by source index: set when they come on.
+        self.anchors = {}
+        #: The largest force drawn so far, N: the node's scale (it only grows).
         self.largest = scheduled_largest(model)
 
     def arrows(self, row: np.ndarray, active, held: np.ndarray) -> list:
         """
-        Return the arrows of one sample: (ns, id, frame, kind, label, start, force), body axes.
+        Return the arrows of one state: (ns, id, frame, kind, label, start, force), body axes.
 
-        row: the sample's numbers in ``Simulator.outputs`` order, these joints
+        row: the state's numbers in ``Simulator.outputs`` order, these joints
         active; held: ``Simulator.held_wrenches()``.
         """
         model = self.model
         n = len(model.bodies)
-        turns = rotations.matrices(row[:13 * n].reshape(n, 13)[:, 3:7])   # body to world
+        state = row[:13 * n].reshape(n, 13)
+        turns = rotations.matrices(state[:, 3:7])   # body to world
         out = []
         first = 13 * n
         for i, k in enumerate(active):
@@ -140,10 +159,10 @@ class LoadArrows:
             force = row[first + 6 * i:first + 6 * i + 3] @ turns[joint.child]
             out.append(('joint_loads', k, joint.name, 'joint', joint.name, np.zeros(3), force))
         first += 6 * len(active)
-        for j, ((body, source), (kind, point)) in enumerate(zip(self.sources, self.kinds)):
+        for j, ((body, source), (kind, place)) in enumerate(zip(self.sources, self.kinds)):
             values = row[first + 6 * j:first + 6 * j + 6]
             force, moment = values.reshape(2, 3) @ turns[body]   # in body axes
-            start = point if point is not None else self._on_line(body, force, moment)
+            start = self._start(j, body, place, state, turns, force, moment)
             out.append(('applied_loads', j, model.bodies[body].name, kind, source, start, force))
         for body in np.flatnonzero(np.abs(held[:, :3]).sum(axis=1) > 0.0):
             force = held[body, :3] if held[body, 6] else held[body, :3] @ turns[body]
@@ -151,6 +170,21 @@ class LoadArrows:
                         model.bodies[body].name, held[body, 7:10], force))
         largest = max((float(np.linalg.norm(a[6])) for a in out), default=0.0)
         return [a for a in out if np.linalg.norm(a[6]) > SMALLEST * largest]
+
+    def _start(self, j: int, body: int, place: tuple, state, turns, force, moment):
+        """Return where applied load j acts now, in its body's axes, m (``source_kind``)."""
+        how, what = place
+        if how == 'point':
+            return what
+        if how == 'line':
+            return self._on_line(body, force, moment)
+        if how == 'anchor':   # the ejector on the carrier: where the point was as it came on
+            if j not in self.anchors:
+                if not force.any():
+                    return np.zeros(3)
+                self.anchors[j] = _in_axes(state, turns, body, what.body, what.point)
+            return self.anchors[j]
+        return _in_axes(state, turns, body, what.body, what.point)   # a brace's pad, now
 
     def _on_line(self, body: int, force: np.ndarray, moment: np.ndarray) -> np.ndarray:
         """Return the point of a load's line of action nearest the CG (the CG if off the body)."""
@@ -162,15 +196,21 @@ class LoadArrows:
 
     def message(self, stamp: dict, row: np.ndarray, active, held: np.ndarray) -> tuple:
         """
-        Return the MarkerArray of one sample (a dict) and its kind for ``MarkerArrayEncoder``.
+        Return the MarkerArray of one state (a dict) at the largest force so far (the node's).
 
-        Samples are given in time order (the scale grows with the largest
-        force so far). A first DELETEALL clears the arrows of loads no
-        longer drawn.
+        States are given in time order (the scale grows with the largest
+        force so far); returns it and its kind for ``MarkerArrayEncoder``.
         """
         arrows = self.arrows(row, active, held)
         self.largest = max([self.largest] + [float(np.linalg.norm(a[6])) for a in arrows])
-        per_metre = newtons_per_metre(self.largest, self.size)
+        return self.array(stamp, arrows, newtons_per_metre(self.largest, self.size))
+
+    def array(self, stamp: dict, arrows: list, per_metre: float) -> tuple:
+        """
+        Return a MarkerArray of arrows (``arrows``) at a scale (N/m) and its kind.
+
+        A first DELETEALL clears the arrows of loads no longer drawn.
+        """
         ns = f'{self.namespace}/'
         out = [{'header': {'stamp': stamp, 'frame_id': self.model.frame_id},
                 'ns': ns + 'joint_loads', 'id': 0, 'action': DELETEALL}]
@@ -186,6 +226,53 @@ class LoadArrows:
         kind = ('loads', self.namespace, self.model.frame_id, self.size, tuple(
             (a[0], a[1], a[2], a[3]) for a in arrows))
         return {'markers': out}, kind
+
+
+class ArrowLog:
+    """
+    A recording's load arrows, kept until it closes and then drawn at one scale.
+
+    ``add`` takes the arrows of a state (a sample, or an event that starts
+    or ends a load) with their stamp; ``arrays`` gives every MarkerArray at
+    the scale of the largest force of them all, in the order added.
+    """
+
+    def __init__(self, arrows: LoadArrows):
+        self.arrows = arrows
+        self._kept = []   # (stamp_ns, arrows)
+        #: The largest force added, N.
+        self.largest = 0.0
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    def add(self, stamp_ns: int, row: np.ndarray, active, held: np.ndarray):
+        """Keep the arrows of a state (``LoadArrows.arrows``) stamped stamp_ns."""
+        drawn = self.arrows.arrows(row, active, held)
+        self.largest = max([self.largest] + [float(np.linalg.norm(a[6])) for a in drawn])
+        self._kept.append((int(stamp_ns), drawn))
+
+    @property
+    def per_metre(self) -> float:
+        """Return the recording's scale, N per m: its largest force's."""
+        return newtons_per_metre(self.largest, self.arrows.size)
+
+    def arrays(self, stamp):
+        """Yield (stamp_ns, MarkerArray dict, kind) of each state kept; stamp: ns to Time."""
+        per_metre = self.per_metre
+        for stamp_ns, drawn in self._kept:
+            yield (stamp_ns, *self.arrows.array(stamp(stamp_ns), drawn, per_metre))
+
+    def clear(self):
+        """Forget the states kept (once written)."""
+        self._kept = []
+
+
+def _in_axes(state: np.ndarray, turns: np.ndarray, axes: int, body: int,
+             point: np.ndarray) -> np.ndarray:
+    """Return a point fixed on body (its axes, m) in the axes of body ``axes``, from its CG."""
+    world = state[body, :3] + turns[body] @ point
+    return (world - state[axes, :3]) @ turns[axes]
 
 
 def _xyz(v) -> dict:

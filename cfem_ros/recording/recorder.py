@@ -4,9 +4,12 @@
 What a simulator's state becomes as messages (SPEC section 3), recorded without rclpy.
 
 ``StateRecorder`` is a ``Session`` sink: each sample's poses, twists, loads,
-air and /tf as rows of a ``SampleLayout``, the events, markers and load
-arrows as they come, the inputs as received; the topics, types, frames and
-periods are ``schema``'s. The file itself is a ``container.Recorder``.
+air and /tf as rows of a ``SampleLayout``, the events and markers as they
+come, the inputs as received; the topics, types, frames and periods are
+``schema``'s. The file itself is a ``container.Recorder``. The load arrows
+of every sample and of each event that starts or ends a load (at the
+event's state, stamped with its time) are kept and written as the file
+closes, at the scale of the run's largest load (``loadarrows.ArrowLog``).
 """
 
 from __future__ import annotations
@@ -22,6 +25,10 @@ from cfem_ros.recording.container import encoder, offered_qos, Recorder
 from cfem_ros.recording.markerbytes import MarkerArrayEncoder
 from cfem_ros.recording.samplelayout import InBodyAxes, SampleLayout, TransformsOf
 import numpy as np
+
+
+#: The events that start or end a load: the load arrows are drawn at each (SPEC section 4).
+LOAD_EVENTS = frozenset({'release', 'stroke_end', 'brace_contact'})
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -89,12 +96,13 @@ class StateRecorder(RowSink):
                 self._transforms.columns + tuple(7 * k for k in range(len(views.names))),
                 computed=len(views.names))
         self._scene_written = False
-        # the next sendings: the markers one period after the scene's, the arrows at once
+        # the next sending of the markers: one period after the scene's
         self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
-        self._arrow_cadence = schema.Cadence(schema.LOAD_MARKERS.period, first=0)
         self._marker_bytes = MarkerArrayEncoder(encoder(schema.MARKERS.msgtype))
-        self._arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
-        # sent with joints or applied loads, and from the first wrench input on
+        self._arrows = loadarrows.ArrowLog(
+            loadarrows.LoadArrows(model, self.namespace, sim.applied_sources))
+        recorder.on_finish.append(self._write_arrows)
+        # drawn with joints or applied loads, and from the first wrench input on
         self._arrows_on = bool(model.joints or sim.applied_sources)
 
     def topic(self, topic: schema.Topic, **names) -> str:
@@ -139,26 +147,24 @@ class StateRecorder(RowSink):
                                          when))
         return out
 
-    def _arrows_again(self, times, rows, active) -> list:
+    def _keep_arrows(self, times, rows, active):
         """
-        Return the load arrows among samples at these times (s), as ``between``.
+        Keep the load arrows of samples at these times (s) (``loadarrows.ArrowLog``).
 
-        Every ``schema.LOAD_MARKERS.period`` of simulated time, from the samples'
-        numbers (rows in ``Simulator.outputs`` order, these joints active)
-        and the wrenches held on the bodies.
+        From the samples' numbers (rows in ``Simulator.outputs`` order, these
+        joints active) and the wrenches held on the bodies.
         """
         if not self._arrows_on:
-            return []
-        out, held = [], None
+            return
+        held = self.sim.held_wrenches()
         for k, t in enumerate(times):
-            if not self._arrow_cadence.take(t):
-                continue
-            held = self.sim.held_wrenches() if held is None else held
-            when = self.stamp_ns(t)
-            message, kind = self._arrows.message(stamp(when), rows[k], active, held)
-            out.append(self._between(k + 1, schema.LOAD_MARKERS,
-                                     self._marker_bytes(message, kind=kind), when))
-        return out
+            self._arrows.add(self.stamp_ns(t), rows[k], active, held)
+
+    def _write_arrows(self):
+        """Write the arrows kept, at the recording's one scale (as the file closes)."""
+        for stamp_ns, message, kind in self._arrows.arrays(stamp):
+            self._write(schema.LOAD_MARKERS, self._marker_bytes(message, kind=kind), stamp_ns)
+        self._arrows.clear()
 
     def _marker_array(self, stamp_ns: int, t: float) -> bytes:
         """Return the MarkerArray at simulated time t (the joints released by then in red), CDR."""
@@ -180,10 +186,10 @@ class StateRecorder(RowSink):
         layout = self._layout(sim.active_joints)
         row = layout.next_row()
         sim.outputs(out=row)
-        arrows = self._arrows_again([sim.t], [row], sim.active_joints)
+        self._keep_arrows([sim.t], [row], sim.active_joints)
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
         self.samples += 1
-        for _, *message in arrows + self._markers_again([sim.t]):
+        for _, *message in self._markers_again([sim.t]):
             self.recorder.write(*message)
 
     def sample_rows(self) -> np.ndarray:
@@ -199,8 +205,8 @@ class StateRecorder(RowSink):
         stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
         layout = self._rows_layout
         rows = layout.values[layout.count:layout.count + len(stamps)]
-        between = self._arrows_again(times, rows, self._rows_active) + self._markers_again(times)
-        self.recorder.commit_rows(layout, stamps, sorted(between, key=lambda m: m[0]))
+        self._keep_arrows(times, rows, self._rows_active)
+        self.recorder.commit_rows(layout, stamps, self._markers_again(times))
         self.samples += len(stamps)
 
     def _layout(self, active) -> 'SampleLayout':
@@ -265,6 +271,11 @@ class StateRecorder(RowSink):
             if event.get('event') == 'release':
                 self._zero_load(event['joint'], self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
+        if self._arrows_on and any(e.get('event') in LOAD_EVENTS and e['time'] == self.sim.t
+                                   for e in new):
+            # what acts from the event on, drawn at its instant (the state is still there)
+            self._arrows.add(self.stamp_ns(self.sim.t), self.sim.outputs(),
+                             self.sim.active_joints, self.sim.held_wrenches())
         if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
             # released joints change colour; contacts get their marker
             self._markers(self.stamp_ns(new[-1]['time']))
@@ -286,7 +297,6 @@ class StateRecorder(RowSink):
         self.start_ns = int(start_ns)
         self._events_written = 0
         self._marker_cadence.restart()
-        self._arrow_cadence.restart()
         self._markers(self.stamp_ns(0.0))
 
     def failed(self):
