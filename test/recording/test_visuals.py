@@ -350,18 +350,20 @@ def test_no_body_is_hidden_inside_another_in_the_examples(name):
         assert all(b.shape is not None for b in model.bodies), name
 
 
-def test_joint_load_arrows_at_the_joint_every_tenth_of_a_second(store):
+def test_joint_load_arrows_at_the_joint_every_sample(store):
     """What Foxglove's 3D panel draws of the loads (it draws no WrenchStamped): arrows."""
     local = {t: m.wrench.force for topic, t, m in store if topic == '/cfem/joints/pivot/wrench'}
     arrays = [(t, m) for topic, t, m in store if topic == '/cfem/load_markers']
-    assert [t for t, _ in arrays] == [round(k * 1e8) for k in range(16)]
     release = next(yaml.safe_load(m.data)['time'] for topic, _, m in store
                    if topic == '/cfem/events')
+    samples = sorted({t for topic, t, _ in store if topic == '/cfem/bodies/store/pose'})
+    # every sample, and the release (stamped at it, showing the joint gone)
+    assert sorted(t for t, _ in arrays) == sorted(samples + [round(release * 1e9)])
     size = 2.5   # the store's length: the largest force is drawn about as long
     for t, array in arrays:
         first, *arrows = array.markers
         assert first.action == 3    # DELETEALL: a released joint's arrow goes
-        if t / 1e9 > release:
+        if t / 1e9 > release or t not in local:
             assert arrows == []
             continue
         (arrow,) = arrows
