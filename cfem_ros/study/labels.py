@@ -138,7 +138,7 @@ def label(column: str, document: Optional[dict] = None) -> str:
                 a, b, what = found
                 if what == 'min':
                     return f'min {words} {a}-{b} [m]'
-                if what == 'time':
+                if what == 'min_time':
                     return f'time of min {words} {a}-{b} [s]'
                 if what in ('point_a', 'point_b'):
                     return f'{words} {a}-{b}: index of {what.replace("_", " ")}'

@@ -17,6 +17,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.run.session import RowSink
+from cfem_ros.study import between
 from cfem_ros.study.metricspec import STROKE_COLUMNS
 from cfem_ros.study.shape_metrics import compute_distance
 from cfem_ros.study.windowed import at_after, compute_extremes
@@ -49,6 +50,8 @@ class Samples:
         given from the CG are from the nominal CG (SPEC section 10).
     rates : dict of str to ndarray (n, 3)
         Per body its body rates at its samples, rad/s (body axes).
+    velocities : dict of str to ndarray (n, 3)
+        Per body its CG velocity at its samples, m/s (body axes).
 
     """
 
@@ -60,6 +63,7 @@ class Samples:
     aero_outside: dict = field(default_factory=dict)
     cg_offsets: dict = field(default_factory=dict)
     rates: dict = field(default_factory=dict)
+    velocities: dict = field(default_factory=dict)
 
 
 def from_run(run) -> Samples:
@@ -73,7 +77,8 @@ def from_run(run) -> Samples:
         contacts=_contacts(run.events),
         aero_outside=_outside(run.events, max((float(b.time[-1]) for b in run.bodies.values()
                                                if len(b.time)), default=0.0)),
-        rates={name: b.rates for name, b in run.bodies.items()})
+        rates={name: b.rates for name, b in run.bodies.items()},
+        velocities={name: b.velocity for name, b in run.bodies.items()})
 
 
 def _outside(events, t_end: float) -> dict:
@@ -181,12 +186,14 @@ class Collector(RowSink):
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
         rates = {b.name: bodies_rows[:, 13 * i + 10:13 * i + 13]
                  for i, b in enumerate(model.bodies)}
+        velocities = {b.name: bodies_rows[:, 13 * i + 7:13 * i + 10]
+                      for i, b in enumerate(model.bodies)}
         return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes,
                        contacts=_contacts(self.sim.events),
                        aero_outside=_outside(self.sim.events, self.sim.t),
                        cg_offsets={b.name: b.cg_offset for b in model.bodies
                                    if np.any(b.cg_offset)},
-                       rates=rates)
+                       rates=rates, velocities=velocities)
 
 
 def _kernel():
@@ -232,8 +239,9 @@ def compute(samples: Samples, metrics) -> dict:
     """
     Return the metrics of one run (``spec.Metrics``) as a dict of column -> value.
 
-    Clearance: the least distance over samples and point pairs, its time and
-    the two points' indices (the first such sample if several tie). Releases:
+    Clearance: the least distance over point pairs and the window, between
+    samples included (``between``; the first least sample if nothing between
+    them is lower), its time and the two points' indices. Releases:
     each joint's release time (NaN if none) and cause ('' if none). Peaks:
     the largest |force| and |moment| of each joint over the samples while it
     was active (NaN if never sampled). ``at``: the body's CG position and
@@ -268,7 +276,13 @@ def compute(samples: Samples, metrics) -> dict:
                                 _c(quat_b), _c(points_b), best)
             if best[1] >= 0:
                 values = (float(best[0]), float(t[int(best[1])]), int(best[2]), int(best[3]))
-        for suffix, value in zip(('min', 'time', 'point_a', 'point_b'), values):
+            # between samples (SPEC section 15): the least of the continuous trajectory
+            found = between.least_point_distance(samples, c.body_a, points_a, c.body_b,
+                                                 points_b, *c.window.bounds(samples.releases))
+            if not math.isnan(found[0]) and (math.isnan(values[0])
+                                             or found[0] < values[0] - between.GAIN):
+                values = found
+        for suffix, value in zip(('min', 'min_time', 'point_a', 'point_b'), values):
             out[f'{c.prefix}_{suffix}'] = value
     for entry in metrics.distance:
         out.update(compute_distance(entry, samples))

@@ -11,11 +11,11 @@ from typing import Optional
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 from cfem_ros.study import windowed
 from cfem_ros.study.errors import number_list, short
-from cfem_ros.study.shape_metrics import parse_distance, parse_window, Window
+from cfem_ros.study.shape_metrics import parse_distance, parse_name, parse_window, Window
 import numpy as np
 
 METRIC_KEYS = ('clearance', 'at', 'distance', 'extremes')
-CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to')
+CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to', 'name')
 AT_KEYS = ('time', 'body', 'relative_to', 'after')
 #: A sample time within this many samples of the grid is on it.
 ON_GRID = 1e-9
@@ -32,11 +32,12 @@ class Clearance:
     points_a: np.ndarray
     points_b: np.ndarray
     window: Window = field(default_factory=Window)   # ``from``/``to`` (shape_metrics.py)
+    name: Optional[str] = None   # a window of its own for a pair given again
 
     @property
     def prefix(self) -> str:
-        """Return the column prefix, ``clearance_<a>_<b>``."""
-        return f'clearance_{self.body_a}_{self.body_b}'
+        """Return the column prefix, the entry's ``name`` or ``clearance_<a>_<b>``."""
+        return self.name or f'clearance_{self.body_a}_{self.body_b}'
 
 
 @dataclass
@@ -77,7 +78,7 @@ class Metrics:
         """Return the metric column names, in table order."""
         names = []
         for c in self.clearance:
-            names += [f'{c.prefix}_min', f'{c.prefix}_time', f'{c.prefix}_point_a',
+            names += [f'{c.prefix}_min', f'{c.prefix}_min_time', f'{c.prefix}_point_a',
                       f'{c.prefix}_point_b']
         for d in self.distance:
             names += d.columns()
@@ -119,7 +120,7 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
     clearance = metrics.get('clearance') or []
     if not isinstance(clearance, list):
         fail('metrics.clearance', f'is {short(clearance)}', 'a list of body pairs')
-    seen = set()
+    seen = {}
     for i, entry in enumerate(clearance):
         key = f'metrics.clearance[{i}]'
         if not isinstance(entry, dict):
@@ -131,22 +132,17 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
         if not isinstance(pair, list) or len(pair) != 2 or pair[0] == pair[1]:
             fail(f'{key}.bodies', f'is {short(pair)}', 'two different body names')
         a, b = body(f'{key}.bodies[0]', pair[0]), body(f'{key}.bodies[1]', pair[1])
-        if (a, b) in seen:
-            fail(f'{key}.bodies', f'{short(pair)} is given twice', 'each pair once')
-        seen.add((a, b))
-        out.clearance.append(Clearance(a, b, _points(fail, f'{key}.points_a',
-                                                     entry.get('points_a')),
-                                       _points(fail, f'{key}.points_b', entry.get('points_b')),
-                                       parse_window(fail, entry, key, base)))
+        found = Clearance(a, b, _points(fail, f'{key}.points_a', entry.get('points_a')),
+                          _points(fail, f'{key}.points_b', entry.get('points_b')),
+                          parse_window(fail, entry, key, base), parse_name(fail, entry, key))
+        _unique(fail, seen, found, key, pair)
+        out.clearance.append(found)
     distance = metrics.get('distance') or []
     if not isinstance(distance, list):
         fail('metrics.distance', f'is {short(distance)}', 'a list of {bodies: [a, b], from, to}')
-    pairs = set()
     for i, entry in enumerate(distance):
         found = parse_distance(fail, entry, f'metrics.distance[{i}]', base, model)
-        if (found.body_a, found.body_b) in pairs:
-            fail(f'metrics.distance[{i}].bodies', 'repeats a pair', 'each pair once')
-        pairs.add((found.body_a, found.body_b))
+        _unique(fail, seen, found, f'metrics.distance[{i}]', entry.get('bodies'))
         out.distance.append(found)
     at = metrics.get('at') or []
     if not isinstance(at, list):
@@ -176,6 +172,16 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
                          after, groups))
     out.extremes = windowed.parse_extremes(fail, metrics.get('extremes') or [], base, body)
     return out
+
+
+def _unique(fail, seen: dict, entry, key: str, pair):
+    """Refuse a second clearance or distance entry with the same columns (seen: prefix -> key)."""
+    prefix = entry.prefix
+    if prefix in seen:
+        fail(f'{key}.name' if entry.name else f'{key}.bodies',
+             f'{short(pair)} gives the columns {prefix}_* of {seen[prefix]} again',
+             "each pair once, or a `name:` for each window of a pair (its columns' prefix)")
+    seen[prefix] = key
 
 
 def _points(fail, key, value):

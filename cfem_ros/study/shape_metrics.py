@@ -16,17 +16,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 import math
+import re
 from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.native import contacts
+from cfem_ros.study import between
 import numpy as np
 
 NAN = float('nan')
-DISTANCE_KEYS = ('bodies', 'from', 'to')
+#: What a metric entry's ``name`` may be: a column prefix.
+NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,79}')
+DISTANCE_KEYS = ('bodies', 'from', 'to', 'name')
 WINDOW_KEYS = ('release', 'delay')
 #: Columns of a distance entry after ``distance_<a>_<b>_``.
-DISTANCE_SUFFIXES = ('min', 'time', 'point_a_x', 'point_a_y', 'point_a_z', 'point_b_x',
+DISTANCE_SUFFIXES = ('min', 'min_time', 'point_a_x', 'point_a_y', 'point_a_z', 'point_b_x',
                      'point_b_y', 'point_b_z')
 
 
@@ -88,16 +92,17 @@ class Distance:
     shape_a: np.ndarray
     shape_b: np.ndarray
     window: Window = field(default_factory=Window)
+    name: Optional[str] = None   # a window of its own for a pair given again
 
     @property
     def prefix(self) -> str:
-        """Return the column prefix, ``distance_<a>_<b>``."""
-        return f'distance_{self.body_a}_{self.body_b}'
+        """Return the column prefix, the entry's ``name`` or ``distance_<a>_<b>``."""
+        return self.name or f'distance_{self.body_a}_{self.body_b}'
 
     @property
     def contact_column(self) -> str:
-        """Return the contact column, ``contact_<a>_<b>_time``."""
-        return f'contact_{self.body_a}_{self.body_b}_time'
+        """Return the contact column, ``contact_<a>_<b>_time`` (``contact_<name>_time``)."""
+        return f'contact_{self.name or self.body_a + "_" + self.body_b}_time'
 
     def columns(self) -> list:
         """Return the entry's columns, in table order."""
@@ -163,38 +168,69 @@ def parse_distance(fail, entry, key: str, base: dict, model) -> Distance:
             fail(f'{key}.bodies[{i}]', f'{name} has no collision shape in the scenario',
                  f'bodies.{name}.shape: box, cylinder, sphere, capsule or a local mesh')
         packed.append(contacts.pack_shape(shape))
-    return Distance(pair[0], pair[1], packed[0], packed[1], parse_window(fail, entry, key, base))
+    return Distance(pair[0], pair[1], packed[0], packed[1], parse_window(fail, entry, key, base),
+                    parse_name(fail, entry, key))
+
+
+def parse_name(fail, entry: dict, key: str) -> Optional[str]:
+    """Return a metric entry's ``name`` (its columns' prefix), None if not given."""
+    name = entry.get('name')
+    if name is not None and (not isinstance(name, str) or not NAME.fullmatch(name)):
+        fail(f'{key}.name', f'is {name!r:.80}', 'a column prefix of letters, digits and _, '
+             'starting with a letter (e.g. miss_after_release)')
+    return name
 
 
 def compute_distance(entry: Distance, samples) -> dict:
     """
     Return a distance entry's columns for a run's samples (``metrics.Samples``).
 
-    The least distance over the samples in the window (the first if several
-    tie), its time, the closest points in each body's axes (m), and the
-    first contact of the pair in the window (NaN if none).
+    The least distance over the window, between samples included
+    (``between.least``: the first least sample if nothing between them is
+    lower), its time, the closest points there in each body's axes (m),
+    and the first contact of the pair in the window (NaN if none).
     """
     out = dict.fromkeys(entry.columns(), NAN)
     for name in (entry.body_a, entry.body_b):
         if name not in samples.bodies:
             raise KeyError(f'no body {name!r} in the run')
-    t, pos_a, quat_a = samples.bodies[entry.body_a]
-    _, pos_b, quat_b = samples.bodies[entry.body_b]
-    inside = entry.window.mask(np.asarray(t), samples.releases)
-    if inside.any():
-        pos_a, quat_a = np.asarray(pos_a)[inside], np.asarray(quat_a)[inside]
-        pos_b, quat_b = np.asarray(pos_b)[inside], np.asarray(quat_b)[inside]
-        d, points = contacts.distances(entry.shape_a, quat_a, pos_a, entry.shape_b, quat_b,
-                                       pos_b)
-        k = int(np.argmin(d))
-        rot_a = rotations.matrices(quat_a[k:k + 1])[0]
-        rot_b = rotations.matrices(quat_b[k:k + 1])[0]
-        point_a = rot_a.T @ (points[k, :3] - pos_a[k])
-        point_b = rot_b.T @ (points[k, 3:] - pos_b[k])
-        values = [float(d[k]), float(np.asarray(t)[inside][k])] + [float(v) for v in point_a] \
-            + [float(v) for v in point_b]
-        out.update(zip((f'{entry.prefix}_{s}' for s in DISTANCE_SUFFIXES), values))
+    t, pos_a, quat_a = (np.asarray(v) for v in samples.bodies[entry.body_a])
+    _, pos_b, quat_b = (np.asarray(v) for v in samples.bodies[entry.body_b])
     start, end = entry.window.bounds(samples.releases)
+    if len(t) and not (math.isnan(start) or math.isnan(end)):
+        d, _ = contacts.distances(entry.shape_a, quat_a, pos_a, entry.shape_b, quat_b, pos_b)
+        motion_a, motion_b = between.motion(samples, entry.body_a), \
+            between.motion(samples, entry.body_b)
+        if motion_a is None or motion_b is None:   # no twist: the samples alone
+            evaluate = rate = None
+        else:
+            radius_a = contacts.bounding_radius(entry.shape_a)
+            radius_b = contacts.bounding_radius(entry.shape_b)
+
+            def evaluate(k, times):
+                (p_a, q_a), (p_b, q_b) = motion_a.at(k, times), motion_b.at(k, times)
+                return contacts.distances(entry.shape_a, q_a, p_a, entry.shape_b, q_b, p_b)[0]
+
+            def rate(k):
+                return between.interval_rate(motion_a, motion_b, k, radius_a, radius_b)
+        least, when = between.least(t, d, evaluate, rate, start, end)
+        if not math.isnan(least):
+            k = int(np.searchsorted(t, when - 0.5e-9))
+            if k < len(t) and abs(t[k] - when) <= 0.5e-9:   # a sample
+                poses_a, poses_b = (pos_a[k:k + 1], quat_a[k:k + 1]), (pos_b[k:k + 1],
+                                                                       quat_b[k:k + 1])
+                when = float(t[k])
+            else:
+                poses_a, poses_b = motion_a.at(k - 1, [when]), motion_b.at(k - 1, [when])
+            found, points = contacts.distances(entry.shape_a, poses_a[1], poses_a[0],
+                                               entry.shape_b, poses_b[1], poses_b[0])
+            rot_a = rotations.matrices(poses_a[1])[0]
+            rot_b = rotations.matrices(poses_b[1])[0]
+            point_a = rot_a.T @ (points[0, :3] - poses_a[0][0])
+            point_b = rot_b.T @ (points[0, 3:] - poses_b[0][0])
+            values = [float(found[0]), when] + [float(v) for v in point_a] \
+                + [float(v) for v in point_b]
+            out.update(zip((f'{entry.prefix}_{s}' for s in DISTANCE_SUFFIXES), values))
     pair = {entry.body_a, entry.body_b}
     touches = [time for time, bodies in getattr(samples, 'contacts', ())
                if set(bodies) == pair and start - 0.5e-9 <= time <= end + 0.5e-9]

@@ -42,7 +42,7 @@ def test_clearance_is_the_least_distance_over_samples_and_point_pairs(seed):
     row = compute(samples, metrics)
     distance, time, i, j = _brute_clearance(samples, points_a, points_b)
     assert row['clearance_store_pylon_min'] == pytest.approx(distance, rel=1e-13)
-    assert (row['clearance_store_pylon_time'], row['clearance_store_pylon_point_a'],
+    assert (row['clearance_store_pylon_min_time'], row['clearance_store_pylon_point_a'],
             row['clearance_store_pylon_point_b']) == (time, i, j)
 
 
@@ -56,7 +56,7 @@ def test_clearance_ties_go_to_the_first_sample_then_points():
     row = compute(samples, Metrics(clearance=[Clearance('store', 'pylon', points,
                                                         np.zeros((1, 3)))]))
     assert row['clearance_store_pylon_min'] == pytest.approx(math.sqrt(5.0), rel=1e-15)
-    assert (row['clearance_store_pylon_time'], row['clearance_store_pylon_point_a'],
+    assert (row['clearance_store_pylon_min_time'], row['clearance_store_pylon_point_a'],
             row['clearance_store_pylon_point_b']) == (0.0, 0, 0)
 
 

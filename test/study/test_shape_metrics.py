@@ -40,7 +40,7 @@ def test_the_shape_distance_after_release_plus_a_delay(tmp_path):
         {'bodies': ['pylon', 'store']}]})
     assert row['status'] == 'ok'
     # from 0.15 s the store has fallen g (0.05 s)^2 / 2 from rest, and then only farther
-    assert row['distance_store_pylon_time'] == pytest.approx(0.15, abs=1e-12)
+    assert row['distance_store_pylon_min_time'] == pytest.approx(0.15, abs=1e-12)
     assert row['distance_store_pylon_min'] == pytest.approx(GAP + G * 0.05 ** 2 / 2, abs=1e-9)
     # the closest points in each body's axes: the sphere's top, the pylon's bottom face
     np.testing.assert_allclose([row[f'distance_store_pylon_point_a_{c}'] for c in 'xyz'],
@@ -49,7 +49,7 @@ def test_the_shape_distance_after_release_plus_a_delay(tmp_path):
                                [0.3, 0.05, -0.15], atol=1e-9)
     # without a window: the store held at its gap, first at t = 0
     assert row['distance_pylon_store_min'] == pytest.approx(GAP, abs=1e-12)
-    assert row['distance_pylon_store_time'] == 0.0
+    assert row['distance_pylon_store_min_time'] == 0.0
     assert math.isnan(row['contact_store_pylon_time'])
 
 
@@ -65,14 +65,14 @@ def test_the_contact_column_is_the_first_contact_in_the_window(tmp_path):
     # as it fell beyond the 0.3 m to the floor's top (the sphere's bottom below that face)
     assert row['distance_store_floor_min'] == pytest.approx(-(G * 0.3 ** 2 / 2 - 0.3),
                                                             abs=1e-9)
-    assert row['distance_store_floor_time'] == pytest.approx(0.4, abs=1e-12)
+    assert row['distance_store_floor_min_time'] == pytest.approx(0.4, abs=1e-12)
 
 
 def test_a_clearance_takes_the_same_window(tmp_path):
     points = {'bodies': ['store', 'pylon'], 'points_a': [[0, 0, 0.2]],
               'points_b': [[0.3, 0.05, -0.15]]}
     spec, row = sweep(tmp_path, {'clearance': [dict(points, **{'from': 0.25, 'to': 0.3})]})
-    assert row['clearance_store_pylon_time'] == pytest.approx(0.25, abs=1e-12)
+    assert row['clearance_store_pylon_min_time'] == pytest.approx(0.25, abs=1e-12)
     assert row['clearance_store_pylon_min'] == pytest.approx(GAP + G * 0.15 ** 2 / 2, abs=1e-9)
 
 
@@ -116,7 +116,7 @@ def test_the_distance_to_a_compound_is_the_least_over_its_parts(tmp_path):
         'distance': [{'bodies': ['store', 'pylon'], 'from': {'release': 'hook', 'delay': 0.05}}]})
     row = run_one(load_sweep(path), 0)
     assert row['status'] == 'ok', row['message']
-    assert row['distance_store_pylon_time'] == pytest.approx(0.15, abs=1e-12)
+    assert row['distance_store_pylon_min_time'] == pytest.approx(0.15, abs=1e-12)
     assert row['distance_store_pylon_min'] == pytest.approx(GAP + G * 0.05 ** 2 / 2, abs=1e-9)
     np.testing.assert_allclose([row[f'distance_store_pylon_point_b_{c}'] for c in 'xyz'],
                                [0.3, 0.05, -0.15], atol=1e-9)

@@ -93,7 +93,7 @@ def test_metrics_of_a_falling_body_are_analytic(tmp_path):
     row = Sweep.from_file(path).run(None).iloc[0]
     g = STANDARD_GRAVITY
     assert row['clearance_store_pylon_min'] == pytest.approx(1.0, abs=1e-12)
-    assert row['clearance_store_pylon_time'] == 0.0
+    assert row['clearance_store_pylon_min_time'] == 0.0
     z = 0.5 * g * 0.5 ** 2
     position = [row[f'store_at_0.5_{c}'] for c in 'xyz']
     assert position == pytest.approx([0.0, -1.0, z], abs=1e-9)
