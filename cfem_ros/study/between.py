@@ -28,7 +28,6 @@ import math
 
 from cfem_ros.core import rotations
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 #: How close in time the search comes to the least distance, s.
 TIME_TOLERANCE = 1e-11
@@ -159,6 +158,9 @@ def _search(function, a: float, b: float) -> tuple:
     values = np.asarray(function(probes), dtype=float)
     j = int(np.argmin(values))
     low, high = probes[max(j - 1, 0)], probes[min(j + 1, PROBES)]
+    # imported here: a run imports this module for its metrics, and scipy costs most of a
+    # second of start-up that a run without a distance window never needs
+    from scipy.optimize import minimize_scalar
     found = minimize_scalar(lambda t: float(function(np.array([t]))[0]), bounds=(low, high),
                             method='bounded', options={'xatol': TIME_TOLERANCE})
     if found.fun < values[j]:

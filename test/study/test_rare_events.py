@@ -129,8 +129,10 @@ def test_form_on_the_store_scenario_finds_the_release_angle_s_tail(tmp_path, pro
     table = found['table']
     assert (table['status'] == 'ok').all()
     beyond = table[ANGLE].to_numpy() > MEAN + sigma * tail
+    # a run that never releases within the duration (NaN: the tail check's heavier tails
+    # reach angles the pivot does not swing to) released after the edge too
     release = table['release_pivot_time'].to_numpy()
-    np.testing.assert_array_equal(release > edge, beyond)
+    np.testing.assert_array_equal(~(release <= edge), beyond)
 
 
 def test_plot_of_a_study_prints_its_estimate_not_the_fractions_of_its_runs(tmp_path, capsys):
