@@ -1,0 +1,229 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+``cfem-sim fit`` fed bad data and bad folders (issue 52 items 3, 7, 8), and release groups.
+
+Each case of the attack campaign is reproduced first: a measured sample far
+past the window (the fit simulated up to it), values of 1e300, 1e308 and
+NaN, a NaN or zero quaternion in a PoseStamped topic, a finite-difference
+step wider than the bounds, one key path written two ways, an output folder
+that cannot take the outputs (found only after the whole fit), and a write
+interrupted half-way. A window may name a release group (issue 48).
+"""
+
+import copy
+import json
+import os
+import signal
+
+from cfem_ros import cli
+from cfem_ros.recording.container import Recorder
+from cfem_ros.recording.schema import POSE_TYPE
+from cfem_ros.study.fit import figures, outputs
+from cfem_ros.study.fit.run import observed_flights
+from cfem_ros.study.fit.solve import Fit
+from cfem_ros.study.fit.spec import load_fit
+import fitflights as ff
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+AFT = {'wrenches[1].force[2]': {'start': 38000, 'bounds': [30000, 50000],
+                                'name': 'aft ejector force', 'unit': 'N'}}
+
+
+@pytest.fixture(scope='module')
+def flight(tmp_path_factory):
+    """Record the ejection at the true forces; return (folder, scenario, poses)."""
+    folder = tmp_path_factory.mktemp('flight')
+    poses = ff.truth(folder, 'truth')
+    return folder, ff.write(folder / 'scenario.yaml', ff.EJECTED), poses
+
+
+def _refused(capsys, fit, out, *key_and_words):
+    assert cli.main(['fit', fit, '-o', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ERROR: ') and err.count('\n') == 1, err
+    for words in key_and_words:
+        assert words in err, err
+    assert not out.exists()
+    return err
+
+
+def test_a_sample_far_past_the_window_is_neither_simulated_nor_read(flight, tmp_path):
+    # one sample 11.6 days after the others: the fit once simulated up to it (7.7 GB)
+    _, scenario, (time, position, attitude) = flight
+    far = (np.append(time, 1e6), np.vstack([position, position[-1]]),
+           Rotation.concatenate([attitude, attitude[-1:]]))
+    measured = ff.csv(tmp_path / 'far.csv', *far)
+    for window, end in (({'from': 0.0, 'to': 0.1}, 0.1), (None, time[-1])):
+        spec = load_fit(ff.fit_file(tmp_path, scenario, ff.measured_entry(measured, window),
+                                    AFT))
+        fit = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None)
+        flight_fit = fit.flights[0]
+        # the window ends at its end (or the last sample within the scenario's duration)
+        assert flight_fit.window[1] == pytest.approx(end)
+        assert flight_fit.data.time.max() <= end and 1e6 not in flight_fit.data.time
+        run = flight_fit.trajectories.run(spec.x0)
+        assert run.end <= end + 3 * flight_fit.dt + 1e-9, run.end
+    result = fit.solve()
+    # noise-free poses: the true force itself
+    assert result.values[0] == pytest.approx(ff.AFT, rel=1e-6)
+
+
+def _poses_csv(tmp_path, flight, row, column, value):
+    table = pd.read_csv(ff.csv(tmp_path / 'poses.csv', *flight[2]))
+    table.loc[row, column] = value
+    table.to_csv(tmp_path / 'poses.csv', index=False)
+    return str(tmp_path / 'poses.csv')
+
+
+@pytest.mark.parametrize('column, value, problem', [
+    ('store_z', 1e300, 'a position beyond 1e+06 m of pylon'),
+    ('store_x', 1e308, 'a position beyond 1e+06 m of pylon'),
+    ('store_y', float('nan'), 'a position that is not finite'),
+    ('store_pitch_deg', float('nan'), 'an angle that is not finite'),
+    ('store_roll_deg', 1e300, 'an angle beyond 1e+06 deg'),
+])
+def test_a_measured_value_that_is_no_pose_is_refused_with_its_line(
+        flight, tmp_path, capsys, column, value, problem):
+    # the first data line of a CSV is line 2: row 7 is line 9
+    measured = _poses_csv(tmp_path, flight, 7, column, value)
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured), AFT)
+    _refused(capsys, fit, tmp_path / 'out', ': measured.file: ', f'poses.csv line 9 holds '
+             f'{problem}', 'finite measured poses')
+
+
+def _pose_log(path, poses, bad_row, position=None, quaternion=None):
+    time, xyz, attitude = poses
+    quaternions = attitude.as_quat()
+    with Recorder(str(path), overwrite=True) as rec:
+        for k, t in enumerate(time):
+            p, q = xyz[k], quaternions[k]
+            if k == bad_row:
+                p = position if position is not None else p
+                q = quaternion if quaternion is not None else q
+            t_ns = 10 ** 9 + round(t * 1e9)
+            rec.write('/photogrammetry/store', POSE_TYPE, {
+                'header': {'stamp': {'sec': t_ns // 10 ** 9, 'nanosec': t_ns % 10 ** 9},
+                           'frame_id': 'pylon'},
+                'pose': {'position': dict(zip('xyz', map(float, p))),
+                         'orientation': dict(zip('xyzw', map(float, q)))}}, t_ns)
+    return str(path)
+
+
+@pytest.mark.parametrize('position, quaternion, problem', [
+    ([0.0, float('nan'), 0.0], None, 'a position that is not finite'),
+    (None, [0.0, float('nan'), 0.0, 1.0], 'a quaternion that is not finite'),
+    (None, [0.0, 0.0, 0.0, 0.0], 'a quaternion of length 0 (no attitude)'),
+])
+def test_a_pose_message_that_is_no_pose_is_refused_with_its_number(
+        flight, tmp_path, capsys, position, quaternion, problem):
+    log = _pose_log(tmp_path / 'poses.mcap', flight[2], 11, position, quaternion)
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(
+        log, topic='/photogrammetry/store'), AFT)
+    _refused(capsys, fit, tmp_path / 'out', ': measured.file: ',
+             f'poses.mcap message 12 holds {problem}')
+
+
+def test_a_step_wider_than_the_bounds_and_a_key_path_given_twice_are_refused(
+        flight, tmp_path, capsys):
+    measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
+    wide = {'wrenches[1].force[2]': {'start': 38000, 'bounds': [37000, 39000], 'step': 1500}}
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured), wide)
+    _refused(capsys, fit, tmp_path / 'out', ': parameters.wrenches[1].force[2].step: ',
+             'is 1500, wider than half the bounds', 'a step <= 1000')
+    twice = dict(AFT)
+    twice['wrenches[1].force[02]'] = {'start': 40000, 'bounds': [30000, 50000]}
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured), twice)
+    _refused(capsys, fit, tmp_path / 'out', ': parameters.wrenches[1].force[02]: ',
+             'is wrenches[1].force[2], as parameters.wrenches[1].force[2] is',
+             'each key path once')
+
+
+@pytest.fixture
+def no_fit(monkeypatch):
+    """Make any fit that starts fail the test: the refusals come before it."""
+    def solve(self):
+        raise AssertionError('the fit started before its folder was checked')
+    monkeypatch.setattr(Fit, 'solve', solve)
+
+
+def test_a_folder_that_cannot_take_the_outputs_is_refused_before_the_fit(
+        flight, tmp_path, capsys, no_fit):
+    measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured), AFT)
+    a_file = tmp_path / 'a_file'
+    a_file.write_text('not a folder')
+    held = tmp_path / 'held'
+    held.mkdir()
+    (held / 'fitted.yaml').write_text('a former fit')
+    for out, words in ((a_file, 'is not a folder'),
+                       ('/sys/cfem_fit_out', '/sys cannot be written'),
+                       (held, 'already holds fitted.yaml; pass --overwrite')):
+        assert cli.main(['fit', fit, '-o', str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f'ERROR: -o {out}: ') and words in err, err
+    assert a_file.read_text() == 'not a folder'
+    assert sorted(os.listdir(held)) == ['fitted.yaml']
+
+
+def _interrupt():
+    os.kill(os.getpid(), signal.SIGINT)
+
+
+def _full():
+    raise OSError(28, 'No space left on device')
+
+
+@pytest.mark.parametrize('failure, status', [(_full, 1), (_interrupt, 130)])
+def test_a_write_that_fails_half_way_leaves_the_folder_as_it_was(
+        flight, tmp_path, capsys, monkeypatch, failure, status):
+    # a former fit's outputs, replaced with --overwrite: all or none of them
+    measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured, {'from': 0, 'to': 0.1}),
+                      AFT)
+    out = tmp_path / 'out'
+    out.mkdir()
+    former = {name: f'former {name}' for name in outputs.output_names(1)}
+    for name, text in former.items():
+        (out / name).write_text(text)
+
+    def draw(*args):   # fit.json, fitted.yaml and fitted.mcap are written by now
+        failure()
+    monkeypatch.setattr(figures, 'draw', draw)
+    assert cli.main(['fit', fit, '-o', str(out), '--overwrite', '--threads', '2']) == status
+    capsys.readouterr()
+    assert sorted(os.listdir(out)) == sorted(former)   # no staging folder left either
+    for name, text in former.items():
+        assert (out / name).read_text() == text
+
+
+def test_a_window_may_name_a_release_group(tmp_path):
+    # two hooks let go as one station at 0.05 s; the ejectors start at its release
+    scenario = copy.deepcopy(ff.EJECTED)
+    scenario['duration'] = 0.25
+    scenario['joints'] = {
+        'fwd_hook': {'type': 'ball', 'parent': 'pylon', 'child': 'store',
+                     'anchor': [0.5, 0, -0.25]},
+        'aft_hook': {'type': 'ball', 'parent': 'pylon', 'child': 'store',
+                     'anchor': [-0.5, 0, -0.25]}}
+    scenario['release_groups'] = {'station_1': {'joints': ['fwd_hook', 'aft_hook'],
+                                                'release': {'time': 0.05}}}
+    for wrench in scenario['wrenches']:
+        wrench['start'] = {'release': 'station_1', 'delay': 0.0}
+    poses = ff.truth(tmp_path, 'grouped', scenario=scenario)
+    measured = ff.csv(tmp_path / 'grouped.csv', *poses)
+    window = {'from': {'release': 'station_1'}, 'to': {'release': 'station_1', 'delay': 0.1}}
+    fit = ff.fit_file(tmp_path, str(tmp_path / 'grouped.yaml'),
+                      ff.measured_entry(measured, window), AFT)
+    out = tmp_path / 'out'
+    assert cli.main(['fit', fit, '-o', str(out), '--threads', '2']) == 0
+    found = json.loads((out / 'fit.json').read_text())
+    assert found['window']['release'] == pytest.approx(0.05)
+    assert found['window']['from'] == pytest.approx(0.05)
+    assert found['window']['to'] == pytest.approx(0.15)
+    assert found['samples'] == 51   # 0.05 to 0.15 s at 500 Hz, both ends
+    value = found['parameters']['wrenches[1].force[2]']['value']
+    assert value == pytest.approx(ff.AFT, rel=1e-6)   # noise-free: the value itself
