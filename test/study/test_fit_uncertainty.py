@@ -7,7 +7,10 @@ The reduced chi-square scales the standard errors exactly (a fit whose
 sigmas are stated 3 times too small reports, scaled, the errors of the
 fit that states them right); parameters the data cannot tell apart are
 named together and keep their start values; the profile-likelihood
-intervals cover the truth at their stated rate over 20 noise seeds.
+intervals cover the truth at their stated rate over 20 noise seeds; two
+flights under different conditions fit together determine the forces they
+share better than either alone, their information (inverse covariance)
+the sum of each flight's.
 """
 
 import copy
@@ -17,6 +20,7 @@ import math
 from cfem_ros import cli
 from cfem_ros.study.fit.likelihood import profile_intervals
 from cfem_ros.study.fit.measured import Measured
+from cfem_ros.study.fit.run import observed_flights
 from cfem_ros.study.fit.solve import Fit
 from cfem_ros.study.fit.spec import load_fit
 import fitflights as ff
@@ -146,3 +150,52 @@ def test_profile_intervals_cover_the_truth_at_their_rate_over_20_seeds(flight, t
     # 95 % of 20: 19 expected; fewer than 16 has a probability of 0.3 % if the rate is right
     assert binom.cdf(15, 20, 0.95) < 0.003
     assert np.all(covered >= 16), covered
+
+
+def test_two_flights_determine_the_shared_forces_better_than_either_alone(tmp_path):
+    # the same ejectors under two conditions: a store of 907 kg and one of 1,200 kg
+    heavy = {'bodies.store.mass': 1200.0}
+    poses = {'light': ff.truth(tmp_path, 'light'), 'heavy': ff.truth(tmp_path, 'heavy', heavy)}
+    scenario = ff.write(tmp_path / 'scenario.yaml', ff.EJECTED)
+    window = {'from': 0, 'to': 0.12}
+    entries = {'light': ff.measured_entry(ff.csv(tmp_path / 'light.csv',
+                                                 *ff.noisy(poses['light'], 11)), window),
+               'heavy': ff.measured_entry(ff.csv(tmp_path / 'heavy.csv',
+                                                 *ff.noisy(poses['heavy'], 12)), window,
+                                          set=heavy)}
+    found = {}
+    for name, measured in (('light', entries['light']), ('heavy', entries['heavy'])):
+        # each flight alone: the fit itself, without its outputs
+        spec = load_fit(ff.fit_file(tmp_path, scenario, measured, ff.FORCES,
+                                    name=f'{name}.yaml'))
+        result = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None).solve()
+        u = result.uncertainty
+        found[name] = {'parameters': {key: {'standard_error': float(u.standard_errors[j])}
+                                      for j, key in enumerate(ff.FORCES)},
+                       'correlation': u.correlation.tolist()}
+    path = ff.fit_file(tmp_path, scenario, [entries['light'], entries['heavy']], ff.FORCES,
+                       name='both.yaml')
+    assert cli.main(['fit', path, '-o', str(tmp_path / 'both'), '--threads', '2']) == 0
+    found['both'] = json.loads((tmp_path / 'both' / 'fit.json').read_text())
+    both = found['both']
+    assert [f['set'] for f in both['flights']] == [{}, heavy]
+    assert [f['samples'] for f in both['flights']] == [61, 61]
+    # the chi-square is the flights' sum; each flight's residuals are its noise
+    assert both['chi2'] == pytest.approx(sum(f['chi2'] for f in both['flights']), rel=1e-12)
+    for flight in both['flights']:
+        assert flight['residual_rms']['position'] == pytest.approx(ff.SIGMA_POSITION, rel=0.2)
+    truth = {'wrenches[0].force[2]': ff.FORWARD, 'wrenches[1].force[2]': ff.AFT}
+    for key, value in truth.items():
+        errors = {name: found[name]['parameters'][key]['standard_error'] for name in found}
+        assert errors['both'] < min(errors['light'], errors['heavy']), errors
+        estimate = both['parameters'][key]
+        assert abs(estimate['value'] - value) < 3 * estimate['standard_error_scaled']
+
+    # the information of independent flights adds: C_both^-1 = C_light^-1 + C_heavy^-1
+    # (to the Jacobians' change between the three solutions, well under 5 %)
+    def information(fit):
+        errors = np.array([fit['parameters'][k]['standard_error'] for k in truth])
+        return np.linalg.inv(np.array(fit['correlation']) * np.outer(errors, errors))
+    added = information(found['light']) + information(found['heavy'])
+    scale = np.sqrt(np.outer(np.diag(added), np.diag(added)))
+    assert np.allclose(information(both) / scale, added / scale, rtol=0, atol=0.05)
