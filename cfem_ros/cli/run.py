@@ -20,6 +20,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError, InputError
+from cfem_ros.core.fileio.instants import instant_ns, MAX_SECONDS
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.interrupts import Interrupted
 from cfem_ros.recording import offline
@@ -47,6 +48,10 @@ def add_run_parser(sub):
                      help='how replayed odometry drives a kinematic body: on the cubic between '
                      'messages, or extrapolated from the latest (default: as the node that '
                      'recorded the log did, else interpolate)')
+    run.add_argument('--start-time', metavar='ISO8601',
+                     help="the date and time of simulated t = 0 in the recording's stamps, "
+                     'with its UTC offset, e.g. 2026-03-14T09:30:00Z (default: the '
+                     "scenario's start_time, else 1970-01-01T00:00:00Z, stamp 0)")
     run.add_argument('--overwrite', action='store_true',
                      help='replace OUT if it exists (once the new recording is complete)')
     run.add_argument('--max-samples', type=float, default=offline.MAX_SAMPLES, metavar='N',
@@ -86,6 +91,8 @@ class _Run:
     sim: Simulator
     replay: list
     interpolate: bool
+    #: The stamp of simulated time 0, ns since 1970-01-01T00:00:00Z.
+    start_ns: int = 0
     recorder: Optional[Recorder] = None
     state: Optional[StateRecorder] = None
     ok: bool = True
@@ -160,6 +167,7 @@ def _output_refused(args) -> Optional[str]:
 def _prepare(args) -> _Run:
     """Load the scenario and the inputs to replay, and check the run; CfemError if refused."""
     model = load_scenario(args.scenario, duration=args.duration, dt=args.dt)
+    start_ns = _start_ns(args.start_time, model)
     too_large = _check_run_size(model, args.rate, args.max_samples, args.max_gb)
     if too_large:
         raise InputError(too_large)
@@ -184,7 +192,22 @@ def _prepare(args) -> _Run:
     errors, _ = start_problems(sim)   # what check refuses, run refuses (exit 2)
     if errors:
         raise InputError(cannot_start(args.scenario, errors))
-    return _Run(model, sim, replay, interpolate)
+    return _Run(model, sim, replay, interpolate, start_ns=start_ns)
+
+
+def _start_ns(text: Optional[str], model) -> int:
+    """Return the stamp of t = 0: --start-time's, else the scenario's; InputError if refused."""
+    if text is None:
+        return model.start_ns
+    try:
+        start_ns = instant_ns(text)
+    except ValueError as err:
+        raise InputError(f'--start-time: {err}') from None
+    if start_ns + model.duration * 1e9 > MAX_SECONDS * 1e9:
+        raise InputError(f'--start-time: is {text}, and the run ends {model.duration:g} s '
+                         'later, past 2038-01-19T03:14:07Z (the last second a ROS stamp '
+                         'holds); expected an earlier start or a shorter --duration')
+    return start_ns
 
 
 def _check_run_size(model, rate: float, max_samples: float, max_gb: float) -> Optional[str]:
@@ -225,11 +248,11 @@ def _record(args, run: _Run) -> Optional[int]:
         try:
             with Recorder(args.output, overwrite=args.overwrite, atomic=True,
                           metadata=run_metadata(run.model, args.scenario, args.rate,
-                                                0)) as run.recorder:
+                                                run.start_ns)) as run.recorder:
                 try:
                     if stop:
                         raise Interrupted(stop[0])
-                    run.state = StateRecorder(run.recorder, run.sim)
+                    run.state = StateRecorder(run.recorder, run.sim, start_ns=run.start_ns)
                     run.ok = offline.run(run.sim, run.state, rate_hz=args.rate,
                                          duration=run.model.duration, inputs=run.replay,
                                          progress=progress, progress_every=0.2,

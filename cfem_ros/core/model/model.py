@@ -71,6 +71,9 @@ class Model:
         Joints released together, none by default.
     braces : tuple of SwayBrace
         One-sided preloaded pads (``SwayBrace``), none by default.
+    start_ns : int
+        The stamp of simulated time 0 in a recording of ``cfem-sim run``,
+        ns since 1970-01-01T00:00:00Z (scenario ``start_time``; 0 if none).
 
     """
 
@@ -88,6 +91,7 @@ class Model:
     release_groups: tuple = ()
     contacts: tuple = ()
     braces: tuple = ()
+    start_ns: int = 0
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

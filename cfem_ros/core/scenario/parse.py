@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 from typing import Any, Optional
 
+from cfem_ros.core.fileio.instants import instant_ns, MAX_SECONDS
 from cfem_ros.core.fileio.messages import clip, show
 from cfem_ros.core.fileio.textfile import display, read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
@@ -33,7 +34,8 @@ import numpy as np
 
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
-            'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces', 'flight')
+            'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces', 'flight',
+            'start_time')
 
 #: Longest scenario ``name`` (it goes into recordings, not topics).
 MAX_TITLE_LENGTH = 200
@@ -123,6 +125,8 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
     flown = flight.parse_flight(check, top) if 'flight' in top else None
     if flown is not None:
         gravity = flight.gravity_vector(flown)
+    else:
+        _gravity_with_aero(check, top, gravity)
     bodies = [flight.carrier_body(check, flown, spec) if flown and body_name == flown.carrier
               else parse_body(check, body_name, spec) for body_name, spec in bodies_doc.items()]
     aero_doc = top.get('aero')
@@ -162,11 +166,48 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                   aero=aeroparse.parse_aero(check, aero_doc, index, bodies, source_dir(check)),
                   release_groups=groups,
                   braces=braces.parse_braces(check, top.get('sway_braces'), index, bodies,
-                                             wrenches, dt=step))
+                                             wrenches, dt=step),
+                  start_ns=_start_ns(check, top, run_duration))
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
         return model
     return Model(**{**model.__dict__, 'references': references})
+
+
+def _gravity_with_aero(check: Checker, top: dict, gravity: np.ndarray):
+    """
+    Refuse aero tables in a world whose z is up (SPEC section 14).
+
+    The aero conventions are z-down (alpha from w along body z down, CZ
+    positive down): a store placed level in a z-up world would fly its
+    tables upside down, so a gravity along -z, the default's included, is
+    refused with aero rather than taken silently.
+    """
+    aero = top.get('aero')
+    if not isinstance(aero, dict) or not aero or not gravity[2] < 0.0:
+        return
+    given = 'gravity' in top
+    check.fail('gravity', (f'is {show(top["gravity"])}' if given else
+                           f'missing, so the default [0, 0, {-STANDARD_GRAVITY:g}] (z up)')
+               + ' with aero, and the aero conventions are z-down',
+               f'gravity: [0, 0, {STANDARD_GRAVITY:g}] (z down, the bodies placed and turned '
+               'in that world) or flight: (z down)')
+
+
+def _start_ns(check: Checker, top: dict, run_duration: float) -> int:
+    """Return the stamp of simulated time 0 of ``start_time`` (ns since 1970, UTC; 0 if none)."""
+    if 'start_time' not in top:
+        return 0
+    try:
+        start = instant_ns(top['start_time'])
+    except ValueError as err:
+        problem, expected = str(err).split('; expected ', 1)
+        check.fail('start_time', problem, expected)
+    if start + run_duration * 1e9 > MAX_SECONDS * 1e9:
+        check.fail('start_time', f'is {show(top["start_time"])}, and the run ends '
+                   f'{run_duration:g} s later, past 2038-01-19T03:14:07Z (the last second '
+                   'a ROS stamp holds)', 'an earlier start_time or a shorter duration')
+    return start
 
 
 def _parse_references(check: Checker, bodies_doc: dict, index: dict, model: Model) -> tuple:
