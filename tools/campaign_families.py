@@ -263,6 +263,7 @@ def tables(folder, call, defect, rng, count):
                                     'position': [0.5, 0, 1.2]}},
                'aero': {'store': {'area': 0.2, 'length': 0.5, 'altitude': 7925.0,
                                   'alpha_deg': [-20, 0, 20], 'CX': [0.3, 0.3, 0.3],
+                                  'zero': ['CY', 'CZ', 'Cl', 'Cm', 'Cn'],
                                   'proximity': {'carrier': 'aircraft', 'table': path.name,
                                                 'outside': 'hold'}}}}
         scenario = folder / f'prox_{k}.yaml'

@@ -164,7 +164,8 @@ def falling_store(outside='hold', **aero):
             'wrenches': [{'body': 'store', 'force': [0.0, 0.0, 0.0]}],
             'aero': {'store': {'area': AREA, 'length': LENGTH, 'density': 1.2,
                                'wind': [-100.0, 0, 0], 'alpha_deg': [-5, 5], 'CX': 0.0,
-                               'outside': outside, **aero}}}
+                               'zero': ['CY', 'CZ', 'Cl', 'Cm', 'Cn'], 'outside': outside,
+                               **aero}}}
 
 
 def test_leaving_a_table_is_located_inside_the_step():

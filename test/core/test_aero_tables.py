@@ -23,6 +23,9 @@ MASS, INERTIA = 907.1848, [27.1164, 488.0944, 488.0944]
 
 
 def scenario(aero_spec, **extra):
+    # the coefficients a case does not give are meant to be zero (SPEC 10: said, not left out)
+    zero = [c for c in aeroparse.AERO_COEFFICIENTS if c not in aero_spec]
+    aero_spec = {'zero': zero, **aero_spec} if zero else aero_spec
     doc = {'gravity': [0, 0, 9.80665],
            'bodies': {'aircraft': {'motion': {'velocity': [250.0, 0, 0]}},
                       'store': {'mass': MASS, 'inertia': INERTIA, 'position': [0.5, 0, 1.2]}},

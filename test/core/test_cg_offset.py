@@ -27,7 +27,8 @@ def scenario(offset):
             'sway_braces': [{'body': 'store', 'carrier': 'pylon', 'point': [0.5, 0.0, -0.1],
                              'direction': [0, 0, 1], 'preload': 10.0, 'stiffness': 1e3}],
             'aero': {'store': {'area': 0.03, 'length': 0.2, 'density': 1.2,
-                               'alpha_deg': [-180, 180], 'reference_point': [0.05, 0, 0]}}}
+                               'alpha_deg': [-180, 180], 'reference_point': [0.05, 0, 0],
+                               'zero': ['CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn']}}}
 
 
 def world_points(model):

@@ -365,7 +365,8 @@ def test_aerodynamic_pitch_oscillation_against_the_linearized_closed_form():
     # alpha = theta exactly, so I theta'' = q S L (Cm_a theta + Cmq theta' L / 2V)
     cm_alpha, cmq, theta0 = -2.0, -40.0, math.radians(5.0)
     edge = cm_alpha * math.radians(30)
-    aero = dict(AIR, alpha_deg=[-30, 30], Cm=[-edge, edge], CX=-0.3, CZ=[1.5, -1.5], Cmq=cmq)
+    aero = dict(AIR, alpha_deg=[-30, 30], Cm=[-edge, edge], CX=-0.3, CZ=[1.5, -1.5], Cmq=cmq,
+                zero=['CY', 'Cl', 'Cn'])
     sim = Simulator(model(bodies={'ground': {'fixed': True},
                                   'store': {'mass': MASS, 'inertia': INERTIA,
                                             'orientation_rpy_deg': [0, 5, 0]}},
@@ -460,7 +461,8 @@ def test_aerodynamic_free_flight_against_dop853():
     ({'altitude': 30000.0, 'density': None}, 'aero.store.altitude'),
 ])
 def test_bad_aero_is_refused_with_the_key_path(change, key):
-    spec = {**AIR, 'alpha_deg': [-10, 10], 'Cm': [0.1, -0.1], **change}
+    spec = {**AIR, 'alpha_deg': [-10, 10], 'Cm': [0.1, -0.1],
+            'zero': ['CX', 'CY', 'CZ', 'Cl', 'Cn'], **change}
     spec = {k: v for k, v in spec.items() if v is not None}
     with pytest.raises(ScenarioError) as err:
         model(aero={'store': spec})

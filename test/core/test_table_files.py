@@ -10,7 +10,8 @@ import pyarrow.parquet as pq
 import pytest
 
 BASE = {'area': 0.2027, 'length': 0.508, 'altitude': 7925.0, 'alpha_deg': [-20, 0, 20],
-        'beta_deg': [-10, 10], 'mach': [0.6, 0.9, 1.2]}
+        'beta_deg': [-10, 10], 'mach': [0.6, 0.9, 1.2],
+        'zero': ['CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn']}
 GOOD = 'dx,dCX\n0,0.1\n1,0.3\n'
 
 

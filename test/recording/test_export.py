@@ -163,7 +163,7 @@ def test_aero_columns_are_alpha_mach_and_dynamic_pressure_of_the_recorded_state(
     doc = _carried([250.0, 0, 0])
     doc['aero'] = {'store': {'area': 0.2, 'length': 0.5, 'altitude': 7925.0,
                              'alpha_deg': [-30, 0, 30], 'CX': -0.3, 'CZ': [1.0, 0.0, -1.0],
-                             'Cm': [0.5, 0.0, -0.5]}}
+                             'Cm': [0.5, 0.0, -0.5], 'zero': ['CY', 'Cl', 'Cn']}}
     table = _export(tmp_path, _run(tmp_path, doc, 'aero'), 'aero.csv')
     u, v, w = (table[f'store_{c}'].to_numpy() for c in 'uvw')
     speed = np.sqrt(u ** 2 + v ** 2 + w ** 2)   # the air is at rest in the world

@@ -27,7 +27,7 @@ import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'atmosphere', 'freestream', 'wind',
              'alpha_deg', 'beta_deg', 'mach', 'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq',
-             'Cnr', 'scale', 'delta', 'reference_point', 'outside', 'proximity')
+             'Cnr', 'scale', 'delta', 'reference_point', 'outside', 'proximity', 'zero')
 AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
 DAMPING_DERIVATIVES = ('Clp', 'Cmq', 'Cnr')
 ATMOSPHERE_KEYS = ('altitude', 'temperature_offset')
@@ -109,6 +109,7 @@ def _parse_body(context: _Context, name, spec) -> Aero:
                    'altitude (m) or atmosphere: its speed of sound gives the Mach number')
     if len(grids[2]) and grids[2][0] < 0.0:
         check.fail(f'{key}.mach', f'starts at {grids[2][0]:g}', 'Mach numbers >= 0')
+    _complete(check, spec, key)
     given = [True, 'beta_deg' in spec, 'mach' in spec]
     table = _coefficients(check, spec, key, grids, given)
     damping = np.array([check.number(spec.get(d, 0.0), f'{key}.{d}')
@@ -177,6 +178,40 @@ def _atmosphere(check, spec: dict, key: str) -> tuple:
         check.fail(where, f'is {altitude:g}',
                    f'an altitude from {ALTITUDE_RANGE[0]:g} to {ALTITUDE_RANGE[1]:g} m (ISA)')
     return altitude, offset
+
+
+def _complete(check, spec: dict, key: str):
+    """
+    Refuse an aero entry that leaves a coefficient out without saying it is meant to be zero.
+
+    A coefficient left out would be zero (SPEC section 10): a forgotten
+    ``Cm`` would give a store no pitching moment without a word, so every
+    one of CX, CY, CZ, Cl, Cm, Cn has a table or a value, or is listed in
+    ``zero``; one listed there and given too is refused (which is meant?).
+    """
+    zero = spec.get('zero', [])
+    if not isinstance(zero, list):
+        check.fail(f'{key}.zero', f'is {zero!r:.80}',
+                   'a list of coefficients meant to be zero, from ' + ', '.join(AERO_COEFFICIENTS))
+    for i, name in enumerate(zero):
+        if name not in AERO_COEFFICIENTS:
+            check.fail(f'{key}.zero[{i}]', f'is {name!r:.80}', 'one of '
+                       + ', '.join(AERO_COEFFICIENTS))
+        if name in zero[:i]:
+            check.fail(f'{key}.zero[{i}]', f'repeats {name}', 'each coefficient once')
+        if name in spec:
+            check.fail(f'{key}.zero[{i}]', f'is {name}, and {key}.{name} is given too',
+                       f'either a table or value for {name} or {name} in zero, not both')
+    missing = [c for c in AERO_COEFFICIENTS if c not in spec and c not in zero]
+    if missing:
+        one = len(missing) == 1
+        listed = ', '.join(missing)
+        check.fail(f'{key}.{listed}' if one else key,
+                   f'missing, and {key}.zero does not list it' if one else
+                   f'gives no {listed}, and {key}.zero does not list them',
+                   f'a table or a value for {listed}, or {key}.zero: '
+                   f'[{", ".join(zero + missing)}] if {"it is" if one else "they are"} '
+                   'meant to be zero (a coefficient left out is not taken as zero)')
 
 
 def _grid(check, values, key: str, what: str, angles: bool) -> np.ndarray:
