@@ -41,7 +41,8 @@ from cfem_ros.ros.qos import CLOCK_QOS
 from cfem_ros.ros.recording import NodeRecording
 from cfem_ros.ros.refusals import bounded, RosLogHandler, Throttle
 from cfem_ros.ros.runcontrol import RunControl
-from cfem_ros.ros.stamps import InputTiming, OdometryCheck
+from cfem_ros.ros.stamps import (ClockLog, CURE_CLOCK, CURE_REAL_TIME, InputTiming,
+                                 OdometryCheck)
 from cfem_ros.ros.stepping import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Stepping
 from cfem_ros.ros.subscriptions import Subscriptions
 from rcl_interfaces.msg import SetParametersResult
@@ -152,9 +153,12 @@ class CfemNode(Stepping, Subscriptions, Node):
         except CfemError as err:
             raise StartupError(str(err)) from None
 
-        if self.sim_time:   # before the inputs: in each wait, /clock is taken before them,
-            # so that a command that came after a /clock is timed by it
-            self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS)
+        #: The /clock times taken, by their senders' source timestamps (``_clock_of``).
+        self._clocks = ClockLog()
+        self._clock_subscriptions = []
+        if self.sim_time:   # before the inputs: in each wait, /clock is taken before them
+            self._clock_subscriptions.append(self.create_subscription(
+                ClockMsg, '/clock', self._on_clock, CLOCK_QOS))
         # topics first: a name ROS refuses stops the node before a file is made
         try:
             self._publishers_sink = Publishers(self, self.sim)
@@ -205,9 +209,10 @@ class CfemNode(Stepping, Subscriptions, Node):
                                  subscribed=any(b.motion is not None
                                                 for b in self.sim.model.bodies))
         late = getattr(self, 'timing', None)
-        self.timing = InputTiming(self.sim, self._refusals.warning)
-        if late is not None:
-            self.timing.late_inputs = late.late_inputs
+        self.timing = InputTiming(self.sim, self._refusals.warning,
+                                  CURE_CLOCK if self.sim_time else CURE_REAL_TIME)
+        if late is not None:   # counted over the node's life, resets included
+            self.timing.late_inputs, self.timing.late_topics = late.late_inputs, late.late_topics
 
     # ------------------------------------------------------------ parameters
 
@@ -231,8 +236,8 @@ class CfemNode(Stepping, Subscriptions, Node):
             self._refused = {}
         if getattr(self, 'timing', None) is not None and not self._diagnosed:
             self._diagnosed = True
-            self.get_logger().info(f'diagnostics: late_inputs {self.timing.late_inputs}, '
-                                   f'dropped_inputs {self._queues.total}')
+            self.get_logger().info(f'diagnostics: {self.timing.summary()}, '
+                                   f'{self._queues.summary()}')
         if self.recording is not None:
             recording, self.recording = self.recording, None
             recording.finish()

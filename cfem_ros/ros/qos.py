@@ -24,8 +24,7 @@ def input_qos(depth: int) -> QoSProfile:
                       durability=DurabilityPolicy.VOLATILE)
 
 
-#: /clock: best effort, as ``ros2 bag play --clock`` and rclpy publish it.
-#: Only the latest /clock is kept (as rclpy's own time source keeps it): the node goes
-#: to the newest time, and a command that arrives with it is timed by it, not by an
-#: older /clock still queued.
-CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: /clock: best effort, as ``ros2 bag play --clock`` and rclpy publish it. A busy
+#: node keeps the last 100 (1 s of a player's): a command is timed by the /clock its
+#: sender published before it (``stamps.ClockLog``), which must not have been lost.
+CLOCK_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)

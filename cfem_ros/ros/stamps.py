@@ -20,6 +20,7 @@ Plain bookkeeping: no rclpy.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import replace
 import math
 from typing import Callable, Optional
@@ -32,6 +33,12 @@ import numpy as np
 #: spacing explains: a fraction of the distance travelled, and an absolute floor (m).
 ODOMETRY_RELATIVE = 0.01
 ODOMETRY_ABSOLUTE = 1e-6
+#: What a late input's warning advises, in real time and following /clock.
+CURE_REAL_TIME = 'lower real_time_factor, or follow /clock'
+#: /clock messages a ClockLog remembers (10 s of a player's 100 Hz).
+CLOCK_LOG_SIZE = 1000
+CURE_CLOCK = ('raise input_window (the simulated seconds the node stays behind /clock), or '
+              'play the inputs on time')
 
 
 def next_ns(t: float) -> float:
@@ -52,6 +59,9 @@ class InputTiming:
         Whose current time ``sim.t`` tells late from early.
     warn : callable
         Takes a warning line (the first late input of each topic).
+    cure : str
+        What the warning advises for late inputs (the node's pacing decides:
+        a lower ``real_time_factor``, or a wider ``input_window``).
 
     Attributes
     ----------
@@ -59,15 +69,18 @@ class InputTiming:
         The stamp of simulated time 0.
     late_inputs : int
         Stamped inputs that came after their time (applied at once).
+    late_topics : dict
+        Topic -> its late inputs (what the diagnostics line names).
 
     """
 
-    def __init__(self, sim, warn: Callable[[str], None]):
+    def __init__(self, sim, warn: Callable[[str], None], cure: str = CURE_REAL_TIME):
         self.sim = sim
         self.warn = warn
+        self.cure = cure
         self.start_ns: Optional[int] = None
         self.late_inputs = 0
-        self._late_topics = set()
+        self.late_topics = {}
 
     def timed(self, topic: str, item: Input, now: Optional[float]) -> Input:
         """
@@ -93,13 +106,64 @@ class InputTiming:
 
     def _late(self, topic: str, own: float):
         self.late_inputs += 1
-        if topic in self._late_topics:
+        first = topic not in self.late_topics
+        self.late_topics[topic] = self.late_topics.get(topic, 0) + 1
+        if not first:
             return
-        self._late_topics.add(topic)
-        self.warn(f'{topic}: a message stamped {self.sim.t - own:.6f} s before the simulated '
-                  f'time it arrived at (t = {self.sim.t:.6f} s) was applied at once; further '
-                  'late messages are counted (late_inputs); the simulation runs ahead of its '
-                  'inputs: lower real_time_factor, or follow /clock')
+        self.warn(f'{topic}: a message stamped {own:.6f} s (simulated time), '
+                  f'{self.sim.t - own:.6f} s before the simulated time it arrived at '
+                  f'(t = {self.sim.t:.6f} s), was applied at once; further late messages are '
+                  f'counted (late_inputs); the simulation runs ahead of its inputs: {self.cure}')
+
+    def summary(self) -> str:
+        """Return ``late_inputs N`` and, if any, the topics they came on with their counts."""
+        if not self.late_inputs:
+            return 'late_inputs 0'
+        return f'late_inputs {self.late_inputs} (' + ', '.join(
+            f'{count} on {topic}' for topic, count in sorted(self.late_topics.items())) + ')'
+
+
+def source_ns(info) -> int:
+    """Return a message's source timestamp (its sender's system time of sending), ns; 0: none."""
+    return int(info.get('source_timestamp') or 0) if info else 0
+
+
+class ClockLog:
+    """
+    The /clock times a node took, with their senders' source timestamps.
+
+    An unstamped input (a release command) takes effect at the last /clock
+    its sender had published before it: the order in which a player (one
+    process, one system clock) sent them, which holds across topics, not the
+    order in which a busy node happened to take them. Plain bookkeeping.
+    """
+
+    def __init__(self, size: int = CLOCK_LOG_SIZE):
+        self._log = deque(maxlen=size)   # (source ns, clock ns), as taken
+        #: The /clock taken last, ns (None before the first).
+        self.latest: Optional[int] = None
+
+    def took(self, clock_ns: int, info):
+        """Note a /clock of clock_ns taken with this MessageInfo."""
+        self.latest = int(clock_ns)
+        source = source_ns(info)
+        if source:
+            self._log.append((source, self.latest))
+
+    def before(self, info) -> Optional[int]:
+        """
+        Return the /clock sent last before a message of this MessageInfo, ns.
+
+        Without a source timestamp, the /clock taken last; before every
+        /clock remembered, the first of them.
+        """
+        source = source_ns(info)
+        if not source or not self._log:
+            return self.latest
+        for sent, clock_ns in reversed(self._log):
+            if sent <= source:
+                return clock_ns
+        return self._log[0][1]
 
 
 class OdometryCheck:

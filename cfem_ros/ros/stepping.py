@@ -15,6 +15,7 @@ import time
 from typing import Optional
 
 from cfem_ros.ros.stamps import divergence_advice
+from cfem_ros.ros.subscriptions import taken
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import String
@@ -103,32 +104,65 @@ class Stepping:
                 f'clock by {lag:.3f} s at real_time_factor {self.pace.factor:g}; '
                 'lower real_time_factor or rate_hz')
 
-    def _on_clock(self, msg: ClockMsg):
+    def _on_clock(self, msg: ClockMsg, info=None):
+        """
+        Follow a /clock message: take the inputs waiting, then run toward its time.
+
+        The inputs already in the node's queues were sent before this /clock
+        (a player sends a message's /clock, then it): taken first, each takes
+        effect at its stamp however long the node was busy before (SPEC 3).
+        """
+        if self._took_clock(msg, info):
+            self._take_waiting_inputs()
+            self._catch_up()
+
+    def _took_clock(self, msg: ClockMsg, info) -> bool:
+        """Take a /clock message's time; return whether the run may go on toward it."""
         clock_ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
         if clock_ns < 0:
             self._refusals.warning(f'/clock: {clock_ns * 1e-9:.9g} s is a negative time; '
                                    'ignored')
-            return
+            return False
         if self.start_ns is None:
             self.get_logger().info(f'/clock started at {clock_ns * 1e-9:.9f} s; '
                                    'simulated time 0 is that stamp')
+            self._clocks.took(clock_ns, info)
             self._begin(clock_ns)
-            return
+            return False
         if clock_ns < self.start_ns + int(round(self.sim.t * 1e9)):
             self.get_logger().warning('/clock went back; ignored (restart the node to '
                                       'replay from an earlier time)', throttle_duration_sec=5.0)
-            return
+            return False
         limit = (clock_ns - self.start_ns) / 1e9
         if limit - self.sim.t > MAX_CLOCK_JUMP:
             self._refusals.warning(
                 f'/clock jumped {limit - self.sim.t:.6g} s ahead of the simulation (at '
                 f't = {self.sim.t:.6g} s); more than {MAX_CLOCK_JUMP:g} s at once is ignored '
                 '(restart the node to follow a clock that far away)')
-            return
+            return False
         if limit > self._clock_limit:
             self._clock_wall, self._clock_still = time.monotonic(), 0
+        self._clocks.took(clock_ns, info)
         self._clock_limit = limit
-        self._catch_up()
+        return True
+
+    def _clock_of(self, info) -> float:
+        """
+        Return the simulated time of the last /clock sent before an unstamped input.
+
+        The /clock messages waiting are taken first (their times noted, the
+        run not moved on); then the input's source timestamp picks the /clock
+        its sender had sent before it (``ClockLog``), whichever the node took
+        last: a release command takes effect at the same time on an idle or
+        a busy node.
+        """
+        for sub in self._clock_subscriptions:
+            for msg, clock_info in taken(sub):
+                self._clock_moved = self._took_clock(msg, clock_info) or self._clock_moved
+        clock_ns = self._clocks.before(info)
+        if clock_ns is None or self.start_ns is None:
+            return self._clock_limit
+        return max(0.0, (clock_ns - self.start_ns) / 1e9)
 
     def _clock_target(self) -> float:
         """
@@ -151,6 +185,7 @@ class Stepping:
             return
         self._clock_still += 1
         if self._clock_still == 2:
+            self._take_waiting_inputs()
             self._catch_up()
 
     def _catch_up(self):

@@ -21,6 +21,16 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import String
 
 
+def taken(subscription):
+    """Yield (message, MessageInfo) of each message waiting on a subscription, taking it."""
+    while True:
+        with subscription.handle:
+            pair = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+        if pair is None:
+            return
+        yield pair
+
+
 class QueueWatch:
     """
     Count the input messages a full queue lost, from the publishers' sequence numbers.
@@ -61,6 +71,13 @@ class QueueWatch:
         """Return the messages lost on every topic."""
         return sum(self.dropped.values())
 
+    def summary(self) -> str:
+        """Return ``dropped_inputs N`` and, if any, the topics that lost them with their counts."""
+        if not self.total:
+            return 'dropped_inputs 0'
+        return f'dropped_inputs {self.total} (' + ', '.join(
+            f'{count} on {topic}' for topic, count in sorted(self.dropped.items())) + ')'
+
 
 class Subscriptions:
     """The input topics and what the node does with their messages (a part of ``CfemNode``)."""
@@ -68,17 +85,39 @@ class Subscriptions:
     def _subscribe(self, model, depth: int):
         """Subscribe to every body's wrenches (and a kinematic body's odometry)."""
         self._queues = QueueWatch(depth, self._refusals.warning)
+        self._taking = False   # in _take_waiting_inputs
+        self._clock_moved = False   # /clock taken to time an input: the run goes on after it
         qos = input_qos(depth)
+        subscriptions = self._input_subscriptions = []
         for body in model.bodies:
-            self.create_subscription(
+            subscriptions.append(self.create_subscription(
                 WrenchStamped, schema.WRENCH_INPUT.relative(body=body.name),
-                lambda msg, info, name=body.name: self._on_wrench(name, msg, info), qos)
+                lambda msg, info, name=body.name: self._on_wrench(name, msg, info), qos))
             if body.motion is not None:   # a kinematic body may follow odometry
-                self.create_subscription(
+                subscriptions.append(self.create_subscription(
                     Odometry, schema.ODOMETRY_INPUT.relative(body=body.name),
-                    lambda msg, info, name=body.name: self._on_odometry(name, msg, info), qos)
+                    lambda msg, info, name=body.name: self._on_odometry(name, msg, info), qos))
         self._release_sub = self.create_subscription(
             String, schema.RELEASE_INPUT.relative(), self._on_release, qos)
+        subscriptions.append(self._release_sub)
+
+    def _take_waiting_inputs(self):
+        """
+        Take every input message waiting in the node's queues now, before the run goes on.
+
+        The executor would take one message per topic per wait, after the
+        /clock that moves the run on: a busy node would then find inputs
+        stamped well before the /clock it just followed, and apply them
+        late. Taken here, in one pass (at most ``input_queue_depth`` a topic),
+        each waits for its stamp as on an idle node.
+        """
+        self._taking = True
+        try:
+            for subscription in self._input_subscriptions:
+                for _, (msg, info) in zip(range(self._queues.depth), taken(subscription)):
+                    subscription.callback(msg, info)
+        finally:
+            self._taking = False
 
     def _on_wrench(self, body: str, msg: WrenchStamped, info):
         stamp = msg.header.stamp
@@ -87,7 +126,7 @@ class Subscriptions:
         topic = self.resolve_topic_name(schema.WRENCH_INPUT.relative(body=body))
         self._queues.took(topic, info)
         self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
-                                         bounded(msg.header.frame_id), header_ns=header_ns))
+                                         bounded(msg.header.frame_id), header_ns=header_ns), info)
 
     def _on_odometry(self, body: str, msg: Odometry, info):
         self.gate.seen += 1
@@ -99,11 +138,12 @@ class Subscriptions:
         self._submit(topic, odometry_input(
             body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z], [w.x, w.y, w.z],
             bounded(msg.header.frame_id),
-            header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec))
+            header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec), info)
 
     def _on_release(self, msg: String, info):
         self._queues.took(self._release_sub.topic_name, info)
-        self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())))
+        self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())),
+                     info)
 
     def _arrival_time(self) -> Optional[float]:
         """
@@ -118,33 +158,43 @@ class Subscriptions:
         target = self.pace.target(time.monotonic())
         return min(round(target * 1e9) / 1e9, self.duration)
 
-    def _submit(self, topic: str, item: Input):
+    def _submit(self, topic: str, item: Input, info=None):
         """
         Give an input to the session; a refused one is logged (throttled) and counted.
 
         Strings are already cut to ``REFUSED_STRING_BYTES`` (``bounded``):
         longer ones never name a frame or joint, so they are refused, and
-        recorded and logged in that bounded form.
+        recorded and logged in that bounded form. info: the message's
+        MessageInfo (following /clock, an unstamped input takes the time of
+        the /clock sent before it, ``_clock_of``).
         """
         if self.exit_code is not None:
             return
         if self.start_ns is None:
-            self._early.append((topic, item))
+            self._early.append((topic, item, info))
             return
         # at its stamp if that is still ahead; else at the clock's time, which is ahead of
         # the simulation while it waits for odometry (``OdometryGate``), or at once
         self.odometry_check.check(topic, item)
-        item = self.timing.timed(topic, item,
-                                 self._clock_limit if self.sim_time else self._arrival_time())
+        if self.sim_time:
+            now = self._clock_of(info) if not item.header_ns else self._clock_limit
+        else:
+            now = self._arrival_time()
+        item = self.timing.timed(topic, item, now)
         try:
             self.session.submit(item)
         except ValueError as err:
             self._refused[topic] = self._refused.get(topic, 0) + 1
             self._refusals.warning(f'{topic}: message not applied: {err}')
-        if item.kind == 'odom' and self.gate.interpolate:   # what waited for it goes on
+        if item.kind == 'odom' and self.gate.interpolate and not self._taking:
+            # what waited for it goes on (taken with others: once they are all taken)
             if self.sim_time and self._clock_limit is not None:
                 self._catch_up()
             elif not self.sim_time and self.pace.factor > 0:
                 self._run_to(self.pace.target(time.monotonic()))
+        if self._clock_moved and not self._taking:   # /clock taken to time this input
+            self._clock_moved = False
+            self._take_waiting_inputs()
+            self._catch_up()
         if self.session.finished and self.exit_code is None:
             self._end()

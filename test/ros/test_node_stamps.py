@@ -17,7 +17,8 @@ import sys
 import types
 
 from cfem_ros.core.run.inputs import odometry_input, wrench_input
-from cfem_ros.ros.stamps import divergence_advice, InputTiming, next_ns, OdometryCheck
+from cfem_ros.ros.stamps import (ClockLog, CURE_CLOCK, divergence_advice, InputTiming, next_ns,
+                                 OdometryCheck)
 import numpy as np
 import pytest
 from recordings import read_checked
@@ -59,6 +60,30 @@ def test_an_input_waits_for_its_stamp_and_a_late_one_applies_at_once_and_is_coun
     odom = odometry_input('jet', [0, 0, 0], [0, 0, 0, 1], [1, 0, 0], [0, 0, 0], 'world',
                           header_ns=START + 70 * MS)
     assert timing.timed('o', odom, now=None).at == pytest.approx(0.07, abs=1e-15)
+
+
+def test_late_inputs_are_named_by_topic_with_the_cure_of_the_pacing():
+    warnings = []
+    timing = InputTiming(types.SimpleNamespace(t=0.2), warnings.append, CURE_CLOCK)
+    timing.start_ns = START
+    assert timing.summary() == 'late_inputs 0'
+    for topic, ms in (('/w', 100), ('/o', 150), ('/w', 120)):
+        timing.timed(topic, _wrench(START + ms * MS), now=0.25)
+    assert timing.summary() == 'late_inputs 3 (1 on /o, 2 on /w)'
+    assert len(warnings) == 2 and 'stamped 0.100000 s' in warnings[0]
+    assert warnings[0].endswith(CURE_CLOCK)
+
+
+def test_a_command_takes_the_clock_its_sender_sent_before_it_whatever_was_taken_last():
+    log = ClockLog()
+    assert log.before({'source_timestamp': 5}) is None
+    for sent, clock in ((100, 1000), (200, 1010), (300, 1020)):
+        log.took(clock, {'source_timestamp': sent})
+    assert log.before({'source_timestamp': 250}) == 1010   # sent between 1010 and 1020
+    assert log.before({'source_timestamp': 200}) == 1010   # at the same instant: after it
+    assert log.before({'source_timestamp': 50}) == 1000    # before all: the first known
+    assert log.before({'source_timestamp': 0}) == 1020     # no timestamp: the latest
+    assert log.before(None) == 1020
 
 
 def test_a_late_input_lands_on_a_whole_nanosecond_after_the_simulation():
