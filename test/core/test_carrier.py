@@ -250,6 +250,26 @@ def test_table_from_a_csv_file_relative_to_the_scenario(tmp_path):
     assert np.allclose(q, [0, 0, 0, 1], atol=1e-15)
 
 
+@pytest.mark.parametrize('make, said', [
+    (None, 'cannot read the file (No such file'), ('mkdir', 'is a directory')])
+def test_a_motion_csv_that_cannot_be_read_is_one_message_about_a_csv_file(
+        tmp_path, capsys, make, said):
+    # the issue's case: "expected a readable, regular YAML scenario file); expected a
+    # readable CSV file", the scenario file's refusal inside the table's
+    if make:
+        (tmp_path / 'flight.csv').mkdir()
+    import yaml
+    from cfem_ros import cli
+    path = tmp_path / 'scenario.yaml'
+    path.write_text(yaml.safe_dump(_document({'motion': {'table': 'flight.csv'}})))
+    assert cli.main(['check', str(path)]) == 2
+    line, = capsys.readouterr().err.splitlines()
+    assert line.startswith(f'ERROR: {path}: bodies.aircraft.motion.table: ')
+    assert line.count("'flight.csv' ('") == 1 and f"flight.csv'): {said}" in line
+    assert line.count('expected') == 1 and line.endswith('expected a readable, regular CSV file')
+    assert 'YAML' not in line
+
+
 def test_relative_outputs_are_the_pose_and_twist_in_the_carrier_frame():
     rate = math.radians(20.0)
     aircraft = {'motion': {'velocity': [SPEED, 0, 0], 'angular_velocity': [0, rate, 0]}}

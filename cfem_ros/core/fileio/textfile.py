@@ -32,12 +32,15 @@ def file_kind(mode: int) -> str:
     return 'not a regular file'
 
 
-def read_text(path, source: Optional[str] = None) -> str:
+def read_text(path, source: Optional[str] = None,
+              what: str = 'a readable, regular YAML scenario file') -> str:
     """
     Read a scenario file's text: a regular file, at most ``MAX_FILE_BYTES``, UTF-8.
 
     Never blocks (a FIFO or device is refused from its ``stat`` before it is
     opened, and opened non-blocking) and never reads more than the bound.
+    ``what`` is the file that would be right, as a refusal says it (a
+    scenario, a motion table's CSV file).
 
     Raises
     ------
@@ -48,7 +51,7 @@ def read_text(path, source: Optional[str] = None) -> str:
     source = source or display(path)
     limit = f'at most {MAX_FILE_BYTES:,} bytes ({MAX_FILE_BYTES >> 20} MiB)'
 
-    def refuse(problem, expected='a readable, regular YAML scenario file'):
+    def refuse(problem, expected=what):
         raise ScenarioError(source, '', problem, expected)
 
     try:

@@ -70,9 +70,10 @@ def _read_motion_csv(check: Checker, name: str, key: str) -> np.ndarray:
     base = os.path.dirname(check.source) if os.path.isfile(check.source) else ''
     path = name if os.path.isabs(name) else os.path.join(base, name)
     try:
-        text = read_text(path, path)
-    except ScenarioError as err:
-        check.fail(key, f'{show(name)} cannot be read ({err})', 'a readable CSV file')
+        text = read_text(path, path, what='a readable, regular CSV file')
+    except ScenarioError as err:   # one message: the key, the file, what is wrong with it
+        shown = show(name) if path == name else f'{show(name)} ({show(path)})'
+        check.fail(key, f'{shown}: {err.problem}', err.expected)
     text = text.removeprefix('\ufeff')   # a byte order mark, as a scenario file may have
     lines = [line for line in text.splitlines() if line.strip() and not line.startswith('#')]
     order = list(range(8))
