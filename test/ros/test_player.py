@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 
 from cfem_ros import cli
 from cfem_ros.recording.container import EVENTS_OFFERED_QOS, OFFERED_QOS, Recorder
@@ -15,6 +16,7 @@ from cfem_ros.recording.schema import STRING_TYPE, WRENCH_TYPE
 from cfem_ros.ros import player
 from geometry_msgs.msg import PoseStamped
 import numpy as np
+import pytest
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from recordings import read_checked
 from rosharness import NodeProcess, Peer, stamp_ns
@@ -186,58 +188,109 @@ def _odometry(t_ns, position, quat, velocity, rates):
                       'covariance': [0.0] * 36}}
 
 
-def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
-    from cfem_ros.recording.analysis import open_run
+SPEED, PITCH_RATE = 250.0, -9.80665 / 250.0   # a 2 g pull-up
+#: The flight log's end and the node's duration, s.
+FLIGHT_END = 0.6
+
+
+def _flight(directory):
+    """
+    Write a 0.6 s flight log and its carrier scenario; return their paths.
+
+    A 2 g pull-up's odometry at 100 Hz, a wrench on the store at 103 ms and
+    its end at 203 ms (between odometry messages), a release command at 305 ms.
+    """
     from cfem_ros.recording.schema import ODOMETRY_TYPE
     from scipy.spatial.transform import Rotation
-    speed, rate = 250.0, -9.80665 / 250.0   # a 2 g pull-up
-    scenario = tmp_path / 'carrier.yaml'
+    scenario = directory / 'carrier.yaml'
     doc = {'name': 'carrier', 'duration': 100.0, 'dt': 0.001,
-           'bodies': {'aircraft': {'motion': {'velocity': [speed, 0, 0],
-                                              'angular_velocity': [0, rate, 0]}},
+           'bodies': {'aircraft': {'motion': {'velocity': [SPEED, 0, 0],
+                                              'angular_velocity': [0, PITCH_RATE, 0]}},
                       'store': {'mass': 200.0, 'inertia': [5.0, 60.0, 60.0],
                                 'position': [0.0, 0, -1.0]}},
            'joints': {'hook': {'type': 'hinge', 'parent': 'aircraft', 'child': 'store',
                                'anchor': [0.5, 0, -0.6], 'axis': [0, 1, 0]}}}
     scenario.write_text(yaml.safe_dump(doc))
-    log = tmp_path / 'flight.mcap'
+    log = directory / 'flight.mcap'
     with Recorder(str(log)) as rec:
         for k in range(61):
             t, t_ns = 0.01 * k, T0 + 10 * k * MS
-            phi = rate * t
-            position = [speed / rate * np.sin(phi), 0, speed / rate * (np.cos(phi) - 1)]
+            phi = PITCH_RATE * t
+            position = [SPEED / PITCH_RATE * np.sin(phi), 0,
+                        SPEED / PITCH_RATE * (np.cos(phi) - 1)]
             quat = Rotation.from_rotvec([0, phi, 0]).as_quat()
             rec.write('/cfem/bodies/aircraft/odom', ODOMETRY_TYPE,
-                      _odometry(t_ns, position, quat, [speed, 0, 0], [0, rate, 0]), t_ns)
+                      _odometry(t_ns, position, quat, [SPEED, 0, 0], [0, PITCH_RATE, 0]), t_ns)
             if k in (10, 20):   # a wrench on the store between two odometry messages
                 force = [0, 0, 800.0] if k == 10 else [0, 0, 0]
                 rec.write('/cfem/bodies/store/wrench', WRENCH_TYPE, _wrench(t_ns + 3 * MS, force),
                           t_ns + 3 * MS)
             if k == 30:
                 rec.write('/cfem/release', STRING_TYPE, {'data': 'hook'}, t_ns + 5 * MS)
-    recording = tmp_path / 'node.mcap'
-    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
-    peer = Peer([], [])
-    peer._collect(PoseStamped, 'bodies/store/relative_pose')
+    return scenario, log
+
+
+def _replay(directory, scenario, log, watch=False, hogs=0):
+    """
+    Play log with --clock into a use_sim_time node recording to directory/node.mcap.
+
+    The node runs to FLIGHT_END and ends by itself. With hogs, that many
+    processes that never sleep run from the node's start to its end. Return
+    the recording and, with watch, the store's relative poses it published.
+    """
+    directory.mkdir(exist_ok=True)
+    recording = directory / 'node.mcap'
+    node = NodeProcess(directory, scenario, use_sim_time=True, record=recording,
+                       duration=FLIGHT_END)
+    peer, busy = None, []
+    if watch:
+        peer = Peer([], [])
+        peer._collect(PoseStamped, 'bodies/store/relative_pose')
     try:
         wait_for_clock_subscription(node)
-        peer.spin_until(lambda: peer.node.count_publishers('/cfem/bodies/store/relative_pose')
-                        > 0, 60.0, 'the relative pose publisher')
+        busy += [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+                 for _ in range(hogs)]
+        if peer is not None:
+            peer.spin_until(lambda: peer.node.count_publishers(
+                '/cfem/bodies/store/relative_pose') > 0, 60.0, 'the relative pose publisher')
         done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait',
-                               '60'], capture_output=True, text=True, timeout=120)
+                               '60'], capture_output=True, text=True, timeout=180)
         assert done.returncode == 0, done.stderr
         assert '64 messages played' in done.stdout
-        peer.spin_for(1.0)
+        if peer is not None:
+            peer.spin_for(1.0)
+        status = node.wait(120.0)
     finally:
-        status = node.stop(signal.SIGINT)
-        published = list(peer.received['bodies/store/relative_pose'])
-        peer.close()
+        for hog in busy:
+            hog.kill()
+            hog.wait()
+        node.stop(signal.SIGINT)
+        published = [] if peer is None else list(peer.received['bodies/store/relative_pose'])
+        if peer is not None:
+            peer.close()
     assert status == 0, node.output
+    assert 'diagnostics: late_inputs 0, dropped_inputs 0' in node.output, node.output
+    return recording, published
+
+
+@pytest.fixture(scope='module')
+def flight(tmp_path_factory):
+    """The flight log, its scenario, and the recording of its replay on the machine as it is."""
+    directory = tmp_path_factory.mktemp('flight')
+    scenario, log = _flight(directory)
+    recording, published = _replay(directory / 'idle', scenario, log, watch=True)
+    return types.SimpleNamespace(directory=directory, scenario=scenario, log=log,
+                                 recording=recording, published=published)
+
+
+def test_odometry_log_drives_a_carrier_in_the_node_as_offline(flight):
+    from cfem_ros.recording.analysis import open_run
+    recording = flight.recording
     # the node publishes the store's pose in the aircraft's frame, as it records it
     recorded = {stamp_ns(m.header): m for topic, _, _, m in read_checked(recording)[2]
                 if topic == '/cfem/bodies/store/relative_pose'}
-    assert len(published) > 30
-    for msg in published:
+    assert len(flight.published) > 30
+    for msg in flight.published:
         assert msg.header.frame_id == 'aircraft'
         assert np.abs(_numbers(msg) - _numbers(recorded[stamp_ns(msg.header)])).max() < 1e-12
     start_ns = T0
@@ -248,24 +301,39 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(tmp_path):
     assert [log - start_ns for topic, log, _, _ in messages
             if topic in ('/cfem/bodies/store/wrench', '/cfem/release')] == [
                 103 * MS, 203 * MS, 305 * MS]
-    last = max(t for _, t in ours)
-    assert last >= 600 * MS
-    out = tmp_path / 'offline.mcap'
-    assert cli.main(['run', str(scenario), '-o', str(out), '--inputs', str(log),
-                     '--duration', repr(last / 1e9)]) == 0
+    assert max(t for _, t in ours) == FLIGHT_END * 1e9
+    out = flight.directory / 'offline.mcap'
+    assert cli.main(['run', str(flight.scenario), '-o', str(out), '--inputs', str(flight.log),
+                     '--duration', repr(FLIGHT_END)]) == 0
     theirs, their_events, _ = _samples(out, 0)
-    assert set(ours) <= set(theirs) and len(ours) >= 0.9 * len(theirs)
-    worst = max(np.abs(_numbers(m) - _numbers(theirs[key])).max() for key, m in ours.items())
+    assert set(ours) == set(theirs)   # every sample, as offline
     bad = sorted((key[1], key[0]) for key, m in ours.items()
-                 if np.abs(_numbers(m) - _numbers(theirs[key])).max() > 1e-9)
-    assert worst <= 1e-9, (worst, bad[:5], node.output)
+                 if not np.array_equal(_numbers(m), _numbers(theirs[key])))
+    assert bad == []   # sample by sample, to the bit
     assert [e['joint'] for e in our_events] == [e['joint'] for e in their_events] == ['hook']
-    assert abs(our_events[0]['time'] - their_events[0]['time']) <= 1e-9
+    assert our_events[0]['time'] == their_events[0]['time']
     # the carrier followed the log: at 0.6 s, on the circle
-    phi = rate * 0.6
+    phi = PITCH_RATE * 0.6
     carrier = open_run(str(recording)).bodies['aircraft']
     k = int(np.argmin(np.abs(carrier.time - 0.6)))
-    assert np.allclose(carrier.position[k], [speed / rate * np.sin(phi), 0,
-                                             speed / rate * (np.cos(phi) - 1)], atol=1e-6)
+    assert np.allclose(carrier.position[k], [SPEED / PITCH_RATE * np.sin(phi), 0,
+                                             SPEED / PITCH_RATE * (np.cos(phi) - 1)], atol=1e-6)
     # and the store's pose in the carrier's frame was recorded
     assert open_run(str(recording)).relative['store'].reference == 'aircraft'
+
+
+def _contents(path):
+    """Return every message of a recording: (topic, log time, CDR bytes)."""
+    from mcap.reader import make_reader
+    with open(path, 'rb') as stream:
+        return [(channel.topic, message.log_time, message.data)
+                for _, channel, message in make_reader(stream).iter_messages()]
+
+
+def test_a_replay_beside_four_busy_processes_records_what_the_idle_replay_did(flight):
+    # four processes that never sleep, on a machine of 2 cores, for the replay's duration
+    recording, _ = _replay(flight.directory / 'loaded', flight.scenario, flight.log, hogs=4)
+    loaded, idle = _contents(recording), _contents(flight.recording)
+    assert len(loaded) == len(idle) > 400
+    differ = [(a[0], a[1] - T0) for a, b in zip(loaded, idle) if a != b]
+    assert differ == []   # every message, to the byte, at the same time
