@@ -44,8 +44,8 @@ KEYS = {
 #: Stroke-end columns (SPEC section 7): suffix -> (words, unit).
 STROKE = {'time': ('end of stroke time', 's'), 'u': ('u at end of stroke', 'm/s'),
           'v': ('v at end of stroke', 'm/s'), 'w': ('w at end of stroke', 'm/s'),
-          'p': ('p at end of stroke', 'rad/s'), 'q': ('q at end of stroke', 'rad/s'),
-          'r': ('r at end of stroke', 'rad/s')}
+          'p': ('p at end of stroke', 'deg/s'), 'q': ('q at end of stroke', 'deg/s'),
+          'r': ('r at end of stroke', 'deg/s')}
 
 
 def _names(document: Optional[dict]) -> tuple:

@@ -325,7 +325,9 @@ def compute(samples: Samples, metrics) -> dict:
         out.update(zip(names, values))
     for wrench in getattr(metrics, 'strokes', ()):
         t, velocity, rates = samples.strokes.get(wrench, (NAN, [NAN] * 3, [NAN] * 3))
-        values = [float(t)] + [float(v) for v in velocity] + [float(v) for v in rates]
+        # rates in deg/s, as the export's _p, _q, _r (SPEC 15: one unit per quantity)
+        values = ([float(t)] + [float(v) for v in velocity]
+                  + [float(v) for v in np.degrees(np.asarray(rates, dtype=float))])
         out.update(zip((f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS), values))
     for body in getattr(metrics, 'aero', ()):
         out[f'aero_outside_{body}'] = float(samples.aero_outside.get(body, 0.0))

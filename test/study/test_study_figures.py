@@ -36,7 +36,7 @@ EJECTORS = {'bodies': {'pylon': {'fixed': True}, 'store': {'mass': 907.2}},
     ('peak_moment_pivot', 'peak moment in pivot [N m]'),
     ('store_at_0.5_z', 'store z at 0.5 s [m]'),
     ('store_at_0.5_pitch_deg', 'store pitch at 0.5 s [deg]'),
-    ('stroke_aft_ejector_q', 'aft_ejector q at end of stroke [rad/s]'),
+    ('stroke_aft_ejector_q', 'aft_ejector q at end of stroke [deg/s]'),
 ])
 def test_columns_read_as_names_with_units(column, want):
     assert label(column, EJECTORS) == want

@@ -85,10 +85,10 @@ def describe_event(event: dict) -> str:
         u, v, w = event['velocity']
         p, q, r = event['rates']
         seen = event.get('reacts_on', 'the world')
-        deg = np.degrees([p, q, r])
+        p, q, r = np.degrees([p, q, r])   # rates as a person reads them (SPEC 15): deg/s only
         return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
-                f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.4f}, '
-                f'{q:.4f}, {r:.4f} rad/s ({deg[0]:.2f}, {deg[1]:.2f}, {deg[2]:.2f} deg/s)')
+                f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.2f}, '
+                f'{q:.2f}, {r:.2f} deg/s')
     if kind in ('aero_outside', 'aero_inside'):
         where = 'outside' if kind == 'aero_outside' else 'back inside'
         return (f"{kind} {event['body']} at {when}: {event['axis']} = {event['value']:.6g}, "
