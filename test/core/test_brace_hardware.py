@@ -42,15 +42,27 @@ def test_a_pad_pointing_out_of_the_store_is_refused_with_its_key_path():
     assert 'sway_braces[0].direction' in text and 'towards the carrier' in text, text
 
 
-@pytest.mark.parametrize('stiffness, damping', [(1.0e9, 2.0e3), (5.0e6, 1.0e9)])
-def test_braces_rk4_cannot_follow_are_refused_with_the_dt_that_would_do(stiffness, damping):
+@pytest.mark.parametrize('which, stiffness, damping, key, said', [
+    (None, 1.0e9, 2.0e3, 'sway_braces[0].stiffness', 'is 1e+09 N/m (damping 2000 N s/m)'),
+    (None, 5.0e6, 1.0e9, 'sway_braces[0].damping', 'is 1e+09 N s/m (stiffness 5e+06 N/m)'),
+    # one pad too stiff (or too damped) among four of the example's: that pad, that key
+    (2, 1.0e9, None, 'sway_braces[2].stiffness', 'is 1e+09 N/m'),
+    (3, None, 1.0e9, 'sway_braces[3].damping', 'is 1e+09 N s/m'),
+])
+def test_braces_rk4_cannot_follow_are_refused_with_the_dt_that_would_do(
+        which, stiffness, damping, key, said):
     doc = two_hooks_released(duration=0.3)
-    for brace in doc['sway_braces']:
-        brace['stiffness'], brace['damping'] = stiffness, damping
+    for k, brace in enumerate(doc['sway_braces']):
+        if which is None or k == which:
+            brace.update({n: v for n, v in (('stiffness', stiffness), ('damping', damping))
+                          if v is not None})
     with pytest.raises(ScenarioError) as err:
         parse_scenario(doc, source='two_hooks.yaml')
     text = str(err.value)
-    assert 'sway_braces[0].stiffness' in text and 'expected dt <=' in text, text
+    # the case: a damping of 1e9 was refused as sway_braces[0].stiffness
+    assert err.value.key == key and err.value.problem.startswith(said), text
+    assert ('less damped pad' if key.endswith('damping') else 'softer pad') in text, text
+    assert 'expected dt <=' in text, text
     would = float(text.split('expected dt <= ')[1].split(' s')[0])
     doc['dt'] = would
     doc['duration'] = min(0.3, 2000 * would)

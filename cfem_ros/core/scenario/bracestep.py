@@ -30,8 +30,13 @@ def amplification(z: np.ndarray) -> np.ndarray:
     return np.abs(1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0))))
 
 
-def eigenvalues(braces, bodies) -> np.ndarray:
-    """Return the eigenvalues (1/s) of the braced bodies' linearised motion at t = 0."""
+def eigenvalues(braces, bodies, springs: bool = True, dashpots: bool = True) -> np.ndarray:
+    """
+    Return the eigenvalues (1/s) of the braced bodies' linearised motion at t = 0.
+
+    ``springs`` and ``dashpots`` keep the pads' stiffness and damping (both
+    by default; one alone tells which of the two a step cannot follow).
+    """
     moving = sorted({i for b in braces for i in (b.body, b.carrier) if bodies[i].dynamic})
     slot = {i: k for k, i in enumerate(moving)}
     size = 6 * len(moving)
@@ -52,8 +57,8 @@ def eigenvalues(braces, bodies) -> np.ndarray:
             c = slot[brace.carrier]
             lever = body.position + arm - bodies[brace.carrier].position
             row[6 * c:6 * c + 3], row[6 * c + 3:6 * c + 6] = -axis, -np.cross(lever, axis)
-        spring += brace.stiffness * np.outer(row, row)
-        dashpot += brace.damping * np.outer(row, row)
+        spring += brace.stiffness * springs * np.outer(row, row)
+        dashpot += brace.damping * dashpots * np.outer(row, row)
     inverse = np.linalg.inv(mass)
     system = np.block([[np.zeros((size, size)), np.eye(size)],
                        [-inverse @ spring, -inverse @ dashpot]])
@@ -79,23 +84,39 @@ def check_step(check, braces, bodies, dt: float):
     """Refuse braces whose linearised motion RK4 cannot follow with dt (naming the dt that would)."""
     if not braces:
         return
-    lams = eigenvalues(braces, bodies)
-    if not np.all(np.isfinite(lams)):
+    lams = _moving(eigenvalues(braces, bodies))
+    if lams is None:
         return   # the inertia checks have refused what could make them so
-    # the free bodies' rigid motions are zero eigenvalues, found to round-off
-    lams = lams[np.abs(lams) > 1e-6 * float(np.max(np.abs(lams), initial=0.0))]
     h = stable_step(lams, dt)
     if h >= dt:
         return
-    stiffest = max(range(len(braces)), key=lambda k: (braces[k].stiffness, braces[k].damping))
-    fastest = float(np.max(np.abs(lams)))
-    would = _round_down(MARGIN * h)
-    brace = braces[stiffest]
-    check.fail(f'sway_braces[{stiffest}].stiffness',
-               f'is {brace.stiffness:g} N/m (damping {brace.damping:g} N s/m): the braced '
-               f'bodies move at up to {fastest:.4g} 1/s, which RK4 with dt = {dt:g} s cannot '
-               'follow (the pads would gain energy at every step and chatter)',
-               f'dt <= {would:.2g} s with these braces, or a softer pad')
+    # the key to name: the pads' stiffness (a fast oscillation) or their damping (a fast
+    # decay), whichever alone asks for the shorter step; then the pad with most of it
+    alone = {key: _moving(eigenvalues(braces, bodies, springs=key == 'stiffness',
+                                      dashpots=key == 'damping'))
+             for key in ('stiffness', 'damping')}
+    steps = {key: dt if lam is None or not lam.size else stable_step(lam, dt)
+             for key, lam in alone.items()}
+    key = 'damping' if steps['damping'] < steps['stiffness'] else 'stiffness'
+    k = max(range(len(braces)), key=lambda j: getattr(braces[j], key))
+    brace, fastest, would = braces[k], float(np.max(np.abs(lams))), _round_down(MARGIN * h)
+    shown = (f'is {brace.damping:g} N s/m (stiffness {brace.stiffness:g} N/m)'
+             if key == 'damping' else
+             f'is {brace.stiffness:g} N/m (damping {brace.damping:g} N s/m)')
+    motion = 'decay' if key == 'damping' else 'move'
+    check.fail(f'sway_braces[{k}].{key}',
+               f'{shown}: the braced bodies {motion} at up to {fastest:.4g} 1/s, which RK4 '
+               f'with dt = {dt:g} s cannot follow (the pads would gain energy at every step '
+               'and chatter)', f'dt <= {would:.2g} s with these braces, or a '
+               f'{"less damped" if key == "damping" else "softer"} pad')
+
+
+def _moving(lams: np.ndarray):
+    """Return the eigenvalues that are not rigid motions (None if any is not finite)."""
+    if not np.all(np.isfinite(lams)):
+        return None
+    # the free bodies' rigid motions are zero eigenvalues, found to round-off
+    return lams[np.abs(lams) > 1e-6 * float(np.max(np.abs(lams), initial=0.0))]
 
 
 def _round_down(value: float) -> float:
