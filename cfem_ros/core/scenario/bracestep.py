@@ -32,7 +32,7 @@ def amplification(z: np.ndarray) -> np.ndarray:
 
 def eigenvalues(braces, bodies, springs: bool = True, dashpots: bool = True) -> np.ndarray:
     """
-    Return the eigenvalues (1/s) of the braced bodies' linearised motion at t = 0.
+    Return the eigenvalues of the braced bodies' linearised motion at t = 0, 1/s.
 
     ``springs`` and ``dashpots`` keep the pads' stiffness and damping (both
     by default; one alone tells which of the two a step cannot follow).
@@ -81,7 +81,7 @@ def stable_step(lams: np.ndarray, dt: float) -> float:
 
 
 def check_step(check, braces, bodies, dt: float):
-    """Refuse braces whose linearised motion RK4 cannot follow with dt (naming the dt that would)."""
+    """Refuse braces whose linearised motion RK4 cannot follow with dt, naming a dt that would."""
     if not braces:
         return
     lams = _moving(eigenvalues(braces, bodies))
