@@ -169,3 +169,106 @@ def test_an_exactly_singular_complement_is_reported_not_solved():
     reference = np.empty_like(sim.y)
     kernel.derivative(top.system, sim.y, reference)
     np.testing.assert_allclose(dy, reference, rtol=0, atol=1e-9 * np.abs(reference).max())
+
+
+def _kinds(sim):
+    """Return {kind: first row} of the rows of sim's loads past the bodies'."""
+    n = len(sim._bodies)
+    kinds = {}
+    for row in range(n, len(sim._loads)):
+        kinds.setdefault(float(sim._loads[row, kernel.LOADS.S_KIND]), row)
+    return kinds
+
+
+def _with(args, name, changes):
+    """Return args with a copy of args[name] whose entries are changed ({where: value})."""
+    array = args[name].copy()
+    for where, value in changes.items():
+        array[where] = value
+    return dict(args, **{name: array})
+
+
+def test_an_index_out_of_range_is_refused_by_name_when_the_system_is_made():
+    # the step loop trusts every index (no check per step); a body 10^7 in a plan line
+    # or a row killed the process with SIGSEGV at the first step. Refused once, here, with
+    # the argument, row, column and value, and the range that would do.
+    L, P, R, J, B = (kernel.LOADS, kernel.PLAN, kernel.ROWS_I, kernel.JOINTS_I,
+                     kernel.BODIES)
+    sim = _sim('store_release_two_hooks')
+    args = _system_args(sim)
+    n, m, rows = len(sim._bodies), len(args['rows_i']), len(sim._loads)
+    kinds = _kinds(sim)
+    s, a = kinds[L.KIND_SCHEDULED], kinds[L.KIND_AERO]
+    c, b, t = kinds[L.KIND_CONTACT], kinds[L.KIND_BRACE], kinds[L.KIND_TABLE]
+    # the packed table's TOTAL: AERO_ROW numbers a row, from the row A_FIRST names on
+    first = int(sim._loads[a, L.A_FIRST])
+    total = (first + kernel.AERO_TABLE.TOTAL // L.AERO_ROW, kernel.AERO_TABLE.TOTAL % L.AERO_ROW)
+    timed = {(s, L.S_TABLE): L.TABLE_TIME}
+    shape = int(sim._loads[c, L.C_SHAPE_B])   # its first number, the kind, made no kind
+    cases = [
+        ('plan', {(0, P.P_CHILD): 10**7}, r'plan\[0, P_CHILD\] = 10000000: not a body'),
+        ('plan', {(0, P.P_PARENT): -1}, r'plan\[0, P_PARENT\] = -1'),
+        ('plan', {(0, P.P_ROW): m}, r'plan\[0, P_ROW\]'),
+        ('plan', {(0, P.P_NR): 4}, r'plan\[0, P_NR\]'),
+        ('plan', {(-1, P.P_NT): 3, (-1, P.P_NR): 3}, r'P_ROW \+ P_NT \+ P_NR\]'),
+        ('plan', {(0, P.P_SIGN): 0}, r'plan\[0, P_SIGN\]'),
+        ('rows_i', {(0, R.R_CHILD): 10**7}, r'rows_i\[0, R_CHILD\] = 10000000'),
+        ('rows_i', {(m - 1, R.R_PARENT): n}, rf'rows_i\[{m - 1}, R_PARENT\]'),
+        ('rows_i', {(0, R.R_KIND): 3}, r'rows_i\[0, R_KIND\]'),
+        ('rows_i', {(0, R.R_KIND): R.KIND_SAME_POINT}, r'rows_i\[0, R_KIND\]'),
+        ('roots', {0: 3}, r'roots\[0\]'),
+        ('joints_i', {(0, J.J_CHILD): 10**7}, r'joints_i\[0, J_CHILD\]'),
+        ('order', {0: -1}, r'order\[0\]'),
+        ('bodies', {(0, B.M_REF): n + 1}, r'bodies\[0, M_REF\]'),
+        ('bodies', {(0, B.M_KIND): 7.0}, r'bodies\[0, M_KIND\]'),
+        ('loads', {(s, L.S_BODY): 1e7}, rf'loads\[{s}, S_BODY\] = 10000000'),
+        ('loads', {(s, L.S_BODY): 0.5}, rf'loads\[{s}, S_BODY\] = 0.5'),
+        ('loads', {(s, L.S_REACT): n}, rf'loads\[{s}, S_REACT\]'),
+        ('loads', {(s, L.S_FRAME): np.nan}, rf'loads\[{s}, S_FRAME\] = nan'),
+        ('loads', {(s, L.S_TABLE): 3}, rf'loads\[{s}, S_TABLE\]'),
+        ('loads', {**timed, (s, L.S_FIRST): 1e9}, rf'loads\[{s}, S_FIRST\]'),
+        ('loads', {**timed, (s, L.S_FIRST): t, (s, L.S_COUNT): rows - t},
+         rf'loads\[{s}, S_COUNT\]'),
+        ('loads', {(a, L.A_BODY): -1}, rf'loads\[{a}, A_BODY\]'),
+        ('loads', {(a, L.A_CARRIER): n}, rf'loads\[{a}, A_CARRIER\]'),
+        ('loads', {(a, L.A_FIRST): rows - 1}, rf'loads\[{a}, A_FIRST\]'),
+        ('loads', {total: 0.0}, rf'loads\[{a}, A_FIRST\] = {first}: no packed'),
+        ('loads', {total: 1e6}, rf'loads\[{a}, A_FIRST\] = {first}: .* does not fit'),
+        ('loads', {(c, L.C_B): 1e7}, rf'loads\[{c}, C_B\]'),
+        ('loads', {(c, L.C_SHAPE_A): rows - 1}, rf'loads\[{c}, C_SHAPE_A\]'),
+        ('loads', {(shape, 0): 9.0}, rf'loads\[{c}, C_SHAPE_B\] = {shape}: no packed shape'),
+        ('loads', {(b, L.BR_CARRIER): -1}, rf'loads\[{b}, BR_CARRIER\]'),
+        ('loads', {(-1, L.S_KIND): L.KIND_TABLE}, r'S_KIND\] = 2: the last row'),
+    ]
+    for name, changes, message in cases:
+        with pytest.raises(ValueError, match=message):
+            kernel.System(**_with(args, name, changes))
+    watching = _system_args(_sim('store_separation'))   # a joint released by its loads
+    for name, value in (('watch', len(watching['joints_i'])), ('watch_plan', -1)):
+        with pytest.raises(ValueError, match=rf'{name}\[0\] = {value}: not a'):
+            kernel.System(**_with(watching, name, {0: value}))
+    # the arrays as the engine lays them out are taken, and step
+    system = kernel.System(**args)
+    dy = np.empty_like(sim.y)
+    assert kernel.derivative(system, sim.y.copy(), dy) >= 0.0
+
+
+def test_a_sample_too_short_for_its_outputs_is_refused_by_name():
+    # a sample's outputs: the bodies, the sampled joints' loads, every applied load and
+    # the air (sample_applied), and the states relative to a reference: System.outputs
+    sim = _sim('store_release_two_hooks')
+    system = sim._topology.system
+    assert system.outputs == len(sim.outputs())
+    y = sim.y.copy()
+    with pytest.raises(ValueError, match='out: expected at least'):
+        kernel.sample_outputs(system, y, np.empty(system.outputs - 1))
+    info = np.zeros(kernel.ADVANCE_INFO.WIDTH)
+    for grid, samples, message in (([1.0, 0.0, 0.0], np.empty((2, system.outputs - 1)),
+                                    'samples: '),
+                                   ([1.0, 0.0, 3.0], np.empty((2, system.outputs)),
+                                    r'grid\[2\] = 3'),
+                                   ([1.0, 0.0, -1.0], np.empty((2, system.outputs)),
+                                    r'grid\[2\] = -1')):
+        with pytest.raises(ValueError, match=message):
+            kernel.advance(system, y, info, 0.01, np.inf, np.inf, 0.001,
+                           np.array(grid), samples)

@@ -184,7 +184,9 @@ inline double any_distance(const P& shape_a, const double* rot_a, const double* 
 }
 
 // Numbers of a packed shape of `size` numbers (convex or compound), or -1 if it is not one.
-inline long checked_length(const double* d, long size) {
+// d: a flat array (const double*, Flat) or a shape kept in rows of ``loads`` (Rows).
+template <class P>
+inline long checked_length(const P& d, long size) {
   if (size < kShapeHeader) return -1;
   auto convex = [&](long at) -> long {
     if (at + kShapeHeader > size) return -1;

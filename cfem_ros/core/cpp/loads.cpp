@@ -350,6 +350,21 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
   }
 }
 
+idx applied_size(const Mat& bodies, const Mat& loads) {
+  idx size = 0;
+  for (idx row = bodies.rows; row < loads.rows; ++row) {
+    double kind = loads(row, S_KIND);
+    if (kind == KIND_TABLE || kind == KIND_SCRATCH) break;   // as sample_applied
+    if (kind == KIND_AERO) {
+      size += 6 + AIR_OUTPUTS;
+    } else if (kind == KIND_SCHEDULED || kind == KIND_BRACE) {
+      idx j = static_cast<idx>(loads(row, S_REACT));
+      size += j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0 ? 12 : 6;
+    }
+  }
+  return size;
+}
+
 bool aero_moved(const double* y, const Mat& loads, idx row, idx n) {
   double values[aero::kSlots], low[aero::kSlots], high[aero::kSlots];
   int status[aero::kSlots];

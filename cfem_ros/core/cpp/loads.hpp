@@ -78,6 +78,9 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
                     double* rot, double* w);
 
+// The numbers sample_applied writes (the rows' indices checked: systemcheck.cpp).
+idx applied_size(const Mat& bodies, const Mat& loads);
+
 // The values at y of the axes of aero row `row`'s tables (aero.hpp's slots; rad, Mach,
 // m) into values, and where the body is on each (-1 below, 0 on the grid, 1 above; 0 for an
 // axis with one grid value) into status, the grids' ends into low and high.

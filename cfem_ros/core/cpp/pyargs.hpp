@@ -19,6 +19,13 @@ void bind_layout(pybind11::module_& m);   // layout.cpp
 void bind_system(pybind11::module_& m);   // system.cpp
 
 namespace args {
+// Every index the System's arrays hold, in range (systemcheck.cpp); a ValueError naming
+// the argument, row, column and value if not.
+void check_indices(const System& s, const IMat& joints_i, const idx* watch, const idx* lines,
+                   idx watched, const idx* order, idx ordered);
+}  // namespace args
+
+namespace args {
 
 namespace py = pybind11;
 

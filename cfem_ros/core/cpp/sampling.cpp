@@ -85,6 +85,16 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
   return REACHED;
 }
 
+idx sample_size(const System& s, idx k) {
+  const idx n = s.n();
+  idx size = 13 * n + 6 * k;
+  if (s.loads.rows > n) size += loads::applied_size(s.bodies, s.loads);
+  if (motion::any(s.bodies))
+    for (idx i = 0; i < n; ++i)
+      if (s.bodies(i, motion::M_REF) > 0.0) size += 13;   // motion::sample_relative
+  return size;
+}
+
 bool project(const double* y, const System& s, const Work& v, double* delta) {
   const idx n = s.n(), m = s.m();
   body_terms(y, s, v, true);

@@ -20,6 +20,9 @@ bool joint_loads(const double* y, const System& s, const Work& v, double* force,
 int sample_outputs(const double* y, const System& s, const Work& v, const idx* order, idx k,
                    double* out, idx size);
 
+// The numbers a sample of k joints' loads takes (sample_outputs's size at least).
+idx sample_size(const System& s, idx k);
+
 // The mass-weighted velocity correction that satisfies the joints at y into delta (n, 6).
 bool project(const double* y, const System& s, const Work& v, double* delta);
 

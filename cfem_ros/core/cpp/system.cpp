@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@ namespace cfem {
 
 namespace {
 
+using args::check_indices;
 using args::checked;
 using args::imat;
 using args::ivec;
@@ -70,16 +72,10 @@ class BoundSystem {
     if (t.triggers.rows != w.count)
       throw py::value_error("triggers: one row per watched joint");
     w.lines = t.lines = ivec(watch_plan, "watch_plan", w.count);
-    for (idx k = 0; k < w.count; ++k) {
-      if (w.watch[k] < 0 || w.watch[k] >= w.joints_i.rows)
-        throw py::value_error("watch: not a joint of joints_i");
-      if (w.lines[k] < 0 || w.lines[k] >= s.joints())
-        throw py::value_error("watch_plan: not a plan line");
-    }
     order_ = ivec(order, "order", -1, &order_count_);
-    for (idx j = 0; j < order_count_; ++j)
-      if (order_[j] < 0 || order_[j] >= s.joints())
-        throw py::value_error("order: not a plan line");
+    // once, here: the solves and the step loop trust every index from now on
+    check_indices(s, w.joints_i, w.watch, w.lines, w.count, order_, order_count_);
+    outputs_ = sample_size(s, order_count_);
     for (idx row = n; row < s.loads.rows; ++row) {
       double kind = s.loads(row, loads::S_KIND);
       if (kind == loads::KIND_SCHEDULED || kind == loads::KIND_AERO
@@ -116,6 +112,7 @@ class BoundSystem {
   const idx* order_ = nullptr;
   idx order_count_ = 0;
   idx scheduled_ = 0;   // scheduled wrenches, aero rows, contact pairs, braces (wrenches_found)
+  idx outputs_ = 0;     // the numbers a sample takes (sample_size)
   py::array_t<double> work_;
 
  private:
@@ -148,6 +145,7 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
       .def_property_readonly("joints", [](const BoundSystem& b) { return b.s.joints(); })
       .def_property_readonly("watched", [](const BoundSystem& b) { return b.w.count; })
       .def_property_readonly("scheduled", [](const BoundSystem& b) { return b.scheduled_; })
+      .def_property_readonly("outputs", [](const BoundSystem& b) { return b.outputs_; })
       .def_property_readonly("work", [](const BoundSystem& b) { return b.work_; });
 
   // y is written by derivative and rk4_step (the kinematic bodies' states at the time)
@@ -178,7 +176,7 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
   m.def("sample_outputs", [](BoundSystem& b, const py::handle& y, const py::handle& out) {
     const double* yp = b.state(y, "y", false);
     idx size;
-    double* outp = vec(out, "out", true, 13 * b.s.n() + 6 * b.order_count_, false, &size);
+    double* outp = vec(out, "out", true, b.outputs_, false, &size);
     py::gil_scoped_release free;
     return sample_outputs(yp, b.s, b.v, b.order_, b.order_count_, outp, size);
   }, py::arg("system"), py::arg("y"), py::arg("out"));
@@ -207,8 +205,16 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
     g.order = b.order_;
     g.order_count = b.order_count_;
     g.samples = mat(samples, "samples", true);
-    if (g.samples.cols > 0 && g.samples.cols < 13 * b.s.n() + 6 * g.order_count)
-      throw py::value_error("samples: too few columns for the outputs");
+    if (g.samples.cols > 0 && g.samples.cols < b.outputs_)
+      throw py::value_error("samples: " + std::to_string(g.samples.cols) + " columns, a "
+                            "sample takes " + std::to_string(b.outputs_) + " (System.outputs)");
+    // the next sample's row: a float the caller keeps, read here once per call
+    double taken = g.grid[2];
+    if (!(taken >= 0.0 && taken <= static_cast<double>(g.samples.rows))
+        || taken != std::floor(taken))
+      throw py::value_error("grid[2] = " + std::to_string(taken) + ": not the row of samples "
+                            "the next sample goes to; expected an integer from 0 to "
+                            + std::to_string(g.samples.rows));
     py::gil_scoped_release free;
     advance(yp, 13 * b.s.n(), ip, t_target, due, limit, dt, b.s, b.v, b.w, g);
   }, py::arg("system"), py::arg("y"), py::arg("info"), py::arg("t_target"), py::arg("due"),
