@@ -16,6 +16,7 @@ the failures of a set of Monte Carlo runs (the exact Clopper-Pearson bound).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from decimal import Decimal, ROUND_CEILING
 import math
 from typing import Optional
 
@@ -28,11 +29,17 @@ VERDICTS = (MEETS, DOES_NOT_MEET, UNDECIDED)
 
 
 def up(value: float, digits: int = 3) -> str:
-    """Return a bound as text, rounded upward to ``digits`` figures (never below it)."""
+    """
+    Return a bound as text, rounded upward to ``digits`` figures (never below it).
+
+    Rounded in decimal from the float's exact value: the text read back
+    as a float is never below ``value``, not even by its last bit.
+    """
     if not math.isfinite(value) or value <= 0:
         return f'{value:g}'
-    scale = 10.0 ** (math.floor(math.log10(value)) - digits + 1)
-    return f'{math.ceil(value / scale * (1 - 1e-12)) * scale:.{digits}g}'
+    exact = Decimal(value)
+    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return f'{float(exact.quantize(step, rounding=ROUND_CEILING)):.{digits}g}'
 
 
 def verdict(probability: float, p_upper: Optional[float], target: float) -> str:

@@ -1,0 +1,247 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A decision an engineer can sign (SPEC section 9, issue 49): bounds, verdicts, sentence.
+
+The one-sided bounds are checked against what they claim: Monte Carlo's
+against scipy's beta quantile to the last bit; the batch bounds of
+importance sampling (NAIS's, and FORM's around its design point) against
+the exact P = Phi(-beta) of a linear limit state of normal inputs, over
+many seeds, at the rate they are stated at. The tail check is fed a
+threshold where a normal input says "meets" and the same input with
+Student-t tails says "does not meet": the decision must be undecided.
+"""
+
+import json
+import math
+import os
+
+from cfem_ros.study import load_sweep
+from cfem_ros.study.bounds import student_bounds
+from cfem_ros.study.decision import (
+    decide, decide_runs, DOES_NOT_MEET, MEETS, UNDECIDED, up, verdict)
+from cfem_ros.study.methods import run_study
+from cfem_ros.study.sweep import columns
+from cfem_ros.study.tails import DOF, mc_tail, SCALE
+import numpy as np
+import pytest
+from scipy import stats
+from sweeps import write_sweep
+
+ANGLE = 'joints.pivot.release.angle_deg'
+MEAN, SIGMA = 10.0, 1.0
+
+
+def _sweep(folder, z_fail, runs, seed=5, **extra):
+    """Return a sweep that fails when the (normal) release angle is beyond z_fail SDs."""
+    threshold = float(0.1 - 0.01 * SIGMA * z_fail)
+    path = write_sweep(folder, runs=runs, seed=seed,
+                       vary={ANGLE: {'normal': [MEAN, SIGMA]},
+                             'bodies.store.mass': {'uniform': [900.0, 910.0]}},   # ignored
+                       criteria={'miss': f'clearance_store_pylon_min >= {threshold!r}'},
+                       **extra)
+    return load_sweep(path)
+
+
+def _rows(spec, runs):
+    """Return the runs' rows without simulating: the clearance falls with the angle."""
+    names = columns(spec)
+    out = []
+    for k in runs:
+        values = spec.run_values(k)
+        row = dict.fromkeys(names, float('nan'))
+        row.update(run=k, status='ok', message='', **values)
+        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN)
+        out.append(row)
+    return out
+
+
+def _quiet(line):
+    pass
+
+
+# -- Monte Carlo: the exact Clopper-Pearson bound ------------------------------------------
+
+@pytest.mark.parametrize('failures,runs', [(0, 59), (0, 3000), (1, 10), (7, 400),
+                                           (399, 400)])
+@pytest.mark.parametrize('confidence', [0.9, 0.95, 0.99])
+def test_decide_runs_bound_is_scipy_s_beta_quantile_to_the_bit(failures, runs, confidence):
+    found = decide_runs(failures, runs, 1e-3, confidence)
+    assert found.p_upper == stats.beta.ppf(confidence, failures + 1, runs - failures)
+    assert found.probability == failures / runs
+
+
+def test_a_monte_carlo_study_s_p_upper_is_the_beta_quantile_exactly(tmp_path):
+    spec = _sweep(tmp_path, 2.0, 400, target=0.05)
+    out = str(tmp_path / 'mc')
+    found = run_study(spec, out, method='mc', rows=_rows, log=_quiet)
+    estimate = found['estimate']
+    failed = int((~found['table']['pass']).sum())
+    assert 0 < failed < 400 and estimate.failed_runs == failed
+    want = stats.beta.ppf(0.95, failed + 1, 400 - failed)
+    assert estimate.p_upper == want and estimate.bound == 'exact Clopper-Pearson'
+    with open(os.path.join(out, 'estimate.json')) as stream:
+        held = json.load(stream)
+    assert held['p_upper'] == want and held['target'] == 0.05
+    # the decision is the bound's, unless the tail check (the runs reweighted) differs
+    nominal = verdict(failed / 400, want, 0.05)
+    tail = verdict(held['tail_probability'], held['tail_p_upper'], 0.05)
+    assert held['decision'] == (nominal if tail == nominal else UNDECIDED)
+    assert held['decision_sentence'].startswith(f'P(unsafe) <= {up(want)} at 95 % one-sided')
+
+
+# -- importance sampling: the batch bounds at their stated rate ----------------------------
+
+BETA = 3.5                      # P = Phi(-3.5) = 2.3e-4
+DIRECTION = np.array([0.6, 0.8])
+MEANS, SDS = np.array([1.0, -1.0]), np.array([2.0, 0.5])
+SEEDS = 200
+
+
+def _joint(ot):
+    return ot.JointDistribution([ot.Normal(float(m), float(s)) for m, s in zip(MEANS, SDS)])
+
+
+def _linear(points):
+    """Return beta - a.z: fails (< 0) on the far side of a plane at beta from the mean."""
+    return BETA - ((np.asarray(points) - MEANS) / SDS) @ DIRECTION
+
+
+@pytest.mark.parametrize('method', ['nais', 'form'])
+def test_importance_sampling_bounds_cover_the_exact_p_at_their_rate(method):
+    import openturns as ot
+    from cfem_ros.study import samplers
+    ot.Log.Show(ot.Log.ERROR)
+    exact = stats.norm.sf(BETA)
+    covered = within = 0
+    ratios = []
+    for seed in range(1, SEEDS + 1):
+        if method == 'nais':
+            found = samplers.nais(ot, _joint(ot), _linear, 200, seed)
+        else:
+            found = samplers.form(ot, _joint(ot), _linear, 100, seed, 5, 0.1, 500,
+                                  lambda *said: None)
+            assert found.form_probability == pytest.approx(exact, rel=1e-4)
+        b = student_bounds(found.replicates, 0.95, found.failed)
+        assert math.isfinite(b.p_upper), 'every seed has failed runs enough for a bound'
+        covered += b.p_upper >= exact
+        within += b.ci_low <= exact <= b.ci_high
+        ratios.append(b.p_upper / exact)
+    # 95 % one-sided and two-sided: the counts of 200 seeds as a binomial of 0.95 gives
+    # them (a test at 1e-3 each side: 181 to 197 of 200)
+    low, high = stats.binom.ppf(1e-3, SEEDS, 0.95), stats.binom.isf(1e-3, SEEDS, 0.95)
+    assert low <= covered <= high, (covered, SEEDS)
+    assert low <= within <= high, (within, SEEDS)
+    # and not vacuous: the bound is within a few tens of percent of P
+    assert np.median(ratios) < 1.5
+
+
+# -- the tail check ----------------------------------------------------------------------
+
+def test_a_decision_that_rests_on_the_normal_tail_is_undecided(tmp_path):
+    """Beyond 4 SDs: P = 3.2e-5 normal, 1.9e-3 with Student-t tails, target 1e-3."""
+    spec = _sweep(tmp_path, 4.0, 1000, target=1e-3)
+    out = str(tmp_path / 'nais')
+    found = run_study(spec, out, method='nais', rows=_rows, log=_quiet)
+    estimate = found['estimate']
+    heavy = stats.t.sf(4.0 / SCALE, DOF)
+    assert estimate.p_upper < 1e-3 < heavy
+    assert estimate.ci_low <= stats.norm.sf(4.0) <= estimate.ci_high
+    assert estimate.tail_probability == pytest.approx(heavy, rel=0.3)
+    with open(os.path.join(out, 'estimate.json')) as stream:
+        held = json.load(stream)
+    assert held['decision'] == UNDECIDED
+    sentence = held['decision_sentence']
+    assert 'meets the 0.001 target' in sentence   # the inputs as given
+    assert 'does not meet it' in sentence and 'rests on the assumed tails' in sentence
+
+
+def test_a_decision_that_does_not_rest_on_the_tail_is_unchanged(tmp_path):
+    """Beyond 2 SDs (P = 0.023) against 1e-3: does not meet, with either tails."""
+    spec = _sweep(tmp_path, 2.0, 1000, target=1e-3)
+    found = run_study(spec, str(tmp_path / 'nais'), method='nais', rows=_rows, log=_quiet)
+    estimate = found['estimate']
+    assert estimate.decision == DOES_NOT_MEET
+    assert 'unchanged with heavier tails' in estimate.decision_sentence
+
+
+def test_monte_carlo_s_tail_bound_holds_the_heavier_tailed_p(tmp_path):
+    """The reweighted runs' bound is exact: it covers P_heavy at (at least) its rate."""
+    spec = _sweep(tmp_path, 2.5, 3, target=1e-2)
+    heavy = stats.t.sf(2.5 / SCALE, DOF)
+    covered, n = 0, 500
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        z = rng.standard_normal(n)
+        points = np.column_stack([MEAN + SIGMA * z, rng.uniform(900, 910, n)])
+        tail = mc_tail(spec, points, z > 2.5, 0.95)
+        assert tail.probability >= 0 and tail.p_upper >= tail.probability
+        covered += tail.p_upper >= heavy
+    assert covered >= 95
+
+
+# -- verdicts, flips and the sentence ------------------------------------------------------
+
+@pytest.mark.parametrize('probability,p_upper,want', [
+    (1e-7, 9.9e-7, MEETS),
+    (1e-7, 1e-6, UNDECIDED),          # a bound at the target does not show P below it
+    (5e-7, 2e-6, UNDECIDED),
+    (1e-6, 2e-6, DOES_NOT_MEET),      # the estimate at the target
+    (3e-6, 4e-6, DOES_NOT_MEET),
+    (1e-7, math.nan, UNDECIDED),      # no bound
+    (2e-6, math.nan, DOES_NOT_MEET),
+    (0.0, 3e-7, MEETS)])
+def test_verdict_thresholds(probability, p_upper, want):
+    assert verdict(probability, p_upper, 1e-6) == want
+
+
+class _Est:
+    def __init__(self, probability, p_upper):
+        self.probability, self.p_upper = probability, p_upper
+
+
+@pytest.mark.parametrize('nominal,tail,want', [
+    ((1e-7, 5e-7), (2e-7, 8e-7), MEETS),
+    ((1e-7, 5e-7), (2e-7, 3e-6), UNDECIDED),       # meets -> undecided
+    ((1e-7, 5e-7), (2e-6, 3e-6), UNDECIDED),       # meets -> does not meet
+    ((2e-6, 3e-6), (3e-6, 4e-6), DOES_NOT_MEET),
+    ((9e-7, 3e-6), (2e-6, 3e-6), UNDECIDED)])      # undecided -> does not meet
+def test_a_tail_check_that_changes_the_verdict_makes_it_undecided(nominal, tail, want):
+    found = decide(_Est(*nominal), 1e-6, 0.95, tail=_Est(*tail))
+    assert found.decision == want
+    assert found.nominal == verdict(*nominal, 1e-6) and found.tail == verdict(*tail, 1e-6)
+    sentence = found.sentence()
+    if found.nominal == found.tail:
+        assert 'unchanged with heavier tails' in sentence
+    else:
+        assert 'rests on the assumed tails, so undecided' in sentence
+
+
+def test_the_sentence_reads_as_the_issue_s_example():
+    found = decide(_Est(4e-7, 8.1e-7), 1e-6, 0.95, tail=_Est(5e-7, 9.2e-7))
+    assert found.sentence() == ('P(unsafe) <= 8.1e-07 at 95 % one-sided: meets the 1e-06 '
+                                'target; unchanged with heavier tails (<= 9.2e-07)')
+
+
+@pytest.mark.parametrize('value,text', [(8.1e-7, '8.1e-07'), (8.1000001e-7, '8.11e-07'),
+                                        (8.1049e-7, '8.11e-07'), (9.991e-7, '1e-06'),
+                                        (0.012345, '0.0124'), (1.0, '1')])
+def test_bounds_are_rounded_upward(value, text):
+    assert up(value) == text
+
+
+def test_a_rounded_bound_is_never_below_the_bound():
+    rng = np.random.default_rng(11)
+    values = np.concatenate([10.0 ** rng.uniform(-12, 0, 3000),
+                             # a hair above a 3-figure number: the worst case for a fudge
+                             [np.nextafter(k * 1e-9, 1.0) for k in range(100, 1000, 7)]])
+    for value in values:
+        for digits in (2, 3, 4):
+            assert float(up(float(value), digits)) >= value, (value, digits)
+
+
+def test_a_bound_just_below_the_target_is_not_shown_as_the_target():
+    found = decide(_Est(1e-7, 0.9999996e-6), 1e-6, 0.95)
+    assert found.decision == MEETS
+    shown = found.sentence().split('<= ')[1].split(' ')[0]
+    assert 0.9999996e-6 <= float(shown) < 1e-6
