@@ -15,7 +15,7 @@ from cfem_ros.cli import build_parser
 import pytest
 
 COMMANDS = ['run', 'check', 'plot', 'export', 'info', 'recover', 'compare', 'play', 'sweep',
-            'fit', 'report', 'rerun', 'summarize']
+            'envelope', 'fit', 'predict', 'report', 'rerun', 'summarize']
 
 
 def subcommands() -> dict:

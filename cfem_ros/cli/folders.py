@@ -19,8 +19,9 @@ def add_report_parser(sub):
     report = sub.add_parser('report', help='one self-contained HTML page of a study folder',
                             description='Write the scenario, sweep, criteria with their '
                             'probabilities, worst runs, sensitivities and figures of a '
-                            'sweep folder as one HTML file (SPEC section 9).')
-    report.add_argument('outdir', metavar='OUTDIR', help='sweep folder')
+                            'sweep folder as one HTML file (SPEC section 9); of an envelope '
+                            'folder, its conditions, decisions and chart (section 14).')
+    report.add_argument('outdir', metavar='OUTDIR', help='sweep or envelope folder')
     report.add_argument('-o', '--output', required=True, metavar='REPORT.html',
                         help='page to write')
     report.add_argument('--overwrite', action='store_true',
@@ -99,14 +100,18 @@ def report_command(args: argparse.Namespace) -> int:
     refused = table_refused(output, args.overwrite, 'a report')
     if refused:
         return error(refused)
-    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+    envelope = os.path.exists(os.path.join(outdir, 'envelope.json'))
+    if not envelope and not os.path.exists(os.path.join(outdir, 'results.parquet')):
         return error(f'{outdir}: no results.parquet; expected a finished sweep folder '
-                     '(cfem-sim sweep ... -o OUTDIR)')
+                     '(cfem-sim sweep ... -o OUTDIR) or envelope folder (cfem-sim envelope)')
     try:
         study_imports()
-        from cfem_ros.study.folder import check_folder
-        check_folder(outdir)
-        _write_report(outdir, output)
+        if envelope:
+            _write_envelope_report(outdir, output)
+        else:
+            from cfem_ros.study.folder import check_folder
+            check_folder(outdir)
+            _write_report(outdir, output)
     except CfemError as err:
         return error(str(err))
     except OSError as err:
@@ -126,6 +131,15 @@ def _write_report(outdir: str, output: str):
         figures = report_figures(outdir, tmp, warn) + figures
         first = [p for p in figures if not os.path.basename(p).startswith('hist_')]
         write_report(outdir, output, first + [p for p in figures if p not in first])
+
+
+def _write_envelope_report(outdir: str, output: str):
+    """Draw an envelope folder's chart in a temporary folder and write the page with it."""
+    import tempfile
+    from cfem_ros.separation.envelope_chart import write_chart
+    from cfem_ros.study.report import write_report
+    with tempfile.TemporaryDirectory(prefix='cfem-report-') as tmp:
+        write_report(outdir, output, [write_chart(outdir, tmp)])
 
 
 def rerun_command(args: argparse.Namespace) -> int:

@@ -36,8 +36,8 @@ MANIFEST = 'envelope.json'
 #: Where each point's sweep folder is, under OUTDIR.
 POINTS = 'points'
 #: The table's columns after the axes.
-COLUMNS = ('point', 'method', 'runs', 'failed_runs', 'pass_fraction', 'probability',
-           'p_upper', 'confidence', 'target', 'decision', 'folder')
+COLUMNS = ('point', 'method', 'runs', 'failed_runs', 'unfinished_runs', 'pass_fraction',
+           'probability', 'p_upper', 'confidence', 'target', 'decision', 'folder')
 
 
 @dataclasses.dataclass
@@ -143,7 +143,7 @@ def write_manifest(envelope: Envelope, outdir: str, method: str):
     path = os.path.join(outdir, MANIFEST)
     held = {'sweep': os.path.abspath(envelope.spec.path), 'axes': envelope.axes,
             'points': [list(p) for p in envelope.points], 'method': method,
-            'digest': envelope.spec.digest()}
+            'digest': envelope.spec.digest(), 'name': envelope.spec.document.get('name', '')}
     if os.path.exists(path):
         with open(path, encoding='utf-8') as stream:
             try:
@@ -162,8 +162,14 @@ def write_manifest(envelope: Envelope, outdir: str, method: str):
 
 
 def run_point(envelope: Envelope, k: int, outdir: str, *, method: str = 'mc',
-              client=None, progress: Optional[Callable[[int, int], None]] = None):
-    """Run point k's sweep (or study) in its folder, resuming it; return its ``Estimate``."""
+              client=None, progress: Optional[Callable[[int, int], None]] = None,
+              log: Optional[Callable[[str], None]] = None, **options):
+    """
+    Run point k's sweep (or study) in its folder, resuming it.
+
+    Return (its ``Estimate``, its table). ``options`` go to
+    ``methods.run_study`` (``repeat``, ``target_cov``) for a rare-event method.
+    """
     from cfem_ros.study import methods
     spec = envelope.point_spec(k)
     folder = point_folder(outdir, k)
@@ -173,18 +179,25 @@ def run_point(envelope: Envelope, k: int, outdir: str, *, method: str = 'mc',
         table = Sweep(spec).run(client, folder, progress=progress)
         estimate = mc_estimate(spec, table)
         methods.write_estimate(folder, estimate, spec.target)
-        return estimate
-    return methods.run_study(spec, folder, method=method, client=client)['estimate']
+        return estimate, table
+    found = methods.run_study(spec, folder, method=method, client=client, log=log, **options)
+    return found['estimate'], found['table']
 
 
-def row(envelope: Envelope, k: int, estimate, outdir: str) -> dict:
-    """Return point k's row of ``envelope.parquet``."""
+def point_done(outdir: str, k: int) -> bool:
+    """Return whether point k's folder holds its finished estimate."""
+    return os.path.exists(os.path.join(point_folder(outdir, k), 'estimate.json'))
+
+
+def row(envelope: Envelope, k: int, estimate, outdir: str, unfinished: int = 0) -> dict:
+    """Return point k's row of ``envelope.parquet`` (unfinished: its runs that failed)."""
     spec = envelope.spec
     out = dict(envelope.point_values(k))
     decision = getattr(estimate, 'decision', None)
     p_upper = estimate.p_upper
     out.update(point=k, method=estimate.method, runs=int(estimate.runs),
                failed_runs=(-1 if estimate.failed_runs is None else int(estimate.failed_runs)),
+               unfinished_runs=int(unfinished),
                pass_fraction=1.0 - float(estimate.probability),
                probability=float(estimate.probability),
                p_upper=math.nan if p_upper is None else float(p_upper),
@@ -196,27 +209,73 @@ def row(envelope: Envelope, k: int, estimate, outdir: str) -> dict:
 
 
 def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=None,
-                 log: Optional[Callable[[str], None]] = None):
+                 log: Optional[Callable[[str], None]] = None,
+                 progress: Optional[Callable[[int], Callable[[int, int], None]]] = None,
+                 **options):
     """
     Run every point (resuming each) and write ``envelope.parquet``; return its table.
 
     The table: one row per point, the axes' columns (named by their key
     paths) then ``COLUMNS``; ``decision`` is meets, does_not_meet or
-    undecided with a target, ``no_target`` without.
+    undecided with a target, ``no_target`` without. ``log`` gets a line
+    per point done (and a rare-event method's lines); ``progress(k)``, if
+    given, returns the callable that point k's Monte Carlo runs report to.
+    ``options`` go to ``run_point``.
     """
     import pandas as pd
     from cfem_ros.study.sweep import write_atomic
     write_manifest(envelope, outdir, method)
     rows = []
     for k in range(len(envelope.points)):
-        estimate = run_point(envelope, k, outdir, method=method, client=client)
-        rows.append(row(envelope, k, estimate, outdir))
+        where = describe_point(envelope, k)
+        estimate, table = run_point(
+            envelope, k, outdir, method=method, client=client,
+            progress=None if progress is None else progress(k),
+            log=None if log is None else (lambda line, w=where: log(f'{w}: {line}')),
+            **options)
+        # a run that failed (singular or diverging) fails every criterion; said apart
+        unfinished = int((table['status'] == 'failed').sum())
+        rows.append(row(envelope, k, estimate, outdir, unfinished))
         if log is not None:
-            where = ', '.join(f'{a} = {v:g}' if isinstance(v, (int, float)) else f'{a} = {v}'
-                              for a, v in envelope.point_values(k).items())
             log(f'point {k + 1}/{len(envelope.points)} ({where}): P(fail) '
                 f'{rows[-1]["probability"]:.3g} over {rows[-1]["runs"]} runs, '
                 f'{rows[-1]["decision"].replace("_", " ")}')
     table = pd.DataFrame(rows, columns=list(envelope.axes) + list(COLUMNS))
     write_atomic(table, os.path.join(outdir, ENVELOPE))
     return table
+
+
+def describe_point(envelope: Envelope, k: int) -> str:
+    """Return point k's values on one line (``flight.mach = 0.95, flight.altitude = 1500``)."""
+    return ', '.join(f'{a} = {v:g}' if isinstance(v, (int, float)) else f'{a} = {v}'
+                     for a, v in envelope.point_values(k).items())
+
+
+def read_envelope(outdir: str) -> tuple:
+    """
+    Return (table, manifest) of a finished envelope folder.
+
+    Raises
+    ------
+    SweepError
+        If the folder has no ``envelope.json`` or ``envelope.parquet``, or
+        they are not what ``run_envelope`` writes.
+
+    """
+    import pandas as pd
+    manifest_path, table_path = (os.path.join(outdir, MANIFEST), os.path.join(outdir, ENVELOPE))
+    if not os.path.exists(table_path):
+        raise SweepError(outdir, ENVELOPE, 'missing', 'a finished envelope folder '
+                         '(cfem-sim envelope SWEEP.yaml -o OUTDIR ...; run it again to finish)')
+    try:
+        with open(manifest_path, encoding='utf-8') as stream:
+            manifest = json.load(stream)
+        table = pd.read_parquet(table_path)
+    except (OSError, ValueError) as err:
+        raise SweepError(outdir, MANIFEST, f'cannot be read ({err})',
+                         'the envelope.json and envelope.parquet cfem-sim envelope wrote') from err
+    axes = manifest.get('axes') if isinstance(manifest, dict) else None
+    if not isinstance(axes, list) or not set(axes + list(COLUMNS)) <= set(table.columns):
+        raise SweepError(outdir, ENVELOPE, 'is not the table of an envelope (its axes or '
+                         'columns are missing)', 'the envelope.parquet cfem-sim envelope wrote')
+    return table, manifest

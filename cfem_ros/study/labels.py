@@ -40,6 +40,15 @@ KEYS = {
     'duration': ('duration', 's', None),
     'dt': ('time step dt', 's', None),
     'gravity': ('gravity', 'm/s^2', AXES),
+    # flight: (SPEC section 14) and the atmosphere of aero
+    'mach': ('Mach number', '', None),
+    'airspeed': ('true airspeed', 'm/s', None),
+    'altitude': ('altitude', 'm', None),
+    'temperature_offset': ('temperature offset', 'K', None),
+    'flight_path_deg': ('flight path angle', 'deg', None),
+    'load_factor': ('load factor n', 'g', None),
+    'roll_rate_deg_s': ('roll rate', 'deg/s', None),
+    'alpha_deg': ('angle of attack', 'deg', None),
 }
 #: Stroke-end columns (SPEC section 7): suffix -> (words, unit).
 STROKE = {'time': ('end of stroke time', 's'), 'u': ('u at end of stroke', 'm/s'),

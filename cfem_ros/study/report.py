@@ -3,6 +3,9 @@
 """
 One self-contained HTML page of a study folder (``cfem-sim report OUTDIR -o REPORT.html``).
 
+An envelope folder (``cfem-sim envelope``) gets the release envelope's
+section instead: its conditions, decisions, chart and dispersions.
+
 The scenario and the sweep, the criteria with their failure fractions and
 exact intervals, the rare-event estimate, the worst runs (each with the
 command that runs it again alone), the sensitivity indices, and the
@@ -228,9 +231,84 @@ def build(outdir: str, figures=()) -> str:
             + '\n</body></html>\n')
 
 
+def envelope_section(outdir: str, figures=()) -> list:
+    """
+    Return the release envelope's section (SPEC section 14) of an envelope folder.
+
+    The conditions and their decisions, the chart (figures), the
+    dispersions each condition ran with, and the command that reports one
+    condition's sweep alone.
+    """
+    from cfem_ros.study.envelope import read_envelope
+    table, manifest = read_envelope(outdir)
+    axes = manifest['axes']
+    target = table['target'].dropna()
+    level = float(table['confidence'].iloc[0]) if len(table) else 0.95
+    counts = table['decision'].value_counts().to_dict()
+    judged = ', '.join(f'{n} {_e(d.replace("_", " "))}' for d, n in counts.items())
+    against = (f'against the target P(fail) &lt; {float(target.iloc[0]):g} at '
+               f'{100 * level:g} % one-sided confidence' if len(target) else
+               'without a target (pass fractions, no decision)')
+    parts = ['<h2>Release envelope</h2>',
+             f'<p>{len(table)} conditions, the grid of {", ".join(_e(a) for a in axes)}; '
+             f'at each, the sweep\'s dispersions by {_e(manifest.get("method", "mc"))}, '
+             f'judged {against}: {judged}. A line between conditions on the chart is '
+             'interpolated, not run.</p>']
+    parts.extend(_image(p) for p in figures)
+    rows = []
+    for _, row in table.iterrows():
+        verdict = row['decision']
+        bound = row['p_upper']
+        rows.append([_num(row[a]) for a in axes] + [
+            int(row['runs']), int(row['failed_runs']), int(row['unfinished_runs']),
+            float(row['probability']),
+            'none' if bound != bound else _bound(float(bound)),
+            (f'<span class="{_DECISION_CLASS.get(verdict, "")}">'
+             f'{_e(verdict.replace("_", " "))}</span>', ''),
+            (f'<code>{_e(row["folder"])}</code>', '')])
+    parts.append(_table([label(a) for a in axes] + [
+        'runs', 'runs failing a criterion', 'runs that failed', 'P(fail)',
+        f'{100 * level:g} % one-sided bound', 'decision', 'folder'], rows))
+    first = os.path.join(outdir, str(table['folder'].iloc[0]), 'sweep.json') if len(table) \
+        else ''
+    if first and os.path.exists(first):
+        with open(first, encoding='utf-8') as stream:
+            resolved = json.load(stream).get('resolved', {})
+        document = resolved.get('document', {})
+        parts.append('<h3>Dispersions at each condition</h3>')
+        parts.append(_table(['parameter', 'key path', 'distribution'],
+                            [[label(v[0], document), v[0], f'{v[1]} {v[2]}']
+                             for v in resolved.get('vary', [])]))
+    folder = os.path.join(os.path.abspath(outdir), 'points', 'point_0000')
+    parts.append('<p>Each condition is a sweep folder: its own report, worst runs and '
+                 f'commands come from <code>cfem-sim report {_e(shlex.quote(folder))} -o '
+                 'point_0000.html</code>.</p>')
+    return parts
+
+
+def build_envelope(outdir: str, figures=()) -> str:
+    """Return the report of an envelope folder as HTML text."""
+    from cfem_ros.study.envelope import read_envelope
+    _, manifest = read_envelope(outdir)
+    name = manifest.get('name') or ''
+    parts = [f'<h1>Release envelope: {_e(name)}</h1>',
+             f'<p>Generated {_e(time.strftime("%Y-%m-%d %H:%M:%S %Z"))} from '
+             f'<code>{_e(os.path.abspath(outdir))}</code> (sweep file '
+             f'<code>{_e(manifest.get("sweep", ""))}</code>).</p>']
+    parts.extend(envelope_section(outdir, figures))
+    return ('<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f'<title>Release envelope {_e(name)}</title>'
+            f'<style>{STYLE}</style></head><body>\n' + '\n'.join(parts)
+            + '\n</body></html>\n')
+
+
 def write_report(outdir: str, output: str, figures=()) -> str:
-    """Write the report to output (through a temporary file); return its path."""
-    text = build(outdir, figures)
+    """Write the report (an envelope folder's, or a sweep's) through a temporary file."""
+    from cfem_ros.study.envelope import MANIFEST
+    if os.path.exists(os.path.join(outdir, MANIFEST)):
+        text = build_envelope(outdir, figures)
+    else:
+        text = build(outdir, figures)
     tmp = f'{output}.tmp-{os.getpid()}'
     try:
         with open(tmp, 'w', encoding='utf-8') as stream:
