@@ -6,8 +6,8 @@ The ``cfem-sim`` command line (SPEC section 2): typed commands, exit codes.
 One module per group of commands registers its subcommands and, with
 ``set_defaults(func=...)``, the function each runs: ``run`` (run, play),
 ``check``, ``recordings`` (plot, export, info, recover, compare), ``sweep``
-(with ``studies`` for ``--method`` and ``--design``), ``envelope``, ``fit`` and
-``folders`` (report, rerun, summarize). ``common`` holds what they share,
+(with ``studies`` for ``--method`` and ``--design``), ``envelope``, ``fit`` (fit,
+predict) and ``folders`` (report, rerun, summarize). ``common`` holds what they share,
 ``cluster`` the Dask cluster of the study commands.
 """
 
@@ -27,8 +27,8 @@ LOG = logging.getLogger('cfem_ros')
 COMMANDS = (run.add_run_parser, check.add_parser, recordings.add_plot_parser,
             recordings.add_export_parser, recordings.add_info_parser,
             recordings.add_recover_parser, recordings.add_compare_parser, run.add_play_parser,
-            sweep.add_parser, envelope.add_parser, fit.add_parser, folders.add_report_parser,
-            folders.add_rerun_parser, folders.add_summarize_parser)
+            sweep.add_parser, envelope.add_parser, fit.add_parser, fit.add_predict_parser,
+            folders.add_report_parser, folders.add_rerun_parser, folders.add_summarize_parser)
 
 
 class _Parser(argparse.ArgumentParser):

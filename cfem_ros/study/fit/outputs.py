@@ -161,14 +161,37 @@ def fitted_document(document: dict, scenario: str, outdir: str) -> dict:
     return moved(document)
 
 
+def write_by_renames(outdir: str, names, write) -> dict:
+    """
+    Have write(local) write the files names into a hidden folder of outdir, then move them.
+
+    local maps each name to its path in the hidden folder. The renames
+    are made with SIGINT and SIGTERM held; an error or an interruption
+    before them leaves outdir as it was. Return the final paths by name.
+    """
+    os.makedirs(outdir, exist_ok=True)
+    staging = tempfile.mkdtemp(prefix='.cfem-out-', dir=outdir)
+    try:
+        local = {name: os.path.join(staging, name) for name in names}
+        write(local)
+        paths = {name: os.path.join(outdir, name) for name in names}
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            for name in names:
+                os.replace(local[name], paths[name])
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        return paths
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
 def write_outputs(fit: Fit, result: FitResult, outdir: str) -> dict:
     """Write every output into outdir (by renames from a hidden folder); return the paths."""
     spec = fit.spec
     names = output_names(len(spec.flights))
-    os.makedirs(outdir, exist_ok=True)
-    staging = tempfile.mkdtemp(prefix='.cfem-fit-', dir=outdir)
-    try:
-        local = {name: os.path.join(staging, name) for name in names}
+
+    def write(local):
         with open(local['fit.json'], 'w', encoding='utf-8') as stream:
             json.dump(fit_json(fit, result), stream, indent=1, allow_nan=False)
         document = fitted_document(spec.document_with(result.values), spec.scenario, outdir)
@@ -184,16 +207,7 @@ def write_outputs(fit: Fit, result: FitResult, outdir: str) -> dict:
         figures = names[3:]
         for k, flight in enumerate(fit.flights):
             draw(flight, result.values, local[figures[2 * k]], local[figures[2 * k + 1]])
-        paths = {name: os.path.join(outdir, name) for name in names}
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-        try:
-            for name in names:
-                os.replace(local[name], paths[name])
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
-        return paths
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
+    return write_by_renames(outdir, names, write)
 
 
 def _record(scenario: str, document: dict, output: str, inputs, interpolate_odometry: bool):
