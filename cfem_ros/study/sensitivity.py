@@ -97,6 +97,22 @@ def metrics_to_rank(table, spec: SweepSpec) -> list:
     return out
 
 
+def within(value: float, half: float, least: float, most: float) -> tuple:
+    """
+    Return (value, low, high) of an index and its interval, kept within what it can be.
+
+    SALib's intervals are the estimate +- a bootstrap half-width, and
+    Saltelli's estimators of S1 and ST can fall outside [0, 1] by their
+    sampling error: an index that cannot be negative (mu_star, S1, ST) or
+    above 1 (S1, ST) is known to lie in [least, most], so the estimate
+    and both ends are moved into that range (the interval then holds the
+    index whenever the unclipped one did, and the estimate is nearer).
+    """
+    def clip(x):
+        return min(max(x, least), most)
+    return clip(value), clip(value - half), clip(value + half)
+
+
 def indices(spec: SweepSpec, design: str, unit: np.ndarray, table) -> 'pandas.DataFrame':  # noqa
     """
     Return the indices of every metric to rank, one row per (metric, parameter).
@@ -104,7 +120,9 @@ def indices(spec: SweepSpec, design: str, unit: np.ndarray, table) -> 'pandas.Da
     Morris: ``mu_star`` (mean |elementary effect|, metric unit per unit of
     probability), its bounds ``mu_star_low``/``mu_star_high``, ``sigma``.
     Sobol: ``S1`` and ``ST`` with ``_low``/``_high`` bounds. The bounds
-    are at the sweep's confidence (SALib's bootstrap).
+    are at the sweep's confidence (SALib's bootstrap), each index and its
+    bounds within what the index can be (``within``: mu_star >= 0, S1 and
+    ST in [0, 1]).
     """
     import pandas as pd
     salib = problem(spec, design)
@@ -117,10 +135,10 @@ def indices(spec: SweepSpec, design: str, unit: np.ndarray, table) -> 'pandas.Da
                                     conf_level=spec.confidence, num_levels=MORRIS_LEVELS,
                                     seed=spec.seed)
             for i, name in enumerate(salib['names']):
-                half = float(result['mu_star_conf'][i])
-                mu_star = float(result['mu_star'][i])
+                mu_star, low, high = within(float(result['mu_star'][i]),
+                                            float(result['mu_star_conf'][i]), 0.0, math.inf)
                 rows.append({'metric': metric, 'parameter': name, 'mu_star': mu_star,
-                             'mu_star_low': mu_star - half, 'mu_star_high': mu_star + half,
+                             'mu_star_low': low, 'mu_star_high': high,
                              'sigma': float(result['sigma'][i]), 'mu': float(result['mu'][i])})
         else:
             from SALib.analyze import sobol
@@ -129,9 +147,9 @@ def indices(spec: SweepSpec, design: str, unit: np.ndarray, table) -> 'pandas.Da
             for i, name in enumerate(salib['names']):
                 row = {'metric': metric, 'parameter': name}
                 for index in ('S1', 'ST'):
-                    value, half = float(result[index][i]), float(result[f'{index}_conf'][i])
-                    row.update({index: value, f'{index}_low': value - half,
-                                f'{index}_high': value + half})
+                    value, low, high = within(float(result[index][i]),
+                                              float(result[f'{index}_conf'][i]), 0.0, 1.0)
+                    row.update({index: value, f'{index}_low': low, f'{index}_high': high})
                 rows.append(row)
     return pd.DataFrame.from_records(rows)
 

@@ -86,3 +86,38 @@ def test_correlated_inputs_are_refused_with_the_reason(tmp_path):
     spec = _spec(tmp_path, 8, correlate=[[PATHS[0], PATHS[1], 0.5]])
     with pytest.raises(Exception, match='correlate: --design sobol needs independent inputs'):
         run_study(spec, str(tmp_path / 'x'), design='sobol', rows=_rows)
+
+
+@pytest.mark.parametrize('design,runs', [('morris', 3), ('sobol', 16)])
+def test_indices_and_bounds_stay_within_what_the_index_can_be(tmp_path, design, runs,
+                                                              monkeypatch):
+    """Small designs: SALib's estimate +- half-width falls below 0 (and S above 1)."""
+    from cfem_ros.study import sensitivity
+    spec = _spec(tmp_path, runs)
+    raw = []
+    clip = sensitivity.within
+
+    def kept(value, half, least, most):
+        raw.append((value - half, value, value + half, least, most))
+        return clip(value, half, least, most)
+
+    monkeypatch.setattr(sensitivity, 'within', kept)
+    found = run_study(spec, str(tmp_path / design), design=design, rows=_rows,
+                      log=lambda line: None)
+    # the case is one that needs it: some raw bound or estimate is outside the range
+    assert any(low < least or high > most for low, _, high, least, most in raw)
+    names = ['mu_star'] if design == 'morris' else ['S1', 'ST']
+    for name in names:
+        values = found['indices'][[f'{name}_low', name, f'{name}_high']].to_numpy()
+        assert (values >= 0).all() and (np.diff(values, axis=1) >= 0).all(), name
+        if design == 'sobol':
+            assert (values <= 1).all(), name
+    # moved into the range, not otherwise changed
+    for (low, value, high, least, most), kept_row in zip(raw, _flat(found, names)):
+        assert kept_row == pytest.approx([min(max(x, least), most) for x in (low, value, high)])
+
+
+def _flat(found, names):
+    for _, row in found['indices'].iterrows():
+        for name in names:
+            yield [row[f'{name}_low'], row[name], row[f'{name}_high']]
