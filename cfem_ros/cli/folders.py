@@ -167,7 +167,7 @@ def _rerun_spec(outdir: str, run: int):
     """Return the spec of a sweep folder with run's values; CfemError if it cannot be had."""
     import dataclasses
     import json
-    study = study_imports()
+    study_imports()
     from cfem_ros.study.folder import check_folder, read_table
     manifest = check_folder(outdir)
     table = read_table(os.path.join(outdir, 'results.parquet'))
@@ -177,7 +177,8 @@ def _rerun_spec(outdir: str, run: int):
     rows = table[table['run'] == run]
     if rows.empty:
         raise InputError(f'{outdir}: no run {run}; expected 0 to {len(table) - 1}')
-    spec = study.load_sweep(manifest['sweep'], runs=manifest['resolved']['runs'])
+    from cfem_ros.study.envelope import folder_spec   # a sweep's folder, or an envelope's point
+    spec = folder_spec(outdir, manifest)
     if json.loads(spec.describe()) != manifest['resolved']:
         raise InputError(f'{manifest["sweep"]}: changed since {outdir} was run; expected the '
                          'sweep file and scenario the folder was made with')

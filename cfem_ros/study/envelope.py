@@ -22,6 +22,7 @@ import itertools
 import json
 import math
 import os
+import re
 from typing import Callable, Optional
 
 from cfem_ros.core.errors import ScenarioError
@@ -182,6 +183,30 @@ def run_point(envelope: Envelope, k: int, outdir: str, *, method: str = 'mc',
         return estimate, table
     found = methods.run_study(spec, folder, method=method, client=client, log=log, **options)
     return found['estimate'], found['table']
+
+
+def folder_spec(folder: str, manifest: dict) -> SweepSpec:
+    """
+    Return the spec a sweep folder was run with: its sweep file's, or its envelope point's.
+
+    A folder ``OUTDIR/points/point_<k>`` beside an ``OUTDIR/envelope.json``
+    is point k of that envelope (``cfem-sim rerun`` of one of its runs).
+    """
+    runs = manifest['resolved']['runs']
+    here = os.path.abspath(folder)
+    match = re.fullmatch(r'point_(\d+)', os.path.basename(here))
+    points = os.path.dirname(here)
+    held_path = os.path.join(os.path.dirname(points), MANIFEST)
+    if match and os.path.basename(points) == POINTS and os.path.exists(held_path):
+        with open(held_path, encoding='utf-8') as stream:
+            held = json.load(stream)
+        found = load_envelope(held['sweep'], held['axes'], runs=runs)
+        k = int(match.group(1))
+        if k >= len(found.points):
+            raise SweepError(folder, '', f'is point {k} of an envelope of '
+                             f'{len(found.points)} points', 'a point folder of the envelope')
+        return found.point_spec(k)
+    return load_sweep(manifest['sweep'], runs=runs)
 
 
 def point_done(outdir: str, k: int) -> bool:

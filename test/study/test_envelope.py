@@ -145,6 +145,9 @@ def test_cfem_sim_envelope_runs_resumes_and_reports(tmp_path, capsys):
     text = open(page, encoding='utf-8').read()
     assert '<h2>Release envelope</h2>' in text and 'data:image/png;base64,' in text
     assert text.count('<code>points/point_000') == 4
+    run = str(tmp_path / 'run.mcap')   # a run of a point, again alone, with its condition
+    assert cli.main(['rerun', os.path.join(out, 'points', 'point_0003'), '1', '-o', run]) == 0
+    assert 'status ok' in capsys.readouterr().out
     with open(path) as stream:   # another grid in the same folder: refused, nothing run
         sweep = yaml.safe_load(stream)
     sweep['vary']['flight.mach'] = {'grid': [0.6, 0.7]}
