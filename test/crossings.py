@@ -15,6 +15,7 @@ same way: ``events.cpp`` is compiled without fused multiply-adds).
 
 import math
 
+from cfem_ros.core._kernel import testing
 from cfem_ros.core.engine import kernelcalls
 
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
@@ -32,7 +33,7 @@ TOLERANCES = {'xtol': kernel.CROSSING_XTOL, 'rtol': kernel.CROSSING_RTOL,
 def rk4(sim, y, h):
     """Return the kernel's RK4 step of h from y; raise sim's largest stage violation."""
     out = np.empty_like(y)
-    worst = kernel.rk4_step(sim._topology.system, y, h, out)
+    worst = testing.rk4_step(sim._topology.system, y, h, out)
     assert worst >= 0.0, 'singular solve'
     sim._stage_violation = max(sim._stage_violation, worst)
     return out
@@ -57,8 +58,8 @@ def step_with_condition(sim, t_end):
 def condition_values(sim, y, joints):
     """Angle (rad), distance (m) and force (N) of some joints at y, (k, 3)."""
     out = np.zeros((len(joints), 3))
-    kernel.conditions(np.ascontiguousarray(y), sim.joints.joints_i, sim.joints.joints_f,
-                      np.asarray(joints, dtype=np.int64), out)
+    testing.conditions(np.ascontiguousarray(y), sim.joints.joints_i, sim.joints.joints_f,
+                       np.asarray(joints, dtype=np.int64), out)
     if np.isfinite(sim.releases.triggers[joints, 3]).any():
         out[:, 2] = np.linalg.norm(joint_forces(sim, y), axis=1)[joints]
     return out
@@ -100,7 +101,7 @@ def stroke_crossing(sim, y0, y1, h):
 
     def strokes(y):
         out = np.empty(loads.shape[0] - n)
-        kernel.loads_strokes(np.ascontiguousarray(y), loads, int(n), out)
+        testing.loads_strokes(np.ascontiguousarray(y), loads, int(n), out)
         return out
 
     stroke = rows[watched, LOADS.S_STROKE]

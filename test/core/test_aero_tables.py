@@ -4,6 +4,7 @@
 
 import math
 
+from cfem_ros.core._kernel import testing
 from cfem_ros.core.engine import aeropack
 
 from cfem_ros.core.errors import ScenarioError
@@ -72,14 +73,14 @@ def test_multilinear_against_scipy_regular_grid_interpolator(sizes):
     grids = [np.sort(rng.uniform(-3, 3, n)) for n in sizes]
     values = rng.standard_normal(tuple(sizes) + (6,))
     points = np.column_stack([rng.uniform(g[0] - 1, g[-1] + 1, 2000) for g in grids])
-    ours = ext.multilinear(grids, values, points)
+    ours = testing.multilinear(grids, values, points)
     # held outside the grid: scipy's interpolation at the point brought back to the grid
     inside = np.column_stack([np.clip(points[:, d], g[0], g[-1]) for d, g in enumerate(grids)])
     theirs = RegularGridInterpolator(grids, values)(inside)
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-13)
     # at the nodes, the node's values exactly
     nodes = np.column_stack([g[rng.integers(0, len(g), 50)] for g in grids])
-    np.testing.assert_allclose(ext.multilinear(grids, values, nodes),
+    np.testing.assert_allclose(testing.multilinear(grids, values, nodes),
                                RegularGridInterpolator(grids, values)(nodes), atol=1e-15)
 
 

@@ -13,6 +13,7 @@ import threading
 
 from cfem_ros import load_scenario, Simulator
 from cfem_ros.core import _kernel
+from cfem_ros.core._kernel import testing
 from cfem_ros.core.native import kernel
 import numpy as np
 import pytest
@@ -37,6 +38,11 @@ def test_the_kernel_is_the_extension_and_no_source_imports_a_jit():
         # one Python face: kernel.py alone imports the extension
         if path.name != 'kernel.py':
             assert 'import _kernel' not in text, path
+    # what only the tests call is apart, in _kernel.testing, out of the API
+    for name in ('rk4_step', 'conditions', 'loads_strokes', 'inverse', 'cholesky',
+                 'multilinear'):
+        assert hasattr(testing, name), name
+        assert not hasattr(_kernel, name) and not hasattr(kernel, name), name
 
 
 def _system_args(sim):

@@ -75,8 +75,11 @@ Array py_multilinear(py::list grids, Array values, Array points) {
 // density (kg/m^3), speed of sound (m/s), temperature (K) and pressure (Pa)
 py::tuple py_isa(double altitude, double temperature_offset) {
   double density, sound, temperature, pressure;
-  cfem::isa(altitude, temperature_offset, density, sound);
-  cfem::isa_temperature_pressure(altitude, temperature, pressure);
+  {
+    py::gil_scoped_release release;
+    cfem::isa(altitude, temperature_offset, density, sound);
+    cfem::isa_temperature_pressure(altitude, temperature, pressure);
+  }
   return py::make_tuple(density, sound, temperature + temperature_offset, pressure);
 }
 
@@ -162,9 +165,9 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
 
 namespace cfem {
 
-void bind_aeroshapes(py::module_& m) {
+void bind_aeroshapes(py::module_& m, py::module_& testing) {
   auto arg = [](const char* name) { return py::arg(name).noconvert(); };
-  m.def("multilinear", &py_multilinear, py::arg("grids"), arg("values"), arg("points"));
+  testing.def("multilinear", &py_multilinear, py::arg("grids"), arg("values"), arg("points"));
   m.def("isa", &py_isa, py::arg("altitude"), py::arg("temperature_offset") = 0.0);
   m.def("aero_wrench", &py_aero_wrench, arg("packed"), arg("position"), arg("velocity"),
         arg("rot"), arg("rates"), arg("carrier_position"), arg("carrier_rot"));

@@ -2,13 +2,14 @@
 // SPDX-License-Identifier: Apache-2.0
 //
 // The vectorised aerodynamic-table and shape-distance functions of _kernel
-// (multilinear, isa, aero_wrench, distance; aeroshapes.cpp).
+// (isa, aero_wrench, distance; multilinear in _kernel.testing; aeroshapes.cpp).
 #pragma once
 
 #include <pybind11/pybind11.h>
 
 namespace cfem {
 
-void bind_aeroshapes(pybind11::module_& m);
+// m: isa, aero_wrench, distance; testing: multilinear.
+void bind_aeroshapes(pybind11::module_& m, pybind11::module_& testing);
 
 }  // namespace cfem

@@ -4,7 +4,10 @@
 // The extension module cfem_ros.core._kernel (pybind11): numpy arrays are taken
 // without copies, their dtype, order, shape and writability checked (a TypeError or
 // ValueError naming the argument; pyargs.hpp), and the GIL released around every call
-// that computes. The System and its solves: system.cpp; the layout: layout.cpp.
+// that computes. The System and its solves: system.cpp; the layout: layout.cpp; the
+// vectorised tables and shapes: aeroshapes.cpp. What only the tests call (a reference
+// search's pieces, the small factorizations' pivot thresholds) is kept apart, in the
+// submodule _kernel.testing, out of the API (kernel.py never reads it).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -31,14 +34,27 @@ using cfem::args::mat;
 using cfem::args::ptr;
 using cfem::args::vec;
 
+namespace {
+
+// n, the bodies' rows of loads: within loads.
+void bodies_in(idx n, const cfem::Mat& loads) {
+  if (n < 0 || n > loads.rows)
+    throw py::value_error("n = " + std::to_string(n) + ": expected the number of bodies, 0 to "
+                          + std::to_string(loads.rows) + " (the rows of loads)");
+}
+
+}  // namespace
+
 PYBIND11_MODULE(_kernel, m) {
   m.doc() = "The compiled hot path of cfem_ros (C++17); cfem_ros.core.kernel is its API.";
 
-  cfem::bind_layout(m);       // LAYOUT, workspace_size, workspace_parts
-  cfem::bind_system(m);       // System and the solves that take it
-  cfem::bind_aeroshapes(m);   // aerodynamic tables and shape distances, vectorised
+  py::module_ testing = m.def_submodule(
+      "testing", "Functions only cfem_ros's tests call: not the API (kernel.py's docstring).");
+  cfem::bind_layout(m);                // LAYOUT, workspace_size, workspace_parts
+  cfem::bind_system(m, testing);       // System and the solves that take it
+  cfem::bind_aeroshapes(m, testing);   // aerodynamic tables and shape distances, vectorised
 
-  m.def("conditions", [](const py::handle& y, const py::handle& joints_i,
+  testing.def("conditions", [](const py::handle& y, const py::handle& joints_i,
                          const py::handle& joints_f, const py::handle& watch,
                          const py::handle& out) {
     idx size, count;
@@ -49,20 +65,33 @@ PYBIND11_MODULE(_kernel, m) {
     cfem::Mat o = mat(out, "out", true);
     if (o.rows != count || o.cols < 2)
       throw py::value_error("out: expected one row per watched joint, at least 2 columns");
+    for (idx k = 0; k < count; ++k)
+      if (wp[k] < 0 || wp[k] >= ji.rows)
+        throw py::value_error("watch[" + std::to_string(k) + "] = " + std::to_string(wp[k])
+                              + ": not a joint of joints_i");
+    for (idx k = 0; k < ji.rows; ++k)
+      for (idx side = 0; side < 2; ++side)
+        if (ji(k, side) < 0 || 13 * ji(k, side) >= size)
+          throw py::value_error("joints_i[" + std::to_string(k) + ", " + std::to_string(side)
+                                + "] = " + std::to_string(ji(k, side)) + ": not a body of y");
     py::gil_scoped_release free;
     cfem::conditions(yp, size, ji, jf, wp, count, o.data, o.cols);
   }, py::arg("y"), py::arg("joints_i"), py::arg("joints_f"), py::arg("watch"), py::arg("out"));
 
   m.def("loads_set_time", [](const py::handle& loads, idx n, double t) {
     cfem::Mat l = mat(loads, "loads", true, cfem::loads::WIDTH);
+    bodies_in(n, l);
+    py::gil_scoped_release free;
     cfem::loads::set_time(l, n, t);
   }, py::arg("loads"), py::arg("n"), py::arg("t"));
 
-  m.def("loads_strokes", [](const py::handle& y, const py::handle& loads, idx n,
-                            const py::handle& out) {
+  testing.def("loads_strokes", [](const py::handle& y, const py::handle& loads, idx n,
+                                  const py::handle& out) {
     cfem::Mat l = mat(loads, "loads", false, cfem::loads::WIDTH);
+    bodies_in(n, l);
     const double* yp = vec(y, "y", false, 13 * n);
     double* op = vec(out, "out", true, l.rows - n, false);
+    py::gil_scoped_release free;
     cfem::loads::strokes(yp, l, n, op);
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("out"));
 
@@ -77,6 +106,7 @@ PYBIND11_MODULE(_kernel, m) {
       throw py::value_error("out: expected (4, AERO_SLOTS)");
     double* op = ptr<double>(o);
     const idx k = cfem::loads::AERO_SLOTS;
+    py::gil_scoped_release free;
     cfem::loads::aero_axes(yp, l, row, n, op, op + k, op + 2 * k, op + 3 * k);
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("row"), py::arg("out"));
 
@@ -85,17 +115,21 @@ PYBIND11_MODULE(_kernel, m) {
     py::array r = checked<double>(rot, "rot", 3, true);
     if (r.shape(0) != n || r.shape(1) != 3 || r.shape(2) != 3)
       throw py::value_error("rot: expected (n, 3, 3)");
-    cfem::loads::rotations(yp, n, ptr<double>(r));
+    double* rp = ptr<double>(r);
+    py::gil_scoped_release free;
+    cfem::loads::rotations(yp, n, rp);
   }, py::arg("y"), py::arg("n"), py::arg("rot"));
 
   m.def("motion_place", [](const py::handle& y, const py::handle& bodies, double offset) {
     cfem::Mat b = mat(bodies, "bodies", true);
     double* yp = vec(y, "y", true, 13 * b.rows);
+    py::gil_scoped_release free;
     if (b.cols > cfem::motion::BODY_COLUMNS) cfem::motion::place(yp, b, offset);
   }, py::arg("y"), py::arg("bodies"), py::arg("offset"));
 
   m.def("motion_set_time", [](const py::handle& bodies, double t) {
     cfem::Mat b = mat(bodies, "bodies", true);
+    py::gil_scoped_release free;
     if (b.cols > cfem::motion::BODY_COLUMNS) cfem::motion::set_time(b, t);
   }, py::arg("bodies"), py::arg("t"));
 
@@ -115,17 +149,19 @@ PYBIND11_MODULE(_kernel, m) {
   }, py::arg("pos_a"), py::arg("quat_a"), py::arg("points_a"), py::arg("pos_b"),
      py::arg("quat_b"), py::arg("points_b"), py::arg("out"));
 
-  m.def("inverse", [](const py::handle& a, int k, const py::handle& out) {
+  testing.def("inverse", [](const py::handle& a, int k, const py::handle& out) {
     cfem::Mat am = mat(a, "a", false), om = mat(out, "out", true);
     if (k < 0 || k > 3 || am.rows < k || am.cols < k || om.rows < k || om.cols < k)
       throw py::value_error("k: expected 0 to 3, within a and out");
+    py::gil_scoped_release free;
     return cfem::inverse(am.data, am.cols, k, om.data, om.cols);
   }, py::arg("a"), py::arg("k"), py::arg("out"));
 
-  m.def("cholesky", [](const py::handle& a, int k, const py::handle& out) {
+  testing.def("cholesky", [](const py::handle& a, int k, const py::handle& out) {
     cfem::Mat am = mat(a, "a", false), om = mat(out, "out", true);
     if (k < 0 || am.rows < k || am.cols < k || om.rows < k || om.cols < k)
       throw py::value_error("k: expected at most the sizes of a and out");
+    py::gil_scoped_release free;
     return cfem::cholesky(am.data, am.cols, k, om.data, om.cols);
   }, py::arg("a"), py::arg("k"), py::arg("out"));
 

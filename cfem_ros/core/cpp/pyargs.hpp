@@ -15,8 +15,9 @@
 
 namespace cfem {
 
-void bind_layout(pybind11::module_& m);   // layout.cpp
-void bind_system(pybind11::module_& m);   // system.cpp
+// Each file's part of the module m, and of its submodule testing (what only tests call).
+void bind_layout(pybind11::module_& m);                                 // layout.cpp
+void bind_system(pybind11::module_& m, pybind11::module_& testing);     // system.cpp
 
 namespace args {
 // Every index the System's arrays hold, in range (systemcheck.cpp); a ValueError naming

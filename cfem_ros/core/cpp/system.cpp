@@ -122,7 +122,7 @@ class BoundSystem {
 
 }  // namespace
 
-void bind_system(py::module_& m) {
+void bind_system(py::module_& m, py::module_& testing) {
   py::class_<BoundSystem>(m, "System", R"doc(
 A model's arrays and one set of active joints, checked once (kernel.py's docstring).
 
@@ -156,7 +156,7 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
     return derivative(yp, dyp, b.s, b.v, false);
   }, py::arg("system"), py::arg("y"), py::arg("dy"));
 
-  m.def("rk4_step", [](BoundSystem& b, const py::handle& y, double h, const py::handle& out) {
+  testing.def("rk4_step", [](BoundSystem& b, const py::handle& y, double h, const py::handle& out) {
     const double* yp = b.state(y, "y", true);
     double* op = b.state(out, "out", true);
     py::gil_scoped_release free;

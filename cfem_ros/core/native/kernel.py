@@ -12,13 +12,16 @@ Python writes no column index of its own.
 
 A ``System`` holds a model's arrays and the rows, plan, watched joints and
 workspace of one set of active joints, checked once when made (as MuJoCo's
-``mjModel``/``mjData``); the solves take it and the state:
-``derivative(system, y, dy)``, ``rk4_step(system, y, h, out)``,
-``advance(system, y, info, ...)``. It points into the caller's arrays (no
-copy): the engine writes held loads, switches and trajectories into them
-between calls. The arrays are laid out by ``engine.Simulator``; this module
-only computes, and never allocates inside the step loop: every scratch array
-is a part of the System's one workspace.
+``mjModel``/``mjData``): shapes, dtypes and every index the arrays hold (a
+body, row, plan line, joint, table or packed shape out of range is a
+ValueError naming the argument, row, column and value; ``cpp/systemcheck.cpp``).
+The solves take it and the state: ``derivative(system, y, dy)``,
+``advance(system, y, info, ...)``; ``system.outputs`` is the size of a
+sample. It points into the caller's arrays (no copy): the engine writes held
+loads, switches and trajectories into them between calls. The arrays are
+laid out by ``engine.Simulator``; this module only computes, and never
+allocates inside the step loop: every scratch array is a part of the
+System's one workspace.
 
 State ``y`` (13 n): positions (3 n, world, m), velocities (3 n, world, m/s),
 quaternions (4 n, x y z w, body to world), rates (3 n, body axes, rad/s).
@@ -134,29 +137,26 @@ CROSSING_MAXITER = _kernel.CROSSING_MAXITER
 #: The compiled functions (their docstrings: the C++ headers in ``cpp/``).
 #: Arrays are float64 (plan, rows_i, roots, watch and the like int64) in C order,
 #: taken without copies; a wrong one raises TypeError or ValueError naming it.
-#: Every function that computes releases the GIL.
+#: Every function that computes releases the GIL. What only the tests call (a
+#: reference search's pieces: one RK4 step, the release conditions, the strokes; the
+#: small factorizations; the table interpolation alone) is the extension's submodule
+#: ``_kernel.testing``, not this API.
 System = _kernel.System
 derivative = _kernel.derivative
-rk4_step = _kernel.rk4_step
 joint_loads = _kernel.joint_loads
 sample_outputs = _kernel.sample_outputs
 row_jacobian = _kernel.row_jacobian
 project = _kernel.project
 advance = _kernel.advance
 locate = _kernel.locate
-conditions = _kernel.conditions
 workspace_size = _kernel.workspace_size
 loads_set_time = _kernel.loads_set_time
-loads_strokes = _kernel.loads_strokes
 loads_rotations = _kernel.loads_rotations
 loads_aero_axes = _kernel.loads_aero_axes
 motion_place = _kernel.motion_place
 motion_set_time = _kernel.motion_set_time
 clearance = _kernel.clearance
 isa = _kernel.isa
-#: The solve's small factorizations (tests check their pivot thresholds).
-_inverse = _kernel.inverse
-_cholesky = _kernel.cholesky
 
 
 def views(system) -> dict:
@@ -191,11 +191,6 @@ def constraint_values(system) -> np.ndarray:
 
 # The vectorised aerodynamic-table and shape-distance functions (cpp/aeroshapes.cpp)
 # take float64 arrays in C order as they are; these make that so, in the open.
-
-def multilinear(grids, values, points) -> np.ndarray:
-    """Return the multilinear interpolation of a table at points, (k, width)."""
-    return _kernel.multilinear([_floats(g) for g in grids], _floats(values), _floats(points))
-
 
 def aero_wrench(packed, position, velocity, rot, rates, carrier_position, carrier_rot):
     """Return the aerodynamic wrench at k states, (k, 6), and the air data, (k, 22)."""
