@@ -178,14 +178,22 @@ class StateRecorder(RowSink):
         t = (stamp_ns - self.start_ns) / 1e9
         self._write(schema.MARKERS, self._marker_array(stamp_ns, t), stamp_ns)
 
-    def sample(self):
-        """Record poses, twists and active joints' wrenches at the current state."""
+    def sample(self, outputs=None):
+        """
+        Record poses, twists and active joints' wrenches at the current state.
+
+        outputs: the sample's numbers (``Simulator.outputs``) if already
+        computed: the node computes each sample once for all its outputs.
+        """
         if not self._scene_written:
             self._scene()
         sim = self.sim
         layout = self._layout(sim.active_joints)
         row = layout.next_row()
-        sim.outputs(out=row)
+        if outputs is None:
+            sim.outputs(out=row)
+        else:
+            row[:] = outputs
         self._keep_arrows([sim.t], [row], sim.active_joints)
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
         self.samples += 1

@@ -33,12 +33,12 @@ class AirPublishers:
                     profile(schema.AIR.qos)), message))
             self.topics.append(pairs)
 
-    def publish(self, stamp_ns: int):
-        """Send every body's air at the simulator's current state, stamped stamp_ns."""
+    def publish(self, stamp_ns: int, air):
+        """Send every body's air (``Simulator.air`` of a sample's outputs), stamped stamp_ns."""
         if not self.topics:
             return
         sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-        for pairs, numbers in zip(self.topics, self.sim.air()):
+        for pairs, numbers in zip(self.topics, air):
             for k, (publisher, message) in enumerate(pairs):
                 message.header.stamp.sec, message.header.stamp.nanosec = sec, nanosec
                 v = message.vector

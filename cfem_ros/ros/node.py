@@ -34,6 +34,7 @@ from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import control as simulation_control, parameters
+from cfem_ros.ros.outputs import NodeOutputs
 from cfem_ros.ros.pacing import OdometryGate, WallPace
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from cfem_ros.ros.publishers import Publishers
@@ -200,9 +201,10 @@ class CfemNode(Stepping, Subscriptions, Node):
 
     def new_session(self):
         """Make the session (and what times its inputs) of a run of self.sim from t = 0."""
-        outputs = [self._publishers_sink] + ([self.recording.state] if self.recording else [])
+        outputs = NodeOutputs(self._publishers_sink,
+                              self.recording.state if self.recording else None)
         self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
-                               outputs=outputs, warn=self._refusals.warning,
+                               outputs=[outputs], warn=self._refusals.warning,
                                interpolate_odometry=self._interpolate)
         self.gate = OdometryGate(self.sim, self.session, interpolate=self._interpolate,
                                  following_clock=self.sim_time,

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import json
 
-from cfem_ros.core import rotations
 from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.run.session import Sink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
+from cfem_ros.recording.samplelayout import InBodyAxes
 from cfem_ros.ros.airtopics import AirPublishers
 from cfem_ros.ros.qos import profile
 from geometry_msgs.msg import Point, PoseStamped, TwistStamped, WrenchStamped
@@ -105,6 +105,8 @@ class Publishers(Sink):
                         for i in moving] + [_fill(TransformStamped(), t) for t in
                                             viewframes.transforms(model, {}, sim.position,
                                                                   sim.orientation)]), moving)
+        #: The carriers' view and chase frames, from a sample's numbers (as recorded).
+        self.views = viewframes.of_model(model)
         self._scene_sent = False
         # the next sendings: the markers one period after the scene's, the arrows at once
         self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
@@ -164,83 +166,93 @@ class Publishers(Sink):
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
 
-    def _arrows(self, stamp_ns: int):
-        """Publish the load arrows (``recording.loadarrows``) at the current state."""
-        sim = self.sim
+    def _arrows(self, stamp_ns: int, row: np.ndarray, active):
+        """Publish the load arrows (``recording.loadarrows``) of a sample's numbers."""
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
-        array, _ = self.arrows.message(stamp, sim.outputs(), sim.active_joints,
-                                       sim.held_wrenches())
+        array, _ = self.arrows.message(stamp, row, active, self.sim.held_wrenches())
         self.arrow_publisher.publish(MarkerArray(markers=[
             _fill(Marker(), m) for m in array['markers']]))
 
     def sample(self):
-        sim = self.sim
+        """Publish a sample of the simulator's current state (``publish`` of its outputs)."""
+        self.publish(self.sim.outputs(), self.sim.active_joints)
+
+    def publish(self, row: np.ndarray, active):
+        """
+        Publish a sample from its numbers: ``Simulator.outputs`` at the current state.
+
+        Every number published is row's, or turned from them by the
+        functions the recorder uses (``InBodyAxes``, ``ViewFrames``), so
+        that what the node publishes is what it records (``outputs``).
+        active: the joints active in the sample (``Simulator.active_joints``).
+        """
+        sim, model = self.sim, self.sim.model
+        n = len(model.bodies)
         stamp_ns = self.stamp_ns(sim.t)
         if not self._scene_sent:
             self._scene(stamp_ns)
         elif self._marker_cadence.take(sim.t):
             self._scene(stamp_ns)   # again, for viewers that subscribe late
-        position, quat = sim.position, sim.orientation
-        velocity, rates = sim.velocity_body(), sim.rates
+        block = row[None, :]
         if self.tf is not None:
             publisher, message, moving = self.tf
-            views = viewframes.state_poses(sim.model, position, quat)   # view, chase
-            for transform, values in zip(message.transforms, np.vstack(
-                    [np.hstack([position[moving], quat[moving]]), views])):
+            poses = [row[13 * i:13 * i + 7] for i in moving]
+            if self.views is not None:
+                poses += list(self.views.numbers(block).reshape(-1, 7))
+            for transform, values in zip(message.transforms, poses):
                 _time_msg(transform.header.stamp, stamp_ns)
                 _vector3(transform.transform.translation, values[:3])
                 r = transform.transform.rotation
-                r.x, r.y, r.z, r.w = (float(c) for c in values[3:])
+                r.x, r.y, r.z, r.w = (float(c) for c in values[3:7])
             publisher.publish(message)
-        for i in range(len(self.poses)):
+        for i in range(n):
+            state = row[13 * i:13 * i + 13]
             publisher, pose = self.poses[i]
             _time_msg(pose.header.stamp, stamp_ns)
-            _vector3(pose.pose.position, position[i])
+            _vector3(pose.pose.position, state[:3])
             q = pose.pose.orientation
-            q.x, q.y, q.z, q.w = (float(c) for c in quat[i])
+            q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
             publisher.publish(pose)
             publisher, twist = self.twists[i]
             _time_msg(twist.header.stamp, stamp_ns)
-            _vector3(twist.twist.linear, velocity[i])
-            _vector3(twist.twist.angular, rates[i])
+            _vector3(twist.twist.linear, state[7:10])
+            _vector3(twist.twist.angular, state[10:13])
             publisher.publish(twist)
         if self.arrow_publisher is not None and self._arrow_cadence.take(sim.t):
-            self._arrows(stamp_ns)   # a few per second
-        if self.wrenches:
-            force, moment = sim.joint_wrenches()
-            turned = quat[self.children]
-            axes = rotations.to_body(turned, force), rotations.to_body(turned, moment)
-            for k, publishers in self.wrenches.items():
-                for (publisher, wrench), (f, m) in zip(publishers, (
-                        (axes[0][k], axes[1][k]), (force[k], moment[k]))):
-                    _time_msg(wrench.header.stamp, stamp_ns)
-                    _vector3(wrench.wrench.force, f)
-                    _vector3(wrench.wrench.torque, m)
-                    publisher.publish(wrench)
-        if self.applied:
-            loads = sim.applied_loads()
-            turned = quat[[body for _, _, body in self.applied]]
-            axes = np.hstack([rotations.to_body(turned, loads[:, :3]),
-                              rotations.to_body(turned, loads[:, 3:])])
-            for (local, world, _), load, load_axes in zip(self.applied, loads, axes):
-                for (publisher, wrench), values in ((local, load_axes), (world, load)):
+            self._arrows(stamp_ns, row, active)   # a few per second
+        column = 13 * n
+        for k in active:   # world axes, and the child's axes as the recorder turns them
+            world = row[column:column + 6]
+            if k in self.wrenches:
+                local = InBodyAxes(column, 13 * self.children[k] + 3).numbers(block)[0]
+                for (publisher, wrench), values in zip(self.wrenches[k], (local, world)):
                     _time_msg(wrench.header.stamp, stamp_ns)
                     _vector3(wrench.wrench.force, values[:3])
                     _vector3(wrench.wrench.torque, values[3:])
                     publisher.publish(wrench)
-        self.air.publish(stamp_ns)
-        if self.relative:
-            for (pose_pub, pose, twist_pub, twist), state in zip(
-                    self.relative, sim.relative_states()):
-                _time_msg(pose.header.stamp, stamp_ns)
-                _vector3(pose.pose.position, state[:3])
-                q = pose.pose.orientation
-                q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
-                pose_pub.publish(pose)
-                _time_msg(twist.header.stamp, stamp_ns)
-                _vector3(twist.twist.linear, state[7:10])
-                _vector3(twist.twist.angular, state[10:])
-                twist_pub.publish(twist)
+            column += 6
+        for local_pub, world_pub, body in self.applied:
+            local = InBodyAxes(column, 13 * body + 3).numbers(block)[0]
+            for (publisher, wrench), values in ((local_pub, local),
+                                                (world_pub, row[column:column + 6])):
+                _time_msg(wrench.header.stamp, stamp_ns)
+                _vector3(wrench.wrench.force, values[:3])
+                _vector3(wrench.wrench.torque, values[3:])
+                publisher.publish(wrench)
+            column += 6
+        self.air.publish(stamp_ns, sim.air(outputs=row))
+        relative = row[len(row) - 13 * len(self.relative):]
+        for k, (pose_pub, pose, twist_pub, twist) in enumerate(self.relative):
+            state = relative[13 * k:13 * k + 13]
+            _time_msg(pose.header.stamp, stamp_ns)
+            _vector3(pose.pose.position, state[:3])
+            q = pose.pose.orientation
+            q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+            pose_pub.publish(pose)
+            _time_msg(twist.header.stamp, stamp_ns)
+            _vector3(twist.twist.linear, state[7:10])
+            _vector3(twist.twist.angular, state[10:])
+            twist_pub.publish(twist)
 
     def prepare(self):
         """Fill every message once without publishing (the first sample's set-up)."""

@@ -244,15 +244,14 @@ def _replay(directory, scenario, log, watch=False, hogs=0):
                        duration=FLIGHT_END)
     peer, busy = None, []
     if watch:
-        peer = Peer([], [])
+        peer = Peer(['aircraft', 'store'], ['hook'])
         peer._collect(PoseStamped, 'bodies/store/relative_pose')
     try:
         wait_for_clock_subscription(node)
         busy += [subprocess.Popen([sys.executable, '-c', 'while True: pass'])
                  for _ in range(hogs)]
         if peer is not None:
-            peer.spin_until(lambda: peer.node.count_publishers(
-                '/cfem/bodies/store/relative_pose') > 0, 60.0, 'the relative pose publisher')
+            peer.connected(60.0)
         done = subprocess.run([str(BIN / 'cfem-sim'), 'play', str(log), '--clock', '--wait',
                                '60'], capture_output=True, text=True, timeout=180)
         assert done.returncode == 0, done.stderr
@@ -265,7 +264,9 @@ def _replay(directory, scenario, log, watch=False, hogs=0):
             hog.kill()
             hog.wait()
         node.stop(signal.SIGINT)
-        published = [] if peer is None else list(peer.received['bodies/store/relative_pose'])
+        published = {} if peer is None else {
+            f'/cfem/{topic}': list(messages) for topic, messages in peer.received.items()
+            if topic.startswith(('bodies/', 'joints/'))}
         if peer is not None:
             peer.close()
     assert status == 0, node.output
@@ -286,13 +287,6 @@ def flight(tmp_path_factory):
 def test_odometry_log_drives_a_carrier_in_the_node_as_offline(flight):
     from cfem_ros.recording.analysis import open_run
     recording = flight.recording
-    # the node publishes the store's pose in the aircraft's frame, as it records it
-    recorded = {stamp_ns(m.header): m for topic, _, _, m in read_checked(recording)[2]
-                if topic == '/cfem/bodies/store/relative_pose'}
-    assert len(flight.published) > 30
-    for msg in flight.published:
-        assert msg.header.frame_id == 'aircraft'
-        assert np.abs(_numbers(msg) - _numbers(recorded[stamp_ns(msg.header)])).max() < 1e-12
     start_ns = T0
     ours, our_events, messages = _samples(recording, start_ns)
     odometry = [log - start_ns for topic, log, _, _ in messages
@@ -320,6 +314,23 @@ def test_odometry_log_drives_a_carrier_in_the_node_as_offline(flight):
                                              SPEED / PITCH_RATE * (np.cos(phi) - 1)], atol=1e-6)
     # and the store's pose in the carrier's frame was recorded
     assert open_run(str(recording)).relative['store'].reference == 'aircraft'
+
+
+def test_the_node_publishes_what_it_records(flight):
+    """Poses, twists, relative poses and joint loads: the same numbers, to the bit (47.3)."""
+    recorded = {(topic, stamp_ns(m.header)): m for topic, _, _, m in
+                read_checked(flight.recording)[2] if topic in flight.published}
+    assert set(flight.published) == {
+        f'/cfem/bodies/{body}/{kind}' for body in ('aircraft', 'store') for kind in (
+            'pose', 'twist')} | {'/cfem/bodies/store/relative_pose', '/cfem/joints/hook/wrench',
+                                 '/cfem/joints/hook/wrench_world'}
+    for topic, messages in flight.published.items():
+        assert len(messages) >= 30, topic   # the hook's loads until its release at 0.305 s
+        for msg in messages:
+            mine = recorded[(topic, stamp_ns(msg.header))]
+            assert msg.header.frame_id == mine.header.frame_id
+            assert np.array_equal(_numbers(msg), _numbers(mine)), (topic, msg, mine)
+    assert len(flight.published['/cfem/bodies/store/pose']) == 61   # every sample
 
 
 def _contents(path):
