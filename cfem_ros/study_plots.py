@@ -402,6 +402,8 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
     ------
     ValueError
         If metric is not a metric column of the table.
+    FolderError
+        If every draw of the sweep is invalid (nothing was run).
 
     """
     import pandas as pd
@@ -409,7 +411,11 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
     with open(os.path.join(outdir, 'sweep.json'), encoding='utf-8') as stream:
         manifest = json.load(stream)
     document = manifest.get('resolved', {}).get('document')
-    from cfem_ros.study.criteria import valid_runs
+    from cfem_ros.study.criteria import no_valid_draw, valid_runs
+    nothing = no_valid_draw(table)
+    if nothing is not None:
+        from cfem_ros.study.folder import FolderError
+        raise FolderError(f'{outdir}: {nothing}; nothing to draw or report')
     table = valid_runs(table)   # invalid draws were not run: nothing to draw
     criteria, level = load_criteria(outdir)
     metrics = metric_columns(table, manifest)

@@ -123,8 +123,12 @@ def _run_sweep(args) -> int:
         print(f'{signal.Signals(late).name} while the cluster was closing: the sweep had '
               f'finished, its table is complete in {outdir}', file=sys.stderr)
     runs_failed = _print_sweep(sweep, table, outdir, time.monotonic() - started)
+    from cfem_ros.study.criteria import no_valid_draw
+    nothing = no_valid_draw(table)
     if late is not None:
         return 128 + late
+    if nothing is not None:   # the table is kept: each draw's reason is in it
+        return error(f'{args.sweep}: {nothing}')
     return EXIT_FAILED if runs_failed else EXIT_OK
 
 
@@ -183,7 +187,8 @@ def _print_sweep(sweep, table, outdir: str, wall: float) -> int:
           f'failed, {contact}{wall:.3g} s')
     for _, row in table[table['status'] == 'failed'].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
-    if sweep.spec.criteria:
+    from cfem_ros.study.criteria import no_valid_draw
+    if sweep.spec.criteria and no_valid_draw(table) is None:   # else nothing to estimate
         from cfem_ros.study import methods
         from cfem_ros.study.confidence import fractions
         for fraction in fractions(table, sweep.spec.criteria, sweep.spec.confidence):

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import math
 import operator
 import re
+from typing import Optional
 
 import numpy as np
 
@@ -148,6 +149,22 @@ def finished_runs(table) -> np.ndarray:
 def valid_runs(table):
     """Return the runs of a table that are not ``INVALID`` (what every probability counts)."""
     return table[(table['status'] != INVALID).to_numpy()]
+
+
+def no_valid_draw(table) -> Optional[str]:
+    """
+    Return why a table has nothing to count when every one of its runs is invalid (else None).
+
+    Said as the sweep file's ``vary`` would be refused: how many draws, the
+    first one's reason, and what would be right.
+    """
+    if not len(table) or (table['status'] != INVALID).any():
+        return None
+    first = table.iloc[0]
+    return (f"vary: gives no valid draw: the scenario's checks refuse every one of the "
+            f'{len(table)} draws, none was run (the first: {first["message"]}); '
+            'expected distributions whose draws make valid scenarios (for instance '
+            'truncnormal within the valid range)')
 
 
 def to_json(criterion) -> dict:
