@@ -40,6 +40,8 @@ SPEC_EXCERPTS = {
     '11.': 'extends section 1 (braces on its store, a compound shape for its pylon)',
     '13.': 'not run: a fit file naming a scenario (two_hooks.yaml) and a flight log '
            '(flight_037.mcap) it does not come with',
+    '14.': 'extends config/store_release_two_hooks_pullup.yaml, the two-hook store whose '
+           'release condition it states',
 }
 #: Where the fit files a page shows are shipped (the page's commands run them).
 FIT_FILES = ROOT / 'config' / 'fit'
