@@ -14,8 +14,8 @@ import time
 from typing import Optional
 
 from cfem_ros.cli.common import (cannot_start, contact_parts, error, EXIT_CONTACT, EXIT_FAILED,
-                                 EXIT_OK, output_refused, same_file, signals_to, vec, warn,
-                                 warnings_held)
+                                 EXIT_OK, output_refused, same_file, signals_to, table_refused,
+                                 vec, warn, warnings_held)
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.engine.strokes import describe_event
@@ -52,8 +52,13 @@ def add_run_parser(sub):
                      help="the date and time of simulated t = 0 in the recording's stamps, "
                      'with its UTC offset, e.g. 2026-03-14T09:30:00Z (default: the '
                      "scenario's start_time, else 1970-01-01T00:00:00Z, stamp 0)")
+    run.add_argument('--layout', metavar='FILE.json',
+                     help='also write a Foxglove/Lichtblick layout for the recording: the '
+                     "carrier's and the store's z-up views, the store's position and loads, "
+                     'the events')
     run.add_argument('--overwrite', action='store_true',
-                     help='replace OUT if it exists (once the new recording is complete)')
+                     help='replace OUT (and the layout) if it exists (once the new recording '
+                     'is complete)')
     run.add_argument('--max-samples', type=float, default=offline.MAX_SAMPLES, metavar='N',
                      help='refuse a run of more samples (default %(default).0f)')
     run.add_argument('--max-gb', type=float, default=offline.MAX_GB, metavar='GB',
@@ -129,6 +134,12 @@ def run_command(args: argparse.Namespace) -> int:
             run = _prepare(args)
     except CfemError as err:
         return error(str(err))
+    if args.layout is not None:
+        from cfem_ros.recording import viewerlayout
+        try:
+            viewerlayout.write(run.model, args.layout)
+        except OSError as err:
+            return error(f'--layout {args.layout}: cannot write ({err.strerror})')
     started = time.monotonic()
     failure = _record(args, run)
     if failure is not None:
@@ -140,6 +151,8 @@ def run_command(args: argparse.Namespace) -> int:
         return 128 + run.stop
     _print_run(run, time.monotonic() - started)
     print(f'recording: {args.output} ({run.recorder.message_count} messages)')
+    if args.layout is not None:
+        print(f'layout: {args.layout} (Foxglove/Lichtblick: Layouts > Import from file)')
     sim = run.sim
     if sim.status == 'contact':
         print(f'stopped: {sim.message}; the recording holds everything up to then',
@@ -161,6 +174,14 @@ def _output_refused(args) -> Optional[str]:
         return f'-o {args.output}: is the scenario file itself; choose another output'
     if args.inputs and same_file(args.output, args.inputs):
         return f'-o {args.output}: is the --inputs log itself; choose another output'
+    if args.layout is not None:
+        for path, what in ((args.output, '-o'), (args.scenario, 'the scenario'),
+                           (args.inputs, '--inputs')):
+            if path and same_file(args.layout, path):
+                return f'--layout {args.layout}: is {what} {path} too; choose another file'
+        refused = table_refused(args.layout, args.overwrite, 'a layout')
+        if refused:
+            return f'--layout {refused}'
     return None
 
 
