@@ -245,3 +245,38 @@ def test_a_bound_just_below_the_target_is_not_shown_as_the_target():
     assert found.decision == MEETS
     shown = found.sentence().split('<= ')[1].split(' ')[0]
     assert 0.9999996e-6 <= float(shown) < 1e-6
+
+
+# -- methods that disagree beyond their bounds -------------------------------------------
+
+KAPPA = 0.5
+
+
+def _curved_rows(spec, runs):
+    """Return rows whose margin is 3 - z_angle + KAPPA z_mass^2 (z: standard normal)."""
+    names = columns(spec)
+    out = []
+    for k in runs:
+        values = spec.run_values(k)
+        row = dict.fromkeys(names, float('nan'))
+        row.update(run=k, status='ok', message='', **values)
+        z_mass = stats.norm.ppf((values['bodies.store.mass'] - 900.0) / 10.0)
+        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN) \
+            + 0.01 * KAPPA * z_mass ** 2
+        out.append(row)
+    return out
+
+
+def test_form_and_its_importance_sampling_that_disagree_say_so(tmp_path):
+    """A parabola: FORM's Phi(-3) = 1.35e-3 where P is half that; the report says so."""
+    from scipy.integrate import quad
+    from cfem_ros.study.report import build
+    spec = _sweep(tmp_path, 3.0, 200, target=1e-2)
+    out = str(tmp_path / 'form')
+    estimate = run_study(spec, out, method='form', rows=_curved_rows, log=_quiet)['estimate']
+    exact = quad(lambda v: stats.norm.pdf(v) * stats.norm.sf(3.0 + KAPPA * v * v), -12, 12)[0]
+    assert estimate.form_probability == pytest.approx(stats.norm.sf(3.0), rel=1e-3)
+    assert estimate.ci_low <= exact <= estimate.ci_high < estimate.form_probability
+    assert 'the methods disagree beyond their bounds' in estimate.disagreement
+    assert estimate.disagreement in estimate.sentence()
+    assert estimate.disagreement in build(out).replace('&#x27;', "'")
