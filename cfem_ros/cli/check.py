@@ -49,6 +49,7 @@ def check_command(args: argparse.Namespace) -> int:
     print(f'  world frame {model.frame_id!r}, gravity {vec(model.gravity)} m/s^2, '
           f'dt {model.dt:g} s, duration {model.duration:g} s, '
           f'baumgarte {model.baumgarte:g} 1/s')
+    _print_flight(scenario)
     _print_bodies(model)
     _print_joints(model)
     if model.wrenches:
@@ -60,6 +61,18 @@ def check_command(args: argparse.Namespace) -> int:
           f'({6 * free} of {free} free bodies less {6 * free - sim.dof} '
           f'removed by the joints)')
     return EXIT_OK
+
+
+def _print_flight(scenario: str):
+    """Print the flight condition (SPEC section 14) of a scenario that states one."""
+    from cfem_ros.core.fileio.textfile import display, read_text
+    from cfem_ros.core.fileio.yamlfile import load_yaml
+    from cfem_ros.core.scenario.checker import Checker
+    from cfem_ros.core.scenario.flight import describe, parse_flight
+    source = display(scenario)   # read again: the model keeps the manoeuvre, not the words
+    document = load_yaml(read_text(scenario, source), source)
+    if isinstance(document, dict) and 'flight' in document:
+        print(f'  {describe(parse_flight(Checker(source), document))}')
 
 
 def _print_bodies(model):

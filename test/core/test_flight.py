@@ -174,3 +174,20 @@ def test_the_carrier_attitude_at_t0_is_the_flight_path_plus_alpha():
     yaw, pitch, roll = Rotation.from_quat(model.bodies[0].orientation_xyzw).as_euler(
         'ZYX', degrees=True)
     assert (yaw, pitch, roll) == pytest.approx((0.0, 24.0, 0.0), abs=1e-9)
+
+
+def test_check_states_the_condition_and_the_manoeuvre_it_flies(tmp_path, capsys):
+    """cfem-sim check prints Mach, airspeed, pitch rate and dynamic pressure from the ISA."""
+    import yaml
+    from cfem_ros import cli
+    flight = CONDITIONS[1]   # 200 m/s at 1500 m, n = -0.5 in a 30 deg dive
+    path = tmp_path / 'dive.yaml'
+    path.write_text(yaml.safe_dump(_document(flight)))
+    assert cli.main(['check', str(path)]) == 0
+    [line] = [x for x in capsys.readouterr().out.splitlines() if x.startswith('  flight:')]
+    density, sound = _isa(1500.0)
+    q = G * (-0.5 - math.cos(math.radians(-30.0))) / 200.0
+    assert line == (f'  flight: aircraft at Mach {200.0 / sound:.4g} (200 m/s true), 1500 m, '
+                    f'ISA +0 K, flight path -30 deg, n = -0.5: pitch rate '
+                    f'{math.degrees(q):.5g} deg/s, dynamic pressure '
+                    f'{0.5 * density * 200.0 ** 2:.6g} Pa')
