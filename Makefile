@@ -81,6 +81,13 @@ figures: $(STAMP)
 	$(BIN)/python examples/photogrammetry_log.py runs/flight_plan.mcap -o runs/flight_037.mcap
 	$(BIN)/cfem-sim fit config/fit/fit_ejectors.yaml -o runs/fit_037 --overwrite
 	mkdir -p docs/figures/fitting && cp runs/fit_037/fit_trajectory.png docs/figures/fitting/
+	$(BIN)/python examples/write_pullup_log.py -o runs/flight_plan_038.mcap --duration 1.0 --release 0.3 --overwrite
+	$(BIN)/python examples/photogrammetry_log.py runs/flight_plan_038.mcap -o runs/flight_038.mcap --seed 38
+	$(BIN)/cfem-sim fit config/fit/fit_two_flights.yaml -o runs/fit_037_038 --overwrite
+	$(BIN)/python examples/write_pullup_log.py -o runs/next_point.mcap --duration 1.2 --release 0.7 --overwrite
+	$(BIN)/cfem-sim predict runs/fit_037_038 config/fit/next_point.yaml --inputs runs/next_point.mcap \
+	  -o runs/next_point_band --draws 100 --overwrite
+	cp runs/next_point_band/prediction.png docs/figures/fitting/
 
 # The pictures of docs/guide/separation-outputs.md, regenerated (runs under runs/).
 SEPARATION := docs/figures/separation

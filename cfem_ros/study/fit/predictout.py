@@ -136,29 +136,39 @@ def sentence(fitted: Fitted, result: PredictionResult) -> str:
 
 
 def draw_sheet(fitted: Fitted, result: PredictionResult, path: str):
-    """Draw the six-panel sheet: the 5-95 % band, the median and the fitted run."""
+    """
+    Draw the sheet: per quantity, the band with the median and fitted run, and its spread.
+
+    Left, each quantity with its 5-95 % band (often thinner than the line
+    at this scale); right, the band, the median and the fitted run less the
+    fitted run, where the uncertainty left is seen.
+    """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     zero = result.release if result.release is not None else 0.0
     label = 'time from release (s)' if result.release is not None else 'time (s)'
     t = result.time - zero
-    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
+    figure, axes = plt.subplots(len(QUANTITIES), 2, figsize=(11, 15), sharex=True)
     for q, (name, unit) in enumerate(QUANTITIES):
-        ax = axes[q % 3, q // 3]
-        ax.fill_between(t, result.band[0][:, q], result.band[2][:, q], color='tab:blue',
-                        alpha=0.25, lw=0, label='5-95 % of the draws')
-        ax.plot(t, result.band[1][:, q], '-', color='tab:blue', label='median')
-        ax.plot(t, result.fitted[:, q], '--', color='black', lw=0.8, label='fitted values')
-        ax.set_ylabel(f'{name.replace("_deg", "")} ({unit})')
-        ax.grid(True, alpha=0.3)
+        shown = name.replace('_deg', '')
+        for side, less in ((0, 0.0), (1, result.fitted[:, q])):
+            ax = axes[q, side]
+            ax.fill_between(t, result.band[0][:, q] - less, result.band[2][:, q] - less,
+                            color='tab:blue', alpha=0.25, lw=0, label='5-95 % of the draws')
+            ax.plot(t, result.band[1][:, q] - less, '-', color='tab:blue', label='median')
+            ax.plot(t, result.fitted[:, q] - less, '--', color='black', lw=0.8,
+                    label='fitted values')
+            ax.set_ylabel(f'{shown} ({unit})' if side == 0 else
+                          f'{shown} - fitted run ({unit})')
+            ax.grid(True, alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel(label)
-    axes[0, 0].legend(loc='best', fontsize=8)
+    axes[0, 1].legend(loc='best', fontsize=8)
     figure.suptitle(f'{fitted.body} relative to {fitted.relative_to} ({fitted.relative_to} '
                     f'axes): {len(result.table)} draws of the fitted parameters')
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=100)
     plt.close(figure)
 
 
