@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 
+from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import LOADS
 import numpy as np
@@ -39,6 +40,8 @@ SLOTS = LOADS.AERO_SLOTS
 AERO_EVENTS = ('aero_outside', 'aero_inside')
 #: How close to a grid's end a value located at a crossing is (relative to 1 + |end|).
 AT_END = 1e-9
+#: The slots of the flow angles (alpha, beta): undefined at zero airspeed.
+ANGLES = (0, 1)
 
 
 def axis_names(aero) -> list:
@@ -76,6 +79,8 @@ class AeroWatch:
         self.n = len(model.bodies)
         self.names = [axis_names(a) for a in model.aero]
         self._outside = [0] * len(model.aero)      # slots outside, per entry
+        # per entry, the angle slots whose place was taken at zero airspeed: not outside
+        self._undefined = [set() for _ in model.aero]
         self.stop_message = ''
 
     def _axes(self, k: int, y: np.ndarray) -> np.ndarray:
@@ -87,14 +92,32 @@ class AeroWatch:
     def _status(self, k: int) -> np.ndarray:
         return self.loads[self.first + k, LOADS.span('A_STATUS')]
 
+    def _still(self, k: int, y: np.ndarray) -> bool:
+        """Tell whether entry k's body is at rest in the air at y (its angles undefined)."""
+        aero = self.model.aero[k]
+        velocity = state_views(y, self.n)[1][aero.body]
+        return not np.any(velocity - np.asarray(aero.freestream, dtype=float))
+
     def arm(self, y: np.ndarray, t: float) -> list:
-        """Take where each body is at y (time t) as known; return events for axes outside."""
+        """
+        Take where each body is at y (time t) as known; return events for axes outside.
+
+        A body at rest in the air has no alpha or beta (the kernel takes them
+        as 0): their place is kept, so that the step does not find it again,
+        but it is not outside; the body's first motion through the air tells.
+        """
         events = []
         for k in range(len(self.model.aero)):
             self._status(k)[:] = 0.0
             self._outside[k] = 0
+            self._undefined[k].clear()
             values, status, low, high = self._axes(k, y)
+            still = self._still(k, y)
             for slot in np.flatnonzero(status):
+                if still and slot in ANGLES:
+                    self._status(k)[slot] = status[slot]
+                    self._undefined[k].add(int(slot))
+                    continue
                 events += self._change(k, slot, status[slot], values, low, high, t)
         return events
 
@@ -104,10 +127,14 @@ class AeroWatch:
 
         The axes that changed are those on which the body is elsewhere at the
         step's end y_end than it was, and whose value at y is at its grid's
-        end (the others cross later in the step and are located then).
+        end (the others cross later in the step and are located then). A
+        value that jumped past the end instead is an angle at zero airspeed
+        (alpha and beta are undefined there, taken as 0 until the body moves
+        through the air): its event names the value it jumped to, the one at
+        y_end, never the 0 inside the table.
         """
         values, _, low, high = self._axes(k, y)
-        _, target, _, _ = self._axes(k, y_end)
+        after, target, _, _ = self._axes(k, y_end)
         was = self._status(k).copy()
         changed = np.flatnonzero(target != was)
         ends = np.where(was == 0, np.where(target > 0, high, low), np.where(was > 0, high, low))
@@ -116,6 +143,7 @@ class AeroWatch:
         at_end = [s for s in changed if excess[s] >= -AT_END * (1.0 + abs(ends[s]))]
         if not at_end and changed.size:
             at_end = [changed[np.argmax(excess[changed])]]
+            values = np.where(np.arange(SLOTS) == at_end[0], after, values)   # it jumped
         events = []
         for slot in at_end:
             events += self._change(k, slot, target[slot], values, low, high, t)
@@ -127,6 +155,9 @@ class AeroWatch:
         name = self.names[k][slot]
         body = self.model.bodies[aero.body].name
         was = int(self._status(k)[slot])
+        if slot in self._undefined[k]:   # taken at rest in the air: it was never outside
+            self._undefined[k].discard(slot)
+            was = 0
         self._status(k)[slot] = float(status)
         figures = {'body': body, 'axis': name, 'value': _in_units(name, values[slot]),
                    'low': _in_units(name, low[slot]), 'high': _in_units(name, high[slot]),

@@ -33,6 +33,8 @@ MAX_TURN_PER_STEP = 1.0
 FAR_ANCHOR = 1e4
 #: Steps over which the aerodynamic loads' feedback on speed and rates is followed.
 FIRST_STEPS = 5
+#: Marks a first step that a table's ``outside: stop`` ends at t = 0.
+STOPPED = 'stopped: '
 #: The trial step's simulator says nothing (the scenario's own has said it).
 _SILENT = logging.getLogger('cfem_ros.startcheck.trial')
 _SILENT.addHandler(logging.NullHandler())
@@ -83,7 +85,10 @@ def _aero_products(model) -> tuple:
             continue
         with np.errstate(all='ignore'):
             speed = float(np.linalg.norm(aero.freestream) + np.linalg.norm(body.velocity_world))
-            table = np.abs(aero.coefficients)
+            # the coefficients as the step takes them: table, delta and the largest increment
+            table = np.abs(aero.coefficients + aero.delta)
+            if aero.proximity is not None:
+                table = table + np.abs(aero.proximity.increments).reshape(-1, 6).max(axis=0)
             inertia = np.diag(body.inertia).astype(float)
             damping = np.abs(aero.damping).astype(float)
             moment_max = float(table[..., 3:].max(initial=0.0))
@@ -152,6 +157,8 @@ def start_problems(sim) -> tuple:
     model = sim.model
     errors, warnings = _aero_products(model)
     warnings += _spin_warnings(model)
+    if sim.status == 'aero_outside':   # outside: stop, and outside from t = 0
+        return errors + [_stops_at_start(sim.message)], warnings
     try:
         with np.errstate(all='ignore'):
             derivative = sim.derivative(sim.y)
@@ -165,13 +172,22 @@ def start_problems(sim) -> tuple:
                       'inertias or loads whose products are beyond double precision')
         return errors, warnings
     failed = _first_step_failure(sim)
-    if failed == SINGULAR:
+    if failed.startswith(STOPPED):
+        errors.append(_stops_at_start(failed[len(STOPPED):]))
+    elif failed == SINGULAR:
         errors.append(f'the first step cannot be solved ({failed}): {_why_singular(model)}')
     elif failed:
         errors.append(f'the first step of dt {model.dt:g} s fails ({failed}): loads, masses, '
                       'inertias or rates (a table value, a coefficient) whose products go '
                       'beyond double precision within a step; expected realistic values')
     return errors, warnings
+
+
+def _stops_at_start(message: str) -> str:
+    """Return the error of a run that a table's ``outside: stop`` ends as it starts."""
+    return (f'the run would end as it starts: {message}; expected a table whose range covers '
+            'the start (the air at t = 0), or outside: hold (the tables held at their edges, '
+            'each time outside an aero_outside event)')
 
 
 def _why_singular(model) -> str:
@@ -189,8 +205,11 @@ def _first_step_failure(sim) -> str:
 
     The step is taken by a new simulator of the same model (the one given
     stays at t = 0), with the scenario's own loads and no inputs: a run
-    that fails there never starts, which is the scenario's own fault; what
-    grows later is the run's to tell.
+    that fails within it never reaches its first step's end, which is the
+    scenario's own fault (a coefficient of 1e30 diverges within the step);
+    what grows later is the run's to tell. A table's ``outside: stop``
+    ending the run at t = 0 (an angle that jumps out of its table as the
+    body starts to move through still air) is returned after ``STOPPED``.
     """
     model = sim.model
     if not model.duration > 0.0:
@@ -199,6 +218,11 @@ def _first_step_failure(sim) -> str:
         trial = type(sim)(model, logger=_SILENT)
         if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
             return ''
-    if trial.status != 'failed' or trial.t != 0.0:
+    if trial.status == 'aero_outside' and trial.t == 0.0:
+        return STOPPED + trial.message
+    if trial.status != 'failed':
         return ''
-    return SINGULAR if trial.message.endswith(SINGULAR) else trial.message.split(': ', 1)[-1]
+    why = trial.message.split(': ', 1)[-1]
+    if trial.message.endswith(SINGULAR):
+        return SINGULAR
+    return why if trial.t == 0.0 else f'at t = {trial.t:.3g} s, {why}'
