@@ -36,8 +36,9 @@ from std_msgs.msg import String
 
 #: Seconds to stay after publishing a wrench (ros2 topic pub --once keeps 0.1 s).
 KEEP_ALIVE = 0.3
-#: Seconds to wait for the node's release event.
-RELEASE_CONFIRMATION = 3.0
+#: Seconds to wait for the node's release event by default (``--confirm``): generous, for a
+#: node that runs behind real time on a busy machine, or follows a /clock that is slower.
+RELEASE_CONFIRMATION = 10.0
 #: Seconds to wait for a pose of the body, whose frame_id is the world frame.
 POSE_WAIT = 2.0
 
@@ -54,6 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
                              'in one instant')
     release.add_argument('joint', nargs='+', metavar='NAME',
                          help='a joint or a release group (several: released together)')
+    release.add_argument('--confirm', type=float, default=RELEASE_CONFIRMATION, metavar='S',
+                         help='seconds to wait for the release events (default '
+                         f'{RELEASE_CONFIRMATION:g}): a node behind real time, or following '
+                         '/clock, releases when its simulation gets there')
     wrench = sub.add_parser('wrench', help='hold an external force and moment on a body')
     wrench.add_argument('body', help='the body to load')
     wrench.add_argument('--force', type=float, nargs=3, default=[0.0] * 3,
@@ -80,6 +85,10 @@ def _refusal(args, topic: str):
     """Return why the arguments cannot be published (None if they can), before ROS starts."""
     if not (math.isfinite(args.wait) and 0.0 <= args.wait <= MAX_WAIT):
         return f'--wait: is {args.wait:g}; expected seconds from 0 to {MAX_WAIT:g}'
+    if args.command == 'release' and not (math.isfinite(args.confirm)
+                                          and 0.0 <= args.confirm <= MAX_WAIT):
+        return (f'release: --confirm: is {args.confirm:g}; expected seconds from 0 to '
+                f'{MAX_WAIT:g}')
     if args.command == 'wrench' and not (math.isfinite(args.stamp)
                                          and 0.0 <= args.stamp <= MAX_STAMP):
         return (f'wrench: --stamp: is {args.stamp:g}; expected seconds from 0 to '
@@ -174,7 +183,7 @@ def main(argv=None) -> int:
         def answered(name):
             return any(name in (e.get('joint'), e.get('group')) for e in confirmed())
 
-        _spin_until(node, lambda: all(map(answered, names)), RELEASE_CONFIRMATION)
+        _spin_until(node, lambda: all(map(answered, names)), args.confirm)
         # the rest of a group's joints come in the same instant
         _spin_until(node, lambda: False, KEEP_ALIVE)
         for event in confirmed():
@@ -183,8 +192,9 @@ def main(argv=None) -> int:
         if not missing:
             return 0
         print(f'ERROR: no release event for {", ".join(map(repr, missing))} within '
-              f"{RELEASE_CONFIRMATION:g} s; the node's log says why (unknown joint or "
-              'release group, or already released)', file=sys.stderr)
+              f"{args.confirm:g} s (--confirm); the node's log says why (unknown joint or "
+              'release group, or already released), or its simulation is not there yet',
+              file=sys.stderr)
         return 1
     finally:
         rclpy.try_shutdown()

@@ -152,7 +152,9 @@ def assert_replay_matches(tmp_path, scenario, recording, tolerance=1e-9):
 def test_sim_time_lockstep_free_body_and_body_axes(tmp_path, peer_factory):
     scenario = write_scenario(tmp_path, FREE_BODIES)
     recording = tmp_path / 'sim.mcap'
-    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
+    # input_window 0: in lockstep with /clock, each sample as soon as its /clock comes
+    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0,
+                       input_window=0.0)
     try:
         peer = peer_factory(['ball', 'spinner'], [])
         peer.connected()
@@ -436,8 +438,9 @@ def test_cfem_pub_releases_the_pivot_as_the_readme_says(tmp_path):
         assert result.returncode == 0, result.stderr
         event = json.loads(result.stdout.splitlines()[-1].split(': ', 1)[1])
         assert (event['joint'], event['cause']) == ('pivot', 'command')
-        result = subprocess.run([pub, 'release', 'pivot'], capture_output=True, text=True,
-                                timeout=60)
+        # refused at once by the node: no event comes, --confirm 2 s is plenty to say so
+        result = subprocess.run([pub, 'release', 'pivot', '--confirm', '2'], capture_output=True,
+                                text=True, timeout=60)
         assert result.returncode == 1 and 'no release event' in result.stderr
         assert "joint 'pivot' is already released" in node.output
         assert 'nowhere' not in node.output and 'finite' not in node.output

@@ -31,7 +31,8 @@ def peer():
 def test_node_publishes_and_records_the_air_each_body_sees(tmp_path, peer):
     scenario = CONFIG / 'store_separation_aero.yaml'
     recording = tmp_path / 'node.mcap'
-    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
+    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0,
+                       input_window=0.0)   # in lockstep: each sample at its /clock
     try:
         peer.connected()
         received = peer.received['bodies/store/aero/flow']

@@ -25,7 +25,7 @@ def test_bad_clock_and_stamps_are_warnings_and_a_long_catch_up_stops_on_sigint(
     scenario = write_scenario(tmp_path, FREE_BODIES)
     recording = tmp_path / 'clock.mcap'
     node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording,
-                       rate_hz=1000.0, duration=0.0)
+                       rate_hz=1000.0, duration=0.0, input_window=0.0)   # in lockstep
     try:
         peer = peer_factory(['ball', 'spinner'], [])
         peer.connected(timeout=120.0)
@@ -55,7 +55,8 @@ def test_bad_clock_and_stamps_are_warnings_and_a_long_catch_up_stops_on_sigint(
         if node.alive():
             node.stop(signal.SIGKILL)
     assert status == 0, node.output
-    assert stopped_after < 5.0, f'{stopped_after:.1f} s to stop'
+    # generous: the catch-up yields every 0.05 s of wall time (TICK_BUDGET)
+    assert stopped_after < 10.0, f'{stopped_after:.1f} s to stop'
     out = node.output
     assert 'negative time; ignored' in out
     assert 'is not a ROS time' in out and 'must be at most 1e+09' in out

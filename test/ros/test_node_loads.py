@@ -27,7 +27,8 @@ def peer():
 def test_node_publishes_and_records_the_applied_loads(tmp_path, peer):
     scenario = CONFIG / 'store_separation_ejectors.yaml'
     recording = tmp_path / 'node.mcap'
-    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0)
+    node = NodeProcess(tmp_path, scenario, use_sim_time=True, record=recording, duration=0.0,
+                       input_window=0.0)   # in lockstep: each sample at its /clock
     try:
         peer.connected()
         received = peer.received['bodies/store/applied/aft_ejector']

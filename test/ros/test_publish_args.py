@@ -17,6 +17,8 @@ import rclpy
     (['--ns', 'a b', 'release', 'pivot'], "'a b/release'"),
     (['--wait', 'nan', 'release', 'pivot'], '--wait: is nan'),
     (['--wait', '-1', 'release', 'pivot'], '--wait: is -1'),
+    (['release', 'pivot', '--confirm', 'inf'], '--confirm: is inf'),
+    (['release', 'pivot', '--confirm', '-2'], '--confirm: is -2'),
 ])
 def test_bad_arguments_are_one_error_line_and_nothing_published(argv, said, capsys):
     assert publish.main(argv) == 2
