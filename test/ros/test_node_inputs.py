@@ -96,7 +96,9 @@ def test_a_burst_to_a_stopped_node_all_on_its_stamps_and_late_inputs_counted(tmp
             60.0, 'the sample at 0.15 s')
         peer.wrench_pubs['store'].publish(_wrench(T0 + 100 * MS, -1.0))   # 50 ms too late
         peer.wrench_pubs['store'].publish(_wrench(T0 + 170 * MS, -2.0))   # within the window
-        peer.spin_for(0.3)
+        # the late one is taken (and warned about) before the next /clock: at this one's time
+        peer.spin_until(lambda: 'a message stamped 0.100000 s' in node.output, 60.0,
+                        'the late input taken')
         _run_out(node, peer, 200)
     finally:
         node.stop()
