@@ -216,13 +216,14 @@ def fractions_figure(table, criteria, level: float, sampled: bool = True):
     the fractions are not P(fail).
     """
     from cfem_ros.study.confidence import fractions
+    from cfem_ros.study.decision import up
     found = fractions(table, criteria, level)
     fig, ax = plt.subplots(figsize=(7, 1.0 + 0.5 * len(found)))
     for i, f in enumerate(found):
         low, high = f.interval
         ax.plot([low, high], [i, i], color='tab:red', linewidth=3, solid_capstyle='butt')
         ax.plot([f.fraction], [i], 'o', color='black')
-        ax.annotate(f'{f.failures}/{f.runs}, P(fail) <= {f.bound:.3g}', xy=(high, i),
+        ax.annotate(f'{f.failures}/{f.runs}, P(fail) <= {up(f.bound)}', xy=(high, i),
                     xytext=(6, -3), textcoords='offset points', fontsize=8)
     ax.set_yticks(range(len(found)), [f.name for f in found])
     ax.set_ylim(-0.6, len(found) - 0.4)

@@ -98,15 +98,21 @@ class Fraction:
         return upper_bound(self.failures, self.runs, self.level)
 
     def sentence(self) -> str:
-        """Return the line ``cfem-sim sweep`` and ``plot`` print."""
+        """
+        Return the line ``cfem-sim sweep`` and ``plot`` print.
+
+        Bounds and interval ends rounded outward (``decision.up``/``down``):
+        a bound shown is never below the bound.
+        """
+        from cfem_ros.study.decision import down, up
         pct = f'{100 * self.level:g} %'
         low, high = self.interval
         if self.failures == 0:
             return (f'{self.name}: 0 failures in {self.runs} runs: P(fail) <= '
-                    f'{self.bound:.3g} at {pct} (two-sided {pct}: [0, {high:.3g}])')
+                    f'{up(self.bound)} at {pct} (two-sided {pct}: [0, {up(high)}])')
         return (f'{self.name}: {self.failures} failures in {self.runs} runs: P(fail) = '
-                f'{self.fraction:.3g}, {pct} interval [{low:.3g}, {high:.3g}]; '
-                f'P(fail) <= {self.bound:.3g} at {pct}')
+                f'{self.fraction:.3g}, {pct} interval [{down(low)}, {up(high)}]; '
+                f'P(fail) <= {up(self.bound)} at {pct}')
 
 
 def fractions(table, criteria, level: float = 0.95) -> list:

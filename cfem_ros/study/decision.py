@@ -16,7 +16,7 @@ the failures of a set of Monte Carlo runs (the exact Clopper-Pearson bound).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from decimal import Decimal, ROUND_CEILING
+from decimal import Decimal, ROUND_CEILING, ROUND_FLOOR
 import math
 from typing import Optional
 
@@ -40,6 +40,15 @@ def up(value: float, digits: int = 3) -> str:
     exact = Decimal(value)
     step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
     return f'{float(exact.quantize(step, rounding=ROUND_CEILING)):.{digits}g}'
+
+
+def down(value: float, digits: int = 3) -> str:
+    """Return a lower bound as text, rounded downward to ``digits`` figures (never above it)."""
+    if not math.isfinite(value) or value <= 0:
+        return f'{value:g}'
+    exact = Decimal(value)
+    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return f'{float(exact.quantize(step, rounding=ROUND_FLOOR)):.{digits}g}'
 
 
 def verdict(probability: float, p_upper: Optional[float], target: float) -> str:

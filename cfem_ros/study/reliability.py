@@ -33,7 +33,7 @@ from typing import Optional
 
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
-from cfem_ros.study.decision import up
+from cfem_ros.study.decision import down, up
 from cfem_ros.study.draws import blocks
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import random_variables
@@ -101,7 +101,7 @@ class Estimate:
         pct = f'{100 * self.level:g} %'
         line = (f'P(any criterion fails) = {self.probability:.4g} by {self.method}, '
                 f'coefficient of variation {self.cov:.3g}, {pct} interval '
-                f'[{self.ci_low:.4g}, {self.ci_high:.4g}]')
+                f'[{down(self.ci_low, 4)}, {up(self.ci_high, 4)}]')
         if math.isfinite(self.p_upper):
             line += f', P <= {up(self.p_upper)} at {pct} one-sided'
         elif self.method != 'mc':

@@ -23,6 +23,7 @@ import shlex
 import time
 
 from cfem_ros.study.criteria import margins
+from cfem_ros.study.decision import down, up
 from cfem_ros.study.labels import label
 import numpy as np
 
@@ -79,7 +80,6 @@ _DECISION_CLASS = {'meets': 'pass', 'does_not_meet': 'fail', 'undecided': 'undec
 
 
 def _bound(value) -> str:
-    from cfem_ros.study.decision import up
     return 'none (too few failed runs)' if value is None else f'P <= {up(value)}'
 
 
@@ -89,7 +89,7 @@ def _estimate_section(est: dict, level: float) -> list:
     cov = (est['cov'] if est['cov'] is not None and est['probability'] > 0
            else 'undefined (no failure)')   # no failure seen: no coefficient of variation
     interval = ('none' if est['ci_low'] is None or est['ci_high'] is None
-                else f'[{est["ci_low"]:.4g}, {est["ci_high"]:.4g}]')
+                else f'[{down(est["ci_low"], 4)}, {up(est["ci_high"], 4)}]')
     rows = [['inputs as given', est['method'], est['probability'], cov, interval,
              _bound(est.get('p_upper')), est.get('bound', ''), est['runs']]]
     if est.get('tail_probability') is not None:
@@ -180,7 +180,7 @@ def build(outdir: str, figures=()) -> str:
             verdict = ('<span class="pass">none failed</span>' if f.failures == 0
                        else f'<span class="fail">{f.failures} failed</span>')
             rows.append([f.name, rule, (verdict, ''), f.runs, f.fraction,
-                         f'[{low:.3g}, {high:.3g}]', f'P(fail) <= {f.bound:.3g}'])
+                         f'[{down(low)}, {up(high)}]', f'P(fail) <= {up(f.bound)}'])
         parts.append(_table(['criterion', 'rule', 'failures', 'runs', 'fraction',
                              f'exact {100 * level:g} % interval', 'one-sided bound'], rows))
         if method != 'mc':

@@ -280,3 +280,17 @@ def test_form_and_its_importance_sampling_that_disagree_say_so(tmp_path):
     assert 'the methods disagree beyond their bounds' in estimate.disagreement
     assert estimate.disagreement in estimate.sentence()
     assert estimate.disagreement in build(out).replace('&#x27;', "'")
+
+
+@pytest.mark.parametrize('failures,runs', [(0, 59), (1, 19), (3, 7), (0, 3000), (10, 10)])
+def test_a_fraction_s_line_rounds_its_bounds_outward(failures, runs):
+    """'0 failures in 59 runs: P(fail) <= 0.0495' was below the bound 0.049507."""
+    import re
+    from cfem_ros.study.confidence import Fraction
+    found = Fraction('miss', failures, runs, 0.95)
+    line = found.sentence()
+    bound = float(re.search(r'P\(fail\) <= ([0-9.e+-]+)', line).group(1))
+    low, high = (float(x) for x in re.search(r'\[([0-9.e+-]+), ([0-9.e+-]+)\]',
+                                             line).groups())
+    assert bound >= found.bound and high >= found.interval[1] and low <= found.interval[0]
+    assert bound == pytest.approx(found.bound, rel=2e-2)
