@@ -72,6 +72,22 @@ def test_a_sample_far_past_the_window_is_neither_simulated_nor_read(flight, tmp_
     assert result.values[0] == pytest.approx(ff.AFT, rel=1e-6)
 
 
+def test_a_window_end_far_past_the_samples_simulates_nothing_more(flight, tmp_path, capsys):
+    # a window to 1e6 s (11.6 days of simulation) ends, for the runs, at the last sample
+    _, scenario, poses = flight
+    measured = ff.csv(tmp_path / 'poses.csv', *poses)
+    spec = load_fit(ff.fit_file(tmp_path, scenario, ff.measured_entry(
+        measured, {'from': 0.0, 'to': 1e6}), AFT))
+    fit = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None)
+    flight_fit = fit.flights[0]
+    assert flight_fit.last == pytest.approx(poses[0][-1])
+    assert flight_fit.trajectories.duration == pytest.approx(poses[0][-1] + 3 * flight_fit.dt)
+    assert flight_fit.start_run.end <= poses[0][-1] + 3 * flight_fit.dt + 1e-9
+    # a window starting after the last sample: refused at once, nothing simulated past it
+    fit = ff.fit_file(tmp_path, scenario, ff.measured_entry(measured, {'from': 1e6}), AFT)
+    _refused(capsys, fit, tmp_path / 'out', ': measured.window: ', 'runs from 1e+06 s to 0.2 s')
+
+
 def _poses_csv(tmp_path, flight, row, column, value):
     table = pd.read_csv(ff.csv(tmp_path / 'poses.csv', *flight[2]))
     table.loc[row, column] = value
@@ -221,6 +237,13 @@ def test_a_window_may_name_a_release_group(tmp_path):
     out = tmp_path / 'out'
     assert cli.main(['fit', fit, '-o', str(out), '--threads', '2']) == 0
     found = json.loads((out / 'fit.json').read_text())
+    far = ff.fit_file(tmp_path, str(tmp_path / 'grouped.yaml'), ff.measured_entry(
+        measured, {'from': window['from'], 'to': {'release': 'station_1', 'delay': 1e6}}),
+        AFT, name='far.yaml')
+    spec = load_fit(far)   # a delay of 1e6 s after the release: the runs end at the samples'
+    flight_fit = Fit(spec, observed_flights(spec), log=lambda line: None).flights[0]
+    assert flight_fit.window[1] == pytest.approx(1e6 + 0.05)
+    assert flight_fit.trajectories.duration == pytest.approx(0.25 + 3 * flight_fit.dt)
     assert found['window']['release'] == pytest.approx(0.05)
     assert found['window']['from'] == pytest.approx(0.05)
     assert found['window']['to'] == pytest.approx(0.15)

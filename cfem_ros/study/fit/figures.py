@@ -38,7 +38,7 @@ def draw(fit, values, trajectory_path: str, residuals_path: str):
     measured = np.hstack([data.position,
                           data.attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
     zero, label = _axes_time(fit.window)
-    start, end = fit.window[:2]
+    start, end = fit.window[0], min(fit.window[1], fit.last)   # the runs end there
     dense = np.linspace(start, end, 400)
     fitted_dense = relative_histories(fit, values, dense)
     before = relative_histories(fit, fit.spec.x0, dense)

@@ -6,8 +6,9 @@ One flight within a fit: its window, its measured samples in it, its runs and re
 The window is fixed before the fit starts, from the measured file's
 releases or the run at the start values (a release group's time is its
 first joint's release), so every run is compared over the same samples.
-Only the window's samples are compared and only the window is simulated:
-a measured sample far past it costs nothing. A window without ``to`` ends
+Only the window's samples are compared and only up to the last of them is
+simulated: a measured sample far past the window, or a window's end far
+past the last sample, costs nothing. A window without ``to`` ends
 at the last measured sample within the scenario's duration.
 """
 
@@ -48,7 +49,9 @@ class FlightFit:
         model = parse_scenario(flight.document_with(spec.parameters, spec.x0),
                                source=flight.scenario)
         self.dt = model.dt
-        absolute = [e.time for e in (flight.start, flight.end)
+        last = float(measured.time[-1])
+        # a time past the last measured sample compares nothing more: no run goes past it
+        absolute = [min(e.time, last) for e in (flight.start, flight.end)
                     if e is not None and e.release is None]
         self.scenario_duration = max([model.duration] + absolute)
         self.trajectories = Trajectories(spec, flight, inputs, interpolate_odometry,
@@ -58,7 +61,10 @@ class FlightFit:
         self.window = self._window(self.start_run)
         self.data = measured.window(*self.window[:2])
         self._check_samples()
-        self.trajectories.duration = self.window[1] + MARGIN_STEPS * self.dt
+        #: s, the last measured sample compared: the runs stop a few steps after it, however
+        #: far the window's end (a delay of 1e6 s after a release simulates nothing more)
+        self.last = float(self.data.time[-1])
+        self.trajectories.duration = self.last + MARGIN_STEPS * self.dt
 
     def _release(self, name: str, run: Trajectory) -> Optional[float]:
         joints = self.flight.groups.get(name, (name,))
@@ -105,10 +111,10 @@ class FlightFit:
     def residuals(self, run: Trajectory) -> np.ndarray:
         """Return the weighted residuals of a run (6 per measured sample in the window)."""
         flight, data = self.flight, self.data
-        if run.end < self.window[1] - 1e-9:
+        if run.end < self.last - 1e-9:
             raise FitError(self.spec.path, 'parameters', f'a run stopped at t = '
-                           f'{run.end:.9g} s ({run.status}), before the window of '
-                           f'{flight.key} ends at {self.window[1]:.9g} s',
+                           f'{run.end:.9g} s ({run.status}), before the last measured '
+                           f'sample of {flight.key} in its window at {self.last:.9g} s',
                            'bounds within which the run reaches the window end')
         position, attitude = run.poses(data.time)
         error_position = (position - data.position) / flight.sigma_position
