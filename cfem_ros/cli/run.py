@@ -21,6 +21,7 @@ from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.fileio.instants import instant_ns, MAX_SECONDS
+from cfem_ros.core.model.joints import Release
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.interrupts import Interrupted
 from cfem_ros.recording import offline
@@ -306,8 +307,23 @@ def _print_run(run: _Run, wall: float):
         else:
             print(describe_event(event))
     if not any(e['event'] == 'release' for e in sim.events):
-        print('no joint released')
+        print(_no_release(run.model, bool(run.replay)))
     print_state(sim)
+
+
+def _no_release(model, replayed: bool) -> str:
+    """Return the line of a run that released nothing: why, and what would release."""
+    if not model.joints:
+        return 'no joint released: the scenario has no joint (every body free from t = 0)'
+    waiting = [j.name for j in model.joints if j.release == Release()]
+    if not waiting:
+        return 'no joint released (no release condition was met)'
+    names = ', '.join(waiting[:6]) + (f' and {len(waiting) - 6} more' if len(waiting) > 6
+                                      else '')
+    logged = 'none in the --inputs log took effect' if replayed else 'none was given'
+    return (f'no joint released: {names} have no release condition and open only on a '
+            f'release command ({logged}); give --inputs LOG.mcap with release commands (the '
+            'examples ship theirs in config/inputs/), or a release: time in the scenario')
 
 
 def print_state(sim):

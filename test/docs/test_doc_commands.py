@@ -239,7 +239,7 @@ def lanes(pages: list, count: int) -> list:
     of ``pages``.
     """
     def work(shown: set) -> int:
-        return sum(HEAVY if any(w in c.split() for w in ('sweep', 'report'))
+        return sum(HEAVY if any(w in c.split() for w in ('sweep', 'envelope', 'report'))
                    or 'benchmarks/' in c else 1 for c in shown)
 
     def shows(page) -> set:

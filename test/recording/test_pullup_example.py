@@ -49,6 +49,33 @@ def test_replay_of_the_pullup_log(tmp_path):
     assert store.position[-1, 0] < -0.5
 
 
+def test_the_example_pulls_up_and_releases_without_its_log(tmp_path):
+    # flight: flies the log's pull-up in closed form, and the hook lets go as scheduled
+    script = _script()
+    out = str(tmp_path / 'alone.mcap')
+    assert cli.main(['run', str(ROOT / 'config' / 'store_release_from_pullup.yaml'), '-o', out,
+                     '--duration', '1.0']) == 0
+    run = open_run(out)
+    assert [(round(t, 9), joint) for t, joint, _ in run.releases()] == [(0.5, 'hook')]
+    aircraft = run.bodies['aircraft']
+    for k in range(0, len(aircraft.time), 10):
+        position, quat, _ = script.pullup(aircraft.time[k])
+        assert np.allclose(aircraft.position[k], position, rtol=0, atol=1e-6)
+        assert np.allclose(aircraft.quaternion[k], quat, rtol=0, atol=1e-9)
+    # carried on the aircraft's circle (radius V / q about a centre above it, the store
+    # 1.5 m further out), pitched by q t: hook load m (a - g), to 1e-3 N of 17.8 kN
+    hook = run.joints['hook']
+    q = G / script.SPEED
+    pitch = q * hook.time
+    centre = np.stack([-np.sin(pitch), 0.0 * pitch, -np.cos(pitch)], axis=1)
+    load = 907.1848 * (q ** 2 * (script.SPEED / q + 1.5) * centre - [0.0, 0.0, G])
+    assert np.abs(hook.force - load).max() < 1e-3
+    store = run.relative['store']
+    after = store.time >= 0.5
+    expected = 1.5 + G * (store.time[after] - 0.5) ** 2
+    assert np.abs(store.position[after, 2] - expected).max() < 0.01 * expected.max()
+
+
 def _log(path, script, metadata=None, rate_hz=20.0):
     """Write the pull-up's odometry at rate_hz, with a cfem_ros metadata record if given."""
     from cfem_ros.recording.container import Recorder
