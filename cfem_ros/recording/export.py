@@ -46,13 +46,21 @@ def _sample_stamps(run, rate: Optional[float]) -> np.ndarray:
         return stamps
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
         raise RecordingError(f'--rate {rate}: expected a rate > 0 Hz')
+    recorded = run.metadata.get('rate_hz', '')
+    try:
+        faster = float(recorded) > 0 and rate > float(recorded) * (1 + 1e-9)
+    except ValueError:
+        faster = False
+    if faster:   # refused before its count of missing times, which may have 300 digits
+        raise RecordingError(f"{run.path}: --rate {rate:.6g}: faster than the recording's "
+                             f'{float(recorded):g} Hz; expected a rate that divides it (rows '
+                             'are recorded samples, never interpolated)')
     since = stamps - run.start_ns
-    step_ns = 1e9 / rate
-    on_grid = np.abs(since / step_ns - np.round(since / step_ns)) * step_ns <= 0.5
-    kept = stamps[on_grid]
+    step_ns = 1e9 / rate   # inf below 1e-300 Hz: then only t = 0 is on the grid
+    off = np.mod(since, step_ns)
+    kept = stamps[(off <= 0.5) | (step_ns - off <= 0.5)]
     wanted = int(math.floor(since[-1] / step_ns + 1e-9)) + 1 if len(since) else 0
     if len(kept) < wanted:
-        recorded = run.metadata.get('rate_hz', '')
         raise RecordingError(
             f'{run.path}: --rate {rate:g}: {wanted - len(kept)} of the times k/{rate:g} s '
             f'have no recorded sample (recorded at {recorded or "another rate"} Hz); expected '
@@ -220,7 +228,7 @@ def write_frame(table, path: str, float_format=None) -> str:
     """
     tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
     try:
-        if path.endswith('.csv'):
+        if path.lower().endswith('.csv'):   # T.CSV is CSV too, as write_table takes it
             table.to_csv(tmp, index=False, float_format=float_format)
         else:
             table.to_parquet(tmp, index=False, engine='pyarrow')

@@ -23,6 +23,7 @@ import math
 
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.native import kernel
+from cfem_ros.core.native.atmosphere import STANDARD_RANGE
 from cfem_ros.core.native.kernel import LOADS
 import numpy as np
 
@@ -82,6 +83,12 @@ class AeroWatch:
         # per entry, the angle slots whose place was taken at zero airspeed: not outside
         self._undefined = [set() for _ in model.aero]
         self.stop_message = ''
+        gravity = np.asarray(model.gravity, dtype=float)
+        norm = float(np.linalg.norm(gravity))
+        self._up = -gravity / norm if norm > 0.0 else np.zeros(3)
+        # per entry with an atmosphere: when its body's altitude was last looked at, and the
+        # altitude (m) and its rate (m/s) then (None: an entry with a density has none)
+        self._seen = [None] * len(model.aero)
 
     def _axes(self, k: int, y: np.ndarray) -> np.ndarray:
         out = np.empty((4, SLOTS))
@@ -119,7 +126,8 @@ class AeroWatch:
                     self._undefined[k].add(int(slot))
                     continue
                 events += self._change(k, slot, status[slot], values, low, high, t)
-        return events
+        self._seen = [None] * len(self.model.aero)
+        return events + self.atmosphere(y, t)
 
     def crossed(self, k: int, y: np.ndarray, y_end: np.ndarray, t: float) -> list:
         """
@@ -175,6 +183,74 @@ class AeroWatch:
                     f'{figures["value"]:.6g} outside [{figures["low"]:.6g}, '
                     f'{figures["high"]:.6g}] (aero.{body}.outside: stop)')
         return events
+
+    def atmosphere(self, y: np.ndarray, t: float) -> list:
+        """
+        Return the events of bodies leaving the standard atmosphere by t (or coming back).
+
+        Looked at where the simulator stops (samples, events): between the
+        last look (``inside_at``, or ``outside_at``) and this one
+        (``seen_at``) the altitude is the cubic Hermite of the altitude and
+        its rate at both, exact for a fall at constant acceleration, and
+        each of its crossings of the standard's ends is an event at its
+        ``time`` (so a body that leaves and comes back between two looks is
+        told too). Beyond, the kernel continues a layer the standard does
+        not have: the event says so.
+        """
+        events = []
+        positions, velocities = state_views(y, self.n)[:2]
+        for k, aero in enumerate(self.model.aero):
+            if aero.altitude is None:
+                continue
+            now = (float(t), aero.altitude + float(self._up @ positions[aero.body]),
+                   float(self._up @ velocities[aero.body]))
+            before, self._seen[k] = self._seen[k], now
+            if before is None:   # the first look: beyond already, at once
+                if not STANDARD_RANGE[0] <= now[1] <= STANDARD_RANGE[1]:
+                    level = STANDARD_RANGE[1] if now[1] > STANDARD_RANGE[1] else STANDARD_RANGE[0]
+                    events.append(self._atmosphere_event(k, True, level, now[0], now[0],
+                                                         now[0]))
+                continue
+            for time, level, leaving in _hermite_crossings(before, now):
+                events.append(self._atmosphere_event(k, leaving, level, time, before[0],
+                                                     now[0]))
+        return events
+
+    def _atmosphere_event(self, k: int, leaving: bool, level: float, time: float,
+                          looked: float, seen: float) -> dict:
+        return {'event': 'atmosphere_outside' if leaving else 'atmosphere_inside',
+                'body': self.model.bodies[self.model.aero[k].body].name, 'altitude': level,
+                'low': STANDARD_RANGE[0], 'high': STANDARD_RANGE[1], 'time': time,
+                'inside_at' if leaving else 'outside_at': looked, 'seen_at': seen}
+
+
+def _hermite_crossings(start: tuple, end: tuple) -> list:
+    """
+    Return (time, level, leaving) of the standard's ends crossed between two looks.
+
+    start, end: (t s, altitude m, its rate m/s). The altitude between is the
+    cubic Hermite of the two; a touch without crossing is none.
+    """
+    (t0, h0, d0), (t1, h1, d1) = start, end
+    span = t1 - t0
+    if not span > 0.0:
+        return []
+    # h(s) for s in [0, 1] on the Hermite basis, the rates scaled by the span
+    a = 2 * h0 - 2 * h1 + span * (d0 + d1)
+    b = -3 * h0 + 3 * h1 - span * (2 * d0 + d1)
+    c = span * d0
+    out = []
+    for level in STANDARD_RANGE:
+        for r in np.roots(np.trim_zeros([a, b, c, h0 - level], 'f')):
+            if abs(r.imag) > 1e-12 or not 0.0 < r.real <= 1.0:
+                continue
+            s = float(r.real)
+            slope = (3 * a * s + 2 * b) * s + c
+            if slope == 0.0:
+                continue
+            up = slope > 0.0
+            out.append((t0 + span * s, level, up == (level == STANDARD_RANGE[1])))
+    return sorted(out)
 
 
 def outside_spans(events, body: str, t_end: float) -> list:

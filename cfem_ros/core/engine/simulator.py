@@ -242,6 +242,7 @@ class Simulator(Dynamics):
             if self.t >= t_target and self.steps > steps:
                 self._check_violation()   # the kernel checks each step's start, not the end
             self.carriers.check()
+            self.events.extend(self._aero.atmosphere(self.y, self.t))
         except NumericalFailure as err:
             self.fail(str(err))
             return False

@@ -89,6 +89,14 @@ def describe_event(event: dict) -> str:
         return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
                 f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.2f}, '
                 f'{q:.2f}, {r:.2f} deg/s')
+    if kind in ('atmosphere_outside', 'atmosphere_inside'):
+        if kind == 'atmosphere_outside':
+            return (f"atmosphere_outside {event['body']} at {when}: beyond {event['altitude']:g} "
+                    f"m, the standard atmosphere's end (between t = {event['inside_at']:.9g} "
+                    f"and {event['seen_at']:.9g} s); beyond, the air is its last layer "
+                    'continued')
+        return (f"atmosphere_inside {event['body']} at {when}: back within "
+                f"[{event['low']:g}, {event['high']:g}] m")
     if kind in ('aero_outside', 'aero_inside'):
         where = 'outside' if kind == 'aero_outside' else 'back inside'
         return (f"{kind} {event['body']} at {when}: {event['axis']} = {event['value']:.6g}, "

@@ -13,6 +13,11 @@ from __future__ import annotations
 
 #: Reference altitudes a scenario may give, m (the layers of the model, less a margin).
 ALTITUDE_RANGE = (-500.0, 20000.0)
+#: Where the model is the standard, m geopotential: its three layers to 32 km, and the
+#: first continued below sea level to -5 km, as the 1976 tables are. Beyond, the kernel
+#: would extend a layer the standard does not have: a body there is refused at t = 0 and
+#: told as an ``atmosphere_outside`` event in a run.
+STANDARD_RANGE = (-5000.0, 32000.0)
 #: Temperature offsets a scenario may give, K (a hot or cold day, not a different planet).
 OFFSET_RANGE = (-100.0, 100.0)
 

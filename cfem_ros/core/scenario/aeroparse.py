@@ -22,7 +22,8 @@ import os
 from typing import Optional
 
 from cfem_ros.core.model.loads import Aero, Proximity
-from cfem_ros.core.native.atmosphere import ALTITUDE_RANGE, isa_density, OFFSET_RANGE
+from cfem_ros.core.native.atmosphere import (
+    ALTITUDE_RANGE, isa_density, OFFSET_RANGE, STANDARD_RANGE)
 import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'atmosphere', 'freestream', 'wind',
@@ -52,21 +53,25 @@ class _Context:
     index: dict
     bodies: tuple
     base_dir: str
+    gravity: np.ndarray
 
 
-def parse_aero(check, doc, index: dict, bodies, base_dir: str = '') -> tuple:
+def parse_aero(check, doc, index: dict, bodies, base_dir: str = '', gravity=None) -> tuple:
     """
     Parse ``aero``: body name -> reference values, tables, air and proximity.
 
     ``check`` is the scenario parser's checker (``fail``, ``mapping``,
     ``number``, ``vector``); ``index`` maps body names to indices;
-    ``base_dir`` is the folder proximity tables are relative to.
+    ``base_dir`` is the folder proximity tables are relative to;
+    ``gravity`` (world, m/s^2) says which way is up, for each body's own
+    altitude at t = 0 (refused beyond the standard atmosphere).
     """
     if doc is None:
         return ()
     if not isinstance(doc, dict):
         check.fail('aero', f'is {doc!r:.80}', 'a mapping of body names')
-    context = _Context(check, index, tuple(bodies), base_dir)
+    gravity = np.zeros(3) if gravity is None else np.asarray(gravity, dtype=float)
+    context = _Context(check, index, tuple(bodies), base_dir, gravity)
     return tuple(_parse_body(context, name, spec) for name, spec in doc.items())
 
 
@@ -97,6 +102,9 @@ def _parse_body(context: _Context, name, spec) -> Aero:
                    'one of wind (air moving over the ground) or freestream (the air past a '
                    'fixed carrier): both are the velocity of the air, world axes, m/s')
     altitude, offset = _atmosphere(check, spec, key)
+    if altitude is not None:
+        given = f'{key}.atmosphere.altitude' if 'atmosphere' in spec else f'{key}.altitude'
+        _body_altitude(context, body, altitude, given)
     density = (check.number(spec['density'], f'{key}.density', positive=True)
                if altitude is None else isa_density(altitude, offset))
     air = spec.get('wind', spec.get('freestream', [0.0, 0.0, 0.0]))
@@ -212,6 +220,22 @@ def _complete(check, spec: dict, key: str):
                    f'a table or a value for {listed}, or {key}.zero: '
                    f'[{", ".join(zero + missing)}] if {"it is" if one else "they are"} '
                    'meant to be zero (a coefficient left out is not taken as zero)')
+
+
+def _body_altitude(context: _Context, body: int, altitude: float, given: str):
+    """Refuse a body whose own altitude at t = 0 is beyond the standard atmosphere."""
+    norm = float(np.linalg.norm(context.gravity))
+    up = -context.gravity / norm if norm > 0.0 else np.zeros(3)
+    position = np.asarray(context.bodies[body].position, dtype=float)
+    own = altitude + float(up @ position)   # as the kernel: its height along -gravity
+    if STANDARD_RANGE[0] <= own <= STANDARD_RANGE[1]:
+        return
+    name = context.bodies[body].name
+    context.check.fail(f'bodies.{name}.position', f'puts {name} at {own:.6g} m ({given} '
+                       f'{altitude:g} m at the world origin, {own - altitude:+.6g} m from '
+                       'there along -gravity), beyond the standard atmosphere',
+                       f'a body from {STANDARD_RANGE[0]:g} to {STANDARD_RANGE[1]:g} m '
+                       '(the 1976 standard, geopotential)')
 
 
 def _grid(check, values, key: str, what: str, angles: bool) -> np.ndarray:
