@@ -282,9 +282,11 @@ def _check_new_keys(fail, base, variables, values, scenario):
     Refuse a key path that adds a key the scenario format does not have (a typo).
 
     Each path that is not in the base scenario is set alone to run 0's value
-    and the document parsed: an unknown key there is the sweep file's
-    mistake, found before any run (a value a draw makes invalid is left to
-    that run, a failed row with its reason).
+    and the document parsed: an unknown key there, or one that conflicts
+    with a key of the scenario whatever its value (``flight.airspeed`` with
+    ``mach`` given), is the sweep file's mistake, found before any run (a
+    value a draw makes invalid is left to that run, a failed row with its
+    reason).
     """
     for variable in variables:
         if resolve(base, variable.tokens)[3]:
@@ -293,7 +295,11 @@ def _check_new_keys(fail, base, variables, values, scenario):
         try:
             parse_scenario(document, source=scenario)
         except ScenarioError as err:
-            if err.problem == 'unknown key' and err.key.startswith(
-                    format_key_path(variable.tokens[:-1])):
+            if not err.key.startswith(format_key_path(variable.tokens[:-1])):
+                continue
+            if err.problem == 'unknown key':
                 fail(f'vary.{variable.path}', f'adds {err.key}, a key the scenario format '
                      f'does not have', err.expected or 'a key path of the scenario format')
+            if err.problem.startswith('given together with'):   # whatever value is drawn
+                fail(f'vary.{variable.path}', f'is not in {scenario}, and with it {err.key} '
+                     f'is {err.problem}: every run would be refused', err.expected)

@@ -7,6 +7,7 @@ import math
 from cfem_ros.core.scenario.checker import Checker
 from cfem_ros.core.scenario.flight import FLIGHT_KEYS, parse_flight
 from cfem_ros.core.scenario.parse import parse_scenario
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.spec import load_sweep
 from cfem_ros.study.sweep import Sweep
 import pytest
@@ -102,3 +103,13 @@ def test_a_grid_of_conditions_runs_each_condition(tmp_path):
         assert row[f'store_at_{duration}_x'] == pytest.approx(x, abs=1e-6)
         assert row[f'store_at_{duration}_z'] == pytest.approx(z, abs=1e-6)
     assert seen == {(0.6, 1.0), (0.6, 3.0), (0.95, 1.0), (0.95, 3.0)}
+
+
+def test_a_key_that_conflicts_with_the_scenario_whatever_its_value_is_refused(tmp_path):
+    """Sweeping airspeed over a scenario that gives mach refuses the file, not each run."""
+    path = write_sweep(tmp_path, runs=1, scenario=_scenario('mach'), metrics={},
+                       vary={'flight.airspeed': {'grid': [180.0, 290.0]}})
+    with pytest.raises(SweepError, match=r'vary\.flight\.airspeed: is not in .*scenario\.yaml, '
+                       r'and with it flight\.airspeed is given together with mach: every run '
+                       r'would be refused; expected one of mach or airspeed'):
+        load_sweep(path)
