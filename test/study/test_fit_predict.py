@@ -17,7 +17,8 @@ import json
 import pathlib
 
 from cfem_ros import cli
-from cfem_ros.study.fit.predict import Prediction, read_fitted, read_next
+from cfem_ros.study.fit.predict import Fitted, Prediction, read_fitted, read_next
+from cfem_ros.study.fit.predictout import quantile_uncertainty
 import fitflights as ff
 import numpy as np
 import pandas as pd
@@ -141,3 +142,58 @@ def test_a_next_point_the_fit_cannot_apply_to_is_refused(fitted, tmp_path, capsy
     assert ': vary: ' in capsys.readouterr().err
     assert cli.main(['predict', str(tmp_path), nxt, '-o', str(tmp_path / 'out')]) == 2
     assert 'fit.json: is not in the folder' in capsys.readouterr().err
+
+
+def test_draws_are_the_fitted_covariance_and_hold_the_undetermined():
+    covariance = np.array([[4.0, -1.2, np.nan], [-1.2, 0.81, np.nan],
+                           [np.nan, np.nan, np.nan]])
+    fit = Fitted(path='fit.json', paths=['a', 'b', 'c'], names=['a', 'b', 'c'],
+                 units=['', '', ''], values=np.array([10.0, -3.0, 0.5]),
+                 determined=np.array([True, True, False]), covariance=covariance,
+                 bounds=np.array([[0, 20], [-10, 10], [0, 1]], dtype=float), body='store',
+                 relative_to='pylon', status='converged')
+    draws = fit.draws(40_000, seed=3)
+    assert np.all(draws[:, 2] == 0.5)   # not determined: held at its value
+    # mean within 4 standard errors; covariance within 4 of its own (n = 40,000)
+    n = len(draws)
+    assert np.all(np.abs(draws[:, :2].mean(axis=0) - [10.0, -3.0])
+                  < 4 * np.sqrt([4.0, 0.81] / np.float64(n)))
+    sample = np.cov(draws[:, :2].T)
+    spread = np.sqrt((covariance[:2, :2] ** 2 + np.outer([4.0, 0.81], [4.0, 0.81])) / n)
+    assert np.all(np.abs(sample - covariance[:2, :2]) < 4 * spread)
+    assert np.array_equal(fit.draws(7, seed=4), fit.draws(7, seed=4))
+
+
+def test_the_quantile_lines_say_how_well_the_draws_place_them():
+    # the sample 5 % quantile of 200 normal draws, over 20,000 repetitions
+    rng = np.random.default_rng(5)
+    lines = np.percentile(rng.standard_normal((20_000, 200)), 5, axis=1)
+    assert quantile_uncertainty(200) == pytest.approx(lines.std() / 1.6449, rel=0.05)
+
+
+def test_a_plain_scenario_gives_the_band_and_an_undetermined_parameter_is_held(
+        fitted, tmp_path, capsys):
+    folder, fit_folder, _ = fitted
+    found = json.loads((fit_folder / 'fit.json').read_text())
+    # the forward ejector as if the flights had not determined it
+    found['parameters']['wrenches[0].force[2]']['determined'] = False
+    found['covariance_scaled'] = [[None, None], [None, found['covariance_scaled'][1][1]]]
+    held = tmp_path / 'held_fit'
+    held.mkdir()
+    (held / 'fit.json').write_text(json.dumps(found))
+    nxt = ff.write(tmp_path / 'next.yaml', ff.with_settings(ff.EJECTED, HELD_OUT))
+    out = tmp_path / 'out'
+    assert cli.main(['predict', str(held), nxt, '-o', str(out), '--draws', '20',
+                     '--seed', '3', '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    draws = pd.read_parquet(out / 'draws.parquet')
+    forward = found['parameters']['wrenches[0].force[2]']['value']
+    assert (draws['wrenches[0].force[2]'] == forward).all()
+    assert draws['wrenches[1].force[2]'].std() > 0
+    assert 'note: forward ejector force was not determined by the flights: held at' in said
+    assert 'its uncertainty is not in the band' in said
+    assert 'criteria passed' not in said and 'estimated from 20 draws' in said
+    summary = json.loads((out / 'prediction.json').read_text())
+    assert summary['criteria'] is None and summary['seed'] == 3
+    assert summary['parameters']['wrenches[0].force[2]']['drawn'] is False
+    assert summary['quantile_uncertainty'] == pytest.approx(quantile_uncertainty(20))

@@ -89,15 +89,32 @@ def prediction_json(fitted: Fitted, nxt, result: PredictionResult, seed: int) ->
             'scenario': os.path.abspath(nxt.scenario), 'body': fitted.body,
             'relative_to': fitted.relative_to, 'draws': int(len(table)), 'seed': seed,
             'quantiles_percent': list(QUANTILES), 'band': 'pointwise over the draws',
+            'quantile_uncertainty': quantile_uncertainty(int(len(table))),
             'parameters': parameters,
             'status': {str(k): int(v) for k, v in table['status'].value_counts().items()},
             'release': result.release, 'time': float(result.time[-1]), 'at_end': last,
             'criteria': result.passes}
 
 
+def quantile_uncertainty(draws: int) -> float:
+    """
+    Return the 1-sigma error of a 5 % (or 95 %) line of draws, in band half-widths.
+
+    For a normal spread the sample 5 % quantile of N draws has a standard
+    deviation sqrt(p (1 - p) / N) / phi(z_p) in standard deviations (p =
+    0.05, z_p = 1.645), and the half-width of the band is 1.645 of those.
+    """
+    from scipy.stats import norm
+    p = QUANTILES[0] / 100.0
+    z = norm.ppf(1.0 - p)
+    return math.sqrt(p * (1.0 - p) / draws) / norm.pdf(z) / z
+
+
 def notes(fitted: Fitted, result: PredictionResult, summary: dict) -> list:
     """Return what the reader must know besides the numbers (one sentence each)."""
-    out = []
+    out = [f'the 5 % and 95 % lines are estimated from {summary["draws"]} draws: each is '
+           f'uncertain by about {100 * summary["quantile_uncertainty"]:.0f} % of the band\'s '
+           'half-width (1 sigma, for a normal spread; more draws narrow it as 1/sqrt(N))']
     for j in np.flatnonzero(~fitted.determined):
         out.append(f'{fitted.names[j]} was not determined by the flights: held at '
                    f'{fitted.values[j]:g}; its uncertainty is not in the band')
