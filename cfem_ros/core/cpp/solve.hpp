@@ -1,8 +1,9 @@
 // Copyright 2026 the cfem_ros authors
 // SPDX-License-Identifier: Apache-2.0
 //
-// The joint loads' solves: the articulated tree recursion and the dense Schur
-// complement, and the small factorizations they use.
+// The joint loads' solves: the articulated tree recursion as named passes and the small
+// factorizations (treesolve.cpp, its 6x6 blocks in treeblocks.hpp), and the dense Schur
+// complement (densesolve.cpp).
 #pragma once
 
 #include "common.hpp"
