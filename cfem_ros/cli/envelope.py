@@ -117,14 +117,12 @@ def envelope_command(args: argparse.Namespace) -> int:
 def _on_cluster(args, found, outdir: str, everything_done: bool = False) -> tuple:
     """Run every point on Dask; return (exit status if stopped or failed, else None, table)."""
     from cfem_ros.study.envelope import run_envelope
-    from cfem_ros.study.sweep import Progress
     client = cluster = None
+    overall = _overall(found, outdir, args.method)
 
-    def say(line):
-        print(line, file=sys.stderr, flush=True)
-
-    def meter(k):   # point k's runs, a line as each task ends
-        return Progress(found.point_spec(k).total, 0).update
+    def say(line):   # over a progress line drawn in place on a terminal, if there is one
+        clear = '\r\x1b[K' if overall is not None and overall.in_place else ''
+        print(clear + line, file=sys.stderr, flush=True)
     options = {} if args.method == 'mc' else {'repeat': args.repeat, 'target_cov': args.cov}
     with signals_to(raise_interrupted):
         try:
@@ -134,7 +132,8 @@ def _on_cluster(args, found, outdir: str, everything_done: bool = False) -> tupl
             except OSError as err:
                 return error(f'{args.scheduler or "local cluster"}: {err}'), None
             table = run_envelope(found, outdir, method=args.method, client=client, log=say,
-                                 progress=meter, **options)
+                                 progress=None if overall is None else (lambda k: overall.update),
+                                 **options)
         except Interrupted as stop:
             for s in STOPS:   # a second one ends at once
                 signal.signal(s, exit_now)
@@ -154,6 +153,16 @@ def _on_cluster(args, found, outdir: str, everything_done: bool = False) -> tupl
         finally:
             close(client, cluster)
     return None, table
+
+
+def _overall(found, outdir: str, method: str):
+    """Return the progress line over every condition's Monte Carlo runs (None for others)."""
+    if method != 'mc':   # a rare-event method's runs are not known beforehand: its log says
+        return None
+    from cfem_ros.study.envelope import point_folder
+    from cfem_ros.study.sweep import Progress, saved_runs
+    done = sum(saved_runs(point_folder(outdir, k)) for k in range(len(found.points)))
+    return Progress(found.point_spec(0).total * len(found.points), done, what='envelope')
 
 
 def _finish(table, found, outdir: str, wall: float) -> int:

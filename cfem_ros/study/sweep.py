@@ -217,8 +217,9 @@ class Progress:
     done); to a file or pipe each finished task adds a line.
     """
 
-    def __init__(self, total: int, done: int, stream=None):
+    def __init__(self, total: int, done: int, stream=None, what: str = 'sweep'):
         self.total, self.done, self.failed = total, done, 0
+        self.what = what   # the line's first word: sweep, or envelope (all its conditions)
         self.start_done = done
         self.started = time.monotonic()
         self.stream = stream or sys.stderr
@@ -232,7 +233,7 @@ class Progress:
         spent = max(time.monotonic() - self.started, 1e-9)
         rate = (self.done - self.start_done) / spent
         eta = (self.total - self.done) / rate if rate > 0 else math.inf
-        line = (f'sweep: {self.done}/{self.total} runs, {self.failed} failed, '
+        line = (f'{self.what}: {self.done}/{self.total} runs, {self.failed} failed, '
                 f'{rate:.1f} runs/s, ETA {eta:.0f} s')
         if self.in_place:
             end = '\n' if self.done >= self.total else ''

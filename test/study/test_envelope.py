@@ -70,6 +70,26 @@ def test_the_envelope_table_is_the_same_sweeps_run_one_by_one(tmp_path):
         assert row['pass_fraction'] == 1.0 - estimate.probability
 
 
+def test_a_folder_cut_short_resumes_to_the_table_of_an_uncut_run(tmp_path):
+    """Points done, a point with some runs saved, points not started: the same table."""
+    import glob
+    found = envelope.load_envelope(_sweep(tmp_path, runs=3), AXES)
+    whole = envelope.run_envelope(found, str(tmp_path / 'whole'))
+    cut = str(tmp_path / 'cut')
+    envelope.write_manifest(found, cut, 'mc')
+    envelope.run_point(found, 0, cut)
+    envelope.run_point(found, 1, cut)
+    parts = sorted(glob.glob(os.path.join(envelope.point_folder(cut, 1), 'parts', '*')))
+    assert len(parts) == 3   # a part per run in this process: drop all but one, and point 1's
+    for path in parts[1:]:   # table and estimate, as a kill in the middle of it would
+        os.remove(path)
+    for name in ('results.parquet', 'estimate.json'):
+        os.remove(os.path.join(envelope.point_folder(cut, 1), name))
+    assert not envelope.point_done(cut, 1) and envelope.point_done(cut, 0)
+    resumed = envelope.run_envelope(found, cut)
+    pd.testing.assert_frame_equal(resumed, whole)
+
+
 def test_an_axis_that_is_not_a_grid_of_vary_is_refused_before_any_run(tmp_path):
     path = _sweep(tmp_path)
     with pytest.raises(SweepError, match=r'vary\.bodies\.store\.mass: is varied as uniform '
@@ -134,6 +154,7 @@ def test_cfem_sim_envelope_runs_resumes_and_reports(tmp_path, capsys):
     assert cli.main(args) == 0
     said = capsys.readouterr()
     assert 'point 4/4 (flight.mach = 0.9, flight.load_factor = 3)' in said.err
+    assert 'envelope: 8/8 runs, 0 failed' in said.err   # one progress line for all
     assert os.path.getsize(os.path.join(out, 'envelope.png')) > 10_000
     first = pd.read_parquet(os.path.join(out, 'envelope.parquet'))
     assert cli.main(args) == 0
