@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+#: The panels' margins, fixed: tight_layout measured every label again and doubled a
+#: figure's time (a fit's figures were half of a 3-parameter fit's wall time).
+MARGINS = dict(left=0.09, right=0.98, top=0.93, bottom=0.07, hspace=0.12, wspace=0.25)
 QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'deg'),
               ('yaw', 'deg'))
 
@@ -59,7 +62,7 @@ def draw(fit, values, trajectory_path: str, residuals_path: str):
         ax.set_xlabel(label)
     axes[0, 0].legend(loc='best', fontsize=8)
     figure.suptitle(title)
-    figure.tight_layout()
+    figure.subplots_adjust(**MARGINS)
     figure.savefig(trajectory_path, dpi=110)
     plt.close(figure)
 
@@ -78,6 +81,6 @@ def draw(fit, values, trajectory_path: str, residuals_path: str):
         ax.set_xlabel(label)
     axes[0, 0].legend(loc='best', fontsize=8)
     figure.suptitle(f'residuals: {title}')
-    figure.tight_layout()
+    figure.subplots_adjust(**MARGINS)
     figure.savefig(residuals_path, dpi=110)
     plt.close(figure)

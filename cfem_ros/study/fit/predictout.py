@@ -184,7 +184,8 @@ def draw_sheet(fitted: Fitted, result: PredictionResult, path: str):
     axes[0, 1].legend(loc='best', fontsize=8)
     figure.suptitle(f'{fitted.body} relative to {fitted.relative_to} ({fitted.relative_to} '
                     f'axes): {len(result.table)} draws of the fitted parameters')
-    figure.tight_layout()
+    figure.subplots_adjust(left=0.09, right=0.98, top=0.95, bottom=0.05, hspace=0.12,
+                           wspace=0.25)
     figure.savefig(path, dpi=100)
     plt.close(figure)
 
