@@ -14,7 +14,8 @@ import numpy as np
 
 #: The panels' margins, fixed: tight_layout measured every label again and doubled a
 #: figure's time (a fit's figures were half of a 3-parameter fit's wall time).
-MARGINS = dict(left=0.09, right=0.98, top=0.93, bottom=0.07, hspace=0.12, wspace=0.25)
+MARGINS = {'left': 0.09, 'right': 0.98, 'top': 0.93, 'bottom': 0.07, 'hspace': 0.12,
+           'wspace': 0.25}
 QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'deg'),
               ('yaw', 'deg'))
 
