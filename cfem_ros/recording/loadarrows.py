@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine import simulator
 from cfem_ros.recording import visuals
 import numpy as np
 
@@ -54,6 +55,35 @@ COLORS = {
 SHAFT, HEAD, HEAD_LENGTH = 0.02, 0.045, 0.07
 #: Forces smaller than this fraction of the largest drawn are not drawn (rounding).
 SMALLEST = 1e-9
+#: The events that start or end a load: the arrows are drawn at each (SPEC section 4).
+LOAD_EVENTS = simulator.LOAD_EVENTS
+
+
+def event_states(sim, new_events) -> list:
+    """
+    Return the state at each instant of new events that start or end a load, in time order.
+
+    Each as (t, row, active, held): the time (s) and, just after the
+    events there, ``Simulator.outputs()``, ``active_joints`` and
+    ``held_wrenches()``: the current ones when the simulator is still at
+    that instant, else those it kept (``Simulator.load_states``, which the
+    caller turns on: ``watch_loads``). The recorder and the node both draw
+    their arrows at these, so they draw the same instants.
+    """
+    out = []
+    kept = sim.load_states or {}
+    for t in sorted({e['time'] for e in new_events if e.get('event') in LOAD_EVENTS}):
+        if t == sim.t:
+            out.append((t, sim.outputs(), sim.active_joints, sim.held_wrenches()))
+        elif t in kept:
+            out.append((t, *kept[t]))
+    return out
+
+
+def watch_loads(sim):
+    """Have sim keep the state at each load event it steps over (``event_states``)."""
+    if sim.load_states is None:
+        sim.load_states = {}
 
 
 def scale_size(model) -> float:

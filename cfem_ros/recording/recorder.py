@@ -28,7 +28,7 @@ import numpy as np
 
 
 #: The events that start or end a load: the load arrows are drawn at each (SPEC section 4).
-LOAD_EVENTS = frozenset({'release', 'stroke_end', 'brace_contact'})
+LOAD_EVENTS = loadarrows.LOAD_EVENTS
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -102,6 +102,7 @@ class StateRecorder(RowSink):
         self._arrows = loadarrows.ArrowLog(
             loadarrows.LoadArrows(model, self.namespace, sim.applied_sources))
         recorder.on_finish.append(self._write_arrows)
+        loadarrows.watch_loads(sim)   # the state at a load event stepped over
         # drawn with joints or applied loads, and from the first wrench input on
         self._arrows_on = bool(model.joints or sim.applied_sources)
 
@@ -279,11 +280,9 @@ class StateRecorder(RowSink):
             if event.get('event') == 'release':
                 self._zero_load(event['joint'], self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
-        if self._arrows_on and any(e.get('event') in LOAD_EVENTS and e['time'] == self.sim.t
-                                   for e in new):
-            # what acts from the event on, drawn at its instant (the state is still there)
-            self._arrows.add(self.stamp_ns(self.sim.t), self.sim.outputs(),
-                             self.sim.active_joints, self.sim.held_wrenches())
+        if self._arrows_on:   # what acts from each load event on, drawn at its instant
+            for t, row, active, held in loadarrows.event_states(self.sim, new):
+                self._arrows.add(self.stamp_ns(t), row, active, held)
         if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
             # released joints change colour; contacts get their marker
             self._markers(self.stamp_ns(new[-1]['time']))
@@ -302,6 +301,7 @@ class StateRecorder(RowSink):
     def restart(self, sim, start_ns: int):
         """Go on recording a new run of the same model (a reset): sim from start_ns on."""
         self.sim = sim
+        loadarrows.watch_loads(sim)
         self.start_ns = int(start_ns)
         self._events_written = 0
         self._marker_cadence.restart()

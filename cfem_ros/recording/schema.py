@@ -160,7 +160,7 @@ TF_STATIC = Topic('/tf_static', TF_TYPE, qos=LATCHED_QOS)
 #: subscribe late with volatile durability (RViz's default).
 MARKERS = Topic('markers', MARKERS_TYPE, qos=LATCHED_QOS, period=1.0)
 #: The loads drawn as arrows (``loadarrows``), every ``period``.
-LOAD_MARKERS = Topic('load_markers', MARKERS_TYPE, period=0.1)
+LOAD_MARKERS = Topic('load_markers', MARKERS_TYPE)   # every sample, and at load events
 
 # ---------------------------------------------------------------- inputs (recorded as received)
 

@@ -108,12 +108,15 @@ class Publishers(Sink):
         #: The carriers' view and chase frames, from a sample's numbers (as recorded).
         self.views = viewframes.of_model(model)
         self._scene_sent = False
-        # the next sendings: the markers one period after the scene's, the arrows at once
+        # the next sending of the markers: one period after the scene's
         self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
-        self._arrow_cadence = schema.Cadence(schema.LOAD_MARKERS.period, first=0)
+        # the load arrows at every sample and at each event that starts or ends a load, at
+        # the largest force so far (the node cannot know the run's: recording.loadarrows)
         self.arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
         self.arrow_publisher = (self._publisher(schema.LOAD_MARKERS, MarkerArray)
                                 if any(not b.fixed for b in model.bodies) else None)
+        if self.arrow_publisher is not None:
+            loadarrows.watch_loads(sim)   # the state at a load event stepped over
 
     def _publisher(self, topic: schema.Topic, kind, **names):
         """
@@ -142,9 +145,10 @@ class Publishers(Sink):
         """Publish a new run of the same model (a reset): sim, from stamp start_ns on."""
         self.sim, self.start_ns = sim, int(start_ns)
         self.air.sim = sim
+        if self.arrow_publisher is not None:
+            loadarrows.watch_loads(sim)
         self._events_sent = 0
         self._marker_cadence.restart()
-        self._arrow_cadence.restart()
         self._joint_wrenches()   # the joints released in the run before are joined again
         self._scene(self.start_ns)
 
@@ -166,10 +170,10 @@ class Publishers(Sink):
     def stamp_ns(self, t: float) -> int:
         return self.start_ns + int(round(t * 1e9))
 
-    def _arrows(self, stamp_ns: int, row: np.ndarray, active):
+    def _arrows(self, stamp_ns: int, row: np.ndarray, active, held: np.ndarray):
         """Publish the load arrows (``recording.loadarrows``) of a sample's numbers."""
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
-        array, _ = self.arrows.message(stamp, row, active, self.sim.held_wrenches())
+        array, _ = self.arrows.message(stamp, row, active, held)
         self.arrow_publisher.publish(MarkerArray(markers=[
             _fill(Marker(), m) for m in array['markers']]))
 
@@ -218,8 +222,8 @@ class Publishers(Sink):
             _vector3(twist.twist.linear, state[7:10])
             _vector3(twist.twist.angular, state[10:13])
             publisher.publish(twist)
-        if self.arrow_publisher is not None and self._arrow_cadence.take(sim.t):
-            self._arrows(stamp_ns, row, active)   # a few per second
+        if self.arrow_publisher is not None:
+            self._arrows(stamp_ns, row, active, sim.held_wrenches())
         column = 13 * n
         for k in active:   # world axes, and the child's axes as the recorder turns them
             world = row[column:column + 6]
@@ -273,10 +277,15 @@ class Publishers(Sink):
                     _vector3(wrench.wrench.torque, moment[k])
 
     def events(self):
+        """Publish the new events, and the load arrows at one that starts or ends a load."""
         for publisher in self._retired:   # their zero went out at the last call
             self.node.destroy_publisher(publisher)
         self._retired = []
-        for event in self.sim.events[self._events_sent:]:
+        new = self.sim.events[self._events_sent:]
+        if self.arrow_publisher is not None:   # at each load event's instant, as recorded
+            for t, row, active, held in loadarrows.event_states(self.sim, new):
+                self._arrows(self.stamp_ns(t), row, active, held)
+        for event in new:
             self.event_publisher.publish(String(data=json.dumps(event)))
             if event['event'] == 'contact':
                 self.node.get_logger().warning(

@@ -39,6 +39,10 @@ from cfem_ros.core.native import kernel
 import numpy as np
 
 
+#: The events that start or end a load (``load_states``; the viewers' arrows, SPEC section 4).
+LOAD_EVENTS = frozenset({'release', 'stroke_end', 'brace_contact'})
+
+
 class Simulator(Dynamics):
     """
     Step a model's bodies and joints in time with RK4.
@@ -70,6 +74,13 @@ class Simulator(Dynamics):
         (``braces.contact_event``).
     active : ndarray of bool, shape (n_joints,)
         Joints not yet released.
+    load_states : dict or None
+        None unless an output asks for it (a viewer's load arrows): then, by
+        the time (s) of each event located within a step that starts or
+        ends a load (``LOAD_EVENTS``), the sample there: (``outputs()``,
+        ``active_joints``, ``held_wrenches()``) just after it. A caller
+        that steps over an event (to the next sample time) finds the state
+        of its instant here.
 
     """
 
@@ -82,6 +93,7 @@ class Simulator(Dynamics):
         self.steps = 0
         self.max_violation = 0.0
         self._info = np.zeros(kernel.ADVANCE_INFO.WIDTH)   # advance's, reused
+        self.load_states = None
         self.carriers = Carriers(self, self._bodies)   # kinematic bodies, their odometry
         if self.kinematic:
             self.carriers.place(0.0)
@@ -297,6 +309,15 @@ class Simulator(Dynamics):
 
     def _step(self, h, t_end):
         """Advance one step of length h to t_end, locating condition releases and stroke ends."""
+        events = len(self.events)
+        self._locate_step(h, t_end)
+        if self.load_states is not None and any(
+                e.get('event') in LOAD_EVENTS for e in self.events[events:]):
+            self.load_states[self.t] = (self.outputs(), self.active_joints,
+                                        self.held_wrenches())
+
+    def _locate_step(self, h, t_end):
+        """Take the step of ``_step``: its events, and the state at the first of them."""
         self._stage_violation = 0.0
         y0 = self.y
         self._scheduled.set_time(self.t)
