@@ -38,7 +38,7 @@ def test_bad_clock_and_stamps_are_warnings_and_a_long_catch_up_stops_on_sigint(
         peer.send(peer.wrench_pubs['ball'], far)
         peer.wrench('ball', [1e300, 0, 0], stamp=T0 + 20 * MS)
         peer.clock(T0 + 100_000 * 1_000_000_000)             # 1e5 s ahead: ignored
-        # the node keeps only the latest /clock: let it see this one before the next
+        # best effort: make sure the node saw this one before the next
         peer.spin_until(lambda: 'at once is ignored' in node.output, timeout=60.0,
                         what='the jump of /clock refused')
         tick(peer, T0 + 50 * MS, ['ball', 'spinner'])        # still following the clock
