@@ -178,5 +178,9 @@ def _finish(table, found, outdir: str, wall: float) -> int:
     if unfinished:
         print(f'{unfinished} runs failed (a singular or diverging system), each counted as '
               "failing every criterion; see each point's results.parquet", file=sys.stderr)
+    unanswered = table[table['note'] != '']
+    for _, row in unanswered.iterrows():   # the method found nothing there: no number shown
+        print(f'ERROR: point {int(row["point"]) + 1} ({row["folder"]}): {row["note"]}',
+              file=sys.stderr)
     print(chart)
-    return EXIT_FAILED if unfinished else EXIT_OK
+    return EXIT_FAILED if unfinished or len(unanswered) else EXIT_OK

@@ -114,7 +114,8 @@ def _panel(ax, panel, axes, target, document):
         else:
             ax.scatter(*at, color=verdict.value[1], marker=verdict.value[2], s=140,
                        edgecolors='black', zorder=3)
-            text = f'P {row["probability"]:.2g}\n<= {_short(row["p_upper"])}'
+            text = (f'P {row["probability"]:.2g}\n<= {_short(row["p_upper"])}'
+                    if math.isfinite(row['probability']) else 'no estimate')
         ax.annotate(text, at, textcoords='offset points', xytext=(9, 5), fontsize=7)
     note = ''
     if target is not None and xs[2] and ys[2]:

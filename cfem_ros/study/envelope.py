@@ -30,6 +30,7 @@ from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.draws import draw
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.keypaths import apply_values
+from cfem_ros.study.resources import MethodFailed
 from cfem_ros.study.spec import load_sweep, SweepSpec
 
 ENVELOPE = 'envelope.parquet'
@@ -38,7 +39,7 @@ MANIFEST = 'envelope.json'
 POINTS = 'points'
 #: The table's columns after the axes.
 COLUMNS = ('point', 'method', 'runs', 'failed_runs', 'unfinished_runs', 'pass_fraction',
-           'probability', 'p_upper', 'confidence', 'target', 'decision', 'folder')
+           'probability', 'p_upper', 'confidence', 'target', 'decision', 'folder', 'note')
 
 
 @dataclasses.dataclass
@@ -229,7 +230,27 @@ def row(envelope: Envelope, k: int, estimate, outdir: str, unfinished: int = 0) 
                confidence=float(spec.confidence),
                target=math.nan if spec.target is None else float(spec.target),
                decision=decision if decision else 'no_target',
-               folder=os.path.relpath(point_folder(outdir, k), outdir))
+               folder=os.path.relpath(point_folder(outdir, k), outdir), note='')
+    return out
+
+
+def unanswered(envelope: Envelope, k: int, method: str, why: str, outdir: str) -> dict:
+    """
+    Return the row of point k, whose rare-event method gave no estimate (why: its message).
+
+    No number stands for the missing estimate (NaN); the decision is
+    ``undecided`` (``no_target`` without a target), the note says why.
+    """
+    from cfem_ros.study.sweep import saved_runs
+    spec = envelope.spec
+    out = dict(envelope.point_values(k))
+    out.update(point=k, method=method, runs=saved_runs(point_folder(outdir, k)),
+               failed_runs=-1, unfinished_runs=0, pass_fraction=math.nan,
+               probability=math.nan, p_upper=math.nan, confidence=float(spec.confidence),
+               target=math.nan if spec.target is None else float(spec.target),
+               decision='no_target' if spec.target is None else 'undecided',
+               folder=os.path.relpath(point_folder(outdir, k), outdir),
+               note=f'no estimate: {why}')
     return out
 
 
@@ -242,7 +263,10 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
 
     The table: one row per point, the axes' columns (named by their key
     paths) then ``COLUMNS``; ``decision`` is meets, does_not_meet or
-    undecided with a target, ``no_target`` without. ``log`` gets a line
+    undecided with a target, ``no_target`` without. A point whose
+    rare-event method fails (``MethodFailed``: no design point where every
+    run fails, say) gets no estimate (NaN), ``undecided`` and a ``note``
+    saying why; the others go on. ``log`` gets a line
     per point done (and a rare-event method's lines); ``progress(k)``, if
     given, returns the callable that point k's Monte Carlo runs report to.
     ``options`` go to ``run_point``.
@@ -253,11 +277,17 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
     rows = []
     for k in range(len(envelope.points)):
         where = describe_point(envelope, k)
-        estimate, table = run_point(
-            envelope, k, outdir, method=method, client=client,
-            progress=None if progress is None else progress(k),
-            log=None if log is None else (lambda line, w=where: log(f'{w}: {line}')),
-            **options)
+        try:
+            estimate, table = run_point(
+                envelope, k, outdir, method=method, client=client,
+                progress=None if progress is None else progress(k),
+                log=None if log is None else (lambda line, w=where: log(f'{w}: {line}')),
+                **options)
+        except MethodFailed as err:   # a condition the method cannot answer: said, not guessed
+            rows.append(unanswered(envelope, k, method, str(err), outdir))
+            if log is not None:
+                log(f'point {k + 1}/{len(envelope.points)} ({where}): no estimate ({err})')
+            continue
         # a run that failed (singular or diverging) fails every criterion; said apart
         unfinished = int((table['status'] == 'failed').sum())
         rows.append(row(envelope, k, estimate, outdir, unfinished))

@@ -261,14 +261,14 @@ def envelope_section(outdir: str, figures=()) -> list:
         bound = row['p_upper']
         rows.append([_num(row[a]) for a in axes] + [
             int(row['runs']), int(row['failed_runs']), int(row['unfinished_runs']),
-            float(row['probability']),
+            'none' if row['probability'] != row['probability'] else float(row['probability']),
             'none' if bound != bound else _bound(float(bound)),
             (f'<span class="{_DECISION_CLASS.get(verdict, "")}">'
              f'{_e(verdict.replace("_", " "))}</span>', ''),
-            (f'<code>{_e(row["folder"])}</code>', '')])
+            (f'<code>{_e(row["folder"])}</code>', ''), row.get('note', '') or '-'])
     parts.append(_table([label(a) for a in axes] + [
         'runs', 'runs failing a criterion', 'runs that failed', 'P(fail)',
-        f'{100 * level:g} % one-sided bound', 'decision', 'folder'], rows))
+        f'{100 * level:g} % one-sided bound', 'decision', 'folder', 'note'], rows))
     first = os.path.join(outdir, str(table['folder'].iloc[0]), 'sweep.json') if len(table) \
         else ''
     if first and os.path.exists(first):

@@ -3,6 +3,7 @@
 """The release envelope (SPEC section 14): its table, chart, command line and report."""
 
 import json
+import math
 import os
 
 from cfem_ros import cli
@@ -88,6 +89,33 @@ def test_a_folder_cut_short_resumes_to_the_table_of_an_uncut_run(tmp_path):
     assert not envelope.point_done(cut, 1) and envelope.point_done(cut, 0)
     resumed = envelope.run_envelope(found, cut)
     pd.testing.assert_frame_equal(resumed, whole)
+
+
+def test_a_condition_the_method_cannot_answer_is_undecided_with_why_and_no_number(
+        tmp_path, monkeypatch):
+    """A rare-event method that finds nothing at one point: NaN, undecided, the reason."""
+    from cfem_ros.separation.envelope_chart import envelope_figure
+    from cfem_ros.study.resources import MethodFailed
+    import matplotlib.pyplot as plt
+    found = envelope.load_envelope(_sweep(tmp_path, runs=2), AXES)
+    real = envelope.run_point
+
+    def fails_at_one(env, k, outdir, **options):
+        if k == 1:
+            raise MethodFailed('sweep.yaml', '--method form', 'found no design point', 'nais')
+        return real(env, k, outdir)
+    monkeypatch.setattr(envelope, 'run_point', fails_at_one)
+    lines = []
+    table = envelope.run_envelope(found, str(tmp_path / 'out'), method='form', log=lines.append)
+    row = table.iloc[1]
+    assert row['decision'] == 'undecided' and 'found no design point' in row['note']
+    assert all(math.isnan(row[c]) for c in ('probability', 'p_upper', 'pass_fraction'))
+    assert (table.drop(index=1)['note'] == '').all()
+    assert table.drop(index=1)['probability'].notna().all()
+    assert any('point 2/4' in line and 'no estimate' in line for line in lines)
+    fig = envelope_figure(table, AXES, target=0.6)
+    assert 'no estimate' in [t.get_text() for t in fig.axes[0].texts]
+    plt.close(fig)
 
 
 def test_an_axis_that_is_not_a_grid_of_vary_is_refused_before_any_run(tmp_path):
