@@ -10,15 +10,19 @@ pylon taken at 200 Hz with seeded noise of 5 mm and 0.2 deg; the second
 flight is the same store released at 3,000 m instead of 7,925 m (its own
 ``set:``). Each fit starts from the prediction (10,676 N, 42,703 N, 0) and
 fits the two ejector forces and the Cm increment over 0.4 s from the
-release. Printed per fit: the whole command's wall time (median of
---repeats, a fresh process each), the runs it made, and the values with
+release. Printed per fit: the whole command's wall time and CPU time
+(medians of --repeats, a fresh process each; the CPU time, user and
+system, does not grow with the machine's load as the wall time does), the
+runs it made, and the values with
 their scaled standard errors against the truth. Usage:
 .venv/bin/python benchmarks/bench_fit.py [--repeats N] [--threads N]
 """
 
 import argparse
 import json
+import os
 import pathlib
+import resource
 import statistics
 import subprocess
 import sys
@@ -107,19 +111,23 @@ def timed_fit(folder: pathlib.Path, name: str, measured, threads: int, repeats: 
     fit = folder / f'{name}.yaml'
     fit.write_text(yaml.safe_dump({'scenario': 'predicted.yaml', 'measured': measured,
                                    'parameters': PARAMETERS}, sort_keys=False))
-    times = []
+    times, cpu = [], []
     for _ in range(repeats):
+        used = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         subprocess.run([str(CFEM_SIM), 'fit', str(fit), '-o', str(folder / name),
                         '--threads', str(threads), '--overwrite'], check=True,
                        capture_output=True)
         times.append(time.perf_counter() - start)
-    return statistics.median(times), json.loads((folder / name / 'fit.json').read_text())
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu.append(after.ru_utime + after.ru_stime - used.ru_utime - used.ru_stime)
+    return (statistics.median(times), statistics.median(cpu),
+            json.loads((folder / name / 'fit.json').read_text()))
 
 
-def report(label: str, wall: float, found: dict):
+def report(label: str, wall: float, cpu: float, found: dict):
     """Print one fit's line: time, runs, and each value against the truth."""
-    print(f'{label}: {wall:.2f} s wall, {found["runs"]} runs '
+    print(f'{label}: {wall:.2f} s wall, {cpu:.2f} s CPU, {found["runs"]} runs '
           f'({1000 * wall / found["runs"]:.0f} ms per run, outputs included), '
           f'reduced chi-square {found["reduced_chi2"]:.3g}, status {found["status"]}')
     for key, truth in TRUTH.items():
@@ -140,8 +148,9 @@ def main():
         folder = pathlib.Path(name)
         high = flight(folder, 'flight_1', {}, 1)
         low = flight(folder, 'flight_2', LOW, 2)
+        load = os.getloadavg()[0]
         print(f'cfem-sim fit of the two-hook release, 3 parameters, --threads {args.threads}, '
-              f'median of {args.repeats}')
+              f'median of {args.repeats} (load average {load:.1f} on {os.cpu_count()} cores)')
         report('one flight ', *timed_fit(folder, 'one', entry(high), args.threads,
                                          args.repeats))
         report('two flights', *timed_fit(folder, 'two', [entry(high), entry(low, LOW)],

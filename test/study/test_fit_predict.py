@@ -197,3 +197,34 @@ def test_a_plain_scenario_gives_the_band_and_an_undetermined_parameter_is_held(
     assert summary['criteria'] is None and summary['seed'] == 3
     assert summary['parameters']['wrenches[0].force[2]']['drawn'] is False
     assert summary['quantile_uncertainty'] == pytest.approx(quantile_uncertainty(20))
+
+
+def test_draws_the_scenario_refuses_are_counted_and_said(fitted, tmp_path, capsys):
+    # a store mass "fitted" at 1,400 kg +- 1,400 kg: about 1 draw in 6 is not a mass
+    folder, fit_folder, _ = fitted
+    found = json.loads((fit_folder / 'fit.json').read_text())
+    entry = dict(found['parameters']['wrenches[1].force[2]'], value=1400.0,
+                 name='store mass', unit='kg', bounds=[100.0, 5000.0])
+    found['parameters'] = {'wrenches[0].force[2]': found['parameters']['wrenches[0].force[2]'],
+                           'bodies.store.mass': entry}
+    found['covariance_scaled'][1] = [0.0, 1400.0 ** 2]
+    found['covariance_scaled'][0][1] = 0.0
+    wide = tmp_path / 'wide_fit'
+    wide.mkdir()
+    (wide / 'fit.json').write_text(json.dumps(found))
+    nxt = ff.write(tmp_path / 'next.yaml', ff.with_settings(ff.EJECTED, HELD_OUT))
+    out = tmp_path / 'out'
+    assert cli.main(['predict', str(wide), nxt, '-o', str(out), '--draws', '30',
+                     '--seed', '2', '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    draws = pd.read_parquet(out / 'draws.parquet')
+    refused = draws['bodies.store.mass'] <= 0
+    assert refused.any() and (draws.loc[refused, 'status'] == 'invalid').all()
+    assert (draws.loc[~refused, 'status'] == 'ok').all()
+    band = pd.read_parquet(out / 'band.parquet')
+    assert (band['draws'] == (~refused).sum()).all()   # the band is of the draws that ran
+    summary = json.loads((out / 'prediction.json').read_text())
+    assert summary['status'] == {'ok': int((~refused).sum()), 'invalid': int(refused.sum())}
+    assert summary['parameters']['bodies.store.mass']['outside_bounds'] == int(
+        (draws['bodies.store.mass'] < 100).sum() + (draws['bodies.store.mass'] > 5000).sum())
+    assert f'draws not run to the end: {int(refused.sum())} invalid' in said

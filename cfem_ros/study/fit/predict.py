@@ -235,6 +235,9 @@ class Prediction:
         except ScenarioError as err:   # the scenario's checks refuse the draw: not run
             row.update(status=INVALID, message=str(err), **empty(self.next.metrics))
             return row, None, None, {}
+        except Exception as err:   # noqa: B902 (any other refusal is this draw's failure)
+            row.update(status='failed', message=str(err), **empty(self.next.metrics))
+            return row, None, None, {}
         collector = Collector(sim)
         session = Session(sim, rate_hz=self.next.rate_hz, duration=model.duration,
                           outputs=[collector], warn=LOG.warning,
@@ -242,9 +245,14 @@ class Prediction:
         for item in self.inputs:
             if item.time <= model.duration:
                 session.submit(item, check=False)
-        session.run()
-        samples = collector.samples()
-        row.update(compute(samples, self.next.metrics))
+        try:
+            session.run()
+            samples = collector.samples()
+            row.update(compute(samples, self.next.metrics))
+        except Exception as err:   # noqa: B902 (as a sweep's run: the draw failed, said)
+            row.update(status='failed', message=f'{type(err).__name__}: {err}',
+                       **empty(self.next.metrics))
+            return row, None, None, {}
         if session.failed or sim.status not in ('running', 'contact', 'aero_outside'):
             row.update(status='failed', message=f'the run failed {sim.message}')
         elif sim.status != 'running':
