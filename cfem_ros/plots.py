@@ -15,7 +15,8 @@ import os
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.aero import outside_spans
 from cfem_ros.core.errors import CfemError
-from cfem_ros.recording.analysis import attitude_difference_deg, Run
+from cfem_ros.recording.analysis import attitude_difference_deg, euler_continuous, Run
+from cfem_ros.recording.comparison import pose_in
 import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402, I100 - after choosing the backend
@@ -451,4 +452,36 @@ def write_comparison(a: Run, b: Run, directory: str, labels=('A', 'B')) -> list:
         if name in b.joints:
             paths.append(save(compare_joint_figure(a, b, name, labels),
                               os.path.join(directory, f'compare_joint_{name}.png')))
+    return paths
+
+
+def compare_relative_figure(a: Run, b: Run, name: str, reference: str, labels=('A', 'B')):
+    """Overlay a body's pose in a carrier's axes from two runs: x, y, z, roll, pitch, yaw."""
+    runs = [(pose_in(a, name, reference), '-', labels[0]),
+            (pose_in(b, name, reference), '--', labels[1])]
+    fig = plt.figure(figsize=(10, 13), layout='constrained')
+    fig.suptitle(f'{name} in {reference} axes: {_which(a, b, labels)}')
+    axes = _time_axes(fig, a, 6)
+    units = ('x [m]', 'y [m]', 'z [m]', 'roll [deg]', 'pitch [deg]', 'yaw [deg]')
+    for k, (ax, unit) in enumerate(zip(axes, units)):
+        for (t, position, quat), style, label in runs:
+            values = (position[:, k] if k < 3 else
+                      euler_continuous(rotations.to_rpy_deg(quat))[:, k - 3])
+            ax.plot(t, values, style, color=COLORS[k % 3], label=label)
+        ax.set_ylabel(unit)
+        ax.legend(loc='best', fontsize=8, ncol=2)
+    axes[0].set_title(f'CG and attitude (Z-Y-X) relative to {reference}', fontsize=10,
+                      loc='left')
+    return fig
+
+
+def write_relative_comparison(a: Run, b: Run, reference: str, directory: str,
+                              labels=('A', 'B')) -> list:
+    """Write the six-panel sheet of each body both runs give in reference's axes."""
+    os.makedirs(directory, exist_ok=True)
+    paths = []
+    for name in sorted((set(a.bodies) | set(a.relative)) - {reference}):
+        if pose_in(a, name, reference) is not None and pose_in(b, name, reference) is not None:
+            paths.append(save(compare_relative_figure(a, b, name, reference, labels),
+                              os.path.join(directory, f'compare_{name}_in_{reference}.png')))
     return paths

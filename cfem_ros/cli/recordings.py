@@ -73,7 +73,11 @@ def add_compare_parser(sub):
     compare.add_argument('--overwrite', action='store_true',
                          help='replace figures of the same names in DIR')
     compare.add_argument('--map', action='append', default=[], metavar='A_TOPIC=B_TOPIC',
-                         help="read B's topic B_TOPIC as A's A_TOPIC (repeatable)")
+                         help="read B's topic B_TOPIC as A's A_TOPIC (repeatable); a pose "
+                         "whose frame_id is a body of A is that body's pose relative to it")
+    compare.add_argument('--relative-to', metavar='BODY',
+                         help="compare every other body's position and attitude in BODY's "
+                         'axes (a carrier), each run as its poses give them')
     compare.set_defaults(func=compare_command)
 
 
@@ -238,17 +242,26 @@ def compare_command(args: argparse.Namespace) -> int:
             return error(f'--map {item!r}; expected A_TOPIC=B_TOPIC, absolute topic names '
                          '(e.g. /cfem/bodies/store/pose=/flight/store/pose)')
         topic_map[theirs] = ours
+    reference = getattr(args, 'relative_to', None)
     try:
-        a, b = analysis.open_run(first), analysis.open_run(second, topic_map=topic_map)
+        a = analysis.open_run(first)
+        # a pose of B whose frame_id names a body of A is relative to that body (SPEC 15)
+        b = analysis.open_run(second, topic_map=topic_map, frames=set(a.bodies))
     except CfemError as err:
         return error(str(err))
-    rows, only_a, only_b = analysis.compare_runs(a, b)
+    if reference is not None and reference not in a.bodies:
+        return error(f'--relative-to {reference}: not a body of {first}; expected one of '
+                     + ', '.join(sorted(a.bodies)[:8]))
+    rows, only_a, only_b = analysis.compare_runs(a, b, relative_to=reference)
     if not rows:
         return error(f'{first} and {second} share no body or joint; nothing to compare')
     _print_comparison(args, _compared_span(a, b), rows, only_a, only_b)
     if args.output:
         def draw(folder):
             from cfem_ros import plots
+            if reference is not None:
+                return (plots.write_comparison(a, b, folder)
+                        + plots.write_relative_comparison(a, b, reference, folder))
             return plots.write_comparison(a, b, folder)
         try:
             paths = write_figures(args.output, args.overwrite, draw)

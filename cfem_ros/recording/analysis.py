@@ -28,6 +28,7 @@ from cfem_ros.recording.reader import check_mcap, decoded_messages, open_mcap, r
 from cfem_ros.recording.tracks import (BodyTrack, euler_continuous, JointTrack, RelativeTrack,
                                        Run)
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 __all__ = ['BodyTrack', 'Difference', 'JointTrack', 'Run', 'attitude_difference_deg',
            'check_mcap', 'compare_runs', 'euler_continuous', 'open_run']
@@ -62,7 +63,7 @@ def _vectors(rows, n):
 
 
 def open_run(path: str, namespace: Optional[str] = None,
-             topic_map: Optional[dict] = None) -> Run:
+             topic_map: Optional[dict] = None, frames=()) -> Run:
     """
     Read a recording into arrays.
 
@@ -75,6 +76,13 @@ def open_run(path: str, namespace: Optional[str] = None,
     topic_map : dict, optional
         Topic in the file -> the topic it is read as (e.g. a flight log's
         '/flight/store/pose' read as '/cfem/bodies/store/pose').
+    frames : iterable of str, optional
+        Names of bodies (another run's) a pose's ``frame_id`` may name. A
+        ``bodies/<b>/pose`` whose ``frame_id`` is another body of this run,
+        or one of these, is that body's pose relative to it (SPEC 15: a
+        pose in ``aircraft`` is never read as a world pose): composed with
+        that body's world pose when this run has it (``bodies``, and kept
+        in ``relative``), else kept in ``relative`` only.
 
     Raises
     ------
@@ -105,6 +113,7 @@ def open_run(path: str, namespace: Optional[str] = None,
                 metadata = dict(record.metadata)
         raw = _read_messages(decoded_messages(reader, path), ns, renamed)
     with reading(path):
+        _poses_in_bodies(path, ns, raw, set(frames))
         return _assemble(path, ns, topics, metadata, raw)
 
 
@@ -119,7 +128,8 @@ def _renamed(channel, renamed: dict):
 def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
     raw = {'pose': {}, 'twist': {}, 'joint': {}, 'applied': {}, 'events': [],
            'relative_pose': {}, 'relative_twist': {}, 'reference': {},
-           'joint_in': {}, 'applied_in': {}, 'world': set()}   # *_in: loads, frame_id
+           'joint_in': {}, 'applied_in': {}, 'world': set(),   # *_in: loads, frame_id
+           'pose_frame': {}}
     for channel, _, decoded in messages:
         topic = (renamed or {}).get(channel.topic, channel.topic)
         found = _topic_of(topic, ns)
@@ -140,6 +150,7 @@ def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
             values = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
             if kind == 'pose':
                 raw['world'].add(decoded.header.frame_id)
+                raw['pose_frame'].setdefault(match['body'], set()).add(decoded.header.frame_id)
             else:
                 raw['reference'][match['body']] = decoded.header.frame_id
         elif kind.endswith('twist'):
@@ -156,6 +167,85 @@ def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
             continue
         raw[kind].setdefault(match['body'], []).append((when, values))
     return raw
+
+
+def _poses_in_bodies(path: str, ns: str, raw: dict, frames: set):
+    """
+    Move the poses given in another body's frame out of the world poses (``open_run``).
+
+    Each becomes that body's relative track (its twist, if any, dropped: a
+    log's twist frame is not told); composed with the frame body's world
+    pose when the run has it. A body whose poses name several frames is
+    refused.
+    """
+    named = {}
+    for body, found in raw['pose_frame'].items():
+        if len(found) > 1:
+            raise RecordingError(f'{path}: {ns}/bodies/{body}/pose has the frame_ids '
+                                 f'{sorted(found)}; expected one frame per topic')
+        frame = next(iter(found))
+        if frame != body and (frame in frames or frame in raw['pose_frame']):
+            named[body] = frame
+    for body, frame in named.items():
+        if frame in named:
+            raise RecordingError(f'{path}: {ns}/bodies/{body}/pose is in {frame!r}, whose own '
+                                 f'pose is in {named[frame]!r}; expected poses in the world '
+                                 'frame or in one body of it')
+        rows = raw['pose'].pop(body)
+        raw['twist'].pop(body, None)
+        raw['relative_pose'].setdefault(body, rows)
+        raw['reference'].setdefault(body, frame)
+        composed = _composed(rows, raw['pose'].get(frame) or [])
+        if composed:
+            raw['pose'][body] = composed
+    raw['world'] -= set(named.values())
+
+
+def _composed(rows: list, carrier: list) -> list:
+    """
+    Return (stamp, pose) rows of poses relative to a carrier composed with its poses.
+
+    Within the carrier's span only; none if the carrier has no pose or one
+    that is no rotation (its own topic is refused for it).
+    """
+    if not carrier or not rows:
+        return []
+    carrier = sorted(carrier, key=lambda r: r[0])
+    stamps = np.array([r[0] for r in carrier], dtype=np.int64)
+    values = np.array([r[1] for r in carrier], dtype=float).reshape(len(carrier), 7)
+    rows = sorted(rows, key=lambda r: r[0])
+    when = np.array([r[0] for r in rows], dtype=np.int64)
+    inside = (when >= stamps[0]) & (when <= stamps[-1])   # the carrier's span only
+    when = when[inside]
+    ours = np.array([r[1] for r in rows], dtype=float).reshape(len(rows), 7)[inside]
+    if not (len(when) and _rotations(values[:, 3:]).all()):
+        return []
+    # a relative pose that is no rotation stays NaN, for _assemble to refuse with its topic
+    good = _rotations(ours[:, 3:])
+    ours[~good, 3:] = [0.0, 0.0, 0.0, 1.0]
+    seconds, at = (stamps - stamps[0]) / 1e9, (when - stamps[0]) / 1e9
+    origin = np.column_stack([np.interp(at, seconds, values[:, k]) for k in range(3)])
+    turn = Rotation.from_quat(values[:, 3:])
+    if len(stamps) > 1:
+        turn = Slerp(seconds, turn)(at)
+    else:
+        turn = Rotation.from_quat(np.repeat(values[:1, 3:], len(at), axis=0))
+    k = np.clip(np.searchsorted(stamps, when), 0, len(stamps) - 1)
+    same = stamps[k] == when   # at the carrier's own stamps, its own poses (no rounding)
+    quat = turn.as_quat()
+    quat[same] = values[k[same], 3:]
+    origin[same] = values[k[same], :3]
+    turn = Rotation.from_quat(quat)
+    position = origin + turn.apply(ours[:, :3])
+    attitude = (turn * Rotation.from_quat(ours[:, 3:])).as_quat()
+    attitude[~good] = np.nan
+    return [(int(t), tuple(p) + tuple(q)) for t, p, q in zip(when, position, attitude)]
+
+
+def _rotations(quat: np.ndarray) -> np.ndarray:
+    """Tell which quaternions are rotations (finite, of norm above 1e-6)."""
+    norms = np.linalg.norm(quat, axis=1) if len(quat) else np.zeros(0)
+    return np.isfinite(norms) & (norms > 1e-6)
 
 
 def _topic_of(topic: str, ns: str):
@@ -206,8 +296,10 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
     poses = raw['pose']
     if 'start_stamp_ns' in metadata:
         start_ns = int(metadata['start_stamp_ns'])
-    else:
-        start_ns = min(rows[0][0] for rows in poses.values())
+    else:   # the first pose, in the world or (a log's only poses) relative to a body
+        start_ns = min(min(r[0] for r in rows)
+                       for rows in list(poses.values()) + list(raw['relative_pose'].values())
+                       if rows)
     bodies = {}
     for name, rows in poses.items():
         rows.sort(key=lambda r: r[0])
@@ -262,7 +354,8 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             name=name, reference=raw['reference'][name], time=(stamps - start_ns) / 1e9,
             position=values[:, :3], quaternion=values[:, 3:], velocity=twist[:, :3],
             rates=twist[:, 3:])
-    last = max((track.time[-1] for track in bodies.values() if len(track.time)), default=0.0)
+    last = max((track.time[-1] for track in list(bodies.values()) + list(relative.values())
+                if len(track.time)), default=0.0)
     return Run(path=path, namespace=ns, start_ns=start_ns, bodies=bodies, joints=joints,
                events=raw['events'], topics=topics, metadata=metadata, duration=float(last),
                applied=applied, relative=relative, joint_frame=joint_frame)

@@ -9,6 +9,7 @@ B is interpolated onto A's times (attitudes by slerp); see ``compare_runs``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.recording.tracks import BodyTrack, Run
@@ -55,19 +56,24 @@ def attitude_difference_deg(a: BodyTrack, b: BodyTrack):
     singularity (Euler angles do at pitch +-90 deg). B's attitudes are
     interpolated onto A's times by spherical linear interpolation.
     """
-    if not len(a.time) or not len(b.time):
+    return _angle_difference_deg(a.time, a.quaternion, b.time, b.quaternion)
+
+
+def _angle_difference_deg(t_a, q_a, t_b, q_b):
+    """Return A's times inside B's span and the angle from q_A to q_B (slerped) there, deg."""
+    if not len(t_a) or not len(t_b):
         return np.zeros(0), np.zeros(0)
-    inside = _overlap(a.time, b.time)
-    t = a.time[inside]
-    theirs = np.repeat(b.quaternion[:1], len(t), axis=0)
-    if len(b.time) > 1:
-        slerp = Slerp(b.time, Rotation.from_quat(b.quaternion))
-        theirs = slerp(np.clip(t, b.time[0], b.time[-1])).as_quat()
+    inside = _overlap(t_a, t_b)
+    t = t_a[inside]
+    theirs = np.repeat(q_b[:1], len(t), axis=0)
+    if len(t_b) > 1:
+        slerp = Slerp(t_b, Rotation.from_quat(q_b))
+        theirs = slerp(np.clip(t, t_b[0], t_b[-1])).as_quat()
     # at B's own sample times, B's own attitudes (no interpolation rounding)
-    k = np.clip(np.searchsorted(b.time, t), 0, len(b.time) - 1)
-    same = b.time[k] == t
-    theirs[same] = b.quaternion[k[same]]
-    return t, np.degrees(rotations.angle_between(a.quaternion[inside], theirs))
+    k = np.clip(np.searchsorted(t_b, t), 0, len(t_b) - 1)
+    same = t_b[k] == t
+    theirs[same] = q_b[k[same]]
+    return t, np.degrees(rotations.angle_between(q_a[inside], theirs))
 
 
 def relative_position(body: BodyTrack, carrier: BodyTrack):
@@ -76,6 +82,17 @@ def relative_position(body: BodyTrack, carrier: BodyTrack):
 
     The carrier's pose is interpolated onto the body's times (position
     linearly, attitude by slerp).
+    """
+    t, position, _ = relative_pose(body, carrier)
+    return t, position
+
+
+def relative_pose(body: BodyTrack, carrier: BodyTrack):
+    """
+    Return (times, CG (n, 3) m, attitude (n, 4) x y z w) of a body in a carrier's axes.
+
+    At the body's times inside the carrier's span, the carrier's pose
+    interpolated onto them (position linearly, attitude by slerp).
     """
     inside = (body.time >= carrier.time[0] - 1e-12) & (body.time <= carrier.time[-1] + 1e-12)
     t = body.time[inside]
@@ -86,10 +103,28 @@ def relative_position(body: BodyTrack, carrier: BodyTrack):
             np.clip(t, carrier.time[0], carrier.time[-1]))
     else:
         turn = Rotation.from_quat(np.repeat(carrier.quaternion[:1], len(t), axis=0))
-    return t, turn.inv().apply(body.position[inside] - origin)
+    attitude = (turn.inv() * Rotation.from_quat(body.quaternion[inside])).as_quat()
+    return t, turn.inv().apply(body.position[inside] - origin), attitude
 
 
-def compare_runs(a: Run, b: Run) -> tuple:
+def pose_in(run: Run, name: str, reference: str):
+    """
+    Return (times, CG m, attitude) of body name in reference's axes in a run, or None.
+
+    The run's own relative track when it is in that frame (a recorded
+    ``relative_pose``, or a log's pose whose ``frame_id`` is the
+    reference), else the two bodies' world poses composed.
+    """
+    track = run.relative.get(name)
+    if track is not None and track.reference == reference:
+        return track.time, track.position, track.quaternion
+    body, carrier = run.bodies.get(name), run.bodies.get(reference)
+    if body is None or carrier is None or not len(carrier.time):
+        return None
+    return relative_pose(body, carrier)
+
+
+def compare_runs(a: Run, b: Run, relative_to: Optional[str] = None) -> tuple:
     """
     Compare the bodies and joints two runs share, quantity by quantity.
 
@@ -104,7 +139,10 @@ def compare_runs(a: Run, b: Run) -> tuple:
     ``<joint> force`` (N), ``moment`` (N m),
     ``release`` (time, s); with a carrier in A (``Run.relative``),
     ``<body> position in <carrier> axes`` (m: B's relative track, or B's
-    body and carrier poses). Returns (differences, only_in_a, only_in_b), where
+    body and carrier poses). With ``relative_to`` a body's, every other
+    body's ``position in <relative_to> axes`` (m) and ``attitude in
+    <relative_to> axes`` (deg) instead, each run's pose in that frame taken
+    as it is given (``pose_in``). Returns (differences, only_in_a, only_in_b), where
     the last two list body and joint names present in one run only, and a
     body's rates and velocity when only one run has its twists.
     """
@@ -151,7 +189,9 @@ def compare_runs(a: Run, b: Run) -> tuple:
             continue
         add(f'{name} force', 'N', ja.time, ja.force, jb.time, jb.force)
         add(f'{name} moment', 'N m', ja.time, ja.moment, jb.time, jb.moment)
-    for name, ra in a.relative.items():   # in the carrier's frame (SPEC section 5)
+    if relative_to is not None:
+        _relative_rows(a, b, relative_to, add, rows)
+    for name, ra in (a.relative.items() if relative_to is None else ()):   # SPEC 5
         rb = b.relative.get(name)
         if rb is not None and rb.reference == ra.reference:
             add(f'{name} position in {ra.reference} axes', 'm', ra.time, ra.position,
@@ -168,7 +208,29 @@ def compare_runs(a: Run, b: Run) -> tuple:
         gap = abs(releases_a[joint] - releases_b[joint])
         rows.append(Difference(f'{joint} release', 's', gap, releases_a[joint],
                                releases_a[joint], 1))
-    names_a = set(a.bodies) | set(a.joints) | {f'{j} release' for j in releases_a}
-    names_b = set(b.bodies) | set(b.joints) | {f'{j} release' for j in releases_b}
+    names_a = (set(a.bodies) | set(a.relative) | set(a.joints)
+               | {f'{j} release' for j in releases_a})
+    names_b = (set(b.bodies) | set(b.relative) | set(b.joints)
+               | {f'{j} release' for j in releases_b})
     return (rows, sorted(names_a - names_b) + missing_b,
             sorted(names_b - names_a) + missing_a)
+
+
+def _relative_rows(a: Run, b: Run, reference: str, add, rows: list):
+    """Add each shared body's position and attitude in reference's axes (``compare_runs``)."""
+    names = (set(a.bodies) | set(a.relative)) & (set(b.bodies) | set(b.relative))
+    for name in sorted(names - {reference}):
+        ours, theirs = pose_in(a, name, reference), pose_in(b, name, reference)
+        if ours is None or theirs is None:
+            continue
+        add(f'{name} position in {reference} axes', 'm', ours[0], ours[1], theirs[0],
+            theirs[1])
+        t, angle = _angle_difference_deg(ours[0], ours[2], theirs[0], theirs[2])
+        if not len(t):
+            rows.append(Difference(f'{name} attitude in {reference} axes', 'deg', NAN, NAN,
+                                   NAN, 0))
+            continue
+        k = int(np.argmax(angle))
+        turned = rotations.angle_between(ours[2][:1], ours[2][_overlap(ours[0], theirs[0])])
+        rows.append(Difference(f'{name} attitude in {reference} axes', 'deg', float(angle[k]),
+                               float(t[k]), float(np.degrees(turned.max())), len(t)))
