@@ -118,9 +118,12 @@ def predict_command(args: argparse.Namespace) -> int:
         inputs, interpolate = [], args.odometry != 'extrapolate'
         if args.inputs:
             from cfem_ros.recording.replay import read_inputs, recorded_interpolation
-            inputs = read_inputs(args.inputs)
-            if args.odometry is None:
-                interpolate = recorded_interpolation(args.inputs) is not False
+            try:
+                inputs = read_inputs(args.inputs)
+                if args.odometry is None:
+                    interpolate = recorded_interpolation(args.inputs) is not False
+            except CfemError as err:
+                return error(f'--inputs {err}')
         prediction = Prediction(fitted, nxt, inputs, interpolate,
                                 threads=args.threads or os.cpu_count() or 1)
     except CfemError as err:
