@@ -120,3 +120,15 @@ def test_the_command_line_refuses_with_one_error_line(tmp_path, capsys, command,
     assert len(lines) == 1 and lines[0].startswith('ERROR:') and f': {key}: ' in lines[0]
     assert 'Traceback' not in out + err
     assert not (tmp_path / 'r.mcap').exists()
+
+
+def test_check_says_which_coefficients_the_scenario_makes_zero(tmp_path, capsys):
+    # the case: a block without Cm had the same summary as the complete one
+    path = tmp_path / 'store.yaml'
+    path.write_text(yaml.safe_dump(scenario(without('Cm', zero=['Cm']))))
+    assert cli.main(['check', str(path)]) == 0
+    said = capsys.readouterr().out
+    path.write_text(yaml.safe_dump(scenario()))
+    assert cli.main(['check', str(path)]) == 0
+    complete = capsys.readouterr().out
+    assert 'zero (as the scenario says): Cm' in said and 'as the scenario says' not in complete

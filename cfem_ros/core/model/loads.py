@@ -134,6 +134,8 @@ class Aero:
     stop_outside : bool
         True: the run stops where the body leaves a table's range
         (``outside: stop``); False: the tables are held at their edges.
+    zero : tuple of str
+        The coefficients the scenario says are zero (``zero``), as given.
 
     """
 
@@ -154,6 +156,7 @@ class Aero:
     reference_from_cg: np.ndarray = field(default_factory=lambda: np.zeros(3))
     delta: np.ndarray = field(default_factory=lambda: np.zeros(6))
     stop_outside: bool = False
+    zero: tuple = ()
 
 
 @dataclass(frozen=True)

@@ -162,7 +162,7 @@ def _parse_body(context: _Context, name, spec) -> Aero:
                 temperature_offset=offset, reference_point=np.asarray(reference, float),
                 reference_from_cg=np.asarray(reference, float) - cg_offset,
                 delta=np.array([added.get(c, 0.0) for c in AERO_COEFFICIENTS]),
-                stop_outside=outside == 'stop')
+                stop_outside=outside == 'stop', zero=tuple(spec.get('zero', ())))
 
 
 def _atmosphere(check, spec: dict, key: str) -> tuple:
@@ -455,6 +455,8 @@ def _point(axes, grids, flat: int, sizes) -> str:
 def describe(aero: Aero, names) -> Optional[str]:
     """Return one line on an aero entry's day, data and tables beyond the basics (``check``)."""
     parts = []
+    if aero.zero:   # said, so that a table missing a coefficient never reads as complete
+        parts.append(f'zero (as the scenario says): {", ".join(aero.zero)}')
     if aero.temperature_offset:
         parts.append(f'ISA {aero.temperature_offset:+g} K (pressure ISA)')
     if np.any(aero.reference_point):
