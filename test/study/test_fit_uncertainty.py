@@ -199,3 +199,26 @@ def test_two_flights_determine_the_shared_forces_better_than_either_alone(tmp_pa
     added = information(found['light']) + information(found['heavy'])
     scale = np.sqrt(np.outer(np.diag(added), np.diag(added)))
     assert np.allclose(information(both) / scale, added / scale, rtol=0, atol=0.05)
+
+
+def test_profile_on_the_command_line_writes_and_prints_the_intervals(flight, tmp_path, capsys):
+    _, scenario, poses = flight
+    measured = ff.csv(tmp_path / 'measured.csv', *ff.noisy(poses, 9))
+    path = ff.fit_file(tmp_path, scenario, ff.measured_entry(measured, {'from': 0, 'to': 0.1}),
+                       ff.FORCES, confidence=0.9)
+    assert cli.main(['fit', path, '-o', str(tmp_path / 'out'), '--profile',
+                     '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    found = json.loads((tmp_path / 'out' / 'fit.json').read_text())
+    assert found['confidence'] == 0.9
+    z = math.sqrt(chi2.ppf(0.9, 1))
+    shown = []
+    for key in ff.FORCES:
+        entry = found['parameters'][key]
+        low, high = entry['interval']
+        half = z * entry['standard_error_scaled']
+        # nearly linear here: the 90 % profile interval is value -/+ 1.645 scaled errors
+        assert low == pytest.approx(entry['value'] - half, abs=0.1 * half)
+        assert high == pytest.approx(entry['value'] + half, abs=0.1 * half)
+        shown.append(f"{entry['name']} [{low:.6g}, {high:.6g}] N")
+    assert 'profile-likelihood intervals (0.9): ' + ', '.join(shown) in said
