@@ -207,10 +207,13 @@ def page(fitted: Fitted, result: PredictionResult, summary: dict, said: list,
                    'held (not determined)' if not e['drawn']
                    else f'{e["standard_error_scaled"]:.3g}', e['unit'])
                   for key, e in summary['parameters'].items()]
-    rows = np.unique(np.linspace(0, len(result.time) - 1, PAGE_ROWS).round().astype(int))
+    first = 0 if result.release is None else int(np.searchsorted(result.time, result.release))
+    first = min(first, len(result.time) - 1)   # from the release: before it the draws agree
+    rows = np.unique(np.linspace(first, len(result.time) - 1, PAGE_ROWS).round().astype(int))
     band = []
     for i in rows:
-        cells = [f'{result.time[i]:.4g}', int(result.counted[i])]
+        after = '' if result.release is None else f' ({result.time[i] - result.release:.4g})'
+        cells = [f'{result.time[i]:.4g}{after}', int(result.counted[i])]
         for q in range(len(QUANTITIES)):
             cells.append(f'{result.band[1][i, q]:.4g} [{result.band[0][i, q]:.4g}, '
                          f'{result.band[2][i, q]:.4g}]')
@@ -231,8 +234,8 @@ def page(fitted: Fitted, result: PredictionResult, summary: dict, said: list,
                  _table(('criterion', 'draws passing', 'of'),
                         [(name, n, p['runs']) for name, n in p['criteria'].items()]
                         + [('all', p['passed'], p['runs'])])]
-    header = ['time (s)', 'draws'] + [f'{n.replace("_deg", "")} ({u}): median [5 %, 95 %]'
-                                      for n, u in QUANTITIES]
+    header = ['time (s)' if result.release is None else 'time (s; from release)', 'draws']
+    header += [f'{n.replace("_deg", "")} ({u}): median [5 %, 95 %]' for n, u in QUANTITIES]
     body += [f'<h2>{html.escape(fitted.body)} relative to {html.escape(fitted.relative_to)}'
              '</h2>', _table(header, band),
              f'<img alt="prediction sheet" style="max-width:100%" '
