@@ -198,14 +198,19 @@ def plot_command(args: argparse.Namespace) -> int:
 
 
 def _plot_sweep(args) -> int:
-    """Write the figures of a sweep folder (and its envelope, --relative-to); exit 0 or 2."""
+    """Write a sweep folder's figures (its envelope: --relative-to), or an envelope's chart."""
     outdir, directory = args.recording, args.output
-    if not os.path.exists(os.path.join(outdir, 'results.parquet')):
+    envelope = os.path.exists(os.path.join(outdir, 'envelope.json'))   # SPEC section 14
+    if not envelope and not os.path.exists(os.path.join(outdir, 'results.parquet')):
         return error(f'{outdir}: no results.parquet; expected a finished sweep folder '
-                     '(cfem-sim sweep ... -o OUTDIR) or a recording')
+                     '(cfem-sim sweep ... -o OUTDIR), an envelope folder (cfem-sim envelope) '
+                     'or a recording')
 
     def draw(folder):
         study_imports()
+        if envelope:   # its chart (each condition's folder is a sweep folder to plot)
+            from cfem_ros.separation.envelope_chart import write_chart
+            return [write_chart(outdir, folder)]
         from cfem_ros import study_plots
         paths = study_plots.write_sweep_figures(outdir, folder, args.metric)
         if args.relative_to is not None:

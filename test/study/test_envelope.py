@@ -189,6 +189,9 @@ def test_cfem_sim_envelope_runs_resumes_and_reports(tmp_path, capsys):
     assert '4 conditions (flight.mach x flight.load_factor), 2 runs each (mc), 4 already ' \
         'in' in capsys.readouterr().err
     pd.testing.assert_frame_equal(first, pd.read_parquet(os.path.join(out, 'envelope.parquet')))
+    figures = str(tmp_path / 'figures')   # cfem-sim plot of the folder draws its chart
+    assert cli.main(['plot', out, '-o', figures]) == 0
+    assert os.listdir(figures) == ['envelope.png']
     page = str(tmp_path / 'report.html')
     assert cli.main(['report', out, '-o', page]) == 0
     text = open(page, encoding='utf-8').read()
