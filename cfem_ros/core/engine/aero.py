@@ -89,6 +89,7 @@ class AeroWatch:
         # per entry with an atmosphere: when its body's altitude was last looked at, and the
         # altitude (m) and its rate (m/s) then (None: an entry with a density has none)
         self._seen = [None] * len(model.aero)
+        self._isa = [k for k, a in enumerate(model.aero) if a.altitude is not None]
 
     def _axes(self, k: int, y: np.ndarray) -> np.ndarray:
         out = np.empty((4, SLOTS))
@@ -198,10 +199,11 @@ class AeroWatch:
         not have: the event says so.
         """
         events = []
+        if not self._isa:
+            return events
         positions, velocities = state_views(y, self.n)[:2]
-        for k, aero in enumerate(self.model.aero):
-            if aero.altitude is None:
-                continue
+        for k in self._isa:
+            aero = self.model.aero[k]
             now = (float(t), aero.altitude + float(self._up @ positions[aero.body]),
                    float(self._up @ velocities[aero.body]))
             before, self._seen[k] = self._seen[k], now
@@ -234,6 +236,11 @@ def _hermite_crossings(start: tuple, end: tuple) -> list:
     (t0, h0, d0), (t1, h1, d1) = start, end
     span = t1 - t0
     if not span > 0.0:
+        return []
+    # the cubic lies within the ends' range widened by span (|d0| + |d1|) 4/27 (the largest
+    # of the rate basis functions): inside the standard with it, no crossing (the usual case)
+    reach = span * (abs(d0) + abs(d1)) * 4.0 / 27.0
+    if STANDARD_RANGE[0] < min(h0, h1) - reach and max(h0, h1) + reach < STANDARD_RANGE[1]:
         return []
     # h(s) for s in [0, 1] on the Hermite basis, the rates scaled by the span
     a = 2 * h0 - 2 * h1 + span * (d0 + d1)
