@@ -262,7 +262,7 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
 
     def sample(inputs, seed):
         if method == 'subset':
-            return samplers.subset(ot, inputs, margins_of, runs, seed, repeat)
+            return samplers.subset(ot, inputs, margins_of, runs, seed, repeat, evaluate.log)
         if method == 'nais':
             return samplers.nais(ot, inputs, margins_of, runs, seed)
         calls = FORM_CALLS * (inputs.getDimension() + 1)

@@ -38,6 +38,8 @@ BATCHES = 10
 MAX_BATCHES = 100
 #: Conditional probability of each subset level; quantile level of NAIS.
 LEVEL_PROBABILITY = 0.1
+#: Seeds subset sampling may take in place of repetitions OpenTURNS could not finish.
+SPARES = 3
 
 
 @dataclass
@@ -77,23 +79,49 @@ class _Counting:
                                                              func_sample=counted))
 
 
-def subset(ot, joint, limit_state, runs: int, seed: int, repeat: int) -> Sampled:
-    """Return ``repeat`` independent subset-sampling estimates, each with its own seed."""
+def subset(ot, joint, limit_state, runs: int, seed: int, repeat: int,
+           log=None) -> Sampled:
+    """
+    Return ``repeat`` independent subset-sampling estimates, each with its own seed.
+
+    OpenTURNS 1.27 stops a repetition now and then (2 of 100 seeds of a
+    plane 3.5 SDs out, 500 points a level) on a negative estimate of its own
+    variance, which is not used here: that repetition is run again with the
+    next spare seed (at most ``SPARES``), said through ``log``.
+    """
     found, failed = [], 0
-    for s in seeds(seed, repeat):
-        counting = _Counting(ot, joint.getDimension(), limit_state)
-        ot.RandomGenerator.SetSeed(s)
-        # the chains (runs x p0 of them) advance one step per batch: asking for a whole
-        # level at once (block size = runs) gives estimates biased low in OpenTURNS 1.27
-        chains = max(1, round(runs * LEVEL_PROBABILITY))
-        algorithm = ot.SubsetSampling(ot.StandardEvent(_event(
-            ot, joint, counting.function)), 2.0, LEVEL_PROBABILITY)
-        algorithm.setBlockSize(chains)
-        algorithm.setMaximumOuterSampling(max(1, round(runs / chains)))
-        algorithm.run()
-        found.append(float(algorithm.getResult().getProbabilityEstimate()))
-        failed += counting.failed
+    stream = seeds(seed, repeat + SPARES)
+    spare = repeat
+    for s in stream[:repeat]:
+        while True:
+            try:
+                estimate, seen = _subset_once(ot, joint, limit_state, runs, s)
+                break
+            except TypeError as err:
+                if 'variance estimate must be' not in str(err) or spare >= len(stream):
+                    raise
+                if log is not None:
+                    log(f'subset sampling seed {s}: OpenTURNS stopped on a negative variance '
+                        f'estimate of its own; the repetition is run with seed {stream[spare]}')
+                s, spare = stream[spare], spare + 1
+        found.append(estimate)
+        failed += seen
     return Sampled(np.array(found), failed, 'repetitions')
+
+
+def _subset_once(ot, joint, limit_state, runs: int, seed: int) -> tuple:
+    """Return (estimate, failed runs) of one subset sampling with its seed."""
+    counting = _Counting(ot, joint.getDimension(), limit_state)
+    ot.RandomGenerator.SetSeed(seed)
+    # the chains (runs x p0 of them) advance one step per batch: asking for a whole
+    # level at once (block size = runs) gives estimates biased low in OpenTURNS 1.27
+    chains = max(1, round(runs * LEVEL_PROBABILITY))
+    algorithm = ot.SubsetSampling(ot.StandardEvent(_event(
+        ot, joint, counting.function)), 2.0, LEVEL_PROBABILITY)
+    algorithm.setBlockSize(chains)
+    algorithm.setMaximumOuterSampling(max(1, round(runs / chains)))
+    algorithm.run()
+    return float(algorithm.getResult().getProbabilityEstimate()), counting.failed
 
 
 def nais(ot, joint, limit_state, runs: int, seed: int) -> Sampled:
