@@ -106,7 +106,7 @@ def _panel(ax, panel, axes, target, document):
     xs, ys = _places(panel[axes[0]].tolist()), _places(panel[axes[1]].tolist())
     for _, row in panel.iterrows():
         at = (xs[1][xs[0].index(row[axes[0]])], ys[1][ys[0].index(row[axes[1]])])
-        verdict = VERDICTS.get(row['decision'])
+        verdict = None if target is None else VERDICTS.get(row['decision'])
         if verdict is None:   # no target: the pass fraction
             ax.scatter(*at, c=[row['pass_fraction']], cmap='RdYlGn', vmin=0.0, vmax=1.0,
                        s=140, edgecolors='black', zorder=3)
@@ -185,6 +185,11 @@ def envelope_figure(table, axes, *, target=None, confidence: float = 0.95,
                    fontsize=8, frameon=False)
     fig.suptitle(title or 'Release envelope', fontsize=11)
     fig.tight_layout(rect=(0, 0.12 if handles else 0, 1, 0.95))
+    if target is None:   # the colours are pass fractions: their scale
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import Normalize
+        fig.colorbar(ScalarMappable(Normalize(0.0, 1.0), 'RdYlGn'), ax=list(grid[0]),
+                     label='pass fraction (no target: no decision)', shrink=0.9)
     return fig
 
 

@@ -167,6 +167,11 @@ def test_the_chart_has_a_panel_per_third_axis_value_and_the_target_line_where_cr
     assert len(lines[0]) == 2 and not lines[1]
     assert 'not crossed' in ' '.join(t.get_text() for t in panels[1].texts)
     plt.close(fig)
+    plain = _chart_table(loads=(1.0,)).assign(decision='no_target')
+    fig = envelope_figure(plain, ['flight.mach', 'flight.altitude'])   # no target
+    assert fig.axes[-1].get_ylabel() == 'pass fraction (no target: no decision)'
+    assert 'pass 0.90' in ' '.join(t.get_text() for t in fig.axes[0].texts)
+    plt.close(fig)
     one = _chart_table(loads=(1.0,))
     one = one[one['flight.mach'] == 0.6]
     fig = envelope_figure(one, ['flight.mach', 'flight.altitude'], target=0.3)
