@@ -11,6 +11,7 @@ values), its store pose taken relative to the pylon by scipy's
 """
 
 import copy
+import pathlib
 
 from cfem_ros import cli
 from cfem_ros.recording.analysis import open_run
@@ -19,6 +20,7 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 import yaml
 
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 SIGMA_POSITION = 0.005      # m
 SIGMA_ATTITUDE = 0.3        # deg
 FORWARD, AFT = 10676.0, 42703.0   # N, the ejector forces of the "flights"

@@ -222,3 +222,36 @@ def test_profile_on_the_command_line_writes_and_prints_the_intervals(flight, tmp
         assert high == pytest.approx(entry['value'] + half, abs=0.1 * half)
         shown.append(f"{entry['name']} [{low:.6g}, {high:.6g}] N")
     assert 'profile-likelihood intervals (0.9): ' + ', '.join(shown) in said
+
+
+def test_area_and_altitude_of_the_aero_tables_are_named_interchangeable(tmp_path, capsys):
+    # issue 48's case: the two-hook release with its aero table; the reference area and
+    # the altitude (its air density) both scale the dynamic pressure times the area
+    scenario = yaml.safe_load((ff.ROOT / 'config' / 'store_release_two_hooks.yaml').read_text())
+    scenario['duration'] = 0.3
+    scenario['release_groups']['station_1']['release'] = {'time': 0.05}
+    truth = copy.deepcopy(scenario)
+    truth['wrenches'][1]['force'][2] = 40000.0
+    poses = ff.truth(tmp_path, 'flight', scenario=truth)
+    path = ff.write(tmp_path / 'predicted.yaml', scenario)
+    measured = ff.csv(tmp_path / 'measured.csv', *ff.noisy(poses, 4))
+    window = {'from': {'release': 'station_1'}, 'to': {'release': 'station_1', 'delay': 0.2}}
+    parameters = {
+        'wrenches[1].force[2]': {'start': 42703, 'bounds': [30000, 55000],
+                                 'name': 'aft ejector', 'unit': 'N'},
+        'aero.store.area': {'start': 0.2027, 'bounds': [0.1, 0.4], 'name': 'area'},
+        'aero.store.altitude': {'start': 7925, 'bounds': [0, 15000], 'name': 'altitude'}}
+    fit = ff.fit_file(tmp_path, path, ff.measured_entry(measured, window), parameters)
+    assert cli.main(['fit', fit, '-o', str(tmp_path / 'out'), '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    found = json.loads((tmp_path / 'out' / 'fit.json').read_text())
+    named = [p for p in found['problems'] if 'interchangeable' in p]
+    assert len(named) == 1 and named[0].startswith(
+        'area and altitude are interchangeable here: correlation +1.0000'), found['problems']
+    assert 'do not change with it' not in ' '.join(found['problems'])
+    for key, start in (('aero.store.area', 0.2027), ('aero.store.altitude', 7925)):
+        assert found['parameters'][key]['determined'] is False
+        assert found['parameters'][key]['value'] == start
+    aft = found['parameters']['wrenches[1].force[2]']
+    assert abs(aft['value'] - 40000.0) < 3 * aft['standard_error_scaled'], aft
+    assert 'altitude 7925 (not determined)' in said
