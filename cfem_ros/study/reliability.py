@@ -116,6 +116,13 @@ class Estimate:
                      'the runs nearest to failing), not a measured probability')
         if self.disagreement:
             line += f'; {self.disagreement}'
+        if self.tail_probability is not None and math.isfinite(self.tail_probability):
+            bound = (f'P <= {up(self.tail_p_upper)}' if self.tail_p_upper is not None
+                     and math.isfinite(self.tail_p_upper) else 'no bound')
+            line += (f'; with heavier tails (each normal input a Student-t, {DOF} dof): '
+                     f'P = {self.tail_probability:.4g}, {bound}')
+        if self.tail_note:
+            line += f'; tail check: {self.tail_note}'
         return line
 
 
