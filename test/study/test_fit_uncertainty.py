@@ -255,3 +255,24 @@ def test_area_and_altitude_of_the_aero_tables_are_named_interchangeable(tmp_path
     aft = found['parameters']['wrenches[1].force[2]']
     assert abs(aft['value'] - 40000.0) < 3 * aft['standard_error_scaled'], aft
     assert 'altitude 7925 (not determined)' in said
+
+
+def test_a_flight_may_name_its_own_scenario_as_set_would_make_it(tmp_path):
+    heavy = {'bodies.store.mass': 1200.0}
+    poses = ff.truth(tmp_path, 'heavy', heavy)   # writes heavy.yaml, the heavy scenario
+    scenario = ff.write(tmp_path / 'scenario.yaml', ff.EJECTED)
+    measured = ff.csv(tmp_path / 'heavy.csv', *ff.noisy(poses, 3))
+    window = {'from': 0, 'to': 0.1}
+    residuals = []
+    for name, extra in (('set', {'set': heavy}), ('own', {'scenario': 'heavy.yaml'})):
+        spec = load_fit(ff.fit_file(tmp_path, scenario, [ff.measured_entry(measured, window,
+                                                                           **extra)],
+                                    ff.FORCES, name=f'{name}.yaml'))
+        fit = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None)
+        residuals.append(fit.evaluate(spec.x0))
+    assert np.array_equal(residuals[0], residuals[1])
+    # and not the light store's: the flight's own scenario is the one run
+    spec = load_fit(ff.fit_file(tmp_path, scenario, [ff.measured_entry(measured, window)],
+                                ff.FORCES, name='light.yaml'))
+    light = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None)
+    assert not np.allclose(light.evaluate(spec.x0), residuals[0])
