@@ -206,7 +206,7 @@ class SimulationServices:
                            f'expression ({type(err).__name__}: {str(err)[:80]}); expected a '
                            'regular expression of plain nesting and repeat counts, e.g. '
                            "'^store' or 'pylon|store'")
-        return [b.name for b in self.node.sim.model.bodies if pattern.search(b.name)]
+        return [b.name for b in self.node.run.sim.model.bodies if pattern.search(b.name)]
 
     def _entities(self, request, response):
         names = self._matching(request.filters)
@@ -218,9 +218,9 @@ class SimulationServices:
 
     def _state_of(self, i: int):
         """Return body i's EntityState now: world frame, at the simulation's stamp."""
-        node, sim = self.node, self.node.sim
+        node, sim = self.node, self.node.run.sim
         state = EntityState()
-        stamp = (node.start_ns or 0) + round(sim.t * 1e9)
+        stamp = (node.run.start_ns or 0) + round(sim.t * 1e9)
         state.header.stamp.sec, state.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
         state.header.frame_id = sim.model.frame_id
         quat = sim.orientation[i]
@@ -241,7 +241,7 @@ class SimulationServices:
 
     def _entity_state(self, request, response):
         try:
-            i = self.node.sim.body_index(request.entity)
+            i = self.node.run.sim.body_index(request.entity)
         except ValueError:
             response.result = _result(Result.RESULT_NOT_FOUND,
                                       f'no body named {request.entity!r}')
@@ -254,14 +254,14 @@ class SimulationServices:
         if isinstance(names, Result):
             response.result = names
             return response
-        sim = self.node.sim
+        sim = self.node.run.sim
         response.entities = names
         response.states = [self._state_of(sim.body_index(name)) for name in names]
         response.result = _result()
         return response
 
     def _set_entity_state(self, request, response):
-        state, world = request.state, self.node.sim.model.frame_id
+        state, world = request.state, self.node.run.sim.model.frame_id
         if state.header.frame_id not in ('', world):
             response.result = _result(Result.RESULT_OPERATION_FAILED,
                                       f'frame {state.header.frame_id!r}: only the world frame '
@@ -308,8 +308,8 @@ class SimulationServices:
         if goal_handle.is_cancel_requested:
             return self._end_goal(_result(Result.RESULT_OPERATION_FAILED,
                                           f'canceled after {run.done} of {run.steps} steps'))
-        if not self.control.paused or self.node.sim is not run.sim:
-            why = 'reset' if self.node.sim is not run.sim else 'played'
+        if not self.control.paused or self.node.run.sim is not run.sim:
+            why = 'reset' if self.node.run.sim is not run.sim else 'played'
             return self._end_goal(_result(Result.RESULT_OPERATION_FAILED,
                                           f'{run.done} of {run.steps} steps: the simulation '
                                           f'was {why}'))

@@ -29,21 +29,17 @@ from typing import Optional
 
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.run.session import Session
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.ros import control as simulation_control, parameters
-from cfem_ros.ros.outputs import NodeOutputs
-from cfem_ros.ros.pacing import OdometryGate, WallPace
+from cfem_ros.ros.noderun import NodeRun
+from cfem_ros.ros.pacing import WallPace
 from cfem_ros.ros.parameters import PARAMETERS, StartupError  # noqa: F401 - for users
 from cfem_ros.ros.publishers import Publishers
-from cfem_ros.ros.qos import CLOCK_QOS
 from cfem_ros.ros.recording import NodeRecording
 from cfem_ros.ros.refusals import bounded, RosLogHandler, Throttle
 from cfem_ros.ros.runcontrol import RunControl
-from cfem_ros.ros.stamps import (ClockLog, CURE_CLOCK, CURE_REAL_TIME, InputTiming,
-                                 OdometryCheck)
 from cfem_ros.ros.stepping import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Stepping
 from cfem_ros.ros.subscriptions import Subscriptions
 from rcl_interfaces.msg import SetParametersResult
@@ -53,7 +49,6 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
-from rosgraph_msgs.msg import Clock as ClockMsg
 
 #: Environment variable: seconds to sleep at the end of set-up (tests use it
 #: to prove that the start stamp is taken after set-up).
@@ -104,9 +99,18 @@ def warm_up(model, publishers):
         time.sleep(float(delay))
 
 
-class CfemNode(Stepping, Subscriptions, Node):
+class CfemNode(Node):
     """
     The cfem_sim node: steps a scenario, takes wrenches and releases, publishes.
+
+    The node holds its parts and they act on one another through the node's
+    public attributes: ``run`` (``noderun.NodeRun``: the simulator, its
+    session, the publishers and the recording), ``stepping`` (its start,
+    pacing and end, ``stepping.Stepping``), ``inputs`` (the subscriptions,
+    ``subscriptions.Subscriptions``), ``control`` (pause, play, step, reset,
+    set a body's state: ``runcontrol.RunControl``) and
+    ``simulation_services`` (the ``simulation_interfaces`` services on it,
+    ``control.SimulationServices``; None without the types).
 
     Parameters
     ----------
@@ -141,45 +145,32 @@ class CfemNode(Stepping, Subscriptions, Node):
         self.input_window = values['input_window'] if self.sim_time else 0.0
         self.scenario_path = values['scenario']
         #: Refused inputs: one warning line per topic and reason per second.
-        self._refusals = Throttle(self.get_logger())
-        self._refused = {}   # topic -> messages refused
+        self.refusals = Throttle(self.get_logger())
         self._diagnosed = False
 
-        self._python_log = logging.getLogger(f'cfem_ros.node.{id(self)}')
-        self._python_log.propagate = False
-        self._python_log.setLevel(logging.INFO)   # the ROS logger filters by its own level
-        self._python_log.addHandler(RosLogHandler(self.get_logger()))
+        python_log = logging.getLogger(f'cfem_ros.node.{id(self)}')
+        python_log.propagate = False
+        python_log.setLevel(logging.INFO)   # the ROS logger filters by its own level
+        python_log.addHandler(RosLogHandler(self.get_logger()))
         try:
-            self.sim = Simulator(model, logger=self._python_log)
+            sim = Simulator(model, logger=python_log)
         except CfemError as err:
             raise StartupError(str(err)) from None
 
-        #: The /clock times taken, by their senders' source timestamps (``_clock_of``).
-        self._clocks = ClockLog()
-        self._clock_subscriptions = []
-        if self.sim_time:   # before the inputs: in each wait, /clock is taken before them
-            self._clock_subscriptions.append(self.create_subscription(
-                ClockMsg, '/clock', self._on_clock, CLOCK_QOS))
+        self.stepping = Stepping(self)   # /clock, subscribed before the inputs
         # topics first: a name ROS refuses stops the node before a file is made
         try:
-            self._publishers_sink = Publishers(self, self.sim)
-            self._subscribe(model, values['input_queue_depth'])
+            publishers = Publishers(self, sim)
+            self.inputs = Subscriptions(self, model, values['input_queue_depth'])
         except InvalidTopicNameException as err:
             raise StartupError(_topic_name_error(self, model, err)) from None
 
-        self.recording = (NodeRecording(self, self.sim, values['record'], values['overwrite'])
-                          if values['record'] else None)
-        self._interpolate = bool(values['interpolate_odometry'])
-        self.odometry_check = OdometryCheck(self.get_logger().warning)
-        self.new_session()
-        self._clock_limit: Optional[float] = None   # simulated time /clock last gave
-        self._clock_wall = math.inf   # when /clock last moved on (monotonic s)
-        self._clock_still = 0   # the clock watch's looks since then
-        self.start_ns: Optional[int] = None
-        self._early = []
-        self._last_lag_warning = -math.inf
-        self._timer = None
-        self._catch_up_timer = None   # goes on toward /clock's time, a slice at a time
+        recording = (NodeRecording(self, sim, values['record'], values['overwrite'])
+                     if values['record'] else None)
+        self.run = NodeRun(sim, publishers, recording, rate_hz=self.rate_hz,
+                           duration=self.duration, following_clock=self.sim_time,
+                           interpolate=bool(values['interpolate_odometry']),
+                           warn=self.refusals.warning, log_warning=self.get_logger().warning)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.control = RunControl(self, paused=bool(values['paused']))
         self.simulation_services = simulation_control.serve(self, self.control)
@@ -189,60 +180,44 @@ class CfemNode(Stepping, Subscriptions, Node):
             else f'at {self.pace.factor:g}x real time')
         self.get_logger().info(
             f'scenario {model.name!r} from {self.scenario_path}: {len(model.bodies)} bodies, '
-            f'{len(model.joints)} joints, {self.sim.dof} degrees of freedom; dt {model.dt:g} s, '
+            f'{len(model.joints)} joints, {sim.dof} degrees of freedom; dt {model.dt:g} s, '
             f'publishing at {self.rate_hz:g} Hz {mode}'
             + (f"; recording to {values['record']}" if values['record'] else ''))
-        warm_up(model, self._publishers_sink)
+        warm_up(model, publishers)
         if self.sim_time:
             self.get_logger().info(f'waiting for /clock (use_sim_time is true); the simulation '
                                    f'stays input_window {self.input_window:g} s behind it')
         else:
-            self._begin(None)
+            self.stepping.begin(None)
 
-    def new_session(self):
-        """Make the session (and what times its inputs) of a run of self.sim from t = 0."""
-        outputs = NodeOutputs(self._publishers_sink,
-                              self.recording.state if self.recording else None)
-        self.session = Session(self.sim, rate_hz=self.rate_hz, duration=self.duration,
-                               outputs=[outputs], warn=self._refusals.warning,
-                               interpolate_odometry=self._interpolate)
-        self.gate = OdometryGate(self.sim, self.session, interpolate=self._interpolate,
-                                 following_clock=self.sim_time,
-                                 subscribed=any(b.motion is not None
-                                                for b in self.sim.model.bodies))
-        late = getattr(self, 'timing', None)
-        self.timing = InputTiming(self.sim, self._refusals.warning,
-                                  CURE_CLOCK if self.sim_time else CURE_REAL_TIME)
-        if late is not None:   # counted over the node's life, resets included
-            self.timing.late_inputs, self.timing.late_topics = late.late_inputs, late.late_topics
+    @property
+    def sim(self) -> Simulator:
+        """Return the simulator of the run now (a reset makes another)."""
+        return self.run.sim
 
-    # ------------------------------------------------------------ parameters
+    @property
+    def recording(self) -> Optional[NodeRecording]:
+        """Return the node's recording (None when not recording, or once finished)."""
+        return self.run.recording
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
             if parameter.name == 'real_time_factor':
-                self._set_real_time_factor(float(parameter.value))
+                self.stepping.set_real_time_factor(float(parameter.value))
             elif parameter.name == 'use_sim_time' and bool(parameter.value) != self.sim_time:
                 return SetParametersResult(
                     successful=False, reason='use_sim_time is fixed once the node has started')
         return SetParametersResult(successful=True)
 
-    # ---------------------------------------------------------------- pacing
-
     def close(self):
         """Finish the recording, and say how many inputs were refused (safe to call twice)."""
-        self._refusals.flush()
-        if self._refused:
-            self.get_logger().info('messages refused: ' + ', '.join(
-                f'{count} on {topic}' for topic, count in sorted(self._refused.items())))
-            self._refused = {}
-        if getattr(self, 'timing', None) is not None and not self._diagnosed:
+        self.refusals.flush()
+        self.inputs.log_refused()
+        if not self._diagnosed:
             self._diagnosed = True
-            self.get_logger().info(f'diagnostics: {self.timing.summary()}, '
-                                   f'{self._queues.summary()}')
-        if self.recording is not None:
-            recording, self.recording = self.recording, None
-            recording.finish()
+            self.get_logger().info(f'diagnostics: {self.run.timing.summary()}, '
+                                   f'{self.inputs.queues.summary()}')
+        self.run.finish_recording()
 
     def recording_failed(self, err):
         """
@@ -252,11 +227,8 @@ class CfemNode(Stepping, Subscriptions, Node):
         the node ends with ``EXIT_FAILED``: a recording node whose recording
         failed does not go on publishing a run no file will hold.
         """
-        recording, self.recording = self.recording, None
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-            self._timer = None
-        recording.failed(err, self.start_ns)
+        self.stepping.stop_timer()
+        self.run.recording_failed(err)
         self.exit_code = EXIT_FAILED
 
 

@@ -5,7 +5,8 @@ Pause, play, step, reset and set a body's state: the node's run under control.
 
 ``RunControl`` does what the simulation control services ask (``control.py``
 serves them with the standard ``simulation_interfaces`` types) on the
-node's simulator, session, pacing, publishers and recording; it needs no
+node's run (``node.run``: simulator, session, publishers, recording) and
+pacing (``node.stepping``), through their public faces; it needs no
 interface types, so a node without them still starts paused
 (``paused:=true``). Every change is an event on ``events`` and in the
 recording (SPEC section 3):
@@ -28,7 +29,6 @@ from typing import Optional
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.sampling import NumericalFailure
-from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
 from std_msgs.msg import String
@@ -49,7 +49,7 @@ class RunControl:
     Parameters
     ----------
     node : CfemNode
-        Whose run it controls.
+        Whose run (``node.run``) it controls, paced by ``node.stepping``.
     paused : bool
         Start paused (``paused:=true``).
 
@@ -70,21 +70,21 @@ class RunControl:
         """Stop advancing where the run is."""
         if self.state == PLAYING:
             self.state = PAUSED
-            self.announce({'event': 'pause', 'time': self.node.sim.t})
+            self.announce({'event': 'pause', 'time': self.node.run.sim.t})
 
     def play(self):
         """Advance again: in real time from now, at the real-time factor; or with /clock."""
         if self.state == PLAYING:
             return
-        node = self.node
+        node, run = self.node, self.node.run
         self.state = PLAYING
-        self.announce({'event': 'play', 'time': node.sim.t})
-        if node.start_ns is None:
+        self.announce({'event': 'play', 'time': run.sim.t})
+        if run.start_ns is None:
             return
-        if not node.session.started:
-            node.session.start()
+        if not run.session.started:
+            run.session.start()
         if not node.sim_time:
-            node.pace.resume(time.monotonic(), node.sim.t)
+            node.pace.resume(time.monotonic(), run.sim.t)
 
     def stop(self):
         """Reset and wait (``STATE_STOPPED``)."""
@@ -103,17 +103,17 @@ class RunControl:
         run.go()
         return run.finish(announce)
 
-    def _check_step(self, steps: int):
+    def check_step(self, steps: int):
         """Raise ControlError if the run cannot take steps now."""
-        node = self.node
+        run = self.node.run
         if not self.paused:
             raise ControlError('the simulation is playing; pause it first')
-        if node.start_ns is None:
+        if run.start_ns is None:
             raise ControlError('the run has not started (waiting for /clock)')
         if steps < 1:
             raise ControlError(f'steps is {steps}; expected 1 or more')
-        if node.session.finished:
-            raise ControlError(f'the run is over (t = {node.sim.t:.9g} s)')
+        if run.session.finished:
+            raise ControlError(f'the run is over (t = {run.sim.t:.9g} s)')
 
     def reset(self):
         """
@@ -125,26 +125,15 @@ class RunControl:
         are dropped. Playing, the new run starts now; paused, its t = 0
         sample is published and it waits.
         """
-        node = self.node
-        if node.start_ns is None:
+        node, run = self.node, self.node.run
+        if run.start_ns is None:
             raise ControlError('the run has not started (waiting for /clock)')
-        old = node.sim
-        if node.sim_time:
-            start_ns = node.start_ns + round((node._clock_limit or 0.0) * 1e9)
-        else:
-            start_ns = node.get_clock().now().nanoseconds
-        self.announce({'event': 'reset', 'time': old.t, 'start_stamp_ns': int(start_ns)})
-        node.sim = Simulator(old.model, logger=old.log)
-        node._publishers_sink.restart(node.sim, start_ns)
-        if node.recording is not None:
-            node.recording.sim = node.sim
-            node.recording.state.restart(node.sim, start_ns)
-        node.new_session()
-        node.start_ns = node.timing.start_ns = int(start_ns)
-        if node.sim_time:
-            node._clock_limit = 0.0
+        start_ns = node.stepping.reset_stamp()
+        self.announce({'event': 'reset', 'time': run.sim.t, 'start_stamp_ns': int(start_ns)})
+        run.restart(start_ns)
+        node.stepping.restarted()
         if self.paused or not node.sim_time:
-            node.session.start()
+            run.session.start()
         if not node.sim_time:
             node.pace.resume(time.monotonic(), 0.0)
 
@@ -152,7 +141,7 @@ class RunControl:
 
     def free_body(self, name: str) -> int:
         """Return the index of a body that moves freely and has no active joint."""
-        sim = self.node.sim
+        sim = self.node.run.sim
         try:
             i = sim.body_index(name)
         except ValueError as err:
@@ -193,7 +182,7 @@ class RunControl:
         if not 0.5 < norm < 1.5:
             raise ValueError(f'the quaternion has norm {norm:.6g}; expected a unit quaternion')
         quat = values[1] / norm
-        sim = self.node.sim
+        sim = self.node.run.sim
         y = sim.y.copy()
         pos, vel, q, rates = state_views(y, sim.n)
         pos[i], vel[i], q[i] = values[0], values[2], quat
@@ -215,10 +204,10 @@ class RunControl:
 
     def announce(self, event: dict):
         """Publish an event of the run's control on ``events``, record it, and log it."""
-        node = self.node
-        node._publishers_sink.event_publisher.publish(String(data=json.dumps(event)))
-        if node.recording is not None and node.start_ns is not None:
-            node.recording.state.note(event)
+        node, run = self.node, self.node.run
+        run.publishers.event_publisher.publish(String(data=json.dumps(event)))
+        if run.recording is not None and run.start_ns is not None:
+            run.recording.state.note(event)
         details = ', '.join(f'{k} {v}' for k, v in event.items() if k not in ('event', 'time'))
         node.get_logger().info(f"{event['event']} at t = {event['time']:.9g} s"
                                + (f' ({details})' if details else ''))
@@ -239,11 +228,11 @@ class StepRun:
     """
 
     def __init__(self, control: RunControl, steps: int):
-        control._check_step(steps)
-        self.control, self.node = control, control.node
-        self.sim = self.node.sim
-        if not self.node.session.started:
-            self.node.session.start()
+        control.check_step(steps)
+        self.control, self.node, self.run = control, control.node, control.node.run
+        self.sim = self.run.sim
+        if not self.run.session.started:
+            self.run.session.start()
         self.steps = steps
         self.t0 = self.sim.t
         self.end = self.t0 + steps * self.sim.dt
@@ -256,7 +245,7 @@ class StepRun:
     @property
     def over(self) -> bool:
         """Tell whether all steps are taken or the run ended (or was reset) first."""
-        return (self.node.sim is not self.sim or self.node.session.finished
+        return (self.run.sim is not self.sim or self.run.session.finished
                 or self.sim.t >= self.end)
 
     def go(self, deadline: float = math.inf, until: Optional[int] = None):
@@ -266,7 +255,7 @@ class StepRun:
         The wall clock is read between slices of ``SLICE_STEPS`` steps: a
         slice is the most that runs between two looks at it.
         """
-        session, dt = self.node.session, self.sim.dt
+        session, dt = self.run.session, self.sim.dt
         until = self.steps if until is None else min(until, self.steps)
         goal = self.t0 + until * dt
         while not self.over:
@@ -282,10 +271,10 @@ class StepRun:
 
     def finish(self, announce: bool = True) -> int:
         """Announce the steps taken (a ``step`` event) and end the run if it is over."""
-        advanced = self.done if self.node.sim is self.sim else 0
+        advanced = self.done if self.run.sim is self.sim else 0
         if announce and advanced:
             self.control.announce({'event': 'step', 'time': self.t0, 'steps': advanced,
                                    'to': self.sim.t})
-        if self.node.session.finished and self.node.exit_code is None:
-            self.node._end()
+        if self.run.session.finished and self.node.exit_code is None:
+            self.node.stepping.end()
         return advanced

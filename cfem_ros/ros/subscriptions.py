@@ -5,8 +5,9 @@ The node's inputs (SPEC section 3): wrenches, odometry and release commands to t
 
 Each message becomes an ``Input`` (strings bounded, ``refusals.bounded``),
 timed (``stamps.InputTiming``) and given to the session; a refused one is
-counted and logged, throttled. ``Subscriptions`` is a part of
-``node.CfemNode``, on its state.
+counted and logged, throttled. ``Subscriptions`` is a part that
+``node.CfemNode`` holds: it gives inputs to the node's run (``node.run``)
+and moves it on through the node's pacing (``node.stepping``).
 """
 
 import time
@@ -80,28 +81,49 @@ class QueueWatch:
 
 
 class Subscriptions:
-    """The input topics and what the node does with their messages (a part of ``CfemNode``)."""
+    """
+    The input topics and what the node does with their messages.
 
-    def _subscribe(self, model, depth: int):
-        """Subscribe to every body's wrenches (and a kinematic body's odometry)."""
-        self._queues = QueueWatch(depth, self._refusals.warning)
-        self._taking = False   # in _take_waiting_inputs
-        self._clock_moved = False   # /clock taken to time an input: the run goes on after it
+    Parameters
+    ----------
+    node : CfemNode
+        The node that holds it: the subscriptions are made on it; inputs go
+        to its ``run``, and its ``stepping`` times them and goes on after them.
+    model : Model
+        The scenario: a wrench topic per body, odometry per kinematic body.
+    depth : int
+        Parameter ``input_queue_depth``.
+
+    Attributes
+    ----------
+    queues : QueueWatch
+        The messages full queues lost, per topic.
+    refused : dict
+        Messages refused, per topic.
+
+    """
+
+    def __init__(self, node, model, depth: int):
+        self.node = node
+        self.queues = QueueWatch(depth, node.refusals.warning)
+        self.refused = {}   # topic -> messages refused
+        self._early = []    # inputs that came before the run started
+        self._taking = False   # in take_waiting
         qos = input_qos(depth)
         subscriptions = self._input_subscriptions = []
         for body in model.bodies:
-            subscriptions.append(self.create_subscription(
+            subscriptions.append(node.create_subscription(
                 WrenchStamped, schema.WRENCH_INPUT.relative(body=body.name),
                 lambda msg, info, name=body.name: self._on_wrench(name, msg, info), qos))
             if body.motion is not None:   # a kinematic body may follow odometry
-                subscriptions.append(self.create_subscription(
+                subscriptions.append(node.create_subscription(
                     Odometry, schema.ODOMETRY_INPUT.relative(body=body.name),
                     lambda msg, info, name=body.name: self._on_odometry(name, msg, info), qos))
-        self._release_sub = self.create_subscription(
+        self._release_sub = node.create_subscription(
             String, schema.RELEASE_INPUT.relative(), self._on_release, qos)
         subscriptions.append(self._release_sub)
 
-    def _take_waiting_inputs(self):
+    def take_waiting(self):
         """
         Take every input message waiting in the node's queues now, before the run goes on.
 
@@ -114,36 +136,42 @@ class Subscriptions:
         self._taking = True
         try:
             for subscription in self._input_subscriptions:
-                for _, (msg, info) in zip(range(self._queues.depth), taken(subscription)):
+                for _, (msg, info) in zip(range(self.queues.depth), taken(subscription)):
                     subscription.callback(msg, info)
         finally:
             self._taking = False
+
+    def submit_early(self):
+        """Give the session the inputs that came before the run started, in their order."""
+        for item in self._early:
+            self.submit(*item)
+        self._early.clear()
 
     def _on_wrench(self, body: str, msg: WrenchStamped, info):
         stamp = msg.header.stamp
         header_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
         f, m = msg.wrench.force, msg.wrench.torque
-        topic = self.resolve_topic_name(schema.WRENCH_INPUT.relative(body=body))
-        self._queues.took(topic, info)
-        self._submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
-                                         bounded(msg.header.frame_id), header_ns=header_ns), info)
+        topic = self.node.resolve_topic_name(schema.WRENCH_INPUT.relative(body=body))
+        self.queues.took(topic, info)
+        self.submit(topic, wrench_input(body, [f.x, f.y, f.z], [m.x, m.y, m.z],
+                                        bounded(msg.header.frame_id), header_ns=header_ns), info)
 
     def _on_odometry(self, body: str, msg: Odometry, info):
-        self.gate.seen += 1
+        self.node.run.gate.seen += 1
         stamp = msg.header.stamp
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
-        topic = self.resolve_topic_name(schema.ODOMETRY_INPUT.relative(body=body))
-        self._queues.took(topic, info)
-        self._submit(topic, odometry_input(
+        topic = self.node.resolve_topic_name(schema.ODOMETRY_INPUT.relative(body=body))
+        self.queues.took(topic, info)
+        self.submit(topic, odometry_input(
             body, [p.x, p.y, p.z], [q.x, q.y, q.z, q.w], [v.x, v.y, v.z], [w.x, w.y, w.z],
             bounded(msg.header.frame_id),
             header_ns=stamp.sec * 1_000_000_000 + stamp.nanosec), info)
 
     def _on_release(self, msg: String, info):
-        self._queues.took(self._release_sub.topic_name, info)
-        self._submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())),
-                     info)
+        self.queues.took(self._release_sub.topic_name, info)
+        self.submit(self._release_sub.topic_name, release_input(bounded(msg.data.strip())),
+                    info)
 
     def _arrival_time(self) -> Optional[float]:
         """
@@ -153,12 +181,13 @@ class Subscriptions:
         nanoseconds (as the recording logs it, so a replay applies it at the
         same time), never past the end of the run.
         """
-        if self.sim_time or self.pace.factor == 0:
+        node = self.node
+        if node.sim_time or node.pace.factor == 0:
             return None
-        target = self.pace.target(time.monotonic())
-        return min(round(target * 1e9) / 1e9, self.duration)
+        target = node.pace.target(time.monotonic())
+        return min(round(target * 1e9) / 1e9, node.duration)
 
-    def _submit(self, topic: str, item: Input, info=None):
+    def submit(self, topic: str, item: Input, info=None):
         """
         Give an input to the session; a refused one is logged (throttled) and counted.
 
@@ -166,35 +195,44 @@ class Subscriptions:
         longer ones never name a frame or joint, so they are refused, and
         recorded and logged in that bounded form. info: the message's
         MessageInfo (following /clock, an unstamped input takes the time of
-        the /clock sent before it, ``_clock_of``).
+        the /clock sent before it, ``Stepping.clock_of``).
         """
-        if self.exit_code is not None:
+        node, stepping = self.node, self.node.stepping
+        if node.exit_code is not None:
             return
-        if self.start_ns is None:
+        run = node.run
+        if run.start_ns is None:
             self._early.append((topic, item, info))
             return
         # at its stamp if that is still ahead; else at the clock's time, which is ahead of
         # the simulation while it waits for odometry (``OdometryGate``), or at once
-        self.odometry_check.check(topic, item)
-        if self.sim_time:
-            now = self._clock_of(info) if not item.header_ns else self._clock_limit
+        run.odometry_check.check(topic, item)
+        if node.sim_time:
+            now = stepping.clock_of(info) if not item.header_ns else stepping.clock_limit
         else:
             now = self._arrival_time()
-        item = self.timing.timed(topic, item, now)
+        item = run.timing.timed(topic, item, now)
         try:
-            self.session.submit(item)
+            run.session.submit(item)
         except ValueError as err:
-            self._refused[topic] = self._refused.get(topic, 0) + 1
-            self._refusals.warning(f'{topic}: message not applied: {err}')
-        if item.kind == 'odom' and self.gate.interpolate and not self._taking:
+            self.refused[topic] = self.refused.get(topic, 0) + 1
+            node.refusals.warning(f'{topic}: message not applied: {err}')
+        if item.kind == 'odom' and run.gate.interpolate and not self._taking:
             # what waited for it goes on (taken with others: once they are all taken)
-            if self.sim_time and self._clock_limit is not None:
-                self._catch_up()
-            elif not self.sim_time and self.pace.factor > 0:
-                self._run_to(self.pace.target(time.monotonic()))
-        if self._clock_moved and not self._taking:   # /clock taken to time this input
-            self._clock_moved = False
-            self._take_waiting_inputs()
-            self._catch_up()
-        if self.session.finished and self.exit_code is None:
-            self._end()
+            if node.sim_time and stepping.clock_limit is not None:
+                stepping.catch_up()
+            elif not node.sim_time and node.pace.factor > 0:
+                stepping.run_to(node.pace.target(time.monotonic()))
+        if stepping.clock_moved and not self._taking:   # /clock taken to time this input
+            stepping.clock_moved = False
+            self.take_waiting()
+            stepping.catch_up()
+        if run.session.finished and node.exit_code is None:
+            stepping.end()
+
+    def log_refused(self):
+        """Log how many messages each topic had refused (once: the counts are then cleared)."""
+        if self.refused:
+            self.node.get_logger().info('messages refused: ' + ', '.join(
+                f'{count} on {topic}' for topic, count in sorted(self.refused.items())))
+            self.refused = {}
