@@ -250,3 +250,21 @@ def test_a_window_may_name_a_release_group(tmp_path):
     assert found['samples'] == 51   # 0.05 to 0.15 s at 500 Hz, both ends
     value = found['parameters']['wrenches[1].force[2]']['value']
     assert value == pytest.approx(ff.AFT, rel=1e-6)   # noise-free: the value itself
+
+
+def test_a_parameter_without_bounds_is_written_and_predicted_from(flight, tmp_path, capsys):
+    # its bounds are [-inf, inf]: fit.json (JSON has no infinity) once failed after the fit
+    measured = ff.csv(tmp_path / 'poses.csv', *ff.noisy(flight[2], 6))
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(measured, {'from': 0, 'to': 0.1}),
+                      {'wrenches[1].force[2]': {'start': 38000}})
+    out = tmp_path / 'out'
+    assert cli.main(['fit', fit, '-o', str(out), '--threads', '2']) == 0
+    found = json.loads((out / 'fit.json').read_text())
+    entry = found['parameters']['wrenches[1].force[2]']
+    assert entry['bounds'] == [None, None] and entry['determined'] is True
+    assert abs(entry['value'] - ff.AFT) < 4 * entry['standard_error_scaled']
+    capsys.readouterr()
+    assert cli.main(['predict', str(out), flight[1], '-o', str(tmp_path / 'next'),
+                     '--draws', '10', '--threads', '2']) == 0
+    summary = json.loads((tmp_path / 'next' / 'prediction.json').read_text())
+    assert summary['parameters']['wrenches[1].force[2]']['outside_bounds'] == 0

@@ -108,7 +108,9 @@ def fit_json(fit: Fit, result: FitResult) -> dict:
         parameters[p.path] = {'value': float(result.values[j]),
                               'standard_error': _number(u.standard_errors[j]),
                               'standard_error_scaled': _number(u.standard_errors_scaled[j]),
-                              'start': p.start, 'bounds': [p.low, p.high], 'step': p.step,
+                              # an end without a bound is null: JSON has no infinity
+                              'start': p.start, 'bounds': [_number(p.low), _number(p.high)],
+                              'step': p.step,
                               'determined': bool(u.determined[j]), 'name': p.name,
                               'unit': p.unit}
         if result.intervals is not None:
@@ -119,7 +121,7 @@ def fit_json(fit: Fit, result: FitResult) -> dict:
            'correlation': [[_number(c) for c in row] for row in u.correlation],
            'covariance_scaled': [[_number(c * _chi2_scale(u.reduced_chi2)) for c in row]
                                  for row in u.covariance],
-           'reduced_chi2': _number(u.reduced_chi2), 'chi2': u.chi2,
+           'reduced_chi2': _number(u.reduced_chi2), 'chi2': _number(u.chi2),
            'degrees_of_freedom': u.dof,
            'residual_rms': {k: float(v) for k, v in result.residual_rms.items()},
            'runs': result.runs, 'evaluations': result.evaluations, 'status': result.status,

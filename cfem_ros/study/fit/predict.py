@@ -111,7 +111,9 @@ def read_fitted(folder: str) -> Fitted:
         entries = [parameters[p] for p in paths]
         values = np.array([float(e['value']) for e in entries])
         determined = np.array([bool(e['determined']) for e in entries])
-        bounds = np.array([e['bounds'] for e in entries], dtype=float)
+        bounds = np.array([[-math.inf if e['bounds'][0] is None else e['bounds'][0],
+                            math.inf if e['bounds'][1] is None else e['bounds'][1]]
+                           for e in entries], dtype=float)   # null: no bound
         measured = found['measured']
         names = [e.get('name', p) for p, e in zip(paths, entries)]
         fitted = Fitted(path=path, paths=paths, names=names,
