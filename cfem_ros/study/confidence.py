@@ -14,6 +14,7 @@ probability p at confidence c when p^n <= 1 - c (59 runs for 95 %/95 %).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from decimal import Decimal, ROUND_CEILING, ROUND_FLOOR
 import math
 
 from scipy import stats
@@ -25,6 +26,29 @@ def _check(failures: int, runs: int, level: float):
                          'runs >= 1')
     if not 0 < level < 1:
         raise ValueError(f'level is {level!r}; expected a confidence 0 < level < 1 (0.95)')
+
+
+def up(value: float, digits: int = 3) -> str:
+    """
+    Return a bound as text, rounded upward to ``digits`` figures (never below it).
+
+    Rounded in decimal from the float's exact value: the text read back
+    as a float is never below ``value``, not even by its last bit.
+    """
+    if not math.isfinite(value) or value <= 0:
+        return f'{value:g}'
+    exact = Decimal(value)
+    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return f'{float(exact.quantize(step, rounding=ROUND_CEILING)):.{digits}g}'
+
+
+def down(value: float, digits: int = 3) -> str:
+    """Return a lower bound as text, rounded downward to ``digits`` figures (never above it)."""
+    if not math.isfinite(value) or value <= 0:
+        return f'{value:g}'
+    exact = Decimal(value)
+    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return f'{float(exact.quantize(step, rounding=ROUND_FLOOR)):.{digits}g}'
 
 
 def clopper_pearson(failures: int, runs: int, level: float = 0.95) -> tuple:
@@ -101,10 +125,9 @@ class Fraction:
         """
         Return the line ``cfem-sim sweep`` and ``plot`` print.
 
-        Bounds and interval ends rounded outward (``decision.up``/``down``):
+        Bounds and interval ends rounded outward (``up``/``down``):
         a bound shown is never below the bound.
         """
-        from cfem_ros.study.decision import down, up
         pct = f'{100 * self.level:g} %'
         low, high = self.interval
         if self.failures == 0:

@@ -16,39 +16,15 @@ the failures of a set of Monte Carlo runs (the exact Clopper-Pearson bound).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from decimal import Decimal, ROUND_CEILING, ROUND_FLOOR
 import math
 from typing import Optional
 
-from cfem_ros.study.confidence import upper_bound
+from cfem_ros.study.confidence import down, up, upper_bound  # noqa: F401 - down, up: for callers
 
 MEETS = 'meets'
 DOES_NOT_MEET = 'does_not_meet'
 UNDECIDED = 'undecided'
 VERDICTS = (MEETS, DOES_NOT_MEET, UNDECIDED)
-
-
-def up(value: float, digits: int = 3) -> str:
-    """
-    Return a bound as text, rounded upward to ``digits`` figures (never below it).
-
-    Rounded in decimal from the float's exact value: the text read back
-    as a float is never below ``value``, not even by its last bit.
-    """
-    if not math.isfinite(value) or value <= 0:
-        return f'{value:g}'
-    exact = Decimal(value)
-    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
-    return f'{float(exact.quantize(step, rounding=ROUND_CEILING)):.{digits}g}'
-
-
-def down(value: float, digits: int = 3) -> str:
-    """Return a lower bound as text, rounded downward to ``digits`` figures (never above it)."""
-    if not math.isfinite(value) or value <= 0:
-        return f'{value:g}'
-    exact = Decimal(value)
-    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
-    return f'{float(exact.quantize(step, rounding=ROUND_FLOOR)):.{digits}g}'
 
 
 def verdict(probability: float, p_upper: Optional[float], target: float) -> str:
