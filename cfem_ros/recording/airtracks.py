@@ -4,7 +4,7 @@
 The air each body saw, read from a recording's ``bodies/<body>/aero/*`` topics.
 
 SPEC section 10: per body with aero tables, four ``Vector3Stamped`` topics at
-every sample (``core.aero.AIR_TOPICS``): the flow (alpha, beta in deg, Mach),
+every sample (``core.engine.aero.AIR_TOPICS``): the flow (alpha, beta in deg, Mach),
 the air (dynamic pressure Pa, density kg/m^3, airspeed m/s) and the force and
 moment coefficients (the moments about the actual CG).
 """

@@ -118,7 +118,7 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
     Return per aero body its (n, 4) alpha (deg), beta (deg), Mach, dynamic pressure (Pa).
 
     From the recorded pose and twist (the air of the scenario: wind,
-    altitude, ISA), through the compiled core's ``aero_wrench`` (``core.kernel``).
+    altitude, ISA), through the compiled core's ``aero_wrench`` (``core.native.kernel``).
     """
     from cfem_ros.core.engine import aeropack
     from cfem_ros.core.native import kernel

@@ -4,7 +4,7 @@
 The air each body with aero tables sees, published by the node (SPEC section 10).
 
 Four ``schema.AIR`` topics per body (``bodies/<body>/aero/<quantity>``, the
-quantities of ``core.aero.AIR_TOPICS``), ``frame_id`` = the body, from the
+quantities of ``core.engine.aero.AIR_TOPICS``), ``frame_id`` = the body, from the
 numbers a sample holds (``Simulator.air``), the same the recordings hold.
 """
 

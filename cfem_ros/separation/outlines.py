@@ -3,7 +3,7 @@
 """
 Body shapes as 2D outlines in another body's axes (the snapshots of SPEC section 12).
 
-A shape (``core.shapes.Shape``: box, cylinder, sphere, capsule, a mesh by
+A shape (``core.model.shapes.Shape``: box, cylinder, sphere, capsule, a mesh by
 its convex hull, or a compound shape's ``parts``, each placed in the body's
 axes) becomes points on its surface in the body's axes; placed at a pose
 relative to the reference and projected on a view plane, each convex

@@ -2,7 +2,7 @@
 // SPDX-License-Identifier: Apache-2.0
 //
 // Aerodynamic force and moment on a body (SPEC sections 8 and 10), from one
-// packed table (cfem_ros.core.aeropack builds it; its offsets are the same
+// packed table (cfem_ros.core.engine.aeropack builds it; its offsets are the same
 // there): free-stream coefficients over (alpha, beta, Mach) plus proximity
 // increments over the body's position and attitude relative to a carrier (and
 // Mach), plus constant increments (`delta`), with the air at rest in the world

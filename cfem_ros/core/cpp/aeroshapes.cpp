@@ -21,7 +21,7 @@
 
 namespace py = pybind11;
 // Arguments are taken as they are, never converted (a copy): float64 in C order, or the
-// call is refused (each argument is noconvert; cfem_ros.core.kernel's wrappers convert
+// call is refused (each argument is noconvert; cfem_ros.core.native.kernel's wrappers convert
 // in the open, where a caller's array may need it).
 using Array = py::array_t<double, py::array::c_style>;
 
@@ -90,7 +90,7 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
                       Array carrier_position, Array carrier_rot) {
   need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
            packed.data()[cfem::aero::kTotal] == packed.shape(0),
-       "packed: a table from cfem_ros.core.aeropack.pack expected");
+       "packed: a table from cfem_ros.core.engine.aeropack.pack expected");
   py::ssize_t n = position.ndim() == 2 ? position.shape(0) : -1;
   need_rows(position, "position", 3, n);
   need_rows(velocity, "velocity", 3, n);
@@ -127,7 +127,7 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
 void need_shape(const Array& s, const char* name) {
   need(s.ndim() == 1 && cfem::shapes::checked_length(s.data(), static_cast<long>(s.shape(0)))
                             == static_cast<long>(s.shape(0)),
-       std::string(name) + ": a shape from cfem_ros.core.contacts.pack_shape expected");
+       std::string(name) + ": a shape from cfem_ros.core.native.contacts.pack_shape expected");
 }
 
 // distances at n pose pairs: (n,) m, (n, 6) the closest points on a and b (world) and

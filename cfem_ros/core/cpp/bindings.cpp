@@ -46,7 +46,7 @@ void bodies_in(idx n, const cfem::Mat& loads) {
 }  // namespace
 
 PYBIND11_MODULE(_kernel, m) {
-  m.doc() = "The compiled hot path of cfem_ros (C++17); cfem_ros.core.kernel is its API.";
+  m.doc() = "The compiled hot path of cfem_ros (C++17); cfem_ros.core.native.kernel is its API.";
 
   py::module_ testing = m.def_submodule(
       "testing", "Functions only cfem_ros's tests call: not the API (kernel.py's docstring).");

@@ -43,7 +43,7 @@ struct IMat {
   idx operator()(idx i, idx j) const { return data[i * cols + j]; }
 };
 
-// The arguments of every solve after the state: ``Topology.kernel_args``.
+// The arguments of every solve after the state: ``Topology.bind``.
 struct System {
   Mat bodies;            // (n, BODY_COLUMNS + kinematic columns)
   const double* gravity;  // (3,)

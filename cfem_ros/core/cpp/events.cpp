@@ -37,7 +37,7 @@ struct Search {
 };
 
 // Angle, distance and force of watched joints first .. first + count at y, into values
-// (Releases.values); REACHED, SINGULAR or LOADS_NOT_FINITE.
+// (the release conditions' values); REACHED, SINGULAR or LOADS_NOT_FINITE.
 int release_values(const Search& q, const double* y, idx first, idx count) {
   const Triggers& t = q.t;
   conditions(y, q.size, t.joints_i, t.joints_f, t.watch + first, count, q.values + 3 * first, 3);
@@ -239,7 +239,7 @@ void locate(double* y0, idx size, double h, double* y1, double* ys, const System
       if (count > 0) info[L_CROSSING] = best, info[L_JOINTS] = static_cast<double>(count);
     }
   }
-  // the ejectors' stroke ends, the contacts of armed pairs (ScheduledLoads.contacts), the
+  // the ejectors' stroke ends, the contacts of armed pairs (ScheduledLoads.arm), the
   // tables' ends (aero rows) and the braces' pads touching or letting go, all reported by
   // row in wrenches_found
   double best = h;

@@ -3,7 +3,7 @@
 //
 // The atmosphere of the aerodynamic loads, in one place: the U.S. Standard
 // Atmosphere 1976 (the ICAO ISA) to 32 km geopotential, with a temperature
-// offset (a hot or cold day). Python reads it through cfem_ros.core.atmosphere
+// offset (a hot or cold day). Python reads it through cfem_ros.core.native.atmosphere
 // (the _kernel binding ``isa``); there is no second formula.
 //
 // The layers' base pressures are computed from the hydrostatic equation and

@@ -3,7 +3,7 @@
 //
 // The layout of every array the kernel shares with Python, in one place: a table per
 // array, from which both the C++ constants below and the extension's LAYOUT (layout.cpp,
-// read by cfem_ros.core.kernel) are made. A new column is one line here; Python reads
+// read by cfem_ros.core.native.kernel) are made. A new column is one line here; Python reads
 // its index and width from the extension, never a number of its own
 // (test/core/test_layout.py walks the tables).
 //

@@ -14,7 +14,7 @@
 // is known to kTolerance m); overlapping cores, by EPA's penetration depth.
 // Pure functions over flat arrays; no allocation.
 //
-// A packed shape (cfem_ros.core.contacts builds it) is kShapeHeader doubles:
+// A packed shape (cfem_ros.core.native.contacts builds it) is kShapeHeader doubles:
 // kind, size (3), the shape's axes in the body's (row-major 3x3) and its
 // centre from the CG (3, body axes, m), the hull's vertex count; then the
 // hull's vertices (3 each, shape axes, m). Cylinders and capsules lie along

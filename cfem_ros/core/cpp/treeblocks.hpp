@@ -5,7 +5,7 @@
 // header): a joint's free motions, the elimination of one, the shift of an articulated
 // inertia to the parent and the descent of an acceleration to the child, as small
 // straight-line functions on fixed-size blocks (Pinocchio's aba.hxx works on its 6x6
-// Inertia and Motion objects the same way). Internal linkage, as they had in solve.cpp:
+// Inertia and Motion objects the same way). Internal linkage, as before the solve was split by stage:
 // the compiler inlines them into the passes as it did, so the numbers stay the same bits.
 #pragma once
 

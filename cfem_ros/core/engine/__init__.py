@@ -3,15 +3,15 @@
 """
 The engine: a model in time, in RK4 steps of the compiled core, with its releases.
 
-Modules: ``simulator`` (``Simulator``: time and the step loop), the face of
-the compiled core ``cfem_ros.core._kernel`` (``kernel``, and ``kernelcalls``
-for the simulator's two calls), ``bodies`` (the initial state and the mass
-table), ``topology`` (the rows of the active joints and their solve plan),
-``dynamics`` (the equations of motion), ``releases`` and ``groups`` (release
-triggers, groups and events), ``loads``, ``ties``, ``strokes``, ``aeropack``
-and ``contacts`` (applied loads, ejectors, aero tables and shapes packed for
-the kernel), ``braces`` (sway braces), ``aero`` and ``atmosphere`` (the air
-each body sees, the events of leaving a table, the ISA as the kernel computes
-it), ``motion`` and ``carrier`` (kinematic bodies), ``sampling`` (what a
-sample shows) and ``roots`` (Brent's method).
+Modules: ``simulator`` (``Simulator``: time and the step loop),
+``kernelcalls`` (the simulator's two calls of the compiled core, whose face
+is ``cfem_ros.core.native.kernel``), ``bodies`` (the initial state and the
+mass table), ``topology`` (the rows of the active joints and their solve
+plan), ``dynamics`` (the equations of motion), ``releases`` and ``groups``
+(release triggers, groups and events), ``loads``, ``ties``, ``strokes`` and
+``aeropack`` (applied loads, ejectors and aero tables packed for the kernel;
+shapes are packed by ``cfem_ros.core.native.contacts``), ``braces`` (sway
+braces), ``aero`` (the air each body sees, the events of leaving a table),
+``carrier`` (kinematic bodies; their trajectories are
+``cfem_ros.core.native.motion``) and ``sampling`` (what a sample shows).
 """

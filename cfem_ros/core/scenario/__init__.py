@@ -8,6 +8,6 @@ scenario's document, section by section, to a ``Model``), ``checker`` (the
 typed accessors every section parser reports through, and the limits),
 one module per section (``bodies`` with ``motiontable``, ``joints`` with the
 release groups, ``wrenches``, ``contacts``, ``braces``, ``aeroparse``: the
-``aero`` section's tables, air, atmosphere and proximity grids) and
+aero section's tables, air, atmosphere and proximity grids) and
 ``cgoffset`` (a body's CG away from its nominal place).
 """
