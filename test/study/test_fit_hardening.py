@@ -268,3 +268,17 @@ def test_a_parameter_without_bounds_is_written_and_predicted_from(flight, tmp_pa
                      '--draws', '10', '--threads', '2']) == 0
     summary = json.loads((tmp_path / 'next' / 'prediction.json').read_text())
     assert summary['parameters']['wrenches[1].force[2]']['outside_bounds'] == 0
+
+
+@pytest.mark.parametrize('sigma, key, words', [
+    ({'position': 1e-300, 'attitude_deg': 0.3}, 'position', 'from 1e-09 to 10 m'),
+    ({'position': 1e300, 'attitude_deg': 0.3}, 'position', 'from 1e-09 to 10 m'),
+    ({'position': 0.005, 'attitude_deg': 1e-300}, 'attitude_deg', 'from 1e-09 to 90 deg'),
+    ({'position': 0.005, 'attitude_deg': 720}, 'attitude_deg', 'from 1e-09 to 90 deg'),
+])
+def test_a_sigma_no_measurement_has_is_refused(flight, tmp_path, capsys, sigma, key, words):
+    # 1e-300 made the residuals infinite (a traceback inside the optimiser); 1e300 made
+    # every parameter "not determined: the poses do not change with it", which is false
+    measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
+    fit = ff.fit_file(tmp_path, flight[1], dict(ff.measured_entry(measured), sigma=sigma), AFT)
+    _refused(capsys, fit, tmp_path / 'out', f': measured.sigma.{key}: ', words)

@@ -120,7 +120,12 @@ class FlightFit:
         error_position = (position - data.position) / flight.sigma_position
         error_attitude = ((data.attitude.inv() * attitude).as_rotvec(degrees=True)
                           / flight.sigma_attitude_deg)
-        return np.hstack([error_position, error_attitude]).ravel()
+        out = np.hstack([error_position, error_attitude]).ravel()
+        if not np.all(np.isfinite(out)):   # a run whose poses overflowed: no residual
+            raise FitError(self.spec.path, 'parameters', f'a run ({run.status}) gives poses '
+                           f'of {flight.body} that are not finite in the window of '
+                           f'{flight.key}', 'bounds within which the run stays finite')
+        return out
 
     def evaluate(self, values) -> np.ndarray:
         """Run at values and return the weighted residuals."""

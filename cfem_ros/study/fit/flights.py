@@ -29,6 +29,11 @@ from cfem_ros.study.keypaths import format_key_path, parse_key_path, resolve
 MEASURED_KEYS = ('file', 'topic', 'body', 'relative_to', 'inputs', 'window', 'sigma',
                  'odometry', 'scenario', 'set')
 SIGMA_KEYS = ('position', 'attitude_deg')
+#: The measurement noise a fit takes, (least, largest) per key (m; deg): below the least
+#: the weighted residuals overflow (1e-300 made them infinite: a traceback); above the
+#: largest the poses of a store leaving its carrier (a few metres and tens of degrees in
+#: the window) weigh nothing, and a parameter would be "not determined" for a wrong reason.
+SIGMA_RANGE = {'position': (1e-9, 10.0), 'attitude_deg': (1e-9, 90.0)}
 WINDOW_END = 'a time (s), or {release: JOINT or RELEASE_GROUP, delay: s}'
 
 
@@ -166,6 +171,11 @@ def _flight(fail, path: str, key: str, measured, scenario: tuple) -> Flight:
     for name in SIGMA_KEYS:
         if not finite_number(sigma[name]) or sigma[name] <= 0:
             fail(f'{key}.sigma.{name}', f'is {show(sigma[name])}', 'a number > 0')
+        least, largest = SIGMA_RANGE[name]
+        if not least <= sigma[name] <= largest:
+            unit = 'm' if name == 'position' else 'deg'
+            fail(f'{key}.sigma.{name}', f'is {show(sigma[name])}', f'the measurement noise '
+                 f'(1 sigma), from {least:g} to {largest:g} {unit}')
     return Flight(key=key, scenario=file, document=document, measured_file=measured_file,
                   topic=topic, body=body, relative_to=relative_to, inputs=inputs,
                   odometry=odometry, start=start, end=end,
