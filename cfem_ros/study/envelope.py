@@ -17,6 +17,7 @@ one-sided bound and, with a ``target``, its decision (section 9);
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import itertools
 import json
@@ -266,16 +267,32 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
     undecided with a target, ``no_target`` without. A point whose
     rare-event method fails (``MethodFailed``: no design point where every
     run fails, say) gets no estimate (NaN), ``undecided`` and a ``note``
-    saying why; the others go on. ``log`` gets a line
-    per point done (and a rare-event method's lines); ``progress(k)``, if
+    saying why; the others go on. Monte Carlo on a Dask client submits
+    every point's runs at once (``_run_together``); otherwise the points run
+    one after the other. ``log`` gets a line per point done, in the order
+    they finish (and a rare-event method's lines); ``progress(k)``, if
     given, returns the callable that point k's Monte Carlo runs report to.
     ``options`` go to ``run_point``.
     """
     import pandas as pd
     from cfem_ros.study.sweep import write_atomic
     write_manifest(envelope, outdir, method)
-    rows = []
-    for k in range(len(envelope.points)):
+    rows = {}
+    count = len(envelope.points)
+
+    def done(k, estimate, table):
+        # a run that failed (singular or diverging) fails every criterion; said apart
+        unfinished = int((table['status'] == 'failed').sum())
+        rows[k] = row(envelope, k, estimate, outdir, unfinished)
+        if log is not None:
+            log(f'point {k + 1}/{count} ({describe_point(envelope, k)}): P(fail) '
+                f'{rows[k]["probability"]:.3g} over {rows[k]["runs"]} runs, '
+                f'{rows[k]["decision"].replace("_", " ")}')
+    if method == 'mc' and client is not None:   # every condition's runs on the cluster at once
+        _run_together(envelope, outdir, client, progress, done)
+    for k in range(count):
+        if k in rows:
+            continue
         where = describe_point(envelope, k)
         try:
             estimate, table = run_point(
@@ -284,20 +301,63 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
                 log=None if log is None else (lambda line, w=where: log(f'{w}: {line}')),
                 **options)
         except MethodFailed as err:   # a condition the method cannot answer: said, not guessed
-            rows.append(unanswered(envelope, k, method, str(err), outdir))
+            rows[k] = unanswered(envelope, k, method, str(err), outdir)
             if log is not None:
-                log(f'point {k + 1}/{len(envelope.points)} ({where}): no estimate ({err})')
+                log(f'point {k + 1}/{count} ({where}): no estimate ({err})')
             continue
-        # a run that failed (singular or diverging) fails every criterion; said apart
-        unfinished = int((table['status'] == 'failed').sum())
-        rows.append(row(envelope, k, estimate, outdir, unfinished))
-        if log is not None:
-            log(f'point {k + 1}/{len(envelope.points)} ({where}): P(fail) '
-                f'{rows[-1]["probability"]:.3g} over {rows[-1]["runs"]} runs, '
-                f'{rows[-1]["decision"].replace("_", " ")}')
-    table = pd.DataFrame(rows, columns=list(envelope.axes) + list(COLUMNS))
+        done(k, estimate, table)
+    table = pd.DataFrame([rows[k] for k in range(count)],
+                         columns=list(envelope.axes) + list(COLUMNS))
     write_atomic(table, os.path.join(outdir, ENVELOPE))
     return table
+
+
+def _run_together(envelope: Envelope, outdir: str, client, progress, done):
+    """
+    Run the Monte Carlo runs of every point on Dask at once; done(k, estimate, table) each.
+
+    The points' tasks are submitted together, so that a cluster larger than
+    a point's runs is kept busy; each point's folder is gathered (as
+    ``Sweep.run`` gathers it) once its own tasks are done, in the order
+    they finish. A point whose runs could not be written (a full disk) is
+    left to resume, and the first such failure raised once all are done.
+    """
+    from dask.distributed import as_completed
+    from cfem_ros.study import methods
+    from cfem_ros.study.reliability import mc_estimate
+    from cfem_ros.study.resources import ResourceFailure
+    from cfem_ros.study.sweep import assemble, Sweep, task_done
+    sweeps = [Sweep(envelope.point_spec(k)) for k in range(len(envelope.points))]
+    owner = {}
+    for k, sweep in enumerate(sweeps):
+        owner.update({f: k for f in sweep.submit(client, point_folder(outdir, k))})
+    left = collections.Counter(owner.values())
+    failures, failed = [], set()
+
+    def finish(k):
+        folder = point_folder(outdir, k)
+        table = assemble(sweeps[k].spec, folder)
+        estimate = mc_estimate(sweeps[k].spec, table)
+        methods.write_estimate(folder, estimate, sweeps[k].spec.target)
+        done(k, estimate, table)
+    for k in range(len(sweeps)):
+        if not left[k]:   # every run saved before: read back
+            finish(k)
+    try:
+        for future in as_completed(list(owner)):
+            k = owner[future]
+            before = len(failures)
+            task_done(future.result(), None if progress is None else progress(k), failures)
+            if len(failures) > before:
+                failed.add(k)
+            left[k] -= 1
+            if not left[k] and k not in failed:
+                finish(k)
+    finally:
+        for future in owner:
+            future.cancel()
+    if failures:   # the runs written are saved; those not are done again on resume
+        raise ResourceFailure(failures[0])
 
 
 def describe_point(envelope: Envelope, k: int) -> str:

@@ -305,22 +305,18 @@ class Sweep:
             with tempfile.TemporaryDirectory(prefix='cfem-sweep-') as tmp:
                 return self.run(client, tmp, record=record, csv=csv, progress=progress,
                                 threads=threads)
-        todo = prepare(self.spec, outdir, record)
-        if todo:
-            warn_once(self.spec)
         failures = []
         if client is None:
+            todo = prepare(self.spec, outdir, record)
+            if todo:
+                warn_once(self.spec)
             threads = threads or os.cpu_count() or 1
             for runs in groups(todo, 1):
                 task_done(run_task(self.spec, runs, outdir, record, threads), progress,
                           failures)
         else:
             from dask.distributed import as_completed
-            workers = max(1, len(client.scheduler_info().get('workers', {})))
-            # each task carries its own runs' values (no shared data to lose with a worker)
-            futures = [client.submit(run_task, _part_of(self.spec, runs), runs, outdir,
-                                     record, threads or 1, pure=False, retries=2)
-                       for runs in groups(todo, workers)]
+            futures = self.submit(client, outdir, record=record, threads=threads)
             try:
                 for future in as_completed(futures):
                     task_done(future.result(), progress, failures)
@@ -330,3 +326,21 @@ class Sweep:
         if failures:   # the runs written are saved; those not are done again on resume
             raise ResourceFailure(failures[0])
         return assemble(self.spec, outdir, csv=csv)
+
+    def submit(self, client, outdir: str, *, record: str = 'none',
+               threads: Optional[int] = None) -> list:
+        """
+        Make or reopen the sweep folder and submit its runs not yet done to Dask.
+
+        Return the futures, each of ``run_task``'s result; ``task_done``
+        takes them, ``assemble`` gathers the folder once all are (what
+        ``run`` does; an envelope submits its conditions' runs together).
+        """
+        todo = prepare(self.spec, outdir, record)
+        if todo:
+            warn_once(self.spec)
+        workers = max(1, len(client.scheduler_info().get('workers', {})))
+        # each task carries its own runs' values (no shared data to lose with a worker)
+        return [client.submit(run_task, _part_of(self.spec, runs), runs, outdir, record,
+                              threads or 1, pure=False, retries=2)
+                for runs in groups(todo, workers)]

@@ -186,10 +186,14 @@ def test_cfem_sim_envelope_runs_resumes_and_reports(tmp_path, capsys):
             '--workers', '1']
     assert cli.main(args) == 0
     said = capsys.readouterr()
-    assert 'point 4/4 (flight.mach = 0.9, flight.load_factor = 3)' in said.err
+    for k, where in enumerate(('0.6, flight.load_factor = 1', '0.6, flight.load_factor = 3',
+                               '0.9, flight.load_factor = 1', '0.9, flight.load_factor = 3')):
+        assert f'point {k + 1}/4 (flight.mach = {where})' in said.err
     assert 'envelope: 8/8 runs, 0 failed' in said.err   # one progress line for all
     assert os.path.getsize(os.path.join(out, 'envelope.png')) > 10_000
     first = pd.read_parquet(os.path.join(out, 'envelope.parquet'))
+    here = envelope.run_envelope(envelope.load_envelope(path, AXES), str(tmp_path / 'here'))
+    pd.testing.assert_frame_equal(first, here)   # the points at once on Dask: the same table
     assert cli.main(args) == 0
     assert '4 conditions (flight.mach x flight.load_factor), 2 runs each (mc), 4 already ' \
         'in' in capsys.readouterr().err
