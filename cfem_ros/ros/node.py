@@ -197,7 +197,7 @@ class CfemNode(Node):
 
     @property
     def recording(self) -> Optional[NodeRecording]:
-        """Return the node's recording (None when not recording, or once finished)."""
+        """Return the node's recording; None when it records nothing, or once finished."""
         return self.run.recording
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:

@@ -161,6 +161,8 @@ class RunControl:
 
         position (m), quaternion x y z w (body to world, normalized here),
         CG velocity and angular velocity (rad/s), all in the world frame.
+        The simulator then watches on from there (``Simulator.set_state``, as a
+        batch copy's initial state): strokes, contacts and aero tables.
         ControlError (or LookupError for an unknown body) if it cannot be.
         """
         if not self.paused:
@@ -197,7 +199,7 @@ class RunControl:
             raise ValueError('at that state the accelerations are not finite (loads such as '
                              'the aerodynamic ones beyond double precision at that speed); '
                              'expected a state the run can go on from; nothing changed')
-        sim.y[:] = y
+        sim.set_state(y)   # strokes, contacts and aero watched from there, as a batch copy
         self.announce({'event': 'set_state', 'time': sim.t, 'body': name})
 
     # ---------------------------------------------------------------- events

@@ -112,6 +112,46 @@ class Simulator(Dynamics):
         self._aero = AeroWatch(model, self._scheduled.array, self.n + self._scheduled.count)
         self._aero_events(self._aero.arm(self.y, self.t))
 
+    def set_state(self, y, *, start: bool = False):
+        """
+        Put the bodies at state y now, and watch on from there as from a start.
+
+        The one way to set the state (a batch copy's initial state, the
+        node's ``set_entity_state``): the wrenches on measure their strokes
+        from y; the braces' pads in contact at y, and the contact pairs
+        apart at y, are watched (``ScheduledLoads.arm``); where each body is
+        on its aero tables is taken from y, an axis outside there being an
+        event now (``AeroWatch.arm``), which stops the run if its table says so.
+
+        Parameters
+        ----------
+        y : array_like, shape (13 n,)
+            The state (module docstring); its velocities are used as given.
+        start : bool
+            y replaces the scenario's initial state (t = 0, no step taken):
+            the aero events told of the scenario's own state are dropped. A
+            run under way keeps its events, which outputs have taken.
+
+        Raises
+        ------
+        ValueError
+            If y is not of shape (13 n,), or start is asked after a step.
+
+        """
+        y = np.array(y, dtype=float)
+        if y.shape != self.y.shape:
+            raise ValueError(f'the state has shape {y.shape}; expected {self.y.shape} '
+                             f'(13 numbers per body, {self.n} bodies)')
+        if start and self.steps:
+            raise ValueError(f'start: the run has taken {self.steps} steps (t = {self.t:.9g} '
+                             's); expected a state set before the first step')
+        self.y = y
+        self._scheduled.reanchor(self.y)   # strokes measured from here
+        self._scheduled.arm(self.y)        # contact pairs apart here are watched
+        if start:   # the scenario's initial state is not this run's: what it told goes
+            self.events[:] = [e for e in self.events if not e['event'].startswith('aero_')]
+        self._aero_events(self._aero.arm(self.y, self.t))
+
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
         self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)

@@ -70,12 +70,7 @@ def _copy(model, spec: dict, duration: float) -> Result:
         y0 = np.asarray(spec['y0'], dtype=float)
         if y0.shape != sim.y.shape:
             raise ValueError(f'y0 has shape {y0.shape}; expected {sim.y.shape}')
-        sim.y = y0.copy()
-        sim._scheduled.reanchor(sim.y)   # strokes measured from the copy's own start
-        sim._scheduled.arm(sim.y)        # contact pairs apart there are watched
-        # where it is on its aero tables: told again from this state
-        sim.events[:] = [e for e in sim.events if not e['event'].startswith('aero_')]
-        sim._aero_events(sim._aero.arm(sim.y, sim.t))
+        sim.set_state(y0, start=True)   # strokes, contacts and aero watched from there
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
     ok = sim.advance_to(duration)
