@@ -106,12 +106,15 @@ def predict_command(args: argparse.Namespace) -> int:
     """Predict the next point from a fit's parameters and covariance (SPEC 13); exit 0-2."""
     import os
     from cfem_ros.study.fit.outputs import folder_problem
-    from cfem_ros.study.fit.predict import Prediction, read_fitted, read_next
+    from cfem_ros.study.fit.predict import MOST_DRAWS, Prediction, read_fitted, read_next
     from cfem_ros.study.fit.predictout import NAMES, write_prediction
     for name, value, least in (('--draws', args.draws, 2), ('--threads', args.threads, 1),
                                ('--seed', args.seed, 0)):
         if value is not None and value < least:
             return error(f'{name}: is {value}; expected a whole number >= {least}')
+    if args.draws > MOST_DRAWS:
+        return error(f'--draws: is {args.draws}; expected at most {MOST_DRAWS:,} (the 5 % and '
+                     "95 % lines are within 0.4 % of the band's half-width there)")
     try:
         fitted = read_fitted(args.fit_folder)
         nxt = read_next(args.next)

@@ -282,3 +282,19 @@ def test_a_sigma_no_measurement_has_is_refused(flight, tmp_path, capsys, sigma, 
     measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
     fit = ff.fit_file(tmp_path, flight[1], dict(ff.measured_entry(measured), sigma=sigma), AFT)
     _refused(capsys, fit, tmp_path / 'out', f': measured.sigma.{key}: ', words)
+
+
+def test_a_key_path_set_by_a_flight_and_fitted_is_refused(flight, tmp_path, capsys):
+    # the flight's value was silently overwritten by the fitted one
+    measured = ff.csv(tmp_path / 'poses.csv', *flight[2])
+    entry = ff.measured_entry(measured, set={'wrenches[1].force[02]': 40000.0})
+    fit = ff.fit_file(tmp_path, flight[1], [entry], AFT)
+    _refused(capsys, fit, tmp_path / 'out', ': parameters.wrenches[1].force[2]: ',
+             'is also set by measured[0].set (wrenches[1].force[02]: 40000.0)')
+
+
+def test_predict_refuses_more_draws_than_it_keeps(tmp_path, capsys):
+    assert cli.main(['predict', str(tmp_path), 'next.yaml', '-o', str(tmp_path / 'out'),
+                     '--draws', '1000000000']) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ERROR: --draws: is 1000000000; expected at most 100,000')

@@ -45,8 +45,9 @@ import numpy as np
 
 #: The runs of a prediction log here (a replayed input refused is said once per run otherwise).
 LOG = logging.getLogger('cfem_ros.predict.runs')
-#: Draws of the fitted parameters by default.
+#: Draws of the fitted parameters by default, and at most (every draw's poses are kept).
 DRAWS = 200
+MOST_DRAWS = 100_000
 #: The band's quantiles (%).
 QUANTILES = (5.0, 50.0, 95.0)
 #: The runs the band is made of: those that ran (to the end, or stopped by a contact or an
@@ -353,5 +354,5 @@ def pass_fraction(table, criteria, confidence: float) -> dict:
     return out
 
 
-__all__ = ['DRAWS', 'Fitted', 'NextPoint', 'Prediction', 'PredictionResult', 'QUANTILES',
-           'QUANTITIES', 'read_fitted', 'read_next']
+__all__ = ['DRAWS', 'Fitted', 'MOST_DRAWS', 'NextPoint', 'Prediction', 'PredictionResult',
+           'QUANTILES', 'QUANTITIES', 'read_fitted', 'read_next']

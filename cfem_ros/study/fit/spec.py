@@ -149,6 +149,16 @@ def _parameters(fail, parameters, flights) -> list:
             fail(key, f'is {canonical}, as parameters.{seen[canonical]} is',
                  'each key path once')
         seen[canonical] = path
+        for flight in flights:   # a flight's condition is not also a fitted value
+            for name in flight.settings:
+                try:
+                    fixed = format_key_path(parse_key_path(name))
+                except ValueError:
+                    continue
+                if fixed == canonical:
+                    fail(key, f'is also set by {flight.key}.set ({name}: '
+                         f'{show(flight.settings[name])})', 'a key path fitted, or set per '
+                         'flight, not both')
         value = None
         for flight in flights:
             try:
