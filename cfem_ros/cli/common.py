@@ -44,9 +44,9 @@ def vec(values, fmt='{:+.6g}') -> str:
 
 
 def cannot_start(scenario: str, errors: list) -> str:
-    """Return the error line of a scenario that check and run both refuse."""
-    more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
-    return f'{scenario}: cannot start: {errors[0]}{more}'
+    """Return the error line of a scenario that check, run and the node refuse (``startcheck``)."""
+    from cfem_ros.core.run import startcheck   # the engine, imported when a run is made
+    return startcheck.cannot_start(scenario, errors)
 
 
 def contact_parts(event: dict) -> str:

@@ -29,6 +29,7 @@ from typing import Optional
 
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import CfemError
+from cfem_ros.core.run.startcheck import cannot_start, start_problems
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import OutputError
@@ -156,6 +157,11 @@ class CfemNode(Node):
             sim = Simulator(model, logger=python_log)
         except CfemError as err:
             raise StartupError(str(err)) from None
+        errors, warnings = start_problems(sim)   # what cfem-sim check refuses, in its words
+        if errors:
+            raise StartupError(cannot_start(values['scenario'], errors))
+        for text in warnings:
+            self.get_logger().warning(f"{values['scenario']}: {text}")
 
         self.stepping = Stepping(self)   # /clock, subscribed before the inputs
         # topics first: a name ROS refuses stops the node before a file is made

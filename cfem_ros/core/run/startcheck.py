@@ -21,7 +21,7 @@ import math
 from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
 import numpy as np
 
-__all__ = ['RK4_STABILITY', 'start_problems']
+__all__ = ['cannot_start', 'RK4_STABILITY', 'start_problems']
 
 #: Explicit RK4 on y' = -k y is stable for k dt up to about 2.785; beyond it
 #: the run diverges. A spin of w rad/s asks for w dt well under 1 rad.
@@ -181,6 +181,12 @@ def start_problems(sim) -> tuple:
                       'inertias or rates (a table value, a coefficient) whose products go '
                       'beyond double precision within a step; expected realistic values')
     return errors, warnings
+
+
+def cannot_start(scenario: str, errors: list) -> str:
+    """Return the one line of a scenario ``start_problems`` refuses (check, run, the node)."""
+    more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
+    return f'{scenario}: cannot start: {errors[0]}{more}'
 
 
 def _stops_at_start(message: str) -> str:
