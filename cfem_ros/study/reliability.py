@@ -255,7 +255,7 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
          repeat) -> Estimate:
     """Run one method on the limit state; return its estimate, bounds and tail check."""
     from cfem_ros.study import samplers
-    from cfem_ros.study.bounds import student_bounds
+    from cfem_ros.study.bounds import lognormal_bounds, student_bounds
     level = spec.confidence
 
     def margins_of(points):
@@ -285,9 +285,12 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
 
     if method not in ('subset', 'nais', 'form'):
         raise ValueError(f'method is {method!r}; expected one of mc, subset, nais, form')
+    bounds = lognormal_bounds if method == 'subset' else student_bounds
     found = sample(joint, spec.seed)
-    b = student_bounds(found.replicates, level, found.failed)
-    how = {'subset': f'{len(found.replicates)} independent repetitions',
+    b = bounds(found.replicates, level, found.failed)
+    lognormal = method == 'subset' and bool((found.replicates > 0).all())
+    how = {'subset': f'{len(found.replicates)} independent repetitions'
+                     + (' (bounds of a lognormal mean)' if lognormal else ''),
            'nais': f'{len(found.replicates)} batches of the weighted estimator',
            'form': f'{len(found.replicates)} independent importance-sampling batches'}
     result = Estimate(b.probability, b.cov, b.ci_low, b.ci_high, 0, method, level,
@@ -306,7 +309,7 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
         # the method is run again on the heavier-tailed inputs, its own seeds
         evaluate.log('tail check: the same method on the heavier-tailed inputs')
         heavy = sample(distribution(spec, heavier=True), samplers.seeds(spec.seed, 2)[1])
-        h = student_bounds(heavy.replicates, level, heavy.failed)
+        h = bounds(heavy.replicates, level, heavy.failed)
         tail = Tail(h.probability, h.p_upper, '' if math.isfinite(h.p_upper) else
                     f'{heavy.failed} failed runs: too few for a bound')
     _tail(result, tail, spec)

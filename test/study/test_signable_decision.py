@@ -307,3 +307,24 @@ def test_a_subset_repetition_openturns_cannot_finish_is_run_with_a_spare_seed():
     assert (found.replicates > 0).all() and found.failed > 0
     if ot.__version__.startswith('1.27'):   # where the case was found
         assert len(said) == 1 and 'negative variance estimate' in said[0], said
+
+
+@pytest.mark.parametrize('sigma', [0.3, 0.8])
+def test_subset_s_bound_of_a_lognormal_mean_holds_it_at_its_rate_with_5_repetitions(sigma):
+    """Repetitions skewed as subset simulation's: Student-t's bound falls short, this not."""
+    from cfem_ros.study.bounds import lognormal_bounds
+    rng = np.random.default_rng(4)
+    mean = 1e-6 * math.exp(sigma ** 2 / 2)
+    draws = 1000
+    held = plain = 0
+    for _ in range(draws):
+        replicates = 1e-6 * np.exp(sigma * rng.standard_normal(5))
+        found = lognormal_bounds(replicates, 0.95)
+        assert found.probability == pytest.approx(replicates.mean())
+        assert found.p_lower <= found.p_upper and found.ci_low <= found.ci_high
+        held += found.p_upper >= mean
+        plain += student_bounds(replicates, 0.95).p_upper >= mean
+    low, high = stats.binom.ppf(1e-3, draws, 0.95), stats.binom.isf(1e-3, draws, 0.95)
+    assert low <= held <= high, held
+    if sigma > 0.5:
+        assert plain < low, plain   # why: Student-t's bound of 5 skewed values is too low
