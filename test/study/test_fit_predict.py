@@ -228,3 +228,30 @@ def test_draws_the_scenario_refuses_are_counted_and_said(fitted, tmp_path, capsy
     assert summary['parameters']['bodies.store.mass']['outside_bounds'] == int(
         (draws['bodies.store.mass'] < 100).sum() + (draws['bodies.store.mass'] > 5000).sum())
     assert f'draws not run to the end: {int(refused.sum())} invalid' in said
+
+
+def test_draws_stopped_by_a_contact_end_the_band_where_they_stop(fitted, tmp_path, capsys):
+    # a deck 0.5 m below the store: every run stops at contact, stronger ejectors sooner
+    folder, fit_folder, _ = fitted
+    scenario = ff.with_settings(ff.EJECTED, HELD_OUT)
+    scenario['bodies']['store']['shape'] = {'capsule': [0.1, 1.0]}
+    scenario['bodies']['deck'] = {'fixed': True, 'position': [0, 0, 0.75],
+                                  'shape': {'box': [4.0, 4.0, 0.2]}}
+    scenario['contacts'] = [{'bodies': ['store', 'deck'], 'on_contact': 'stop'}]
+    nxt = ff.write(tmp_path / 'deck.yaml', scenario)
+    out = tmp_path / 'out'
+    assert cli.main(['predict', str(fit_folder), nxt, '-o', str(out), '--draws', '40',
+                     '--threads', '2']) == 0
+    said = capsys.readouterr().out
+    draws = pd.read_parquet(out / 'draws.parquet')
+    band = pd.read_parquet(out / 'band.parquet')
+    summary = json.loads((out / 'prediction.json').read_text())
+    assert (draws['status'] == 'contact').all()
+    assert band['time'].iloc[-1] == pytest.approx(0.2)   # the scenario's samples to its end
+    assert band['draws'].iloc[0] == 40 and band['draws'].iloc[-1] == 0
+    assert np.all(np.diff(band['draws']) <= 0)             # draws leave as they touch
+    end = summary['time']
+    assert 0 < end < 0.2 and summary['draws_at_end'] >= 1
+    assert band.loc[band['time'] > end + 1e-9, 'store_z_median'].isna().all()
+    assert 'draws not run to the end: 40 contact' in said
+    assert f'store relative to pylon at {end:.6g} s' in said

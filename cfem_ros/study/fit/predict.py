@@ -197,6 +197,12 @@ class PredictionResult:
     release: Optional[float]    # s, the fitted run's first release (None if none)
     passes: Optional[dict] = None   # criteria: {'passed', 'runs', 'fraction', 'interval'}
 
+    @property
+    def end(self) -> int:
+        """Return the index of the last sample time that a draw reached (-1 if none did)."""
+        reached = np.flatnonzero(self.counted)
+        return int(reached[-1]) if reached.size else -1
+
 
 class Prediction:
     """
@@ -220,7 +226,9 @@ class Prediction:
         self.fitted, self.next = fitted, nxt
         self.inputs, self.interpolate = list(inputs), interpolate_odometry
         self.threads = max(1, threads)
-        names = [b.name for b in parse_scenario(nxt.document, source=nxt.scenario).bodies]
+        model = parse_scenario(nxt.document, source=nxt.scenario)
+        self.duration = model.duration
+        names = [b.name for b in model.bodies]
         for key, name in (('body', fitted.body), ('relative_to', fitted.relative_to)):
             if name not in names and not (key == 'relative_to' and name == nxt.document.get(
                     'frame_id', 'world')):
@@ -256,10 +264,10 @@ class Prediction:
             row.update(status='failed', message=f'{type(err).__name__}: {err}',
                        **empty(self.next.metrics))
             return row, None, None, {}
-        if session.failed or sim.status not in ('running', 'contact', 'aero_outside'):
-            row.update(status='failed', message=f'the run failed {sim.message}')
-        elif sim.status != 'running':
+        if sim.status in ('contact', 'aero_outside'):   # stopped as the scenario asks
             row.update(status=sim.status, message=sim.message)
+        elif session.failed or sim.status != 'running':
+            row.update(status='failed', message=f'the run failed {sim.message}')
         times, poses = self._poses(samples)
         releases = {}
         for t, joint, _ in samples.releases:
@@ -285,11 +293,15 @@ class Prediction:
         import pandas as pd
         seed = self.next.seed if seed is None else seed
         draws = self.fitted.draws(count, seed)
-        row, time, fitted, releases = self.run_one(self.fitted.values)
-        if fitted is None or row['status'] != 'ok':
+        row, times, poses, releases = self.run_one(self.fitted.values)
+        if poses is None or row['status'] not in BANDED:
             raise FitError(self.next.scenario, 'parameters', f'the run at the fitted values '
                            f'is {row["status"]}: {row["message"]}', 'a next point that runs '
                            'at the fitted values')
+        # a contact may stop the fitted run early and a draw later: the band's times are
+        # the scenario's samples to its end, each draw's past its own end left out
+        time = _grid(times, self.duration, self.next.rate_hz)
+        fitted = _on(time, times, poses)
         with ThreadPoolExecutor(max_workers=self.threads) as pool:
             runs = list(pool.map(self.run_one, draws))
         rows, tracks = [], np.full((count, len(time), 6), np.nan)
@@ -319,6 +331,15 @@ def _with_values(document: dict, paths, values) -> dict:
         container, last, _, _ = resolve(out, parse_key_path(key))
         container[last] = float(value)
     return out
+
+
+def _grid(times: np.ndarray, duration: float, rate: float) -> np.ndarray:
+    """Return a run's sample times, continued at the rate to the duration if it ended early."""
+    if times[-1] >= duration - 1e-9:
+        return times
+    first = int(np.floor(times[-1] * rate + 1e-9)) + 1
+    last = int(np.floor(duration * rate + 1e-9))
+    return np.concatenate([times, np.arange(first, last + 1) / rate])
 
 
 def _on(time: np.ndarray, times: np.ndarray, poses: np.ndarray) -> np.ndarray:

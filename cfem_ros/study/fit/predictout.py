@@ -69,12 +69,12 @@ def band_table(fitted: Fitted, result: PredictionResult):
 def prediction_json(fitted: Fitted, nxt, result: PredictionResult, seed: int) -> dict:
     """Return the content of ``prediction.json``."""
     table = result.table
-    last = {}
+    last, end = {}, result.end
     for q, (name, unit) in enumerate(QUANTITIES):
-        last[name] = {'p05': _number(result.band[0][-1, q]),
-                      'median': _number(result.band[1][-1, q]),
-                      'p95': _number(result.band[2][-1, q]),
-                      'fitted': _number(result.fitted[-1, q]), 'unit': unit}
+        last[name] = {'p05': _number(result.band[0][end, q]),
+                      'median': _number(result.band[1][end, q]),
+                      'p95': _number(result.band[2][end, q]),
+                      'fitted': _number(result.fitted[end, q]), 'unit': unit}
     parameters = {}
     for j, key in enumerate(fitted.paths):
         error = math.sqrt(fitted.covariance[j, j]) if fitted.determined[j] else math.nan
@@ -92,7 +92,8 @@ def prediction_json(fitted: Fitted, nxt, result: PredictionResult, seed: int) ->
             'quantile_uncertainty': quantile_uncertainty(int(len(table))),
             'parameters': parameters,
             'status': {str(k): int(v) for k, v in table['status'].value_counts().items()},
-            'release': result.release, 'time': float(result.time[-1]), 'at_end': last,
+            'release': result.release, 'time': float(result.time[end]),
+            'draws_at_end': int(result.counted[end]), 'at_end': last,
             'criteria': result.passes}
 
 
@@ -134,16 +135,17 @@ def notes(fitted: Fitted, result: PredictionResult, summary: dict) -> list:
 
 def sentence(fitted: Fitted, result: PredictionResult) -> str:
     """Return the prediction at the last sample and the criteria's pass fraction."""
-    t = result.time[-1]
+    end = result.end
+    t = result.time[end]
     after = result.release is not None
     when = f'{t:.6g} s' + (f' ({t - result.release:.6g} s after release)' if after else '')
     parts = []
     for q, (name, unit) in enumerate(QUANTITIES):
-        low, median, high = (result.band[k][-1, q] for k in range(3))
+        low, median, high = (result.band[k][end, q] for k in range(3))
         parts.append(f'{name.replace("_deg", "")} {median:.4g} {unit} '
                      f'(5-95 %: {low:.4g} to {high:.4g})')
     text = (f'{fitted.body} relative to {fitted.relative_to} at {when}, median of '
-            f'{int(result.counted[-1])} draws: ' + ', '.join(parts))
+            f'{int(result.counted[end])} draws: ' + ', '.join(parts))
     if result.passes:
         p = result.passes
         text += (f'\ncriteria passed by {p["passed"]} of {p["runs"]} draws '
