@@ -222,6 +222,10 @@ def test_profile_on_the_command_line_writes_and_prints_the_intervals(flight, tmp
         assert high == pytest.approx(entry['value'] + half, abs=0.1 * half)
         shown.append(f"{entry['name']} [{low:.6g}, {high:.6g}] N")
     assert 'profile-likelihood intervals (0.9): ' + ', '.join(shown) in said
+    # the profile's refits are runs too: more than the fit alone makes
+    assert cli.main(['fit', path, '-o', str(tmp_path / 'plain'), '--threads', '2']) == 0
+    plain = json.loads((tmp_path / 'plain' / 'fit.json').read_text())
+    assert found['runs'] > plain['runs'] and f"({found['status']}, {found['runs']} runs)" in said
 
 
 def test_area_and_altitude_of_the_aero_tables_are_named_interchangeable(tmp_path, capsys):

@@ -47,4 +47,5 @@ def fit_file(path: str, threads: Optional[int] = None, profile: bool = False,
     if profile:
         from cfem_ros.study.fit.likelihood import profile_intervals
         result.intervals = profile_intervals(fit, result)
+        result.runs = fit.runs   # the profile's refits counted with the fit's runs
     return fit, result
