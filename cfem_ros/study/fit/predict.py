@@ -190,7 +190,7 @@ class PredictionResult:
     """The draws' table, the band and what they say."""
 
     table: 'pandas.DataFrame'   # noqa: F821 (one row per draw)
-    time: np.ndarray            # s, the fitted run's samples
+    time: np.ndarray            # s, the fitted run's samples (on at the rate to the end)
     fitted: np.ndarray          # (n, 6) the run at the fitted values
     band: np.ndarray            # (3, n, 6) quantiles QUANTILES over the draws
     counted: np.ndarray         # (n,) draws with a sample at each time
