@@ -283,23 +283,18 @@ def resolve_short(module: str, name: str):
 # ------------------------------------------------------------------ the texts read
 
 def _python_prose(path: pathlib.Path) -> list:
-    """Return [(line, text)] of a Python file's comments and docstrings."""
-    text = path.read_text(encoding='utf-8')
+    """Return [(line, text)] of a Python file's comments and docstrings (lone strings)."""
     found = []
+    before = tokenize.NEWLINE
+    text = path.read_text(encoding='utf-8')
     for token in tokenize.generate_tokens(io.StringIO(text).readline):
         if token.type == tokenize.COMMENT:
             found.append((token.start[0], token.string))
-    for node in ast.walk(_tree(path)):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            body = node.body
-            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
-                    and isinstance(body[0].value.value, str):
-                found.append((body[0].lineno, body[0].value.value))
-        # comment-like strings: the #: attribute docs are comments already; a string
-        # constant standing as a statement is a docstring of what precedes it
-        elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) \
-                and isinstance(node.value.value, str):
-            found.append((node.lineno, node.value.value))
+        elif token.type == tokenize.STRING and before in (tokenize.NEWLINE, tokenize.INDENT,
+                                                          tokenize.DEDENT):
+            found.append((token.start[0], token.string))
+        if token.type not in (tokenize.COMMENT, tokenize.NL):
+            before = token.type
     return found
 
 
