@@ -88,14 +88,16 @@ def main(argv=None):
                 wall = time.perf_counter() - started
                 estimate = result['estimate']
                 found[method].append((estimate.probability, estimate.runs, estimate.cov,
-                                      estimate.ci_low <= P <= estimate.ci_high, wall))
+                                      estimate.ci_low <= P <= estimate.ci_high, wall,
+                                      estimate.p_upper >= P))
                 print(f'seed {seed} {method}: {estimate.sentence()}, {wall:.2f} s',
                       file=sys.stderr)
     mc = (1 - P) / (P * TARGET ** 2)
     print(f'P(fail) = {P:g} (exact), target coefficient of variation {TARGET:g}, '
           f'{args.seeds} seeds, {args.runs} points per level/step/batch')
     print(f'{"method":<8} {"median p":>10} {"CoV (seeds)":>11} {"CoV (own)":>9} '
-          f'{"runs":>7} {"runs for 10%":>12} {"vs MC":>8} {"CI holds p":>10} {"s/study":>8}')
+          f'{"runs":>7} {"runs for 10%":>12} {"vs MC":>8} {"CI holds p":>10} '
+          f'{"p_upper >= p":>12} {"s/study":>8}')
     for method, rows_ in found.items():
         p = np.array([r[0] for r in rows_])
         runs = statistics.median(r[1] for r in rows_)
@@ -105,6 +107,7 @@ def main(argv=None):
         print(f'{method:<8} {np.median(p):>10.3g} {spread:>11.3f} '
               f'{statistics.median(r[2] for r in rows_):>9.3f} {runs:>7.0f} {needed:>12.0f} '
               f'{mc / needed:>7.0f}x {covered:>4}/{len(rows_):<5} '
+              f'{sum(r[5] for r in rows_):>6}/{len(rows_):<5} '
               f'{statistics.median(r[4] for r in rows_):>8.2f}')
     print(f'{"mc":<8} {P:>10.3g} {TARGET:>11.3f} {"":>9} {"":>7} {mc:>12.0f} {1:>7.0f}x')
 

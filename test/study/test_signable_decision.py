@@ -7,7 +7,8 @@ The one-sided bounds are checked against what they claim: Monte Carlo's
 against scipy's beta quantile to the last bit; the batch bounds of
 importance sampling (NAIS's, and FORM's around its design point) against
 the exact P = Phi(-beta) of a linear limit state of normal inputs, over
-many seeds, at the rate they are stated at. The tail check is fed a
+many seeds, at the rate they are stated at; subset simulation's bound of
+a lognormal mean against lognormal replicates. The tail check is fed a
 threshold where a normal input says "meets" and the same input with
 Student-t tails says "does not meet": the decision must be undecided.
 """
