@@ -15,7 +15,7 @@ The shipped logs in ``config/inputs/`` were written by it::
     python examples/write_release_log.py -o config/inputs/store_release_two_hooks.mcap \
         --release station_1@0.05
     python examples/write_release_log.py -o config/inputs/store_release_on_command.mcap \
-        --release pivot@0.5
+        --release pivot@0.2
 """
 
 import argparse

@@ -23,7 +23,7 @@ CONFIG = ROOT / 'config'
 EXAMPLES = sorted(p.stem for p in CONFIG.glob('store_*.yaml'))
 #: The release commands each shipped log holds: (joint or group, s).
 LOGS = {'store_release_two_hooks': [('station_1', 0.05)],
-        'store_release_on_command': [('pivot', 0.5)]}
+        'store_release_on_command': [('pivot', 0.2)]}
 
 
 def _script():
