@@ -89,6 +89,13 @@ def test_a_monte_carlo_study_s_p_upper_is_the_beta_quantile_exactly(tmp_path):
     tail = verdict(held['tail_probability'], held['tail_p_upper'], 0.05)
     assert held['decision'] == (nominal if tail == nominal else UNDECIDED)
     assert held['decision_sentence'].startswith(f'P(unsafe) <= {up(want)} at 95 % one-sided')
+    # the report ends in the sentence
+    import html
+    from cfem_ros.study.report import build
+    page = build(out)
+    last = page[page.rindex('<h2>'):]
+    assert last.startswith('<h2>Decision</h2>')
+    assert html.escape(held['decision_sentence']) in last and last.count('<p') == 1
 
 
 # -- importance sampling: the batch bounds at their stated rate ----------------------------
