@@ -63,7 +63,7 @@ def fit_command(args: argparse.Namespace) -> int:
         print(f'ERROR: {outdir}: cannot write the outputs ({err.strerror or err}); the folder '
               'is as it was', file=sys.stderr)
         return EXIT_FAILED
-    for line in warnings(result):
+    for line in warnings(fit, result):
         warn(line)
     print(sentence(fit, result))
     print(f'outputs: {outdir}/ ({", ".join(paths)})')

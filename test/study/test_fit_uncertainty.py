@@ -23,6 +23,7 @@ from cfem_ros.study.fit.measured import Measured
 from cfem_ros.study.fit.run import observed_flights
 from cfem_ros.study.fit.solve import Fit
 from cfem_ros.study.fit.spec import load_fit
+from cfem_ros.study.fit.uncertainty import residual_structure
 import fitflights as ff
 import numpy as np
 import pytest
@@ -280,3 +281,42 @@ def test_a_flight_may_name_its_own_scenario_as_set_would_make_it(tmp_path):
                                 ff.FORCES, name='light.yaml'))
     light = Fit(spec, observed_flights(spec), threads=2, log=lambda line: None)
     assert not np.allclose(light.evaluate(spec.x0), residuals[0])
+
+
+def test_residuals_of_white_noise_pass_and_those_that_follow_a_trend_do_not():
+    # the lag-1 test's p-value is uniform for white noise: 5 % of 400 below 0.05
+    rng = np.random.default_rng(8)
+    p = np.array([residual_structure(rng.standard_normal(6 * 50))['p'] for _ in range(400)])
+    below = int(np.sum(p < 0.05))
+    assert binom.ppf(0.0005, 400, 0.05) <= below <= binom.ppf(0.9995, 400, 0.05), below
+    # an AR(1) series of coefficient 0.5 in one quantity: found at once
+    series = rng.standard_normal((50, 6))
+    for k in range(1, 50):
+        series[k, 2] = 0.5 * series[k - 1, 2] + math.sqrt(0.75) * series[k, 2]
+    found = residual_structure(series.ravel())
+    assert found['p'] < 1e-3 and found['autocorrelation']['z'] > 0.3
+    assert abs(found['autocorrelation']['x']) < 0.3
+
+
+def test_a_parameter_held_wrong_leaves_residuals_that_are_not_noise(flight, tmp_path, capsys):
+    # the forward ejector held at 7,000 N (the truth is 10,676 N): the aft one absorbs
+    # what it can, and what is left follows the trajectory whatever the chi-square
+    _, scenario, poses = flight
+    measured = ff.csv(tmp_path / 'measured.csv', *ff.noisy(poses, 12))
+    held = copy.deepcopy(ff.EJECTED)
+    held['wrenches'][0]['force'][2] = 7000.0
+    path = ff.fit_file(tmp_path, ff.write(tmp_path / 'held.yaml', held),
+                       ff.measured_entry(measured, {'from': 0, 'to': 0.15}),
+                       {'wrenches[1].force[2]': ff.FORCES['wrenches[1].force[2]']})
+    assert cli.main(['fit', path, '-o', str(tmp_path / 'out'), '--threads', '2']) == 0
+    said = capsys.readouterr().err
+    found = json.loads((tmp_path / 'out' / 'fit.json').read_text())
+    assert found['flights'][0]['residual_structure_p'] < 1e-3
+    assert 'WARNING: the residuals of measured are not noise' in said
+    # the right model on the same data: noise, no warning
+    right = ff.fit_file(tmp_path, scenario, ff.measured_entry(measured, {'from': 0, 'to': 0.15}),
+                        ff.FORCES, name='right.yaml')
+    assert cli.main(['fit', right, '-o', str(tmp_path / 'right'), '--threads', '2']) == 0
+    assert 'not noise' not in capsys.readouterr().err
+    fine = json.loads((tmp_path / 'right' / 'fit.json').read_text())
+    assert fine['flights'][0]['residual_structure_p'] > 1e-3

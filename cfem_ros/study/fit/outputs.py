@@ -97,7 +97,9 @@ def _flight_json(flight, summary: dict) -> dict:
                       'attitude_deg': flight.sigma_attitude_deg},
             'window': _window(summary['window']), 'samples': summary['samples'],
             'residual_rms': {k: float(v) for k, v in summary['residual_rms'].items()},
-            'chi2': summary['chi2']}
+            'chi2': _number(summary['chi2']),
+            'residual_autocorrelation': summary['structure']['autocorrelation'],
+            'residual_structure_p': _number(summary['structure']['p'])}
 
 
 def fit_json(fit: Fit, result: FitResult) -> dict:

@@ -5,7 +5,8 @@ What a fit says when it ends: one sentence, its notes, and its warnings.
 
 The errors printed are the scaled standard errors (the standard error
 times sqrt(max(1, reduced chi-square))); a reduced chi-square above 2 is a
-WARNING line.
+WARNING line, and so are a flight's residuals that are not noise
+(``uncertainty.residual_structure``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.study.fit.solve import Fit, FitResult
-from cfem_ros.study.fit.uncertainty import chi2_warning
+from cfem_ros.study.fit.uncertainty import chi2_warning, structure_warning
 
 
 def estimate_text(value: float, error: float, unit: str = '') -> str:
@@ -36,7 +37,7 @@ def estimate_text(value: float, error: float, unit: str = '') -> str:
 
 
 def sentence(fit: Fit, result: FitResult) -> str:
-    """Return what the fit found, and how well, in one sentence (notes on lines after it)."""
+    """Return what the fit found and how well, in one line (its notes on the lines after)."""
     u, parameters = result.uncertainty, fit.spec.parameters
     parts = [f'{p.name} {estimate_text(result.values[j], u.standard_errors_scaled[j], p.unit)}'
              for j, p in enumerate(parameters)]
@@ -71,7 +72,9 @@ def sentence(fit: Fit, result: FitResult) -> str:
     return text
 
 
-def warnings(result: FitResult) -> list:
-    """Return the fit's WARNING sentences (a reduced chi-square above 2)."""
-    said = chi2_warning(result.uncertainty.reduced_chi2)
-    return [said] if said else []
+def warnings(fit: Fit, result: FitResult) -> list:
+    """Return the fit's WARNING sentences (a reduced chi-square above 2, residuals not noise)."""
+    said = [chi2_warning(result.uncertainty.reduced_chi2)]
+    for flight, summary in zip(fit.spec.flights, result.flights):
+        said.append(structure_warning(flight.key, summary['structure']))
+    return [line for line in said if line]

@@ -27,7 +27,7 @@ from typing import Callable, Optional
 from cfem_ros.study.fit.flightfit import FlightFit, rms
 from cfem_ros.study.fit.measured import Measured
 from cfem_ros.study.fit.spec import FitSpec
-from cfem_ros.study.fit.uncertainty import analyse, Uncertainty
+from cfem_ros.study.fit.uncertainty import analyse, residual_structure, Uncertainty
 import numpy as np
 
 
@@ -47,7 +47,8 @@ class FitResult:
     values: np.ndarray
     uncertainty: Uncertainty
     residual_rms: dict
-    flights: list          # per flight: {'residual_rms', 'samples', 'window', 'chi2'}
+    flights: list          # per flight: {'residual_rms', 'samples', 'window', 'chi2',
+    #                        'structure' (uncertainty.residual_structure)}
     runs: int
     status: str
     problems: list
@@ -57,7 +58,7 @@ class FitResult:
 
     @property
     def window(self) -> tuple:
-        """Return the first flight's window (start, end, release or None), s."""
+        """Return the first flight's window: start, end, and release or None (s)."""
         return self.flights[0]['window']
 
     @property
@@ -229,7 +230,8 @@ class Fit:
             at += part.size
             flights.append({'residual_rms': flight.residual_rms(part),
                             'samples': int(flight.data.time.size), 'window': flight.window,
-                            'chi2': float(part @ part)})
+                            'chi2': float(part @ part),
+                            'structure': residual_structure(part)})
         total = {'position': _pooled([f['residual_rms']['position'] for f in flights],
                                      [f['samples'] for f in flights]),
                  'attitude_deg': _pooled([f['residual_rms']['attitude_deg'] for f in flights],

@@ -38,6 +38,15 @@ NAMED_WEIGHT = 0.1
 NEARLY = 0.999
 #: A reduced chi-square above this is said in a WARNING line.
 CHI2_WARNING = 2.0
+#: Residuals whose lag-1 autocorrelation has a p-value below this (white noise: about 1
+#: flight in 1,000) are said not to be noise, in a WARNING line ...
+STRUCTURE_P = 1e-3
+#: ... when their size is at least this share of the stated variance (below it they are
+#: the interpolation's and the solver's rounding, not the data's).
+STRUCTURE_SIZE = 0.25
+#: Fewer samples than this in a flight's window: no test of its residuals.
+STRUCTURE_SAMPLES = 10
+QUANTITY_NAMES = ('x', 'y', 'z', 'roll', 'pitch', 'yaw')
 
 
 @dataclass
@@ -152,6 +161,63 @@ def _names(names, members) -> str:
 
 def _fix(members) -> str:
     return 'one' if len(members) == 2 else f'{len(members) - 1} of them'
+
+
+def residual_structure(r: np.ndarray) -> dict:
+    """
+    Return whether one flight's weighted residuals look like white noise.
+
+    r: the flight's weighted residuals, 6 per sample in time order. Per
+    quantity, the lag-1 autocorrelation rho of the residuals (mean removed);
+    for white noise rho sqrt(n) is about N(0, 1), so the Box-Pierce statistic
+    n sum(rho^2) over the quantities that vary is chi-square with as many
+    degrees of freedom. A model that misses something (a parameter held at a
+    wrong value, a load left out) leaves residuals that follow the
+    trajectory: autocorrelated, whatever the reduced chi-square; noise that
+    is correlated between samples does too, and then the standard errors are
+    too small as well.
+
+    Returns
+    -------
+    dict
+        ``autocorrelation`` (per quantity, None where it does not vary),
+        ``p`` (NaN below ``STRUCTURE_SAMPLES`` samples), ``size`` (the
+        residuals' mean square, in stated variances).
+
+    """
+    from scipy.stats import chi2
+    samples = r.reshape(-1, 6)
+    n = len(samples)
+    out = {'autocorrelation': {}, 'p': math.nan,
+           'size': float(np.mean(samples ** 2)) if n else math.nan}
+    statistic, count = 0.0, 0
+    for q, name in enumerate(QUANTITY_NAMES):
+        x = samples[:, q] - samples[:, q].mean() if n else samples[:, q]
+        energy = float(x @ x)
+        if n < 2 or energy <= 0.0:
+            out['autocorrelation'][name] = None
+            continue
+        rho = float(x[1:] @ x[:-1]) / energy
+        out['autocorrelation'][name] = rho
+        statistic += n * rho ** 2
+        count += 1
+    if n >= STRUCTURE_SAMPLES and count:
+        out['p'] = float(chi2.sf(statistic, count))
+    return out
+
+
+def structure_warning(key: str, structure: dict) -> str:
+    """Return the WARNING sentence of a flight whose residuals are not noise ('' if none)."""
+    p = structure['p']
+    if not math.isfinite(p) or p >= STRUCTURE_P or not structure['size'] >= STRUCTURE_SIZE:
+        return ''
+    rho = {k: v for k, v in structure['autocorrelation'].items() if v is not None}
+    worst = max(rho, key=lambda k: abs(rho[k]))
+    return (f'the residuals of {key} are not noise: their lag-1 autocorrelation is '
+            f'{rho[worst]:+.2f} in {worst} (p = {p:.2g} for white noise): the model misses '
+            'something the data show (a parameter held at a wrong value, a load left out) '
+            'or the noise is correlated between samples; the standard errors do not '
+            'include that')
 
 
 def chi2_warning(reduced: float) -> str:
