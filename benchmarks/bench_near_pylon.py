@@ -169,8 +169,8 @@ def run_costs(runs: int, turns: int):
     spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'))
     searched, tolerance = between.least, between.TIME_TOLERANCE
 
-    def sampled_only(time, sampled, evaluate, rate, start, end):
-        return searched(time, sampled, None, rate, start, end)
+    def sampled_only(time, sampled, evaluate, rate, start, end, *more, **options):
+        return searched(time, sampled, None, rate, start, end)   # no interpolant: samples
 
     ways = {'as shipped': (searched, tolerance),
             'searched between samples to 1 us, not 1e-11 s': (searched, 1e-6),
