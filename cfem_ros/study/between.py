@@ -78,6 +78,7 @@ class Motion:
         self.quaternion_rate = rotations.rate_of_change(quaternion, rates)
         self.speed = np.linalg.norm(velocity, axis=1)
         self.turn_rate = np.linalg.norm(rates, axis=1)
+        self._intervals = {}
 
     def at(self, k: int, times) -> tuple:
         """Return (positions (m, 3), quaternions (m, 4)) at times in [time[k], time[k + 1]]."""
@@ -95,6 +96,48 @@ class Motion:
         quaternion /= np.linalg.norm(quaternion, axis=1)[:, None]
         return position, quaternion
 
+    def pose(self, k: int, t: float) -> tuple:
+        """
+        Return (position, quaternion) at one time t in [time[k], time[k + 1]], as floats.
+
+        ``at`` for one time in plain floats: a minimisation asks for one time
+        after another, and numpy's cost per call on arrays of one row is ten
+        times the arithmetic. The same interpolant and normalization, to
+        rounding (a few ulp: no fused multiply-adds here).
+        """
+        start, h, columns = self._interval(k)
+        s = (t - start) / h
+        s2, s3 = s * s, s * s * s
+        b0, b1, b2, b3 = 2 * s3 - 3 * s2 + 1, (s3 - 2 * s2 + s) * h, -2 * s3 + 3 * s2, \
+            (s3 - s2) * h
+        values = [b0 * v0 + b1 * r0 + b2 * v1 + b3 * r1 for v0, r0, v1, r1 in columns]
+        norm = math.sqrt(sum(v * v for v in values[3:]))
+        return values[:3], [v / norm for v in values[3:]]
+
+    def _interval(self, k: int) -> tuple:
+        """Return interval k's start (s), length (s) and, per coordinate, its four Hermite data."""
+        found = self._intervals.get(k)
+        if found is None:
+            ends = [np.hstack([self.position[j], self.quaternion[j]]).tolist() for j in (k, k + 1)]
+            rates = [np.hstack([self.velocity_world[j], self.quaternion_rate[j]]).tolist()
+                     for j in (k, k + 1)]
+            found = (float(self.time[k]), float(self.time[k + 1] - self.time[k]),
+                     list(zip(ends[0], rates[0], ends[1], rates[1])))
+            self._intervals[k] = found
+        return found
+
+
+def rotation(quaternion) -> list:
+    """
+    Return the body-to-world matrix of a unit quaternion (x, y, z, w), nine floats row by row.
+
+    ``rotations.matrices`` for one attitude in plain floats, its formulas entry by entry.
+    """
+    x, y, z, w = quaternion
+    return [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
+
 
 def interval_rate(a: Motion, b: Motion, k: int, radius_a: float, radius_b: float) -> float:
     """Return a bound on |d distance / dt| over interval k (m/s), read from its ends."""
@@ -104,7 +147,7 @@ def interval_rate(a: Motion, b: Motion, k: int, radius_a: float, radius_b: float
                                + b.turn_rate[ends].max() * radius_b)
 
 
-def least(time, sampled, evaluate, rate, start: float, end: float) -> tuple:
+def least(time, sampled, evaluate, rate, start: float, end: float, one=None) -> tuple:
     """
     Return (least distance, its time) over [start, end], between samples included.
 
@@ -119,6 +162,10 @@ def least(time, sampled, evaluate, rate, start: float, end: float) -> tuple:
         A bound on how fast the distance changes in interval k, m/s.
     start, end : float
         The window, s (the samples' span where it is wider).
+    one : callable (k, t) -> float, optional
+        The distance at one time t within interval k, as evaluate gives it
+        (to rounding), for the minimisation's one time after another; from
+        evaluate when None.
 
     Returns NaN, NaN when no sample lies in the window and no interval meets it.
 
@@ -146,14 +193,16 @@ def least(time, sampled, evaluate, rate, start: float, end: float) -> tuple:
         a, b = max(time[k], lo), min(time[k + 1], hi)
         if not b > a:
             continue
-        found = _search(lambda t: evaluate(k, t), a, b)
+        found = _search(lambda t: evaluate(k, t), a, b,
+                        (lambda t: float(evaluate(k, np.array([t]))[0])) if one is None
+                        else (lambda t: one(k, t)))
         if math.isnan(best) or found[0] < best - GAIN:
             best, when = found
     return best, when
 
 
-def _search(function, a: float, b: float) -> tuple:
-    """Return the least (value, time) of function over [a, b]: probes, then Brent."""
+def _search(function, a: float, b: float, single) -> tuple:
+    """Return the least (value, time) over [a, b]: function's probes, then Brent on single."""
     probes = np.linspace(a, b, PROBES + 1)
     values = np.asarray(function(probes), dtype=float)
     j = int(np.argmin(values))
@@ -161,7 +210,7 @@ def _search(function, a: float, b: float) -> tuple:
     # imported here: a run imports this module for its metrics, and scipy costs most of a
     # second of start-up that a run without a distance window never needs
     from scipy.optimize import minimize_scalar
-    found = minimize_scalar(lambda t: float(function(np.array([t]))[0]), bounds=(low, high),
+    found = minimize_scalar(single, bounds=(low, high),
                             method='bounded', options={'xatol': TIME_TOLERANCE})
     if found.fun < values[j]:
         return float(found.fun), float(found.x)
@@ -200,9 +249,21 @@ def least_point_distance(samples, body_a, points_a, body_b, points_b, start, end
         (p_a, q_a), (p_b, q_b) = motion_a.at(k, times), motion_b.at(k, times)
         return point_distances(p_a, q_a, points_a, p_b, q_b, points_b)[0]
 
+    pairs = [(a, b) for a in np.asarray(points_a, dtype=float).tolist()
+             for b in np.asarray(points_b, dtype=float).tolist()]
+
+    def one(k, time):
+        (p_a, q_a), (p_b, q_b) = motion_a.pose(k, time), motion_b.pose(k, time)
+        r_a, r_b = rotation(q_a), rotation(q_b)
+        return min(math.sqrt(sum((p_a[i] + r_a[3 * i] * a[0] + r_a[3 * i + 1] * a[1]
+                                  + r_a[3 * i + 2] * a[2] - p_b[i] - r_b[3 * i] * b[0]
+                                  - r_b[3 * i + 1] * b[1] - r_b[3 * i + 2] * b[2]) ** 2
+                                 for i in range(3)))
+                   for a, b in pairs)
+
     value, when = least(t, sampled, evaluate,
                         lambda k: interval_rate(motion_a, motion_b, k, radius_a, radius_b),
-                        start, end)
+                        start, end, one)
     k = int(np.searchsorted(t, when - 0.5e-9)) if not math.isnan(when) else 0
     if math.isnan(value) or (k < len(t) and abs(t[k] - when) <= 0.5e-9):
         return math.nan, math.nan, -1, -1

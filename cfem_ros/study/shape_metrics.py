@@ -202,7 +202,7 @@ def compute_distance(entry: Distance, samples) -> dict:
         motion_a, motion_b = between.motion(samples, entry.body_a), \
             between.motion(samples, entry.body_b)
         if motion_a is None or motion_b is None:   # no twist: the samples alone
-            evaluate = rate = None
+            evaluate = rate = one = None
         else:
             radius_a = contacts.bounding_radius(entry.shape_a)
             radius_b = contacts.bounding_radius(entry.shape_b)
@@ -211,9 +211,14 @@ def compute_distance(entry: Distance, samples) -> dict:
                 (p_a, q_a), (p_b, q_b) = motion_a.at(k, times), motion_b.at(k, times)
                 return contacts.distances(entry.shape_a, q_a, p_a, entry.shape_b, q_b, p_b)[0]
 
+            def one(k, time):
+                (p_a, q_a), (p_b, q_b) = motion_a.pose(k, time), motion_b.pose(k, time)
+                return contacts.distance_at(entry.shape_a, between.rotation(q_a), p_a,
+                                            entry.shape_b, between.rotation(q_b), p_b)
+
             def rate(k):
                 return between.interval_rate(motion_a, motion_b, k, radius_a, radius_b)
-        least, when = between.least(t, d, evaluate, rate, start, end)
+        least, when = between.least(t, d, evaluate, rate, start, end, one)
         if not math.isnan(least):
             k = int(np.searchsorted(t, when - 0.5e-9))
             if k < len(t) and abs(t[k] - when) <= 0.5e-9:   # a sample

@@ -126,6 +126,19 @@ def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,
     return found if parts else found[:2]
 
 
+def distance_at(shape_a: np.ndarray, rot_a, position_a, shape_b: np.ndarray, rot_b,
+                position_b) -> float:
+    """
+    Return the signed distance between two packed shapes at one pose pair, m.
+
+    ``distances`` for one pose pair given as plain numbers (a search's one
+    time after another): rot_a, rot_b the body-to-world matrices, nine
+    numbers row by row; position_a, position_b the CGs, world, m.
+    """
+    return float(kernel.distance(shape_a, [rot_a], [position_a], shape_b, [rot_b],
+                                 [position_b])[0][0])
+
+
 def surface_distance(pieces, point: np.ndarray) -> float:
     """
     Return a point's distance to the surface of a union of convex shapes, m (< 0 inside).
