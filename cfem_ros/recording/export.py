@@ -29,13 +29,14 @@ import uuid
 from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.relative import matching, relative_pose, release_time
+from cfem_ros.recording.units import AERO, BODY, JOINT, with_units
 import numpy as np
 
 __all__ = ['BODY_COLUMNS', 'JOINT_COLUMNS', 'AERO_COLUMNS', 'export_table', 'write_table']
 
-BODY_COLUMNS = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg', 'u', 'v', 'w', 'p', 'q', 'r')
-JOINT_COLUMNS = ('fx', 'fy', 'fz', 'mx', 'my', 'mz')
-AERO_COLUMNS = ('alpha_deg', 'beta_deg', 'mach', 'dynamic_pressure')
+BODY_COLUMNS = tuple(BODY)
+JOINT_COLUMNS = tuple(JOINT)
+AERO_COLUMNS = tuple(AERO)
 FORMATS = ('.csv', '.parquet')
 
 
@@ -202,13 +203,24 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
     for name in joints:   # in the scenario's order
         block = _joint_block(run, name, stamps)
         columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(JOINT_COLUMNS))
+    aero = aero_blocks(run, stamps, model) if model is not None else {}
     if model is not None:
-        for name, block in aero_blocks(run, stamps, model).items():
+        for name, block in aero.items():
             columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(AERO_COLUMNS))
     elif warn is not None and run.metadata.get('scenario'):
         warn(f'{run.path}: its scenario {run.metadata["scenario"]} cannot be read: no aero '
              'columns')
-    return pd.DataFrame(columns)
+    table = pd.DataFrame(columns)
+    table.attrs['units'] = export_units(table.columns, list(run.bodies), joints, list(aero))
+    return table
+
+
+def export_units(names, bodies, joints, aero) -> dict:
+    """Return {column: unit} of an export's columns (``units.BODY``, ``JOINT``, ``AERO``)."""
+    units = {'time': 's', 'time_from_release': 's'}
+    for owners, table in ((bodies, BODY), (joints, JOINT), (aero, AERO)):
+        units.update((f'{name}_{c}', u) for name in owners for c, u in table.items())
+    return {name: units[name] for name in names if name in units}
 
 
 def write_table(table, path: str) -> str:
@@ -217,21 +229,23 @@ def write_table(table, path: str) -> str:
     if extension not in FORMATS:
         raise RecordingError(f'-o {path}: unknown format {extension or "(no extension)"}; '
                              'expected FILE.csv or FILE.parquet')
-    return write_frame(table, path, float_format='%.17g')
+    return write_frame(table, path, float_format='%.17g', units=table.attrs.get('units'))
 
 
-def write_frame(table, path: str, float_format=None) -> str:
+def write_frame(table, path: str, float_format=None, units: Optional[dict] = None) -> str:
     """
     Write a DataFrame to Parquet (pyarrow), or CSV (pandas) for .csv, through a temporary file.
 
-    float_format: the CSV's number format (pandas' default, shortest round trip, if None).
+    float_format: the CSV's number format (pandas' default, shortest round trip, if None);
+    units: {column: unit}, written as the Parquet fields' metadata (``units.with_units``).
     """
     tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
     try:
         if path.lower().endswith('.csv'):   # T.CSV is CSV too, as write_table takes it
             table.to_csv(tmp, index=False, float_format=float_format)
         else:
-            table.to_parquet(tmp, index=False, engine='pyarrow')
+            import pyarrow.parquet as pq
+            pq.write_table(with_units(table, units), tmp)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -223,7 +223,7 @@ class Evaluator:
         """Write every run asked for to ``results.parquet`` (judged) and return the table."""
         table = decide(self.spec, self.outdir,
                        frame([self.saved[k] for k in range(self.count)], self.names))
-        write_atomic(table, os.path.join(self.outdir, RESULTS))
+        write_atomic(table, os.path.join(self.outdir, RESULTS), self.spec.document)
         return table
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from typing import Optional
 
+from cfem_ros.recording import units as output_units
 from cfem_ros.study.keypaths import parse_key_path
 
 AXES = ('x', 'y', 'z')
@@ -24,7 +25,8 @@ KEYS = {
     'inertia': ('inertia', 'kg m^2', ('Ixx', 'Iyy', 'Izz', 'Ixy', 'Ixz', 'Iyz')),
     'position': ('initial position', 'm', AXES),
     'velocity': ('initial velocity', 'm/s', ('u', 'v', 'w')),
-    'rates': ('initial rates', 'rad/s', ('p', 'q', 'r')),
+    'angular_velocity': ('initial rates', 'rad/s', ('P', 'Q', 'R')),
+    'angular_velocity_deg': ('initial rates', 'deg/s', ('P', 'Q', 'R')),
     'orientation_rpy_deg': ('initial attitude', 'deg', ANGLES),
     'anchor': ('anchor', 'm', AXES),
     'axis': ('axis', '', AXES),
@@ -50,11 +52,11 @@ KEYS = {
     'roll_rate_deg_s': ('roll rate', 'deg/s', None),
     'alpha_deg': ('angle of attack', 'deg', None),
 }
-#: Stroke-end columns (SPEC section 7): suffix -> (words, unit).
-STROKE = {'time': ('end of stroke time', 's'), 'u': ('u at end of stroke', 'm/s'),
-          'v': ('v at end of stroke', 'm/s'), 'w': ('w at end of stroke', 'm/s'),
-          'p': ('p at end of stroke', 'deg/s'), 'q': ('q at end of stroke', 'deg/s'),
-          'r': ('r at end of stroke', 'deg/s')}
+#: Stroke-end columns (SPEC section 7): suffix -> (words, unit), units as an export's.
+STROKE = {'time': ('end of stroke time', 's')}
+STROKE.update((q, (f'{q} at end of stroke', output_units.BODY[q])) for q in 'uvwpqr')
+#: Columns of every sweep table that have no unit: the run's index, its status and message.
+PLAIN = ('run', 'status', 'message')
 
 
 def _names(document: Optional[dict]) -> tuple:
@@ -68,7 +70,17 @@ def _names(document: Optional[dict]) -> tuple:
 
 def unit(column: str, document: Optional[dict] = None) -> str:
     """Return the unit of a column ('' if none or unknown)."""
-    match = re.search(r'\[([^\]]*)\]$', label(column, document))
+    return unit_rule(column, document) or ''
+
+
+def unit_rule(column: str, document: Optional[dict] = None) -> Optional[str]:
+    """Return the unit a rule gives a column ('' for a number without one), None if no rule."""
+    if column in PLAIN:
+        return ''
+    text = label(column, document)
+    if text == column:
+        return None
+    match = re.search(r'\[([^\]]*)\]$', text)
     return match.group(1) if match else ''
 
 
@@ -99,6 +111,8 @@ def _key_path(column: str, document) -> Optional[str]:
         text = ' '.join(w.replace('_', ' ') for w in words)
         suffix = {'deg': 'deg', 's': 's', 'm': 'm', 'hz': 'Hz', 'n': 'N'}.get(
             words[-1].rsplit('_', 1)[-1].lower() if '_' in words[-1] else '', '')
+        if words[-1].lower().endswith('_deg_s'):   # a rate in deg/s, not a time
+            suffix = 'deg/s'
         if index is not None:
             text += f' [{index}]'
         return _with(' '.join(p for p in (owner, text) if p), suffix)
@@ -151,6 +165,10 @@ def label(column: str, document: Optional[dict] = None) -> str:
                     return f'time of min {words} {a}-{b} [s]'
                 if what in ('point_a', 'point_b'):
                     return f'{words} {a}-{b}: index of {what.replace("_", " ")}'
+                point = re.fullmatch(r'point_([ab])_([xyz])', what)
+                if point:   # the closest points (SPEC section 8)
+                    return f'{words} {a}-{b}: closest point {point.group(1)} ' \
+                           f'{point.group(2)} [m]'
     if column.startswith('contact_') and column.endswith('_time'):
         found = _pair(column[len('contact_'):], bodies)
         if found:
@@ -168,10 +186,18 @@ def label(column: str, document: Optional[dict] = None) -> str:
             or (match and not wrenches):
         words, unit_text = STROKE[match.group(2)]
         return _with(f'{match.group(1)} {words}', unit_text)
-    match = re.fullmatch(r'(.+)_at_([0-9.eE+-]+)_(x|y|z|roll_deg|pitch_deg|yaw_deg)', column)
+    quantity = '|'.join(output_units.BODY)
+    match = re.fullmatch(rf'(.+)_at_([0-9.eE+-]+)(r?)_({quantity})', column)
     if match:
-        body, time, what = match.groups()
-        if what in AXES:
-            return f'{body} {what} at {time} s [m]'
-        return f'{body} {what[:-4]} at {time} s [deg]'
+        body, time, after, what = match.groups()
+        since = ' after its release' if after else ''
+        return f'{body} {what.replace("_deg", "")} at {time} s{since} ' \
+               f'[{output_units.BODY[what]}]'
+    match = re.fullmatch(r'aero_outside_(.+)', column)
+    if match:
+        return f'time {match.group(1)} spends outside its aero tables [s]'
+    match = re.fullmatch(rf'(.+)_(min|max)_({quantity})', column)
+    if match and (not bodies or match.group(1) in bodies):
+        body, which, what = match.groups()
+        return f'{which} {body} {what.replace("_deg", "")} [{output_units.BODY[what]}]'
     return column

@@ -57,9 +57,20 @@ def frame(rows, names):
     return pd.DataFrame.from_records(rows, columns=names)
 
 
-def write_atomic(table, path: str):
-    """Write a DataFrame to Parquet (or CSV for .csv) through a temporary file."""
-    write_frame(table, path)
+def write_atomic(table, path: str, document: Optional[dict] = None):
+    """
+    Write a DataFrame to Parquet (or CSV for .csv) through a temporary file.
+
+    With the base scenario's document, each numeric column's unit
+    (``labels.unit_rule``) goes into the Parquet field metadata (SPEC section 15).
+    """
+    units = None
+    if document is not None:
+        from cfem_ros.study.labels import unit_rule
+        units = {c: unit_rule(c, document) for c in table.columns
+                 if table[c].dtype.kind in 'fiub'}
+        units = {c: u for c, u in units.items() if u is not None}
+    write_frame(table, path, units=units)
 
 
 def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
@@ -166,7 +177,7 @@ def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
     if missing:
         raise RuntimeError(f'{outdir}: runs {missing[:10]} are missing from the parts')
     table = decide(spec, outdir, table)
-    write_atomic(table, os.path.join(outdir, RESULTS))
+    write_atomic(table, os.path.join(outdir, RESULTS), spec.document)
     if csv:
         write_atomic(table, os.path.join(outdir, 'results.csv'))
     return table

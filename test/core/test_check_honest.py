@@ -114,7 +114,7 @@ def test_the_realistic_cases_pass_and_what_only_the_run_can_tell_is_a_warning(tm
                    [1e7, 1.0, 0.0])
     assert cli.main(['check', write(tmp_path, spin)]) == 0
     err = capsys.readouterr().err
-    assert err.startswith('WARNING: ') and 'rad per RK4 step' in err
+    assert err.startswith('WARNING: ') and 'deg per RK4 step' in err
     damped = changed(AERO, ('aero', 'store', 'Cmq'), -1e9)
     assert cli.main(['check', write(tmp_path, damped)]) == 0
     assert 'RK4 with dt 0.001 s is unstable' in capsys.readouterr().err

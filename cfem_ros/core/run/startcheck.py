@@ -141,7 +141,8 @@ def _spin_warnings(model) -> list:
         rate = float(np.linalg.norm(body.rates_body))
         if rate * model.dt > MAX_TURN_PER_STEP:
             warnings.append(
-                f'bodies.{body.name}: spins at {rate:.3g} rad/s, {rate * model.dt:.3g} rad per '
+                f'bodies.{body.name}: spins at {np.degrees(rate):.3g} deg/s, '
+                f'{np.degrees(rate * model.dt):.3g} deg per '
                 f'RK4 step of dt {model.dt:g} s; the run will likely diverge (expected dt '
                 f'below {MAX_TURN_PER_STEP / rate:.3g} s)')
     return warnings
