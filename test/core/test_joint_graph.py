@@ -1,6 +1,6 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""The joint graph: every body's carrier found in one linear pass, as a per-body search finds it."""
+"""The joint graph: every body's carrier found in one linear pass as a per-body search finds it."""
 
 from types import SimpleNamespace
 

@@ -12,9 +12,9 @@ cannot follow it with dt is refused with the dt that would do).
 
 from __future__ import annotations
 
+from cfem_ros.core import rotations
 from cfem_ros.core.model.loads import SwayBrace
 from cfem_ros.core.native.contacts import surface_distance
-from cfem_ros.core import rotations
 from cfem_ros.core.scenario import bracestep, cgoffset
 from cfem_ros.core.scenario.checker import body_of
 import numpy as np
