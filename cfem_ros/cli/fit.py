@@ -72,7 +72,7 @@ def fit_command(args: argparse.Namespace) -> int:
 
 def add_predict_parser(sub):
     """Add ``cfem-sim predict`` to the command line's subparsers."""
-    from cfem_ros.study.fit.predict import DRAWS
+    from cfem_ros.study.fit import DRAWS
     predict = sub.add_parser(
         'predict', help="predict the next test point's trajectory band from a fit",
         description='Run the next test point (a scenario, or a sweep file naming it with '

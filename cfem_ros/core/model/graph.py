@@ -57,6 +57,7 @@ def carriers(bodies, joints) -> list:
     bodies : sequence of Body
         Anything with ``motion`` (None for a body that is not kinematic).
     joints : sequence of Joint
+        Anything with ``parent`` and ``child`` (body indices).
 
     """
     count = len(bodies)

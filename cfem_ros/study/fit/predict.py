@@ -36,6 +36,7 @@ from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.run.session import Session
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.criteria import INVALID, judge
+from cfem_ros.study.fit import DRAWS, MOST_DRAWS
 from cfem_ros.study.fit.flights import FitError, show
 from cfem_ros.study.fit.measured import relative_poses
 from cfem_ros.study.keypaths import parse_key_path, resolve
@@ -45,9 +46,6 @@ import numpy as np
 
 #: The runs of a prediction log here (a replayed input refused is said once per run otherwise).
 LOG = logging.getLogger('cfem_ros.predict.runs')
-#: Draws of the fitted parameters by default, and at most (every draw's poses are kept).
-DRAWS = 200
-MOST_DRAWS = 100_000
 #: The band's quantiles (%).
 QUANTILES = (5.0, 50.0, 95.0)
 #: The runs the band is made of: those that ran (to the end, or stopped by a contact or an
