@@ -275,7 +275,7 @@ def _replay(directory, scenario, log, watch=False, hogs=0):
 
 @pytest.fixture(scope='module')
 def flight(tmp_path_factory):
-    """Return the flight log, its scenario, and the recording of its replay as the machine is."""
+    """Return the flight log, its scenario and the recording of its replay (machine as it is)."""
     directory = tmp_path_factory.mktemp('flight')
     scenario, log = _flight(directory)
     recording, published = _replay(directory / 'idle', scenario, log, watch=True)
