@@ -111,7 +111,12 @@ def open_run(path: str, namespace: Optional[str] = None,
         for record in reader.iter_metadata():
             if record.name == 'cfem_ros':
                 metadata = dict(record.metadata)
-        raw = _read_messages(decoded_messages(reader, path), ns, renamed)
+        # only the topics a Run reads are decoded: a recording's markers and transforms
+        # (nested message arrays) cost most of the decoding, and nothing here uses them
+        wanted = [c.topic for c in summary.channels.values()
+                  if _topic_of(renamed.get(c.topic, c.topic), ns) is not None]
+        raw = _read_messages(decoded_messages(reader, path, topics=wanted) if wanted else (),
+                             ns, renamed)
     with reading(path):
         _poses_in_bodies(path, ns, raw, set(frames))
         return _assemble(path, ns, topics, metadata, raw)
@@ -130,9 +135,12 @@ def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
            'relative_pose': {}, 'relative_twist': {}, 'reference': {},
            'joint_in': {}, 'applied_in': {}, 'world': set(),   # *_in: loads, frame_id
            'pose_frame': {}}
+    kinds = {}   # topic -> _topic_of's answer: the same for each of its messages
     for channel, _, decoded in messages:
         topic = (renamed or {}).get(channel.topic, channel.topic)
-        found = _topic_of(topic, ns)
+        if topic not in kinds:
+            kinds[topic] = _topic_of(topic, ns)
+        found = kinds[topic]
         if found is None:
             continue
         kind, match = found

@@ -19,6 +19,7 @@ relative pose is measured from.
 from __future__ import annotations
 
 from dataclasses import dataclass
+import functools
 import math
 import re
 from typing import Optional
@@ -119,6 +120,7 @@ class Topic:
         return _pattern(self.name)
 
 
+@functools.lru_cache(maxsize=None)   # a reader asks for each message: built once per topic
 def _pattern(name: str) -> re.Pattern:
     parts = re.split(r'\{(\w+)\}', name)
     text = ''.join(re.escape(p) if i % 2 == 0 else f'(?P<{p}>[^/]+)'
