@@ -4,7 +4,7 @@
 // The extension module cfem_ros.core._kernel (pybind11): numpy arrays are taken
 // without copies, their dtype, order, shape and writability checked (a TypeError or
 // ValueError naming the argument; pyargs.hpp), and the GIL released around every call
-// that computes. The System and its solves: system.cpp; the layout: layout.cpp; the
+// that computes (the small per-row functions: from MANY_ROWS rows on). The System and its solves: system.cpp; the layout: layout.cpp; the
 // vectorised tables and shapes: aeroshapes.cpp. What only the tests call (a reference
 // search's pieces, the small factorizations' pivot thresholds) is kept apart, in the
 // submodule _kernel.testing, out of the API (kernel.py never reads it).
@@ -32,6 +32,7 @@ using cfem::args::imat;
 using cfem::args::ivec;
 using cfem::args::mat;
 using cfem::args::ptr;
+using cfem::args::ReleasedFor;
 using cfem::args::vec;
 
 namespace {
@@ -81,7 +82,7 @@ PYBIND11_MODULE(_kernel, m) {
   m.def("loads_set_time", [](const py::handle& loads, idx n, double t) {
     cfem::Mat l = mat(loads, "loads", true, cfem::loads::WIDTH);
     bodies_in(n, l);
-    py::gil_scoped_release free;
+    ReleasedFor free(l.rows - n);
     cfem::loads::set_time(l, n, t);
   }, py::arg("loads"), py::arg("n"), py::arg("t"));
 
@@ -91,7 +92,7 @@ PYBIND11_MODULE(_kernel, m) {
     bodies_in(n, l);
     const double* yp = vec(y, "y", false, 13 * n);
     double* op = vec(out, "out", true, l.rows - n, false);
-    py::gil_scoped_release free;
+    ReleasedFor free(l.rows - n);
     cfem::loads::strokes(yp, l, n, op);
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("out"));
 
@@ -116,20 +117,20 @@ PYBIND11_MODULE(_kernel, m) {
     if (r.shape(0) != n || r.shape(1) != 3 || r.shape(2) != 3)
       throw py::value_error("rot: expected (n, 3, 3)");
     double* rp = ptr<double>(r);
-    py::gil_scoped_release free;
+    ReleasedFor free(n);
     cfem::loads::rotations(yp, n, rp);
   }, py::arg("y"), py::arg("n"), py::arg("rot"));
 
   m.def("motion_place", [](const py::handle& y, const py::handle& bodies, double offset) {
     cfem::Mat b = mat(bodies, "bodies", true);
     double* yp = vec(y, "y", true, 13 * b.rows);
-    py::gil_scoped_release free;
+    ReleasedFor free(b.rows);
     if (b.cols > cfem::motion::BODY_COLUMNS) cfem::motion::place(yp, b, offset);
   }, py::arg("y"), py::arg("bodies"), py::arg("offset"));
 
   m.def("motion_set_time", [](const py::handle& bodies, double t) {
     cfem::Mat b = mat(bodies, "bodies", true);
-    py::gil_scoped_release free;
+    ReleasedFor free(b.rows);
     if (b.cols > cfem::motion::BODY_COLUMNS) cfem::motion::set_time(b, t);
   }, py::arg("bodies"), py::arg("t"));
 
@@ -153,7 +154,6 @@ PYBIND11_MODULE(_kernel, m) {
     cfem::Mat am = mat(a, "a", false), om = mat(out, "out", true);
     if (k < 0 || k > 3 || am.rows < k || am.cols < k || om.rows < k || om.cols < k)
       throw py::value_error("k: expected 0 to 3, within a and out");
-    py::gil_scoped_release free;
     return cfem::inverse(am.data, am.cols, k, om.data, om.cols);
   }, py::arg("a"), py::arg("k"), py::arg("out"));
 
@@ -161,7 +161,6 @@ PYBIND11_MODULE(_kernel, m) {
     cfem::Mat am = mat(a, "a", false), om = mat(out, "out", true);
     if (k < 0 || am.rows < k || am.cols < k || om.rows < k || om.cols < k)
       throw py::value_error("k: expected at most the sizes of a and out");
-    py::gil_scoped_release free;
     return cfem::cholesky(am.data, am.cols, k, om.data, om.cols);
   }, py::arg("a"), py::arg("k"), py::arg("out"));
 

@@ -9,6 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <optional>
 #include <string>
 
 #include "common.hpp"
@@ -29,6 +30,22 @@ void check_indices(const System& s, const IMat& joints_i, const idx* watch, cons
 namespace args {
 
 namespace py = pybind11;
+
+// From this many rows on, a call of the small per-row functions (times, rotations,
+// trajectories) releases the GIL: a release and its re-acquire cost about 40 ns, as much
+// as their work on a few bodies, and no other thread gains from so short a gap.
+constexpr idx MANY_ROWS = 64;
+
+// The GIL released, while this lives, for work on `rows` rows if they are MANY_ROWS or more.
+class ReleasedFor {
+ public:
+  explicit ReleasedFor(idx rows) {
+    if (rows >= MANY_ROWS) free_.emplace();
+  }
+
+ private:
+  std::optional<py::gil_scoped_release> free_;
+};
 
 // The checked array argument `name`: float64 (or int64), C order, ndim dimensions, writable
 // if `write`.

@@ -137,10 +137,11 @@ CROSSING_MAXITER = _kernel.CROSSING_MAXITER
 #: The compiled functions (their docstrings: the C++ headers in ``cpp/``).
 #: Arrays are float64 (plan, rows_i, roots, watch and the like int64) in C order,
 #: taken without copies; a wrong one raises TypeError or ValueError naming it.
-#: Every function that computes releases the GIL. What only the tests call (a
-#: reference search's pieces: one RK4 step, the release conditions, the strokes; the
-#: small factorizations; the table interpolation alone) is the extension's submodule
-#: ``_kernel.testing``, not this API.
+#: Every function that computes releases the GIL (the small per-body ones, times,
+#: rotations and trajectories, from 64 bodies or rows on: below, a release costs as
+#: much as their work). What only the tests call (a reference search's pieces: one
+#: RK4 step, the release conditions, the strokes; the small factorizations; the table
+#: interpolation alone) is the extension's submodule ``_kernel.testing``, not this API.
 System = _kernel.System
 derivative = _kernel.derivative
 joint_loads = _kernel.joint_loads
