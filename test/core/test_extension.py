@@ -278,3 +278,21 @@ def test_a_sample_too_short_for_its_outputs_is_refused_by_name():
         with pytest.raises(ValueError, match=message):
             kernel.advance(system, y, info, 0.01, np.inf, np.inf, 0.001,
                            np.array(grid), samples)
+
+
+def test_the_free_functions_refuse_a_body_count_or_joint_outside_their_arrays():
+    sim = _sim('store_release_two_hooks')
+    loads, n = sim._loads.copy(), len(sim._bodies)
+    for bad in (-1, len(loads) + 1):
+        with pytest.raises(ValueError, match=rf'n = {bad}: expected the number of bodies'):
+            kernel.loads_set_time(loads, bad, 0.0)
+        with pytest.raises(ValueError, match=rf'n = {bad}'):
+            testing.loads_strokes(sim.y.copy(), loads, bad, np.empty(len(loads)))
+    joints_i, joints_f = sim.joints.joints_i, sim.joints.joints_f
+    out = np.empty((1, 3))
+    with pytest.raises(ValueError, match=r'watch\[0\] = 3: not a joint'):
+        testing.conditions(sim.y.copy(), joints_i, joints_f, np.array([3]), out)
+    far = joints_i.copy()
+    far[0, 1] = n
+    with pytest.raises(ValueError, match=rf'joints_i\[0, 1\] = {n}: not a body of y'):
+        testing.conditions(sim.y.copy(), far, joints_f, np.array([0]), out)
