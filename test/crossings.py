@@ -20,6 +20,7 @@ from cfem_ros.core.engine import kernelcalls
 
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import LOADS
 import numpy as np
@@ -41,7 +42,7 @@ def rk4(sim, y, h):
 
 def joint_forces(sim, y):
     """Return each joint's force on its child at y, world, (n_joints, 3) (zero if released)."""
-    return sim._joint_loads(y)[0]
+    return sim.sampling.joint_loads(y)[0]
 
 
 def step_with_condition(sim, t_end):
@@ -164,7 +165,8 @@ class PythonSteps(Simulator):
             if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
                 s, wrenches = stroke
                 self._commit(rk4(self, y0, s) if s < h else y1, self.t + s if s < h else t_end)
-                self._end_strokes(wrenches)
+                self._scheduled.end_strokes(wrenches)
+                self.events.extend(stroke_end_event(self, k) for k in wrenches)
                 if crossing is not None and crossing[0] <= s:
                     for k, cause in zip(crossing[1], crossing[2]):
                         self._release([k], cause)

@@ -131,7 +131,7 @@ class Collector(RowSink):
         rows = self._buffers.get(self._active)
         if rows is None:
             rows = self._buffers[self._active] = np.empty(
-                (BUFFER_ROWS, self.sim._outputs_size()))
+                (BUFFER_ROWS, self.sim.sampling.outputs_size()))
         self._rows = rows
         return rows
 

@@ -149,7 +149,7 @@ def test_non_finite_loads_are_caught_inside_the_kernel_sample_path():
     sim = Simulator(with_mass(fixed_beam(1.0), 'beam', 1e308))
     assert np.isfinite(sim.y).all()
     grid = sampling.SampleGrid(100.0)
-    rows = np.full((8, sim._outputs_size()), 7.0)
+    rows = np.full((8, sim.sampling.outputs_size()), 7.0)
     grid.reset(0, rows)
     assert sim.advance_to(0.05, samples=grid) is False
     assert grid.taken == 0 and sim.t == 0.0

@@ -107,7 +107,7 @@ def test_tree_solve_equals_the_whole_system(caplog):
     y[:3 * n] += 1e-4 * rng.standard_normal(3 * n)            # joints drifted apart
     y[3 * n:6 * n] += 1e-3 * rng.standard_normal(3 * n)       # and moving apart
     dy = sim.derivative(y)
-    forces, _, _ = sim._joint_loads(y)
+    forces, _, _ = sim.sampling.joint_loads(y)
     expected_acc, expected_forces = kkt_solution(sim, y)
     quat = y[6 * n:10 * n].reshape(n, 4)
     alpha_world = np.array([quat_matrix(q / np.linalg.norm(q)) @ a

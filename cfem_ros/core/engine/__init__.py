@@ -7,8 +7,10 @@ Modules: ``simulator`` (``Simulator``: time and the step loop),
 ``kernelcalls`` (the simulator's two calls of the compiled core, whose face
 is ``cfem_ros.core.native.kernel``), ``bodies`` (the initial state and the
 mass table), ``topology`` (the rows of the active joints and their solve
-plan), ``dynamics`` (the equations of motion), ``releases`` and ``groups``
-(release triggers, groups and events), ``loads``, ``ties``, ``strokes`` and
+plan), ``dynamics`` (the equations of motion), ``jointset`` (the joints of a
+run, which are active), ``releases`` and ``groups`` (release triggers,
+groups and events), ``watch`` (braces, contact pairs and aero tables
+watched), ``loads``, ``ties``, ``strokes`` and
 ``aeropack`` (applied loads, ejectors and aero tables packed for the kernel;
 shapes are packed by ``cfem_ros.core.native.contacts``), ``braces`` (sway
 braces), ``aero`` (the air each body sees, the events of leaving a table),

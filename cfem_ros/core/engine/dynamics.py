@@ -14,12 +14,12 @@ respect to the velocities (V, w in world axes), gamma = (dJ/dt) v, and f the
 external, gravity and gyroscopic loads. The joint table is data
 (``model.JOINT_TABLE``); this module never branches on a joint type.
 
-``Dynamics``, the base of ``engine.Simulator``, holds what the compiled
-kernel evaluates them with: the bodies' table (mass properties, kinematic
-trajectories), the applied loads and the rows of the active joints
-(``Topology``, kept by the subclass). It gives the state's derivative, one
-RK4 step and the velocity change the joints allow; ``Simulator`` runs it in
-time.
+``Dynamics``, a part that ``engine.Simulator`` holds, keeps what the
+compiled kernel evaluates them with: the bodies' table (mass properties,
+kinematic trajectories) and the applied loads; on the rows of the active
+joints (``Topology``, which the simulator keeps and hands to it) it gives
+the state's derivative, the velocity change the joints allow and the
+redundant rows. ``Simulator`` runs it in time.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine import sampling
-from cfem_ros.core.engine.bodies import initial_state, mass_table
-from cfem_ros.core.engine.sampling import NumericalFailure, SampledState
+from cfem_ros.core.engine.bodies import initial_state, mass_table, state_views
+from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.engine.ties import TiedLoads
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel, motion
@@ -66,9 +66,9 @@ def _index(lookup, item, what: str) -> int:
     return int(item)
 
 
-class Dynamics(SampledState):
+class Dynamics:
     """
-    A model's bodies, loads and joint rows as the kernel evaluates them.
+    A model's bodies and loads as the kernel evaluates them.
 
     Parameters
     ----------
@@ -79,16 +79,17 @@ class Dynamics(SampledState):
 
     Attributes
     ----------
-    y : ndarray, shape (13 n,)
-        The state (``engine`` module docstring), at t = 0 to begin with.
+    y0 : ndarray, shape (13 n,)
+        The state at t = 0 (``engine`` module docstring), before the joints
+        correct its velocities (``project_velocities``).
     free : ndarray of bool, shape (n,)
         The bodies that move under loads (neither fixed nor kinematic).
     kinematic : bool
         Whether any body follows a trajectory (``carrier.Carriers``).
-
-    Notes
-    -----
-    Subclasses keep ``_topology`` (the active joints' rows) and ``active``.
+    bodies : ndarray
+        The bodies' table, as the kernel reads it (``bodies.mass_table``).
+    scheduled : TiedLoads
+        The applied loads (``loads``, ``ties``); ``loads`` is their packed array.
 
     """
 
@@ -98,39 +99,38 @@ class Dynamics(SampledState):
         self.eta = float(model.baumgarte)
         n = self.n = len(model.bodies)
         # fixed and kinematic bodies are carried with zero inverse mass and inertia
-        self.free, self._bodies = mass_table(model)
-        self.mass, self.inv_mass = self._bodies[:, 0].copy(), self._bodies[:, 1].copy()
-        self.inertia_body = self._bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
-        self.inv_inertia_body = self._bodies[:, 11:20].reshape(n, 3, 3).copy()
+        self.free, self.bodies = mass_table(model)
+        self.mass, self.inv_mass = self.bodies[:, 0].copy(), self.bodies[:, 1].copy()
+        self.inertia_body = self.bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
+        self.inv_inertia_body = self.bodies[:, 11:20].reshape(n, 3, 3).copy()
         self.gravity = np.asarray(model.gravity, dtype=float)
         # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
         trajectories = motion.columns(model)
         self.kinematic = trajectories.shape[1] > 0
         if self.kinematic:
-            self._bodies = np.ascontiguousarray(np.hstack([self._bodies, trajectories]))
+            self.bodies = np.ascontiguousarray(np.hstack([self.bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
-        self._scheduled = TiedLoads(model, n)   # starts and ends may wait for releases
-        self._loads = self._scheduled.array
+        self.scheduled = TiedLoads(model, n)   # starts and ends may wait for releases
+        self.loads = self.scheduled.array
+        self.y0 = initial_state(model)
+        self._warned_redundant = False
 
-        self.y = initial_state(model)
-        self._stage_violation = 0.0   # the largest violation within the step being taken
-
-    def derivative(self, y: np.ndarray) -> np.ndarray:
-        """Return dy/dt at state y (external wrenches held constant)."""
+    @staticmethod
+    def derivative(top, y: np.ndarray) -> np.ndarray:
+        """Return dy/dt at state y on the rows of top (external wrenches held constant)."""
         out = np.empty_like(y)
-        if kernel.derivative(self._topology.system, y, out) < 0.0:
+        if kernel.derivative(top.system, y, out) < 0.0:
             raise NumericalFailure(sampling.SINGULAR)
         return out
 
-    def _check_redundancy(self) -> int:
-        """Detect redundant rows; warn once; return the remaining DOF."""
+    def check_redundancy(self, top, y: np.ndarray) -> int:
+        """Detect the redundant rows of top at state y; warn once; return the remaining DOF."""
         free_dof = 6 * int(self.free.sum())
-        top = self._topology
-        null = top.null_space(self.y, self.n)
+        null = top.null_space(y, self.n)
         rank = top.m - null.shape[1]
         if rank < top.m:
-            if not getattr(self, '_warned_redundant', False):
+            if not self._warned_redundant:
                 # the joints of the rows that take part in a redundant combination
                 joints = [self.model.joints[k]
                           for k in sorted(set(top.joint[np.any(np.abs(null) > 1e-6, axis=1)]))]
@@ -143,14 +143,14 @@ class Dynamics(SampledState):
             top.dense = 2
         return free_dof - rank
 
-    def _project_velocities(self):
-        """Make the initial velocities consistent with the joints (mass weighted)."""
-        if self._topology.m == 0:
+    def project_velocities(self, top, y: np.ndarray):
+        """Make the velocities of state y consistent with the rows of top (mass weighted)."""
+        if top.m == 0:
             return
-        delta = self.joint_projection()
+        delta = self.joint_projection(top, y)
         if not np.abs(delta).max() > PROJECTION_REPORT:
             return
-        _, vel, quat, rates = self._split(self.y)
+        _, vel, quat, rates = state_views(y, self.n)
         vel += delta[:, :3]
         rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
         for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
@@ -160,10 +160,10 @@ class Dynamics(SampledState):
                 self.model.bodies[i].name, np.linalg.norm(delta[i, :3]),
                 math.degrees(np.linalg.norm(delta[i, 3:])))
 
-    def joint_projection(self) -> np.ndarray:
-        """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
+    def joint_projection(self, top, y: np.ndarray) -> np.ndarray:
+        """Return the least (mass weighted) change of y's velocities top's rows allow, (n, 6)."""
         delta = np.zeros((self.n, 6))
-        kernel.project(self._topology.system, self.y, delta)
+        kernel.project(top.system, y, delta)
         return delta
 
     # --------------------------------------------------------------- inputs
@@ -189,7 +189,7 @@ class Dynamics(SampledState):
         """
         i = self.body_index(body)
         force, torque, point = held_wrench(self.model.bodies[i], force, torque, point)
-        row = self._loads[i]
+        row = self.loads[i]
         row[LOADS.span('H_FORCE')], row[LOADS.span('H_TORQUE')] = force, torque
         row[LOADS.H_AXES] = 1.0 if body_axes else 0.0
         row[LOADS.span('H_POINT')] = point
@@ -201,7 +201,7 @@ class Dynamics(SampledState):
         Per body: force (N) and torque (N m), in world axes, or in body axes
         where column 6 is 1; then the force's point (body axes, from the CG, m).
         """
-        rows = self._loads[:self.n]
+        rows = self.loads[:self.n]
         return np.hstack([rows[:, LOADS.span('H_FORCE')], rows[:, LOADS.span('H_TORQUE')],
                           rows[:, LOADS.H_AXES:LOADS.H_AXES + 1], rows[:, LOADS.span('H_POINT')]])
 

@@ -4,10 +4,10 @@
 What a sample shows: the sample grid, and a state's outputs and joint loads.
 
 ``SampleGrid`` lets the kernel take samples on k / rate_hz on its way;
-``SampledState``, the base of ``Dynamics`` and so of ``Simulator``, computes
-the numbers a sample publishes at a state: poses and twists, each joint's
-load on its child, its points and its angle, the applied loads and the
-states relative to a reference.
+``Sampling``, a part that ``Simulator`` holds, computes the numbers a
+sample publishes at a state: each joint's load on its child, its points and
+its angle, the applied loads, the air and the states relative to a
+reference, on the rows of the joints active now (``bind``).
 """
 
 from __future__ import annotations
@@ -79,74 +79,37 @@ class SampleGrid:
         return self.state[1] / self.state[0]
 
 
-class SampledState:
+class Sampling:
     """
-    What a sample shows of a simulator's state: the base of ``Dynamics``.
+    What a sample shows of a simulator's state, on the rows of its active joints.
 
-    Subclasses hold ``y`` (the state), ``n`` (bodies), ``model``, ``joints``
-    (``JointTables``), ``_topology``, ``_scheduled`` (``loads.ScheduledLoads``)
-    and the active joints' output order.
+    Parameters
+    ----------
+    model : Model
+        The simulator's model.
+    joints : JointTables
+        Every joint as rows in body axes (``topology.JointTables``).
+    scheduled : ScheduledLoads
+        The applied loads (``loads``): their sources are part of a sample.
+
+    Attributes
+    ----------
+    active_joints : tuple
+        The active joints (model indices, ascending), as a sample lists their loads.
+
     """
 
-    # ----------------------------------------------------------------- views
+    def __init__(self, model, joints, scheduled):
+        self.model, self.joints, self.scheduled = model, joints, scheduled
+        self.n = len(model.bodies)
+        self.topology = None
+        self.active_joints = ()
 
-    def _split(self, y):
-        """Return views (position, velocity, quaternion, rates) of a state vector."""
-        return state_views(y, self.n)
+    def bind(self, topology, active_joints: tuple):
+        """Sample on these rows from now on (the joints active after a release)."""
+        self.topology, self.active_joints = topology, active_joints
 
-    @property
-    def position(self) -> np.ndarray:
-        """CG positions, world, m, shape (n, 3)."""
-        return self._split(self.y)[0].copy()
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """CG velocities, world axes, m/s, shape (n, 3)."""
-        return self._split(self.y)[1].copy()
-
-    @property
-    def orientation(self) -> np.ndarray:
-        """Return unit quaternions (x, y, z, w), body to world, shape (n, 4)."""
-        return self._split(self.y)[2].copy()
-
-    @property
-    def rates(self) -> np.ndarray:
-        """Angular velocities (P, Q, R), body axes, rad/s, shape (n, 3)."""
-        return self._split(self.y)[3].copy()
-
-    def velocity_body(self) -> np.ndarray:
-        """CG velocities in body axes, m/s, shape (n, 3)."""
-        _, vel, quat, _ = self._split(self.y)
-        return rotations.to_body(quat, vel)
-
-    # -------------------------------------------------------------- outputs
-
-    def joint_wrenches(self):
-        """
-        Return the loads of the joints on their children at the current state.
-
-        Returns
-        -------
-        force : ndarray, shape (n_joints, 3)
-            Force on the child, world axes, N.
-        moment : ndarray, shape (n_joints, 3)
-            Moment on the child about the joint point, world axes, N m.
-            Released joints have zero force and moment.
-
-        Raises
-        ------
-        NumericalFailure
-            If the solve is singular or ill-conditioned, or a load is not finite.
-
-        """
-        return self._joint_loads(self.y)[:2]
-
-    @property
-    def active_joints(self) -> tuple:
-        """Return the active joints (model indices, ascending)."""
-        return self._outputs_key
-
-    def _joint_loads(self, y):
+    def joint_loads(self, y):
         """
         Each joint's load on its child at a state, and the constraint values.
 
@@ -157,8 +120,13 @@ class SampledState:
         value : ndarray, shape (m,)
             Constraint values of the active rows (m, or rad).
 
+        Raises
+        ------
+        NumericalFailure
+            If the solve is singular or ill-conditioned, or a load is not finite.
+
         """
-        top = self._topology
+        top = self.topology
         n_j = len(self.model.joints)
         force, moment = np.zeros((n_j, 3)), np.zeros((n_j, 3))
         lines = len(top.plan)
@@ -172,16 +140,19 @@ class SampledState:
         value = kernel.constraint_values(top.system).copy()
         return force, moment, value
 
-    def _outputs_size(self) -> int:
-        return (13 * self.n + 6 * len(self._outputs_key) + self._scheduled.outputs_size
+    def outputs_size(self) -> int:
+        """Return the numbers of a sample (``outputs``)."""
+        return (13 * self.n + 6 * len(self.active_joints) + self.scheduled.outputs_size
                 + 13 * len(self.model.references))
 
-    def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+    def outputs(self, y, out: Optional[np.ndarray] = None) -> np.ndarray:
         """
-        Return what a sample publishes at the current state, in one kernel call.
+        Return what a sample publishes at state y, in one kernel call.
 
         Parameters
         ----------
+        y : ndarray, shape (13 n,)
+            The state (``Simulator.y``).
         out : ndarray, optional
             Where to write it (a fresh array if not given).
 
@@ -201,8 +172,8 @@ class SampledState:
 
         """
         if out is None:
-            out = np.empty(self._outputs_size())
-        code = kernel.sample_outputs(self._topology.system, self.y, out)
+            out = np.empty(self.outputs_size())
+        code = kernel.sample_outputs(self.topology.system, y, out)
         if code == kernel.SINGULAR:
             raise NumericalFailure(SINGULAR)
         if code == kernel.LOADS_NOT_FINITE:
@@ -212,26 +183,25 @@ class SampledState:
     @property
     def applied_sources(self) -> list:
         """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
-        return self._scheduled.sources()
+        return self.scheduled.sources()
 
-    def applied_loads(self) -> np.ndarray:
+    def applied_loads(self, outputs: np.ndarray) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
-        first = 13 * self.n + 6 * len(self._outputs_key)
-        return self.outputs()[first:first + 6 * len(self.applied_sources)].reshape(-1, 6)
+        first = 13 * self.n + 6 * len(self.active_joints)
+        return outputs[first:first + 6 * len(self.applied_sources)].reshape(-1, 6)
 
-    def air(self, outputs: Optional[np.ndarray] = None) -> np.ndarray:
+    def air(self, outputs: np.ndarray) -> np.ndarray:
         """
-        Return the air each body with aero tables sees, (len(model.aero), 12).
+        Return the air each body with aero tables sees, (len(model.aero), 12), of a sample.
 
         Per body: alpha, beta (deg), Mach, dynamic pressure (Pa), density
         (kg/m^3), airspeed (m/s), CX, CY, CZ, and Cl, Cm, Cn about the
-        actual CG (``aero.AIR_TOPICS``); from ``outputs`` if given.
+        actual CG (``aero.AIR_TOPICS``).
         """
-        first = 13 * self.n + 6 * len(self._outputs_key) + 6 * len(self.applied_sources)
-        out = self.outputs() if outputs is None else outputs
-        return out[first:first + 12 * len(self.model.aero)].reshape(-1, 12)
+        first = 13 * self.n + 6 * len(self.active_joints) + 6 * len(self.applied_sources)
+        return outputs[first:first + 12 * len(self.model.aero)].reshape(-1, 12)
 
-    def relative_states(self) -> np.ndarray:
+    def relative_states(self, y) -> np.ndarray:
         """
         Return each ``model.references`` body's state in its reference's frame, (k, 13).
 
@@ -245,7 +215,7 @@ class SampledState:
         if not pairs:
             return out
         body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
-        pos, vel, quat, rates = self._split(self.y)
+        pos, vel, quat, rates = state_views(y, self.n)
         quat = quat / np.linalg.norm(quat, axis=1)[:, None]
         rot = rotations.matrices(quat)
         omega = np.einsum('nij,nj->ni', rot, rates)
@@ -258,9 +228,9 @@ class SampledState:
         out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
         return out
 
-    def joint_points(self, y: Optional[np.ndarray] = None):
+    def joint_points(self, y):
         """
-        Each joint's point as carried by its parent and by its child.
+        Each joint's point as carried by its parent and by its child, at state y.
 
         Returns
         -------
@@ -268,25 +238,25 @@ class SampledState:
             World, m.
 
         """
-        pos, _, quat, _ = self._split(self.y if y is None else y)
+        pos, _, quat, _ = state_views(y, self.n)
         rot = rotations.matrices(quat)
         joints = self.joints
         pa, pb = joints.parent, joints.child
         return (pos[pa] + _apply(rot[pa], joints.anchor_a),
                 pos[pb] + _apply(rot[pb], joints.anchor_b))
 
-    def joint_angles(self, y: Optional[np.ndarray] = None) -> np.ndarray:
-        """Rotation of each child relative to its parent since t = 0, rad."""
+    def joint_angles(self, y) -> np.ndarray:
+        """Rotation of each child relative to its parent since t = 0 at state y, rad."""
         joints = self.joints
-        quat = self._split(self.y if y is None else y)[2]
+        quat = state_views(y, self.n)[2]
         quat = quat / np.linalg.norm(quat, axis=1)[:, None]
         relative = rotations.multiply(
             rotations.conjugate(quat[joints.parent]), quat[joints.child])
         return rotations.rotation_angle(
             rotations.multiply(rotations.conjugate(joints.relative0), relative))
 
-    def constraint_violation(self) -> float:
-        """Largest |g| of the active rows now (m, or rad for rotation rows)."""
-        if self._topology.m == 0:
+    def constraint_violation(self, y) -> float:
+        """Largest |g| of the active rows at state y (m, or rad for rotation rows)."""
+        if self.topology.m == 0:
             return 0.0
-        return float(np.abs(self._joint_loads(self.y)[2]).max())
+        return float(np.abs(self.joint_loads(y)[2]).max())

@@ -7,14 +7,15 @@ The state of n bodies is one flat array ``y`` of 13 n numbers, in blocks:
 CG positions (world, m), CG velocities (world, m/s), quaternions (x, y, z, w,
 body to world) and angular velocities (body axes, rad/s). Ground (fixed)
 bodies are carried with zero inverse mass and inertia, so every formula is the
-same for all bodies; the equations of motion (Newton-Euler bodies, joint rows
-with Baumgarte stabilization) are ``dynamics.Dynamics``, the base of
-``Simulator``.
+same for all bodies.
 
 ``Simulator`` owns the run's time, its status and the step loop: it steps in
-the compiled kernel, cuts steps at release times, at release conditions and
-at ejector strokes' ends, and has the joints' ``Releases``, the kinematic
-bodies' ``Carriers`` and the ``ScheduledLoads`` follow.
+the compiled kernel and cuts steps at release times, release conditions,
+strokes' ends and contacts. It holds its parts rather than inheriting them:
+the equations of motion (``dynamics.Dynamics``: bodies and applied loads),
+the joints (``jointset.JointSet``: rows, releases, the active ``Topology``),
+the kinematic bodies (``Carriers``), the braces, contact pairs and aero
+tables watched (``watch.Watch``) and what a sample shows (``Sampling``).
 """
 
 from __future__ import annotations
@@ -23,17 +24,16 @@ import logging
 import math
 from typing import Optional
 
-from cfem_ros.core.engine import braces
-from cfem_ros.core.engine.aero import AeroWatch
+from cfem_ros.core import rotations
+from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.carrier import Carriers
 from cfem_ros.core.engine.dynamics import Dynamics
-from cfem_ros.core.engine.groups import ReleaseGroups, row_weights
+from cfem_ros.core.engine.jointset import JointSet
 from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
                                               NOT_FINITE)
-from cfem_ros.core.engine.releases import Releases
-from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
+from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid, Sampling
 from cfem_ros.core.engine.strokes import stroke_end_event
-from cfem_ros.core.engine.topology import JointTables, Topology
+from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel
 import numpy as np
@@ -43,11 +43,16 @@ import numpy as np
 LOAD_EVENTS = frozenset({'release', 'stroke_end', 'brace_contact'})
 
 
-class Simulator(Dynamics):
+class Simulator:
     """
     Step a model's bodies and joints in time with RK4.
 
-    Parameters as ``Dynamics`` (the model, and where warnings go).
+    Parameters
+    ----------
+    model : Model
+        Built by ``scenario.parse_scenario``.
+    logger : logging.Logger, optional
+        Where warnings go (velocity projection, redundant joints).
 
     Attributes
     ----------
@@ -85,7 +90,17 @@ class Simulator(Dynamics):
     """
 
     def __init__(self, model: Model, logger: Optional[logging.Logger] = None):
-        super().__init__(model, logger)
+        self.model = model
+        self.dynamics = dynamics = Dynamics(model, logger)
+        # the dynamics' tables, read through the simulator too (the same arrays)
+        self.log, self.eta, self.n, self.free = dynamics.log, dynamics.eta, dynamics.n, \
+            dynamics.free
+        self.kinematic, self.gravity = dynamics.kinematic, dynamics.gravity
+        self.mass, self.inertia_body = dynamics.mass, dynamics.inertia_body
+        self._bodies, self._scheduled = dynamics.bodies, dynamics.scheduled
+        self._loads = dynamics.loads
+        self.y = dynamics.y0
+        self._stage_violation = 0.0   # the largest violation within the step being taken
         self.dt = float(model.dt)
         self.t = 0.0
         self.status = 'running'
@@ -99,18 +114,17 @@ class Simulator(Dynamics):
             self.carriers.place(0.0)
             self.carriers.start()
 
-        pos0, _, quat0, _ = self._split(self.y)
-        self.joints = JointTables(model, pos0, quat0)
-        self.groups = ReleaseGroups(model)
-        self.releases = Releases(self.joints, [joint.name for joint in model.joints],
-                                 self.groups.group_of)
+        pos0, _, quat0, _ = state_views(self.y, self.n)
+        self.joint_set = JointSet(model, pos0, quat0)
+        self.joints, self.groups = self.joint_set.tables, self.joint_set.groups
+        self.releases = self.joint_set.releases
+        self.sampling = Sampling(model, self.joints, self._scheduled)
         self._set_topology()
         self._fire_time_triggers()
-        self._project_velocities()
-        self._scheduled.arm(self.y)   # contact pairs apart at t = 0 are watched from now
-        # where the bodies are on their aero tables' axes (aero.py): outside at t = 0 is told
-        self._aero = AeroWatch(model, self._scheduled.array, self.n + self._scheduled.count)
-        self._aero_events(self._aero.arm(self.y, self.t))
+        dynamics.project_velocities(self._topology, self.y)
+        # pads, pairs apart and tables watched from t = 0: an axis outside then is told
+        self.watch = Watch(model, self._scheduled, self.n)
+        self._watched(*self.watch.arm(self.y, self.t))
 
     def set_state(self, y, *, start: bool = False):
         """
@@ -118,10 +132,9 @@ class Simulator(Dynamics):
 
         The one way to set the state (a batch copy's initial state, the
         node's ``set_entity_state``): the wrenches on measure their strokes
-        from y; the braces' pads in contact at y, and the contact pairs
-        apart at y, are watched (``ScheduledLoads.arm``); where each body is
-        on its aero tables is taken from y, an axis outside there being an
-        event now (``AeroWatch.arm``), which stops the run if its table says so.
+        from y, and the braces, contact pairs and aero tables are watched
+        from y (``Watch.arm``: an axis outside there is an event now, which
+        stops the run if its table says so).
 
         Parameters
         ----------
@@ -147,29 +160,115 @@ class Simulator(Dynamics):
                              's); expected a state set before the first step')
         self.y = y
         self._scheduled.reanchor(self.y)   # strokes measured from here
-        self._scheduled.arm(self.y)        # contact pairs apart here are watched
         if start:   # the scenario's initial state is not this run's: what it told goes
             self.events[:] = [e for e in self.events if not e['event'].startswith('aero_')]
-        self._aero_events(self._aero.arm(self.y, self.t))
+        self._watched(*self.watch.arm(self.y, self.t))   # pads, pairs and tables from here
 
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
         self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
 
+    # ------------------------------------- the equations and inputs (Dynamics)
+
+    def derivative(self, y: np.ndarray) -> np.ndarray:
+        """Return dy/dt at state y (external wrenches held constant)."""
+        return self.dynamics.derivative(self._topology, y)
+
+    def joint_projection(self) -> np.ndarray:
+        """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
+        return self.dynamics.joint_projection(self._topology, self.y)
+
+    def set_wrench(self, body, force, torque, body_axes: bool = False, point=None):
+        """Hold an external force and moment on a body until replaced (``Dynamics.set_wrench``)."""
+        self.dynamics.set_wrench(body, force, torque, body_axes, point)
+
+    def held_wrenches(self) -> np.ndarray:
+        """Return the wrenches held on the bodies, (n, 10) (``Dynamics.held_wrenches``)."""
+        return self.dynamics.held_wrenches()
+
+    def body_index(self, body) -> int:
+        """Return the index of a body given by name or index."""
+        return self.dynamics.body_index(body)
+
+    def joint_index(self, joint) -> int:
+        """Return the index of a joint given by name or index."""
+        return self.dynamics.joint_index(joint)
+
+    # ----------------------------------------- the state and a sample (Sampling)
+
+    @property
+    def position(self) -> np.ndarray:
+        """CG positions, world, m, shape (n, 3)."""
+        return state_views(self.y, self.n)[0].copy()
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """CG velocities, world axes, m/s, shape (n, 3)."""
+        return state_views(self.y, self.n)[1].copy()
+
+    @property
+    def orientation(self) -> np.ndarray:
+        """Return unit quaternions (x, y, z, w), body to world, shape (n, 4)."""
+        return state_views(self.y, self.n)[2].copy()
+
+    @property
+    def rates(self) -> np.ndarray:
+        """Angular velocities (P, Q, R), body axes, rad/s, shape (n, 3)."""
+        return state_views(self.y, self.n)[3].copy()
+
+    def velocity_body(self) -> np.ndarray:
+        """CG velocities in body axes, m/s, shape (n, 3)."""
+        _, vel, quat, _ = state_views(self.y, self.n)
+        return rotations.to_body(quat, vel)
+
+    def joint_wrenches(self):
+        """Return the joints' loads on their children now (``Sampling.joint_loads``)."""
+        return self.sampling.joint_loads(self.y)[:2]
+
+    @property
+    def active_joints(self) -> tuple:
+        """Return the active joints (model indices, ascending)."""
+        return self.sampling.active_joints
+
+    def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return what a sample publishes now, in one kernel call (``Sampling.outputs``)."""
+        return self.sampling.outputs(self.y, out)
+
+    @property
+    def applied_sources(self) -> list:
+        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
+        return self.sampling.applied_sources
+
+    def applied_loads(self) -> np.ndarray:
+        """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
+        return self.sampling.applied_loads(self.outputs())
+
+    def air(self, outputs: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return the air each aero body sees, (k, 12), of outputs if given (``Sampling.air``)."""
+        return self.sampling.air(self.outputs() if outputs is None else outputs)
+
+    def relative_states(self) -> np.ndarray:
+        """Return each reference pair's relative state, (k, 13) (``Sampling.relative_states``)."""
+        return self.sampling.relative_states(self.y)
+
+    def joint_points(self, y: Optional[np.ndarray] = None):
+        """Return each joint's point on its parent and on its child, world, m, (n_joints, 3)."""
+        return self.sampling.joint_points(self.y if y is None else y)
+
+    def joint_angles(self, y: Optional[np.ndarray] = None) -> np.ndarray:
+        """Rotation of each child relative to its parent since t = 0, rad."""
+        return self.sampling.joint_angles(self.y if y is None else y)
+
+    def constraint_violation(self) -> float:
+        """Largest |g| of the active rows now (m, or rad for rotation rows)."""
+        return self.sampling.constraint_violation(self.y)
+
     # -------------------------------------------------------------- releases
 
     def _set_topology(self):
-        """Rebuild the rows, the solve plan and the workspace for the active joints."""
-        top = self._topology = Topology(self.joints.rows, self.active, self.free)
-        self.releases.update(self.active, top.line)
-        active = np.flatnonzero(self.active)
-        self._outputs_key = tuple(active.tolist())
-        order = np.ascontiguousarray(top.line[active], dtype=np.int64)
-        top.bind(self._bodies, self.gravity, self._loads, self.eta, self.releases.watched(),
-                 order)
-        self.dof = self._check_redundancy()
-        if top.dense == 2:   # redundant rows: split by the joints' compliance, if given
-            top.weigh(row_weights(self.model, top.joint))
+        """Rebuild the active joints' rows (``JointSet.rebuild``)."""
+        self._topology = self.joint_set.rebuild(self.dynamics, self.sampling, self.y)
+        self.dof = self.joint_set.dof
 
     def release(self, joint, cause: str = 'command') -> dict:
         """
@@ -185,18 +284,10 @@ class Simulator(Dynamics):
 
     def release_all(self, names, cause: str = 'command') -> list:
         """Release as ``release`` does; return every event."""
-        if isinstance(names, str):
-            joints = self.groups.check_command(names, self.active)
-        else:
-            k = self.joint_index(names)
-            if not self.active[k]:
-                raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
-            joints = [k]
-        return self._release(joints, cause)
+        return self._release(self.joint_set.commanded(names, self.joint_index), cause)
 
     def _release(self, joints, cause):
-        released = [k for k, _ in self.groups.expand(joints, self.active)]
-        events = self.releases.release(released, self.t, cause)
+        released, events = self.joint_set.release(joints, self.t, cause)
         self._set_topology()
         # wrenches tied to these releases: on (or off) now, or at a time to cut a step at
         if self._scheduled.released(released, self.t):
@@ -255,9 +346,10 @@ class Simulator(Dynamics):
             raise ValueError('limit is nan; expected a time in s (inf for none)')
         if self.status != 'running':
             return False
-        if samples is not None and samples.rows.shape[1] not in (0, self._outputs_size()):
+        if samples is not None and samples.rows.shape[1] not in (
+                0, self.sampling.outputs_size()):
             raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
-                             f'of this state have {self._outputs_size()}')
+                             f'of this state have {self.sampling.outputs_size()}')
         steps = self.steps
 
         def release_now():
@@ -294,7 +386,7 @@ class Simulator(Dynamics):
             if self.t >= t_target and self.steps > steps:
                 self._check_violation()   # the kernel checks each step's start, not the end
             self.carriers.check()
-            self.events.extend(self._aero.atmosphere(self.y, self.t))
+            self.events.extend(self.watch.aero.atmosphere(self.y, self.t))
         except NumericalFailure as err:
             self.fail(str(err))
             return False
@@ -368,18 +460,11 @@ class Simulator(Dynamics):
         if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
             # an ejector's stroke ends first (or with a release), or shapes touch
             s, rows = stroke
-            first, count = self._scheduled.contact_first, self._scheduled.count
-            braces = self._scheduled.brace_first
-            wrenches = [k for k in rows if k < count]
+            wrenches = [k for k in rows if k < self._scheduled.count]
             self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
-            self._end_strokes(wrenches)
-            for k in rows:
-                if k >= braces:
-                    self._brace_contact(k - braces)
-                elif k >= first:
-                    self._contact(k - first)
-                elif k >= count:   # a body left (or came back to) an aero table's range
-                    self._aero_events(self._aero.crossed(k - count, self.y, y1, self.t))
+            self._scheduled.end_strokes(wrenches)   # an event for each (strokes.py)
+            self.events.extend(stroke_end_event(self, k) for k in wrenches)
+            self._watched(*self.watch.located(rows, self.y, y1, self.t))   # pads, pairs, air
             if crossing is not None and crossing[0] <= s:
                 for k, cause in zip(crossing[1], crossing[2]):
                     self._release([k], cause)
@@ -392,36 +477,11 @@ class Simulator(Dynamics):
             for k, cause in zip(joints, causes):
                 self._release([k], cause)
 
-    def _end_strokes(self, wrenches):
-        """Switch off the wrenches whose stroke ended now; an event for each (strokes.py)."""
-        self._scheduled.end_strokes(wrenches)
-        self.events.extend(stroke_end_event(self, k) for k in wrenches)
-
-    def _aero_events(self, events: list):
-        """Record aero_outside / aero_inside events; stop the run if a table says so."""
+    def _watched(self, events: list, stops: list):
+        """Record the watch's events; stop the run as the first stop says (``Watch``)."""
         self.events.extend(events)
-        if self._aero.stop_message and self.status == 'running':
-            self.status = 'aero_outside'
-            self.message = self._aero.stop_message
-
-    def _brace_contact(self, k: int):
-        """Switch brace k's pad now (its push changed sign); record the event."""
-        contact = self._scheduled.switch_brace(k)
-        self.events.append(braces.contact_event(self.model.braces[k], contact, self.t))
-
-    def _contact(self, k: int):
-        """Record contact pair k's first touch now; stop the run if the pair says so."""
-        pair = self.model.contacts[k]
-        names = [self.model.bodies[b].name for b in pair.bodies]
-        _, points, parts = self._scheduled.gap(k, self.y)
-        point = [float(v) for v in 0.5 * (points[:3] + points[3:])]
-        self.events.append({'event': 'contact', 'bodies': names, 'time': self.t,
-                            'point': point, 'parts': parts})
-        self._scheduled.touched(k)   # watched again once the shapes part
-        if pair.stop and self.status == 'running':
-            self.status = 'contact'
-            self.message = (f'at t = {self.t:.9g} s: {names[0]} touches {names[1]} at '
-                            f'[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}] (world, m)')
+        if stops and self.status == 'running':
+            self.status, self.message = stops[0]
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():
