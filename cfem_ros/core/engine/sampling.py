@@ -12,8 +12,6 @@ reference, on the rows of the joints active now (``bind``).
 
 from __future__ import annotations
 
-from typing import Optional
-
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.errors import CfemError
@@ -141,44 +139,21 @@ class Sampling:
         return force, moment, value
 
     def outputs_size(self) -> int:
-        """Return the numbers of a sample (``outputs``)."""
+        """
+        Return the numbers of a sample (``Simulator.outputs``, one kernel call).
+
+        Per body its pose (CG position, m; quaternion x y z w, body to
+        world) and twist (CG velocity, m/s, and angular velocity, rad/s,
+        both in body axes); then per active joint its force and moment on
+        the child (world axes, N and N m about the joint point); then per
+        scheduled wrench source (``applied_sources``) its force and moment
+        about the CG of the body it acts on (world axes); then per body
+        with aero tables the air it sees (``air``); then per
+        ``model.references`` pair, the body's pose and twist in its
+        reference's frame (``motion.sample_relative``).
+        """
         return (13 * self.n + 6 * len(self.active_joints) + self.scheduled.outputs_size
                 + 13 * len(self.model.references))
-
-    def outputs(self, y, out: Optional[np.ndarray] = None) -> np.ndarray:
-        """
-        Return what a sample publishes at state y, in one kernel call.
-
-        Parameters
-        ----------
-        y : ndarray, shape (13 n,)
-            The state (``Simulator.y``).
-        out : ndarray, optional
-            Where to write it (a fresh array if not given).
-
-        Returns
-        -------
-        ndarray, shape (13 n + 6 len(active_joints) + 6 len(applied_sources),)
-            Every number finite (else ``NumericalFailure``). Per body its
-            pose (CG position, m; quaternion x y z w, body to world) and
-            twist (CG velocity, m/s, and angular velocity, rad/s, both in
-            body axes); then per active joint its force and moment on the
-            child (world axes, N and N m about the joint point); then per
-            scheduled wrench source (``applied_sources``) its force and
-            moment about the CG of the body it acts on (world axes); then
-            per body with aero tables the air it sees (``air``); then
-            per ``model.references`` pair, the body's pose and twist in
-            its reference's frame (``motion.sample_relative``).
-
-        """
-        if out is None:
-            out = np.empty(self.outputs_size())
-        code = kernel.sample_outputs(self.topology.system, y, out)
-        if code == kernel.SINGULAR:
-            raise NumericalFailure(SINGULAR)
-        if code == kernel.LOADS_NOT_FINITE:
-            raise NumericalFailure(LOADS_NOT_FINITE)
-        return out
 
     @property
     def applied_sources(self) -> list:

@@ -31,7 +31,8 @@ from cfem_ros.core.engine.dynamics import Dynamics
 from cfem_ros.core.engine.jointset import JointSet
 from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
                                               NOT_FINITE)
-from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid, Sampling
+from cfem_ros.core.engine.sampling import (LOADS_NOT_FINITE, NumericalFailure, SampleGrid,
+                                           Sampling, SINGULAR)
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.model.model import Model
@@ -122,9 +123,8 @@ class Simulator:
         self._set_topology()
         self._fire_time_triggers()
         dynamics.project_velocities(self._topology, self.y)
-        # pads, pairs apart and tables watched from t = 0: an axis outside then is told
-        self.watch = Watch(model, self._scheduled, self.n)
-        self._watched(*self.watch.arm(self.y, self.t))
+        self.watch = Watch(model, self._scheduled, self.n)   # pads, pairs and aero tables
+        self._watched(*self.watch.arm(self.y, self.t))   # an axis outside at t = 0 is told
 
     def set_state(self, y, *, start: bool = False):
         """
@@ -167,8 +167,6 @@ class Simulator:
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
         self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
-
-    # ------------------------------------- the equations and inputs (Dynamics)
 
     def derivative(self, y: np.ndarray) -> np.ndarray:
         """Return dy/dt at state y (external wrenches held constant)."""
@@ -231,8 +229,12 @@ class Simulator:
         return self.sampling.active_joints
 
     def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
-        """Return what a sample publishes now, in one kernel call (``Sampling.outputs``)."""
-        return self.sampling.outputs(self.y, out)
+        """Return what a sample publishes now, in one kernel call (``Sampling.outputs_size``)."""
+        out = np.empty(self.sampling.outputs_size()) if out is None else out
+        code = kernel.sample_outputs(self._topology.system, self.y, out)
+        if code == kernel.SINGULAR or code == kernel.LOADS_NOT_FINITE:   # else a finite row
+            raise NumericalFailure(SINGULAR if code == kernel.SINGULAR else LOADS_NOT_FINITE)
+        return out
 
     @property
     def applied_sources(self) -> list:
