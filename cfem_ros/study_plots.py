@@ -22,7 +22,7 @@ import sys
 
 from cfem_ros import plots
 from cfem_ros.core import rotations
-from cfem_ros.recording.analysis import open_run
+from cfem_ros.recording.analysis import shared_run
 from cfem_ros.study.labels import label, unit
 from cfem_ros.study.rounding import at_rounding_level, family_scale
 import matplotlib
@@ -317,7 +317,7 @@ def envelope_figure(recordings, parent, child: str):
     tracks = []
     z_down = False
     for path in recordings:
-        run = open_run(path)
+        run = shared_run(path)
         if (parent is not None and parent not in run.bodies) or child not in run.bodies:
             continue
         z_down = z_down or plots._z_down(run)

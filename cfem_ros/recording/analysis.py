@@ -17,7 +17,9 @@ Times are seconds from the run's start: the ``cfem_ros`` metadata's
 
 from __future__ import annotations
 
+import functools
 import json
+import os
 from typing import Optional
 
 from cfem_ros.core import rotations
@@ -120,6 +122,24 @@ def open_run(path: str, namespace: Optional[str] = None,
     with reading(path):
         _poses_in_bodies(path, ns, raw, set(frames))
         return _assemble(path, ns, topics, metadata, raw)
+
+
+def shared_run(path: str) -> Run:
+    """
+    Return ``open_run(path)``, read once in this process while the file is unchanged.
+
+    For a study folder's figures, several of which read every recorded run
+    (the envelopes, the worst run's snapshots): the same ``Run`` object is
+    given to each, so its users read it and never change it. The file is
+    read again when its size or modification time changes.
+    """
+    info = os.stat(path)
+    return _shared_run(os.path.abspath(path), info.st_size, info.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=64)   # a study's recorded runs are small: 100 to 1000 samples
+def _shared_run(path: str, size: int, mtime_ns: int) -> Run:
+    return open_run(path)
 
 
 def _renamed(channel, renamed: dict):

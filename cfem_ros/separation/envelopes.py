@@ -21,7 +21,7 @@ import re
 
 from cfem_ros.core.errors import CfemError
 from cfem_ros.plots import save
-from cfem_ros.recording.analysis import euler_continuous, open_run
+from cfem_ros.recording.analysis import euler_continuous, shared_run
 from cfem_ros.recording.relative import relative_track, release_time
 from cfem_ros.separation.figures import LEAST_SPAN, QUANTITIES
 import matplotlib
@@ -63,7 +63,7 @@ def default_reference(manifest: dict):
 def separating_body(path: str, reference: str):
     """Return the body that moves farthest relative to reference in a recording (or None)."""
     from cfem_ros.separation.figures import free_bodies
-    tracks = free_bodies(open_run(path), reference)
+    tracks = free_bodies(shared_run(path), reference)
     if not tracks:
         return None
     return max(tracks, key=lambda track: np.ptp(track.position, axis=0).max()).name
@@ -71,7 +71,7 @@ def separating_body(path: str, reference: str):
 
 def history(path: str, body: str, reference: str):
     """Return (time from release (n,), values (n, 6): x, y, z m, roll, pitch, yaw deg) of a run."""
-    run = open_run(path)
+    run = shared_run(path)
     track = relative_track(run, body, reference)
     released = release_time(run)
     origin = 0.0 if np.isnan(released) else released
@@ -204,7 +204,7 @@ def report_figures(outdir: str, directory: str, warn=None) -> list:
         path = recordings.get(worst) or _rerun(outdir, manifest, worst,
                                                os.path.join(directory, f'run_{worst}.mcap'))
         if path is not None:
-            fig = snapshots_figure(open_run(path), reference,
+            fig = snapshots_figure(shared_run(path), reference,
                                    title=f'worst run ({worst}) by the first criterion')
             paths.append(save(fig, os.path.join(directory, f'snapshots_run_{worst}.png')))
     except (CfemError, OSError, KeyError, ValueError) as err:
