@@ -15,10 +15,11 @@ Where a near-pylon run's time goes, against the paper's case (issue 49.4).
    stepping to each sample, the metrics: distances between samples), their
    own time summed by where it is spent, then the functions taking most.
 3. The same runs without the profiler, CPU time a run: as shipped, with
-   the search between samples (SPEC section 15) to 1 us instead of 1e-11 s
-   (``between.TIME_TOLERANCE``), and with the distance metrics taken at the
-   samples only (``between.least`` given no interpolant, as for a run whose
-   twists were not recorded): what the search costs, and what it changes.
+   the search between samples (SPEC section 15) to 1e-6 m instead of 1e-9 m
+   (``between.DISTANCE_TOLERANCE``), and with the distance metrics taken at
+   the samples only (``between.least`` given no interpolant, as for a run
+   whose twists were not recorded): what the search costs, and what it
+   changes.
 
 CPU time, not wall time: on a shared machine another process's turn on the
 core would count. cProfile slows the Python side (each call is counted),
@@ -167,25 +168,25 @@ def run_costs(runs: int, turns: int):
     from cfem_ros.study import between, load_sweep
     from cfem_ros.study.runs import run_rows
     spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'))
-    searched, tolerance = between.least, between.TIME_TOLERANCE
+    searched, tolerance = between.least, between.DISTANCE_TOLERANCE
 
     def sampled_only(time, sampled, evaluate, rate, start, end, *more, **options):
         return searched(time, sampled, None, rate, start, end)   # no interpolant: samples
 
     ways = {'as shipped': (searched, tolerance),
-            'searched between samples to 1 us, not 1e-11 s': (searched, 1e-6),
+            'searched between samples to 1e-6 m, not 1e-9 m': (searched, 1e-6),
             'distances at the samples only': (sampled_only, tolerance)}
     costs = {name: [] for name in ways}
     rows = {}
     for _ in range(turns):
         for name, (least, within) in ways.items():
-            between.least, between.TIME_TOLERANCE = least, within
+            between.least, between.DISTANCE_TOLERANCE = least, within
             try:
                 start = time.process_time()
                 rows[name] = run_rows(spec, list(range(runs)))
                 costs[name].append((time.process_time() - start) / runs * 1e3)
             finally:
-                between.least, between.TIME_TOLERANCE = searched, tolerance
+                between.least, between.DISTANCE_TOLERANCE = searched, tolerance
     print(f'\n3. CPU time of a sweep run (run_rows, {runs} runs, median of {turns} turns; '
           '10,000 runs in 60 s on 2 cores is 12 ms a run), and the largest change of a '
           'least distance from the runs as shipped')

@@ -14,12 +14,19 @@ a sample interval h (with an acceleration that jumps inside the interval,
 a release or an end of stroke, within h^2 / 16 times the jump).
 
 ``least`` finds the least of a distance over a window from its sampled
-values: each sample interval whose distance could go below the best found
-(its ends less the interval times a bound on how fast the distance can
-change, from the bodies' velocities, rates and sizes) is searched, first
-on a few points, then by a bounded scalar minimisation (Brent) to
-``TIME_TOLERANCE``. A value within ``GAIN`` of the best sample keeps the
-sample (so that a body at rest gives its sample's number to the bit).
+values. A bound L on |d distance / dt| in each sample interval (from the
+bodies' relative velocity, rates and sizes) bounds the distance there from
+below by (d0 + d1 - L h) / 2, d0 and d1 its ends (the rate lets it fall from
+one end and rise to the other, no more). Only the intervals whose bound is
+more than ``DISTANCE_TOLERANCE`` below the best found are probed, all in one
+call (``PROBES`` points each); the same bound on each probed piece prunes
+them again; in each one left, the least is searched about its least probe by
+Brent (bounded) to a time tolerance of ``DISTANCE_TOLERANCE`` / L, so that
+the value found is within ``DISTANCE_TOLERANCE`` of the interpolant's local
+least there (a least probe at an end, a window's edge most often, is first
+approached in one call: Brent closes on an end in some 30 golden sections).
+A value within ``GAIN`` of the best sample keeps the sample (so
+that a body at rest gives its sample's number to the bit).
 """
 
 from __future__ import annotations
@@ -29,8 +36,9 @@ import math
 from cfem_ros.core import rotations
 import numpy as np
 
-#: How close in time the search comes to the least distance, s.
-TIME_TOLERANCE = 1e-11
+#: How close the least found comes to the interpolant's least, m: Brent stops within this
+#: over the interval's rate bound in time (a distance changes by at most rate x time).
+DISTANCE_TOLERANCE = 1e-9
 #: A distance between samples replaces the least sample only below it by more than this, m.
 GAIN = 1e-12
 #: Points tried in a sample interval before the bounded minimisation.
@@ -78,18 +86,29 @@ class Motion:
         self.quaternion_rate = rotations.rate_of_change(quaternion, rates)
         self.speed = np.linalg.norm(velocity, axis=1)
         self.turn_rate = np.linalg.norm(rates, axis=1)
+        # each sample's seven Hermite values and their rates, side by side for ``pose``
+        self._values = np.hstack([self.position, quaternion])
+        self._rates = np.hstack([self.velocity_world, self.quaternion_rate])
         self._intervals = {}
 
-    def at(self, k: int, times) -> tuple:
-        """Return (positions (m, 3), quaternions (m, 4)) at times in [time[k], time[k + 1]]."""
+    def at(self, k, times) -> tuple:
+        """
+        Return (positions (m, 3), quaternions (m, 4)) at times.
+
+        k is the sample interval of every time (times[i] in [time[k], time[k + 1]]), or
+        one interval index per time: probes of many intervals in one call.
+        """
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        k = np.broadcast_to(np.asarray(k, dtype=int), times.shape)
         h = self.time[k + 1] - self.time[k]
-        s = (np.atleast_1d(np.asarray(times, dtype=float)) - self.time[k]) / h
+        s = (times - self.time[k]) / h
         s2, s3 = s * s, s * s * s
-        basis = np.column_stack([2 * s3 - 3 * s2 + 1, (s3 - 2 * s2 + s) * h,
-                                 -2 * s3 + 3 * s2, (s3 - s2) * h])
+        basis = [(2 * s3 - 3 * s2 + 1)[:, None], ((s3 - 2 * s2 + s) * h)[:, None],
+                 (-2 * s3 + 3 * s2)[:, None], ((s3 - s2) * h)[:, None]]
 
         def cubic(value, rate):
-            return basis @ np.stack([value[k], rate[k], value[k + 1], rate[k + 1]])
+            return basis[0] * value[k] + basis[1] * rate[k] + basis[2] * value[k + 1] \
+                + basis[3] * rate[k + 1]
 
         position = cubic(self.position, self.velocity_world)
         quaternion = cubic(self.quaternion, self.quaternion_rate)
@@ -118,9 +137,7 @@ class Motion:
         """Return interval k's start (s), length (s) and, per coordinate, its four Hermite data."""
         found = self._intervals.get(k)
         if found is None:
-            ends = [np.hstack([self.position[j], self.quaternion[j]]).tolist() for j in (k, k + 1)]
-            rates = [np.hstack([self.velocity_world[j], self.quaternion_rate[j]]).tolist()
-                     for j in (k, k + 1)]
+            ends, rates = self._values[k:k + 2].tolist(), self._rates[k:k + 2].tolist()
             found = (float(self.time[k]), float(self.time[k + 1] - self.time[k]),
                      list(zip(ends[0], rates[0], ends[1], rates[1])))
             self._intervals[k] = found
@@ -139,15 +156,37 @@ def rotation(quaternion) -> list:
             2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
 
 
-def interval_rate(a: Motion, b: Motion, k: int, radius_a: float, radius_b: float) -> float:
-    """Return a bound on |d distance / dt| over interval k (m/s), read from its ends."""
-    ends = slice(k, k + 2)
-    relative = np.linalg.norm(a.velocity_world[ends] - b.velocity_world[ends], axis=1).max()
-    return RATE_MARGIN * float(relative + a.turn_rate[ends].max() * radius_a
-                               + b.turn_rate[ends].max() * radius_b)
+def interval_rates(a: Motion, b: Motion, radius_a: float, radius_b: float) -> np.ndarray:
+    """
+    Return a bound on |d distance / dt| in each sample interval (m/s), read from its ends.
+
+    A point of a body moves at its CG's velocity plus its rate times its distance
+    from the CG (at most the body's radius about the CG, m): the distance between
+    the bodies changes at most at their relative CG speed plus each one's rate
+    times its radius, the larger of the interval's two ends, times ``RATE_MARGIN``
+    (the interpolant between them).
+    """
+    relative = np.linalg.norm(a.velocity_world - b.velocity_world, axis=1)
+    turning = a.turn_rate * radius_a + b.turn_rate * radius_b
+    return RATE_MARGIN * (np.maximum(relative[:-1], relative[1:])
+                          + np.maximum(turning[:-1], turning[1:]))
 
 
-def least(time, sampled, evaluate, rate, start: float, end: float, one=None) -> tuple:
+def lower_bounds(first, second, rate, length):
+    """
+    Return the least a distance can reach between two of its values (m).
+
+    first, second: the distance at the two ends of a piece of length ``length`` (s)
+    over which it changes at most at ``rate`` (m/s): (first + second - rate length) / 2.
+    Ends further apart than the rate allows (the bound does not hold there) give
+    -inf: such a piece is searched.
+    """
+    reach = rate * length
+    bound = 0.5 * (first + second - reach)
+    return np.where(np.abs(second - first) <= reach * (1 + 1e-9) + 1e-15, bound, -np.inf)
+
+
+def least(time, sampled, evaluate, rates, start: float, end: float, one=None) -> tuple:
     """
     Return (least distance, its time) over [start, end], between samples included.
 
@@ -156,10 +195,12 @@ def least(time, sampled, evaluate, rate, start: float, end: float, one=None) -> 
     time, sampled : ndarray (n,)
         Sample times (s) and the distance there (m).
     evaluate : callable (k, times) -> distances, or None
-        The distance at times within sample interval k (None: the samples
-        alone, for a run whose twists were not recorded).
-    rate : callable k -> float
-        A bound on how fast the distance changes in interval k, m/s.
+        The distance at times, k the sample interval of each (an index per
+        time); None: the samples alone, for a run whose twists were not
+        recorded.
+    rates : ndarray (n - 1,)
+        A bound on how fast the distance changes in each interval, m/s
+        (``interval_rates``).
     start, end : float
         The window, s (the samples' span where it is wider).
     one : callable (k, t) -> float, optional
@@ -179,42 +220,96 @@ def least(time, sampled, evaluate, rate, start: float, end: float, one=None) -> 
         best, when = float(sampled[k]), float(time[k])
     if evaluate is None or len(time) < 2:
         return best, when
-    lo, hi = max(start, time[0]) if len(time) else start, min(end, time[-1]) if len(time) else end
-    intervals = [k for k in range(len(time) - 1) if time[k + 1] > lo and time[k] < hi]
-    bounds = []
-    for k in intervals:
-        h = time[k + 1] - time[k]
-        ends = [sampled[j] for j in (k, k + 1) if lo - 0.5e-9 <= time[j] <= hi + 0.5e-9]
-        reference = min(ends) if ends else float(np.mean(sampled[k:k + 2]))
-        bounds.append((reference - rate(k) * h, k))
-    for bound, k in sorted(bounds):
-        if not math.isnan(best) and bound >= best - GAIN:
+    lo, hi = max(start, time[0]), min(end, time[-1])
+    rates = np.asarray(rates, dtype=float)
+    intervals = np.flatnonzero((time[1:] > lo) & (time[:-1] < hi))
+    # the bound over the whole interval holds over the part of it in the window
+    bounds = lower_bounds(sampled[intervals], sampled[intervals + 1], rates[intervals],
+                          np.diff(time)[intervals])
+    if not math.isnan(best):
+        keep = bounds < best - DISTANCE_TOLERANCE
+        intervals, bounds = intervals[keep], bounds[keep]
+    if not len(intervals):
+        return best, when
+    # every interval left probed in one call
+    a, b = np.maximum(time[intervals], lo), np.minimum(time[intervals + 1], hi)
+    keep = b > a
+    intervals, a, b = intervals[keep], a[keep], b[keep]
+    if not len(intervals):
+        return best, when
+    steps = np.linspace(0.0, 1.0, PROBES + 1)
+    probes = a[:, None] + (b - a)[:, None] * steps
+    values = np.asarray(evaluate(np.repeat(intervals, PROBES + 1), probes.ravel()),
+                        dtype=float).reshape(probes.shape)
+    j = np.argmin(values, axis=1)
+    lowest = values[np.arange(len(j)), j]
+    i = int(np.argmin(lowest))
+    if math.isnan(best) or lowest[i] < best - GAIN:
+        best, when = float(lowest[i]), float(probes[i, j[i]])
+    # each probed piece bounded as the interval was: what cannot go DISTANCE_TOLERANCE below
+    # the best is done
+    rates = rates[intervals]
+    pieces = lower_bounds(values[:, :-1], values[:, 1:], rates[:, None],
+                          ((b - a) / PROBES)[:, None]).min(axis=1)
+    for m in np.argsort(pieces):
+        if pieces[m] >= best - DISTANCE_TOLERANCE:
             break
-        a, b = max(time[k], lo), min(time[k + 1], hi)
-        if not b > a:
-            continue
-        found = _search(lambda t: evaluate(k, t), a, b,
-                        (lambda t: float(evaluate(k, np.array([t]))[0])) if one is None
-                        else (lambda t: one(k, t)))
-        if math.isnan(best) or found[0] < best - GAIN:
+        k = int(intervals[m])
+        single = (lambda t, k=k: float(evaluate(k, np.array([t]))[0])) if one is None \
+            else (lambda t, k=k: one(k, t))
+        found = _around(lambda times, k=k: evaluate(k, times), single, probes[m], values[m],
+                        int(j[m]), float(rates[m]), best)
+        if found[0] < best - GAIN:
             best, when = found
     return best, when
 
 
-def _search(function, a: float, b: float, single) -> tuple:
-    """Return the least (value, time) over [a, b]: function's probes, then Brent on single."""
-    probes = np.linspace(a, b, PROBES + 1)
-    values = np.asarray(function(probes), dtype=float)
-    j = int(np.argmin(values))
-    low, high = probes[max(j - 1, 0)], probes[min(j + 1, PROBES)]
+def _around(evaluate, single, probes, values, j: int, rate: float, best: float) -> tuple:
+    """
+    Return the least (value, time) near probe j of an interval: Brent about it.
+
+    A least probe at an end of the probes (a window's edge, or a distance still
+    falling at the interval's end) is approached first in one call, at distances
+    from it shrinking by 1 / PROBES down to where the rate bound leaves no more than
+    ``DISTANCE_TOLERANCE`` below it: Brent would take some 30 golden sections to
+    close on an end, where a minimum inside needs about ten.
+    """
+    tolerance = DISTANCE_TOLERANCE / max(rate, 1e-300)
+    last = len(probes) - 1
+    if 0 < j < last:
+        return _search(single, probes[j - 1], probes[j + 1], tolerance)
+    end, inner = probes[j], probes[1] if j == 0 else probes[-2]
+    width = abs(inner - end)
+    # the piece next to the end 1 / PROBES ** count of it, at most the time tolerance
+    count = max(1, min(16, math.ceil(math.log(max(width / tolerance, 2.0)) / math.log(PROBES))))
+    times = end + (inner - end) * float(PROBES) ** -np.arange(count, 0, -1.0)
+    near = np.concatenate([[end], times, [inner]])   # from the end inwards
+    found = np.concatenate([[values[j]], np.asarray(evaluate(times), dtype=float),
+                            [values[1 if j == 0 else -2]]])
+    i = int(np.argmin(found))
+    least = min(best, float(found[i]))
+    if lower_bounds(found[:-1], found[1:], rate, np.abs(np.diff(near))).min() \
+            >= least - DISTANCE_TOLERANCE:
+        return float(found[i]), float(near[i])
+    low, high = sorted((near[max(i - 1, 0)], near[min(i + 1, len(near) - 1)]))
+    searched = _search(single, low, high, tolerance)
+    return searched if searched[0] < found[i] else (float(found[i]), float(near[i]))
+
+
+def _search(single, low: float, high: float, tolerance: float) -> tuple:
+    """
+    Return the least (value, time) over [low, high]: Brent (bounded) to ``tolerance`` (s).
+
+    The variable is the time from ``low``: scipy's bounded Brent adds 1.5e-8 of
+    the variable to its tolerance, which on the time itself (up to seconds) would be
+    some 1e-8 s, not the tolerance asked for.
+    """
     # imported here: a run imports this module for its metrics, and scipy costs most of a
     # second of start-up that a run without a distance window never needs
     from scipy.optimize import minimize_scalar
-    found = minimize_scalar(single, bounds=(low, high),
-                            method='bounded', options={'xatol': TIME_TOLERANCE})
-    if found.fun < values[j]:
-        return float(found.fun), float(found.x)
-    return float(values[j]), float(probes[j])
+    found = minimize_scalar(lambda x: single(low + x), bounds=(0.0, high - low),
+                            method='bounded', options={'xatol': tolerance})
+    return float(found.fun), float(low + found.x)
 
 
 def point_distances(position_a, quaternion_a, points_a, position_b, quaternion_b, points_b):
@@ -262,8 +357,7 @@ def least_point_distance(samples, body_a, points_a, body_b, points_b, start, end
                    for a, b in pairs)
 
     value, when = least(t, sampled, evaluate,
-                        lambda k: interval_rate(motion_a, motion_b, k, radius_a, radius_b),
-                        start, end, one)
+                        interval_rates(motion_a, motion_b, radius_a, radius_b), start, end, one)
     k = int(np.searchsorted(t, when - 0.5e-9)) if not math.isnan(when) else 0
     if math.isnan(value) or (k < len(t) and abs(t[k] - when) <= 0.5e-9):
         return math.nan, math.nan, -1, -1

@@ -202,7 +202,7 @@ def compute_distance(entry: Distance, samples) -> dict:
         motion_a, motion_b = between.motion(samples, entry.body_a), \
             between.motion(samples, entry.body_b)
         if motion_a is None or motion_b is None:   # no twist: the samples alone
-            evaluate = rate = one = None
+            evaluate = rates = one = None
         else:
             radius_a = contacts.bounding_radius(entry.shape_a)
             radius_b = contacts.bounding_radius(entry.shape_b)
@@ -216,9 +216,8 @@ def compute_distance(entry: Distance, samples) -> dict:
                 return contacts.distance_at(entry.shape_a, between.rotation(q_a), p_a,
                                             entry.shape_b, between.rotation(q_b), p_b)
 
-            def rate(k):
-                return between.interval_rate(motion_a, motion_b, k, radius_a, radius_b)
-        least, when = between.least(t, d, evaluate, rate, start, end, one)
+            rates = between.interval_rates(motion_a, motion_b, radius_a, radius_b)
+        least, when = between.least(t, d, evaluate, rates, start, end, one)
         if not math.isnan(least):
             k = int(np.searchsorted(t, when - 0.5e-9))
             if k < len(t) and abs(t[k] - when) <= 0.5e-9:   # a sample
