@@ -45,6 +45,8 @@ CFEM_SIM = [str(pathlib.Path(sys.executable).parent / 'cfem-sim')]   # the conso
 ALLOWED = {'run': {0, 1, 2, 130, 143}, 'sweep': {0, 1, 2, 130, 143}}
 TOTALS = collections.Counter()
 DEFECTS = collections.defaultdict(list)
+#: (family, exit status) -> commands: what the commands did, beside what broke a rule.
+STATUSES = collections.Counter()
 
 
 class Hang(BaseException):
@@ -84,6 +86,7 @@ def call(family: str, argv, timeout: int = 60, check_output=None, allowed=None) 
 
 def judge(family, argv, status, out, err, check_output=None, allowed=None):
     TOTALS[family] += 1
+    STATUSES[family, str(status)] += 1
     command = str(argv[0]) if argv else ''
     if allowed is None:
         allowed = ALLOWED.get(command, {0, 1, 2} if command in ('summarize', 'recover')
@@ -549,6 +552,9 @@ def main() -> int:
     parser.add_argument('--only', nargs='*', help='families to run (default all)')
     args = parser.parse_args()
     rng = random.Random(args.seed)
+    # the nodes' DDS domain: 215 to 232, never a test's (test/conftest.py: 1 to 101)
+    os.environ.setdefault('ROS_DOMAIN_ID', str(random.Random().randint(215, 232)))
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     n = lambda count: max(1, int(count * args.scale))  # noqa: E731
     started = time.monotonic()
     with tempfile.TemporaryDirectory() as tmp:
@@ -570,7 +576,8 @@ def main() -> int:
             'interrupts': lambda: interrupts(folder, rng, n(24), n(3)),
         }
         from campaign_families import FAMILIES   # issue 41's kinds
-        for name, family in FAMILIES.items():
+        from campaign_round5 import FAMILIES as ROUND5   # issues 45 and 48 to 52
+        for name, family in {**FAMILIES, **ROUND5}.items():
             families[name] = (lambda family=family, name=name: family(
                 _subfolder(folder, name), call, defect, rng, n))
         for name, run in families.items():
@@ -589,12 +596,20 @@ def main() -> int:
                 print(f'  {family}: {TOTALS[family]} commands, '
                       f'{len(DEFECTS.get(family, []))} defects', file=sys.stderr, flush=True)
     from campaign_families import TOTAL
+    from campaign_round5 import TOTAL as ROUND5_TOTAL
     TOTALS.update(TOTAL)
+    TOTALS.update(ROUND5_TOTAL)
     print(f'reliability campaign, seed {args.seed}, {time.monotonic() - started:.0f} s')
     print(f'{"family":<45} {"commands":>9} {"defects":>8}')
     for family in sorted(TOTALS):
         print(f'{family:<45} {TOTALS[family]:>9} {len(DEFECTS.get(family, [])):>8}')
     print(f'{"total":<45} {sum(TOTALS.values()):>9} {sum(map(len, DEFECTS.values())):>8}')
+    from campaign_round5 import STATUS as ROUND5_STATUS
+    STATUSES.update(ROUND5_STATUS)
+    for family in sorted(TOTALS):
+        seen = ', '.join(f'{status}: {n}' for (f, status), n in sorted(STATUSES.items())
+                         if f == family)
+        print(f'  {family}: exit status {seen}')
     for family, items in sorted(DEFECTS.items()):
         for command, problem in items[:20]:
             print(f'DEFECT [{family}] {command}\n    {problem}')
