@@ -14,8 +14,8 @@ of points a method asks for is run as sweep runs (``Evaluator``).
   level, in batches of ``runs`` x 0.1 (one step of every Markov chain),
   repeated K times (``--repeat``), each with its own seed.
 - ``nais``: non-parametric adaptive importance sampling, ``runs`` per step.
-- ``form``: FORM (Abdo-Rackwitz, finite-difference gradients in batches),
-  then importance sampling around its design point, ``runs`` per batch,
+- ``form``: FORM (improved HL-RF, each iteration's runs and centred-difference
+  gradient in one batch), then importance sampling around its design point, ``runs`` per batch,
   at least K batches, until the coefficient of variation reaches the target.
 - ``mc``: the sweep's own draws, the failure fraction with its exact bounds.
 
@@ -261,13 +261,12 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
     def margins_of(points):
         return np.asarray(limit_state(points), dtype=float).ravel()
 
-    def said(result, physical):
+    def said(beta, p_form, physical):
         point = ', '.join(f'{v.path} = {x:.6g}' for v, x in zip(spec.variables, physical))
-        evaluate.log(f'design point {point}; reliability index '
-                     f'{result.getHasoferReliabilityIndex():.4g}, P(fail) by FORM '
-                     f'{result.getEventProbability():.4g}; importance sampling around it')
+        evaluate.log(f'design point {point}; reliability index {beta:.4g}, P(fail) by FORM '
+                     f'{p_form:.4g}; importance sampling around it')
 
-    def sample(inputs, seed):
+    def sample(inputs, seed, start=None):
         if method == 'subset':
             return samplers.subset(ot, inputs, margins_of, runs, seed, repeat, evaluate.log)
         if method == 'nais':
@@ -275,8 +274,12 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
         calls = FORM_CALLS * (inputs.getDimension() + 1)
         try:
             return samplers.form(ot, inputs, margins_of, runs, seed, repeat, target_cov,
-                                 calls, said)
+                                 calls, said, start)
         except RuntimeError as err:   # no design point within the budget
+            if 'no gradient' in str(err):
+                raise MethodFailed(spec.path, '--method form', str(err).replace('FORM: ', ''),
+                                   'criteria whose margins change with the varied key '
+                                   'paths, or --method mc') from None
             if 'maximum calls' not in str(err):
                 raise
             raise MethodFailed(spec.path, '--method form', f'found no design point in '
@@ -308,7 +311,10 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
     if normals(spec):   # importance weights of heavier tails than q's have no variance:
         # the method is run again on the heavier-tailed inputs, its own seeds
         evaluate.log('tail check: the same method on the heavier-tailed inputs')
-        heavy = sample(distribution(spec, heavier=True), samplers.seeds(spec.seed, 2)[1])
+        # FORM's search on them starts from the first design point: the same surface,
+        # the closest point in the heavier inputs' standard space most often near it
+        heavy = sample(distribution(spec, heavier=True), samplers.seeds(spec.seed, 2)[1],
+                       found.design_point)
         h = bounds(heavy.replicates, level, heavy.failed)
         tail = Tail(h.probability, h.p_upper, '' if math.isfinite(h.p_upper) else
                     f'{heavy.failed} failed runs: too few for a bound')
