@@ -208,7 +208,12 @@ def test_an_index_out_of_range_is_refused_by_name_when_the_system_is_made():
     c, b, t = kinds[L.KIND_CONTACT], kinds[L.KIND_BRACE], kinds[L.KIND_TABLE]
     # the packed table's TOTAL: AERO_ROW numbers a row, from the row A_FIRST names on
     first = int(sim._loads[a, L.A_FIRST])
-    total = (first + kernel.AERO_TABLE.TOTAL // L.AERO_ROW, kernel.AERO_TABLE.TOTAL % L.AERO_ROW)
+    T = kernel.AERO_TABLE
+
+    def header(column):
+        return first + column // L.AERO_ROW, column % L.AERO_ROW
+
+    total = header(T.TOTAL)
     timed = {(s, L.S_TABLE): L.TABLE_TIME}
     shape = int(sim._loads[c, L.C_SHAPE_B])   # its first number, the kind, made no kind
     cases = [
@@ -240,6 +245,9 @@ def test_an_index_out_of_range_is_refused_by_name_when_the_system_is_made():
         ('loads', {(a, L.A_FIRST): rows - 1}, rf'loads\[{a}, A_FIRST\]'),
         ('loads', {total: 0.0}, rf'loads\[{a}, A_FIRST\] = {first}: no packed'),
         ('loads', {total: 1e6}, rf'loads\[{a}, A_FIRST\] = {first}: .* does not fit'),
+        ('loads', {header(T.NA): 1e6}, rf'loads\[{a}, A_FIRST\] = {first}: .* header'),
+        ('loads', {header(T.NB): 0.5}, rf'loads\[{a}, A_FIRST\] = {first}: .* header'),
+        ('loads', {header(T.PROX_AXES): 8}, rf'loads\[{a}, A_FIRST\] = {first}: .* header'),
         ('loads', {(c, L.C_B): 1e7}, rf'loads\[{c}, C_B\]'),
         ('loads', {(c, L.C_SHAPE_A): rows - 1}, rf'loads\[{c}, C_SHAPE_A\]'),
         ('loads', {(shape, 0): 9.0}, rf'loads\[{c}, C_SHAPE_B\] = {shape}: no packed shape'),
@@ -296,3 +304,27 @@ def test_the_free_functions_refuse_a_body_count_or_joint_outside_their_arrays():
     far[0, 1] = n
     with pytest.raises(ValueError, match=rf'joints_i\[0, 1\] = {n}: not a body of y'):
         testing.conditions(sim.y.copy(), far, joints_f, np.array([0]), out)
+
+
+@pytest.mark.parametrize('name', ['store_release_two_hooks', 'store_release_near_pylon'])
+def test_aero_wrench_refuses_a_packed_table_whose_header_does_not_give_its_length(name):
+    sim = _sim(name)
+    L, T = kernel.LOADS, kernel.AERO_TABLE
+    first = int(sim._loads[_kinds(sim)[L.KIND_AERO], L.A_FIRST])
+    flat = sim._loads[first:, :L.AERO_ROW].reshape(-1)
+    packed = flat[:int(flat[T.TOTAL])].copy()
+    state = [np.zeros((1, 3)), np.array([[200.0, 0.0, 0.0]]), np.eye(3).reshape(1, 9),
+             np.zeros((1, 3)), np.zeros((1, 3)), np.eye(3).reshape(1, 9)]
+    force, _ = kernel.aero_wrench(packed, *state)
+    assert np.isfinite(force).all() and np.abs(force).max() > 0.0
+    cases = [(T.NA, 1e6), (T.NM, 0.0), (T.PROX_AXES, 8.0)]
+    if packed[T.PROX_AXES] > 0:   # the pylon's flow field: a code no axis has
+        cases += [(T.PROX_CODE, T.AXIS_MACH + 1.0), (T.PROX_SIZE, 1e7)]
+    else:
+        cases += [(T.PROX_AXES, 1.0)]   # an axis of no grid node
+    for column, value in cases:
+        bad = packed.copy()
+        bad[column] = value
+        with pytest.raises(ValueError, match='packed: a table from '
+                                             r'cfem_ros\.core\.engine\.aeropack\.pack'):
+            kernel.aero_wrench(bad, *state)

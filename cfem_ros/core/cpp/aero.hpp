@@ -132,6 +132,36 @@ inline void flow(const P& p, const double* position, const double* velocity, con
   }
 }
 
+// The numbers a packed table takes by its header (the header, the free-stream grids and
+// their coefficients, the proximity grids and increments: engine/aeropack.py's order), or
+// -1 if its header is not one this reader can read within `size` numbers: a grid of no
+// node or of a fraction of one, a proximity axis count or code out of range, more numbers
+// than size. The System and aero_wrench check a table with it once (never a read past it).
+template <class P>
+inline long packed_length(const P& p, long size) {
+  auto count = [](double v, double most) { return v >= 0.0 && v <= most && v == std::floor(v); };
+  if (size < kHeader) return -1;
+  double length = kHeader, cells = 1.0;
+  for (int k = 0; k < 3; ++k) {
+    double nodes = p[kNa + k];
+    if (!count(nodes, 1e7) || nodes < 1.0) return -1;
+    length += nodes;
+    cells *= nodes;
+  }
+  length += 6.0 * cells;
+  double axes = p[kProxAxes];
+  if (!count(axes, kSlots - 3)) return -1;
+  double prox_cells = 1.0;
+  for (int a = 0; a < static_cast<int>(axes); ++a) {
+    double nodes = p[kProxSize + a], code = p[kProxCode + a];
+    if (!count(nodes, 1e7) || nodes < 1.0 || !count(code, kMach)) return -1;
+    length += nodes;
+    prox_cells *= nodes;
+  }
+  if (axes > 0.0) length += 6.0 * prox_cells;
+  return length <= static_cast<double>(size) ? static_cast<long>(length) : -1;
+}
+
 // The axes of a packed table a body can leave, by slot: 1 if watched, with the grid's first
 // and last values into low and high (rad for angles, Mach, m). Returns the slots used.
 template <class P>

@@ -86,7 +86,9 @@ py::tuple py_isa(double altitude, double temperature_offset) {
 py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
                       Array carrier_position, Array carrier_rot) {
   need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
-           packed.data()[cfem::aero::kTotal] == packed.shape(0),
+           packed.data()[cfem::aero::kTotal] == packed.shape(0) &&
+           cfem::aero::packed_length(packed.data(), static_cast<long>(packed.shape(0)))
+               == packed.shape(0),
        "packed: a table from cfem_ros.core.engine.aeropack.pack expected");
   py::ssize_t n = position.ndim() == 2 ? position.shape(0) : -1;
   need_rows(position, "position", 3, n);

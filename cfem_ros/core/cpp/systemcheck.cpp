@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "aero.hpp"
 #include "distance.hpp"
 #include "pyargs.hpp"
 
@@ -175,12 +176,18 @@ void check_loads(const Mat& l, idx n) {
                -1, n - 1);
       idx first = index_in(l(row, loads::A_FIRST), at("loads", row, "A_FIRST"),
                            "not a row of loads past the bodies'", n, end - 1);
-      double total = Rows{l.row(first)}[aero_table::TOTAL];   // AERO_ROW numbers a row
+      Rows table{l.row(first)};   // AERO_ROW numbers a row
+      double total = table[aero_table::TOTAL];
       if (!(total >= aero_table::WIDTH))
         throw py::value_error(at("loads", row, "A_FIRST") + " = " + std::to_string(first)
                               + ": no packed aerodynamic table there (its TOTAL is "
                               + shown(total) + ")");
       fits(first, total, at("loads", row, "A_FIRST"), "the packed aerodynamic table", end);
+      if (aero::packed_length(table, static_cast<long>(total)) != total)
+        throw py::value_error(at("loads", row, "A_FIRST") + " = " + std::to_string(first)
+                              + ": the packed aerodynamic table's header (grid sizes, "
+                              "proximity axes) does not give its TOTAL of " + shown(total)
+                              + " numbers");
     } else if (kind == loads::KIND_CONTACT) {
       index_in(l(row, loads::C_A), at("loads", row, "C_A"), "not a body", 0, n - 1);
       index_in(l(row, loads::C_B), at("loads", row, "C_B"), "not a body", 0, n - 1);
