@@ -29,7 +29,7 @@ from typing import Optional
 
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.run.startcheck import cannot_start, start_problems
+from cfem_ros.core.run.startcheck import CannotStart, refuse_start
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import OutputError
@@ -157,9 +157,10 @@ class CfemNode(Node):
             sim = Simulator(model, logger=python_log)
         except CfemError as err:
             raise StartupError(str(err)) from None
-        errors, warnings = start_problems(sim)   # what cfem-sim check refuses, in its words
-        if errors:
-            raise StartupError(cannot_start(values['scenario'], errors))
+        try:   # what cfem-sim check refuses, the node refuses in its words
+            warnings = refuse_start(sim, values['scenario'])
+        except CannotStart as err:
+            raise StartupError(str(err)) from None
         for text in warnings:
             self.get_logger().warning(f"{values['scenario']}: {text}")
 

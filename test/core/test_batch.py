@@ -4,9 +4,11 @@
 
 import pathlib
 
-from cfem_ros import load_scenario, Simulator
-from cfem_ros.core.run import batch
+from cfem_ros import cli, load_scenario, Simulator
+from cfem_ros.core.run import batch, startcheck
 import numpy as np
+import pytest
+import yaml
 
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 
@@ -41,3 +43,19 @@ def test_initial_states_and_a_failing_copy():
     assert results[1].status == 'failed' and results[1].message.startswith('at t = 0 s')
     assert results[1].t == 0.0
     np.testing.assert_array_equal(tilted, base)   # inputs are not modified
+
+
+def test_a_model_check_refuses_is_refused_with_its_words_before_any_copy(tmp_path, capsys):
+    # a double pendulum whose second body is 1e9 m from its elbow (issue 46.4): check
+    # refuses it; a batch of it is refused with the same reason, instead of copies failing
+    document = yaml.safe_load((CONFIG / 'double_pendulum.yaml').read_text())
+    document['bodies']['B']['position'] = [-1e9, 0, 0]
+    path = tmp_path / 'far.yaml'
+    path.write_text(yaml.safe_dump(document))
+    assert cli.main(['check', str(path)]) == 2
+    line = capsys.readouterr().err
+    with pytest.raises(startcheck.CannotStart) as refused:
+        batch.run(load_scenario(str(path)), [{}, {}], workers=1)
+    why = line.removeprefix(f'ERROR: {path}: ')
+    assert str(refused.value) + '\n' == f"scenario 'double_pendulum': {why}"
+    assert why.startswith('cannot start: ') and "joint 'elbow'" in why

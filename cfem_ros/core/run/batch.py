@@ -25,6 +25,7 @@ import os
 from typing import Optional, Sequence
 
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.run import startcheck
 import numpy as np
 
 __all__ = ['Result', 'run']
@@ -103,8 +104,15 @@ def run(model, copies: Sequence[dict], *, duration: Optional[float] = None,
         In the order of ``copies``. A copy that fails keeps its last good
         state, with ``status == 'failed'``; the others are unaffected.
 
+    Raises
+    ------
+    startcheck.CannotStart
+        If ``cfem-sim check`` refuses the model (its line; no copy is run).
+
     """
     duration = model.duration if duration is None else float(duration)
+    # what cfem-sim check refuses is refused here, in its words, before any copy runs
+    startcheck.refuse_start(Simulator(model, logger=startcheck.QUIET), f'scenario {model.name!r}')
     workers = workers or os.cpu_count() or 1
     if workers == 1:
         return [_copy(model, spec, duration) for spec in copies]

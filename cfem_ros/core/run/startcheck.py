@@ -19,9 +19,10 @@ import logging
 import math
 
 from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
+from cfem_ros.core.errors import CfemError
 import numpy as np
 
-__all__ = ['cannot_start', 'RK4_STABILITY', 'start_problems']
+__all__ = ['cannot_start', 'CannotStart', 'refuse_start', 'RK4_STABILITY', 'start_problems']
 
 #: Explicit RK4 on y' = -k y is stable for k dt up to about 2.785; beyond it
 #: the run diverges. A spin of w rad/s asks for w dt well under 1 rad.
@@ -35,10 +36,10 @@ FAR_ANCHOR = 1e4
 FIRST_STEPS = 5
 #: Marks a first step that a table's ``outside: stop`` ends at t = 0.
 STOPPED = 'stopped: '
-#: The trial step's simulator says nothing (the scenario's own has said it).
-_SILENT = logging.getLogger('cfem_ros.startcheck.trial')
-_SILENT.addHandler(logging.NullHandler())
-_SILENT.propagate = False
+#: A logger that says nothing: the trial simulators' (the scenario's own has said it).
+QUIET = logging.getLogger('cfem_ros.startcheck.trial')
+QUIET.addHandler(logging.NullHandler())
+QUIET.propagate = False
 
 
 def _size(body) -> float:
@@ -184,6 +185,22 @@ def start_problems(sim) -> tuple:
     return errors, warnings
 
 
+class CannotStart(CfemError):
+    """A scenario ``cfem-sim check`` refuses to start; the message is check's line."""
+
+
+def refuse_start(sim, scenario: str) -> list:
+    """
+    Raise CannotStart, with check's line, if sim cannot start; else return check's warnings.
+
+    scenario: how the line names the scenario (its file, as check does).
+    """
+    errors, warnings = start_problems(sim)
+    if errors:
+        raise CannotStart(cannot_start(scenario, errors))
+    return warnings
+
+
 def cannot_start(scenario: str, errors: list) -> str:
     """Return the one line of a scenario ``start_problems`` refuses (check, run, the node)."""
     more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
@@ -222,7 +239,7 @@ def _first_step_failure(sim) -> str:
     if not model.duration > 0.0:
         return ''
     with np.errstate(all='ignore'):
-        trial = type(sim)(model, logger=_SILENT)
+        trial = type(sim)(model, logger=QUIET)
         if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
             return ''
     if trial.status == 'aero_outside' and trial.t == 0.0:
