@@ -19,6 +19,7 @@ import collections
 import contextlib
 import copy
 import io
+import math
 import os
 import pathlib
 import random
@@ -550,6 +551,8 @@ def main() -> int:
     parser.add_argument('--scale', type=float, default=1.0, help='multiplies the case counts')
     parser.add_argument('--seed', type=int, default=20261124)
     parser.add_argument('--only', nargs='*', help='families to run (default all)')
+    parser.add_argument('--deadline', type=float, default=math.inf,
+                        help='start no family after this time (seconds since the epoch)')
     args = parser.parse_args()
     rng = random.Random(args.seed)
     # the nodes' DDS domain: 215 to 232, never a test's (test/conftest.py: 1 to 101)
@@ -581,7 +584,7 @@ def main() -> int:
             families[name] = (lambda family=family, name=name: family(
                 _subfolder(folder, name), call, defect, rng, n))
         for name, run in families.items():
-            if args.only and name not in args.only:
+            if args.only and name not in args.only or time.time() > args.deadline:
                 continue
             begun = time.monotonic()
             try:
