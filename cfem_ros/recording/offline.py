@@ -9,6 +9,9 @@ import math
 from typing import Callable, Optional
 
 from cfem_ros.core.run.session import Session
+from cfem_ros.recording import loadarrows, schema, viewframes
+from cfem_ros.recording.container import encoder
+import numpy as np
 
 
 def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
@@ -81,11 +84,39 @@ def estimate_bytes(model, samples: int) -> float:
     Per sample: a pose (7 float64) and a twist (6) per body and two wrenches
     (6) per joint (its axes and world axes), each a Message record (31
     bytes), CDR header and stamp (12), frame_id (about 16) and its index
-    entry (16); and a /tf message with a transform (7 float64, stamp, two
-    frame names) per moving body.
+    entry (16); a /tf message with a transform (7 float64, stamp, two
+    frame names) per moving body and per view or chase frame
+    (``viewframes``); and the load arrows (``arrows_bytes``).
     """
     doubles = 13 * len(model.bodies) + 12 * len(model.joints)
     messages = 2 * len(model.bodies) + 2 * len(model.joints)
     moving = sum(not body.fixed for body in model.bodies)
-    tf = (31 + 8 + 16 + moving * (8 * 7 + 8 + 32)) if moving else 0
-    return float(samples) * (8 * doubles + (31 + 12 + 16 + 16) * messages + tf)
+    views = viewframes.of_model(model)
+    frames = moving + (len(views.names) if views is not None else 0)
+    tf = (31 + 8 + 16 + frames * (8 * 7 + 8 + 32)) if moving else 0
+    return float(samples) * (8 * doubles + (31 + 12 + 16 + 16) * messages + tf
+                             + arrows_bytes(model))
+
+
+def arrows_bytes(model, namespace: str = '/cfem') -> int:
+    """
+    Return about the bytes of a sample's ``load_markers`` message, record and index entry.
+
+    One arrow per joint, scheduled wrench, sway brace and aero table (a
+    reaction on a moving carrier not counted), encoded as a recording
+    encodes them; none without joints or applied loads (nothing is drawn).
+    """
+    bodies = model.bodies
+    zero, one = np.zeros(3), np.ones(3)
+    arrows = [('joint_loads', k, joint.name, 'joint', joint.name, zero, one)
+              for k, joint in enumerate(model.joints)]
+    applied = ([(bodies[w.body].name, w.name) for w in model.wrenches]
+               + [(bodies[b.body].name, b.name) for b in model.braces]
+               + [(bodies[a.body].name, 'aero') for a in model.aero])
+    arrows += [('applied_loads', j, body, 'load', source, zero, one)
+               for j, (body, source) in enumerate(applied)]
+    if not arrows:
+        return 0
+    drawing = loadarrows.LoadArrows(model, namespace, ())
+    message, _ = drawing.array({'sec': 0, 'nanosec': 0}, arrows, 1.0)
+    return len(encoder(schema.LOAD_MARKERS.msgtype)(message)) + 31 + 16
