@@ -130,9 +130,6 @@ class Recorder:
         #: Messages written so far.
         self.message_count = 0
         self._finished = False
-        #: Callables run as ``finish`` begins, to write what waits for the end (load arrows
-        #: drawn at the recording's one scale: ``StateRecorder``).
-        self.on_finish = []
         if metadata:
             self.add_metadata(metadata)
 
@@ -283,8 +280,6 @@ class Recorder:
         self._finished = True
         with signals_held():
             try:
-                for write_last in self.on_finish:
-                    write_last()
                 self._flush_samples()
                 self._writer.finish()
             except OSError as err:

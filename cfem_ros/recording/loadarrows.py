@@ -20,15 +20,17 @@ is drawn on its line of action, at its point nearest the CG (force x moment
 / |force|^2, the central axis), or at the CG when that point lies outside
 the body.
 
-Scale: 1, 2 or 5 times a power of ten newtons per metre, the largest force
-drawn about the size of the largest body that moves under its loads. A
-recording draws every arrow at one scale, its largest load's (``ArrowLog``:
-the arrows are kept and written when the recording closes), so that arrows
-of two instants compare; the node, which cannot know the future, publishes
-with the largest force so far (from the start: the scheduled wrenches' own
-sizes). The scale is stated in each arrow's text (``fwd_hook joint:
-8.897e+03 N, 1 m = 5e+03 N``), always as wide, so that a recording encodes
-the arrows from one template (``markerbytes``).
+Scale: one for the whole recording, fixed at its first state (t = 0) from
+what is known then, so that arrows of two instants compare and every arrow
+is written as the run goes, in time order (a cut or killed recording keeps
+the arrows of the run so far): the scenario's ``load_scale`` (N per m) if
+stated, else 1, 2 or 5 times a power of ten newtons per metre that draws the
+largest load known at t = 0 (``start_largest``) about the size of the
+largest body that moves under its loads. A larger load later is drawn
+longer at that scale. The node and the recorder draw with this class, so
+they draw at the same scale. The scale is stated in each arrow's text
+(``fwd_hook joint: 8.897e+03 N, 1 m = 5e+03 N``), always as wide, so that a
+recording encodes the arrows from one template (``markerbytes``).
 """
 
 from __future__ import annotations
@@ -105,14 +107,34 @@ def newtons_per_metre(largest: float, size: float) -> float:
     return 10.0 * power
 
 
-def scheduled_largest(model) -> float:
-    """Return the largest force of the scenario's scheduled wrenches (their tables'), N."""
+def stated_largest(model) -> float:
+    """
+    Return the largest load the scenario states, N.
+
+    Each scheduled wrench's force (its table's largest), each sway brace's
+    preload and each free body's weight, m |g|.
+    """
     sizes = [0.0]
+    weight = float(np.linalg.norm(model.gravity))
+    sizes += [b.mass * weight for b in model.bodies if b.dynamic]
     for wrench in model.wrenches:
         sizes.append(float(np.linalg.norm(wrench.force)))
         if len(wrench.table):
             sizes.append(float(np.linalg.norm(wrench.table[:, 1:4], axis=1).max()))
+    sizes += [float(brace.preload) for brace in model.braces]
     return max(sizes)
+
+
+def start_largest(model, first: list) -> float:
+    """
+    Return the largest load known at t = 0, N: the stated ones and those drawn first.
+
+    first: the arrows of the first state (``LoadArrows.arrows`` at t = 0):
+    each joint's load there (a carrier's manoeuvre included), the applied
+    loads then (aero, braces) and any wrench held by an input.
+    """
+    drawn = [float(np.linalg.norm(arrow[6])) for arrow in first]
+    return max([stated_largest(model)] + drawn)
 
 
 def source_kind(model, body: int, source: str) -> tuple:
@@ -168,8 +190,9 @@ class LoadArrows:
                        'z': HEAD_LENGTH * self.size}
         #: The reactions' points, carrier axes, m, by source index: set when they come on.
         self.anchors = {}
-        #: The largest force drawn so far, N: the node's scale (it only grows).
-        self.largest = scheduled_largest(model)
+        #: The arrows' scale, N per m: the scenario's ``load_scale``, else fixed at the
+        #: first state drawn (``fix_scale``), then the same to the end.
+        self.per_metre = model.load_scale
 
     def arrows(self, row: np.ndarray, active, held: np.ndarray) -> list:
         """
@@ -224,16 +247,27 @@ class LoadArrows:
         point = np.cross(force, moment) / size
         return point if np.linalg.norm(point) <= self.half_extents[body] else np.zeros(3)
 
+    def fix_scale(self, first: list) -> float:
+        """
+        Return the arrows' scale, N per m, fixing it at the first call.
+
+        first: the arrows of the first state drawn (t = 0): the scale draws
+        ``start_largest`` about ``size`` long (``newtons_per_metre``),
+        unless the scenario states ``load_scale``.
+        """
+        if self.per_metre is None:
+            self.per_metre = newtons_per_metre(start_largest(self.model, first), self.size)
+        return self.per_metre
+
     def message(self, stamp: dict, row: np.ndarray, active, held: np.ndarray) -> tuple:
         """
-        Return the MarkerArray of one state (a dict) at the largest force so far (the node's).
+        Return the MarkerArray of one state (a dict) at the run's one scale, and its kind.
 
-        States are given in time order (the scale grows with the largest
-        force so far); returns it and its kind for ``MarkerArrayEncoder``.
+        States are given in time order from t = 0 (the first fixes the
+        scale: ``fix_scale``); the kind is for ``MarkerArrayEncoder``.
         """
         arrows = self.arrows(row, active, held)
-        self.largest = max([self.largest] + [float(np.linalg.norm(a[6])) for a in arrows])
-        return self.array(stamp, arrows, newtons_per_metre(self.largest, self.size))
+        return self.array(stamp, arrows, self.fix_scale(arrows))
 
     def array(self, stamp: dict, arrows: list, per_metre: float) -> tuple:
         """
@@ -256,46 +290,6 @@ class LoadArrows:
         kind = ('loads', self.namespace, self.model.frame_id, self.size, tuple(
             (a[0], a[1], a[2], a[3]) for a in arrows))
         return {'markers': out}, kind
-
-
-class ArrowLog:
-    """
-    A recording's load arrows, kept until it closes and then drawn at one scale.
-
-    ``add`` takes the arrows of a state (a sample, or an event that starts
-    or ends a load) with their stamp; ``arrays`` gives every MarkerArray at
-    the scale of the largest force of them all, in the order added.
-    """
-
-    def __init__(self, arrows: LoadArrows):
-        self.arrows = arrows
-        self._kept = []   # (stamp_ns, arrows)
-        #: The largest force added, N.
-        self.largest = 0.0
-
-    def __len__(self) -> int:
-        return len(self._kept)
-
-    def add(self, stamp_ns: int, row: np.ndarray, active, held: np.ndarray):
-        """Keep the arrows of a state (``LoadArrows.arrows``) stamped stamp_ns."""
-        drawn = self.arrows.arrows(row, active, held)
-        self.largest = max([self.largest] + [float(np.linalg.norm(a[6])) for a in drawn])
-        self._kept.append((int(stamp_ns), drawn))
-
-    @property
-    def per_metre(self) -> float:
-        """Return the recording's scale, N per m: its largest force's."""
-        return newtons_per_metre(self.largest, self.arrows.size)
-
-    def arrays(self, stamp):
-        """Yield (stamp_ns, MarkerArray dict, kind) of each state kept; stamp: ns to Time."""
-        per_metre = self.per_metre
-        for stamp_ns, drawn in self._kept:
-            yield (stamp_ns, *self.arrows.array(stamp(stamp_ns), drawn, per_metre))
-
-    def clear(self):
-        """Forget the states kept (once written)."""
-        self._kept = []
 
 
 def _in_axes(state: np.ndarray, turns: np.ndarray, axes: int, body: int,

@@ -8,8 +8,8 @@ air and /tf as rows of a ``SampleLayout``, the events and markers as they
 come, the inputs as received; the topics, types, frames and periods are
 ``schema``'s. The file itself is a ``container.Recorder``. The load arrows
 of every sample and of each event that starts or ends a load (at the
-event's state, stamped with its time) are kept and written as the file
-closes, at the scale of the run's largest load (``loadarrows.ArrowLog``).
+event's state, stamped with its time) are written as they come, in time
+order, at the one scale fixed at t = 0 (``loadarrows.LoadArrows``).
 """
 
 from __future__ import annotations
@@ -99,9 +99,7 @@ class StateRecorder(RowSink):
         # the next sending of the markers: one period after the scene's
         self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
         self._marker_bytes = MarkerArrayEncoder(encoder(schema.MARKERS.msgtype))
-        self._arrows = loadarrows.ArrowLog(
-            loadarrows.LoadArrows(model, self.namespace, sim.applied_sources))
-        recorder.on_finish.append(self._write_arrows)
+        self._arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
         loadarrows.watch_loads(sim)   # the state at a load event stepped over
         # drawn with joints or applied loads, and from the first wrench input on
         self._arrows_on = bool(model.joints or sim.applied_sources)
@@ -148,24 +146,31 @@ class StateRecorder(RowSink):
                                          when))
         return out
 
-    def _keep_arrows(self, times, rows, active):
+    def _arrows_among(self, times, rows, active) -> list:
         """
-        Keep the load arrows of samples at these times (s) (``loadarrows.ArrowLog``).
+        Return the load arrows of samples at these times (s), as ``between``.
 
         From the samples' numbers (rows in ``Simulator.outputs`` order, these
-        joints active) and the wrenches held on the bodies.
+        joints active) and the wrenches held on the bodies; each written
+        just after its sample, with its stamp. Before anything is drawn
+        (no joint, no applied load, no wrench input yet) the first sample
+        still fixes the scale, as the node's does.
         """
         if not self._arrows_on:
-            return
+            self._arrows.fix_scale([])
+            return []
         held = self.sim.held_wrenches()
+        out = []
         for k, t in enumerate(times):
-            self._arrows.add(self.stamp_ns(t), rows[k], active, held)
+            when = self.stamp_ns(t)
+            out.append(self._between(k + 1, schema.LOAD_MARKERS,
+                                     self._arrow_bytes(when, rows[k], active, held), when))
+        return out
 
-    def _write_arrows(self):
-        """Write the arrows kept, at the recording's one scale (as the file closes)."""
-        for stamp_ns, message, kind in self._arrows.arrays(stamp):
-            self._write(schema.LOAD_MARKERS, self._marker_bytes(message, kind=kind), stamp_ns)
-        self._arrows.clear()
+    def _arrow_bytes(self, stamp_ns: int, row, active, held) -> bytes:
+        """Return the load arrows of a state (``LoadArrows.message``) stamped stamp_ns, CDR."""
+        message, kind = self._arrows.message(stamp(stamp_ns), row, active, held)
+        return self._marker_bytes(message, kind=kind)
 
     def _marker_array(self, stamp_ns: int, t: float) -> bytes:
         """Return the MarkerArray at simulated time t (the joints released by then in red), CDR."""
@@ -195,10 +200,10 @@ class StateRecorder(RowSink):
             sim.outputs(out=row)
         else:
             row[:] = outputs
-        self._keep_arrows([sim.t], [row], sim.active_joints)
+        arrows = self._arrows_among([sim.t], [row], sim.active_joints)
         self.recorder.add_sample(layout, self.stamp_ns(sim.t))
         self.samples += 1
-        for _, *message in self._markers_again([sim.t]):
+        for _, *message in arrows + self._markers_again([sim.t]):
             self.recorder.write(*message)
 
     def sample_rows(self) -> np.ndarray:
@@ -214,8 +219,8 @@ class StateRecorder(RowSink):
         stamps = self.start_ns + np.rint(np.asarray(times) * 1e9).astype(np.int64)
         layout = self._rows_layout
         rows = layout.values[layout.count:layout.count + len(stamps)]
-        self._keep_arrows(times, rows, self._rows_active)
-        self.recorder.commit_rows(layout, stamps, self._markers_again(times))
+        between = self._arrows_among(times, rows, self._rows_active) + self._markers_again(times)
+        self.recorder.commit_rows(layout, stamps, sorted(between, key=lambda m: m[0]))
         self.samples += len(stamps)
 
     def _layout(self, active) -> 'SampleLayout':
@@ -275,17 +280,25 @@ class StateRecorder(RowSink):
         if len(self.sim.events) == self._events_written:
             return
         new = self.sim.events[self._events_written:]
+        # what acts from each load event on, drawn at its instant after the events there
+        drawn = loadarrows.event_states(self.sim, new) if self._arrows_on else []
         for event in new:
+            while drawn and drawn[0][0] < event['time']:
+                self._event_arrows(*drawn.pop(0))
             self._write(schema.EVENTS, {'data': json.dumps(event)}, self.stamp_ns(event['time']))
             if event.get('event') == 'release':
                 self._zero_load(event['joint'], self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
-        if self._arrows_on:   # what acts from each load event on, drawn at its instant
-            for t, row, active, held in loadarrows.event_states(self.sim, new):
-                self._arrows.add(self.stamp_ns(t), row, active, held)
+        for state in drawn:
+            self._event_arrows(*state)
         if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
             # released joints change colour; contacts get their marker
             self._markers(self.stamp_ns(new[-1]['time']))
+
+    def _event_arrows(self, t: float, row, active, held):
+        """Record the load arrows of the state just after load events at time t (s)."""
+        when = self.stamp_ns(t)
+        self._write(schema.LOAD_MARKERS, self._arrow_bytes(when, row, active, held), when)
 
     def _zero_load(self, joint: str, stamp_ns: int):
         """Record a released joint's load as zero once, at its release: plots end at zero."""

@@ -10,14 +10,18 @@ applied topics in body axes, the joint's in its frame). The two-hook example
 released at 0.05 s (hooks, ejectors reacting on a free pylon, four sway
 braces): an arrow message at each event's stamp showing what acts from then
 on, every arrow from its point of action computed here from the scenario's
-geometry and the recorded poses, one scale for the whole recording.
+geometry and the recorded poses. One scale for the whole recording, fixed at
+t = 0 and computed here from the scenario's stated loads and the loads the
+recording holds at t = 0 (the 2 g pull-up, whose hook load at t = 0 is
+twice the store's weight), or stated in the scenario (``load_scale``).
 """
 
 import pathlib
 
-from cfem_ros import cli
+from cfem_ros import cli, parse_scenario
+from cfem_ros.core.errors import ScenarioError
 from cfem_ros.recording.container import Recorder
-from cfem_ros.recording.loadarrows import COLORS, newtons_per_metre
+from cfem_ros.recording.loadarrows import COLORS
 from cfem_ros.recording.schema import WRENCH_TYPE
 import numpy as np
 import pytest
@@ -28,6 +32,7 @@ import yaml
 CONFIG = pathlib.Path(__file__).resolve().parents[2] / 'config'
 HELD_AT = np.array([1.0, 0.0, 0.0])   # body axes, from the CG, m
 HELD = np.array([0.0, 3000.0, 0.0])   # N, world axes
+STORE_LENGTH = {'store_release_near_pylon.yaml': 3.0}   # m, else 2.5 (the shapes' length)
 
 
 @pytest.fixture(scope='module')
@@ -102,7 +107,6 @@ def test_each_load_from_where_it_acts_along_its_force(near):
             start, end = (_vector(p) for p in arrow.points)
             drawn = (end - start) * per_metre   # the force, N, in the frame's axes
             largest = max(largest, np.linalg.norm(drawn))
-            assert np.linalg.norm(end - start) <= 3.0
             if kind == 'joint':
                 load = [m.wrench for topic, s, m in near   # the sample's (then zero: released)
                         if topic == '/cfem/joints/hooks/wrench' and s == t][0]
@@ -127,12 +131,13 @@ def test_each_load_from_where_it_acts_along_its_force(near):
                                            atol=1e-9 * np.linalg.norm(moment))
                 assert 0 < np.linalg.norm(start) <= 1.5   # on the store (3 m long)
     # the largest force of the run (the hooks' just before their release, more than the aft
-    # ejector's 42,703 N) about the size of the store (3.0 m): 1, 2 or 5 N per m times 10^k
+    # ejector's 42,703 N) is drawn longer than the store's 3 m: the scale is that of t = 0
     assert largest > 42703.0
     texts = [float(m.text.split(': ')[1].split(' N')[0]) for _, arrows, _ in arrays
              for m in arrows.values()]
     assert largest == pytest.approx(max(texts), rel=1e-3)
-    assert per_metre == newtons_per_metre(largest, 3.0)
+    document = yaml.safe_load((CONFIG / 'store_release_near_pylon.yaml').read_text())
+    assert per_metre == _start_scale(document, near, 3.0)[0] == 2e4
 
 
 # ------------------------------------------------------------ the two-hook example
@@ -236,17 +241,86 @@ def test_arrows_start_at_the_points_of_action(two_hooks):
                        ('ejector', 'store'), ('reaction', 'pylon')}
 
 
-def test_one_scale_for_the_whole_recording(two_hooks):
-    arrays = _arrays(two_hooks)
-    (per_metre,) = {scale for _, arrows, scale in arrays if arrows}
-    forces = [float(m.text.split(': ')[1].split(' N')[0]) for _, arrows, _ in arrays
-              for m in arrows.values()]
-    for _, arrows, _ in arrays:   # each arrow's length is its force at that one scale
+def _start_scale(document: dict, messages, size: float) -> tuple:
+    """
+    Return the scale the arrows should have (N per m) and the two loads it comes from (N).
+
+    From the documented rule: the largest of the loads the scenario states
+    (each free body's weight m |g|, each wrench's force, each brace's
+    preload) and the loads the recording holds at t = 0 (each joint's and
+    each applied load's force), drawn about size m long at 1, 2 or 5 times
+    a power of ten N per m.
+    """
+    g = np.linalg.norm(document.get('gravity', [0.0, 0.0, -9.80665]))
+    carrier = document.get('flight', {}).get('carrier')
+    stated = [body['mass'] * g for name, body in document['bodies'].items()
+              if name != carrier and not body.get('fixed') and 'motion' not in body]
+    stated += [np.linalg.norm(w['force']) for w in document.get('wrenches', [])]
+    stated += [b['preload'] for b in document.get('sway_braces', [])]
+    first = [np.linalg.norm(_vector(m.wrench.force)) for topic, t, m in messages
+             if t == 0 and (topic.endswith('/wrench_world') or '/applied/' in topic)]
+    largest = max(stated + first)
+    steps = [step * 10.0 ** k for k in range(-6, 12) for step in (1, 2, 5)]
+    return min(s for s in steps if s * size >= largest), max(stated), max(first)
+
+
+def _scales(messages) -> set:
+    """Return the scales (N per m) the arrows state, checking each arrow's length by it."""
+    scales = set()
+    for _, arrows, _ in _arrays(messages):
         for arrow in arrows.values():
             start, end = (_vector(p) for p in arrow.points)
+            per_metre = float(arrow.text.rsplit('= ', 1)[1].split()[0])
             force = float(arrow.text.split(': ')[1].split(' N')[0])
             assert np.linalg.norm(end - start) * per_metre == pytest.approx(force, rel=1e-3)
-    # the largest force of the run (the pylon mount at the release, about 58 kN) about the
-    # size of the largest free body (the store, 2.5 m long)
+            scales.add(per_metre)
+    return scales
+
+
+@pytest.fixture(scope='module')
+def pullup(tmp_path_factory):
+    """Run the 2 g pull-up for 0.1 s (the hook holds the store), and again at a stated scale."""
+    folder = tmp_path_factory.mktemp('pullup_arrows')
+    document = yaml.safe_load((CONFIG / 'store_release_from_pullup.yaml').read_text())
+    out = {}
+    for name, extra in (('found', {}), ('stated', {'load_scale': 5e3})):
+        (folder / f'{name}.yaml').write_text(yaml.safe_dump(dict(document, **extra)))
+        assert cli.main(['run', str(folder / f'{name}.yaml'), '-o', str(folder / f'{name}.mcap'),
+                         '--duration', '0.1']) == 0
+        out[name] = read_rosbags(folder / f'{name}.mcap')[0]
+    return document, out
+
+
+def test_one_scale_fixed_at_the_start(two_hooks, pullup):
+    # the two hooks: the aft ejector's stated 42,703 N rules (at t = 0 the largest load is a
+    # hook's, about 10 kN); the largest force later (the pylon mount at the release, about
+    # 58 kN) is drawn at that scale, longer than the store
+    (per_metre,) = _scales(two_hooks)
+    expected, stated, first = _start_scale(TWO_HOOKS, two_hooks, 2.5)
+    assert stated == 42703.0 and 5e3 < first < stated
+    assert per_metre == expected == 2e4
+    forces = [float(m.text.split(': ')[1].split(' N')[0]) for _, arrows, _ in _arrays(two_hooks)
+              for m in arrows.values()]
     assert max(forces) > 5e4
-    assert per_metre == newtons_per_metre(max(forces), 2.5) == 5e4
+    # the pull-up: the hook's load at t = 0 (the store at 2 g, twice its weight) rules
+    document, runs = pullup
+    (per_metre,) = _scales(runs['found'])
+    expected, stated, first = _start_scale(document, runs['found'], 2.5)
+    assert first == pytest.approx(2 * stated, rel=1e-3)
+    assert per_metre == expected == 1e4
+    # a scale stated in the scenario is the scale of every arrow
+    assert _scales(runs['stated']) == {5e3}
+
+
+@pytest.mark.parametrize('value, words', [
+    (3000, 'load_scale: is 3000 N per m; expected 1, 2 or 5 times a power of ten '
+           '(e.g. 2000 or 5000)'),
+    (0, 'load_scale: is 0; expected a number > 0'),
+    ('big', "load_scale: is 'big'; expected a number"),
+])
+def test_a_stated_scale_is_one_each_arrow_can_state(value, words):
+    document = dict(TWO_HOOKS, load_scale=value)
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(document, source='two.yaml')
+    assert str(caught.value).startswith(f'two.yaml: {words}')
+    assert parse_scenario(dict(TWO_HOOKS, load_scale=2e-3)).load_scale == 2e-3

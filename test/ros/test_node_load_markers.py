@@ -9,8 +9,7 @@ every sample and at each event that starts or ends a load (the release, the
 sway braces letting go, the strokes' ends), stamped at the event, as the
 recording holds them; each arrow starts at the same point, in the same
 frame, along the same force (read from its ends and the scale its text
-states). Only the scale may differ: the node's is the largest force so far,
-the recording's its run's largest.
+states), at the same scale: one for the run, fixed at t = 0.
 """
 
 import pathlib
@@ -51,7 +50,7 @@ class _Node:
 
 
 def _arrows(array) -> tuple:
-    """Return a MarkerArray's stamp (ns) and its arrows: (frame, ns, id, start, force)."""
+    """Return a MarkerArray's stamp (ns) and its arrows: (frame, ns, id, start, force, scale)."""
     first, *arrows = array.markers
     assert first.action == 3   # DELETEALL: a load no longer acting goes
     stamps = {m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec for m in array.markers}
@@ -60,7 +59,7 @@ def _arrows(array) -> tuple:
     for m in arrows:
         per_metre = float(m.text.rsplit('= ', 1)[1].split()[0])
         start, end = (np.array([p.x, p.y, p.z]) for p in m.points)
-        out.append((m.header.frame_id, m.ns, m.id, start, (end - start) * per_metre))
+        out.append((m.header.frame_id, m.ns, m.id, start, (end - start) * per_metre, per_metre))
     return stamp, out
 
 
@@ -91,6 +90,8 @@ def test_the_node_sends_the_arrows_the_recording_holds(tmp_path):
             assert np.allclose(a[3], b[3], rtol=0, atol=1e-12)   # the same point of action
             # the same force, to the 4 digits of the text's scale and the float32-free ends
             assert np.allclose(a[4], b[4], rtol=1e-9, atol=1e-6 * np.linalg.norm(b[4]))
+    # one scale, the same in the node and in the recording
+    assert len({a[5] for _, arrows in sent + recorded for a in arrows}) == 1
     # cfem-sim run (the kernel taking the samples, one sink) draws the same instants
     scenario, alone = tmp_path / 'two_hooks.yaml', tmp_path / 'alone.mcap'
     scenario.write_text(yaml.safe_dump(document))

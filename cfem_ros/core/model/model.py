@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 from cfem_ros.core.model.graph import carriers
 import numpy as np
@@ -74,6 +75,10 @@ class Model:
     start_ns : int
         The stamp of simulated time 0 in a recording of ``cfem-sim run``,
         ns since 1970-01-01T00:00:00Z (scenario ``start_time``; 0 if none).
+    load_scale : float or None
+        The viewers' load arrows' scale, N per m of arrow (scenario
+        ``load_scale``: 1, 2 or 5 times a power of ten); None: from the
+        scenario's loads at t = 0 (``recording.loadarrows``).
 
     """
 
@@ -92,6 +97,7 @@ class Model:
     contacts: tuple = ()
     braces: tuple = ()
     start_ns: int = 0
+    load_scale: Optional[float] = None
 
     def body_index(self, name: str) -> int:
         """Return the index of the body called name (ValueError if none)."""

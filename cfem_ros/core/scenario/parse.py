@@ -12,6 +12,7 @@ can represent (see the constants below) are refused by ``check`` already.
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any, Optional
 
@@ -35,10 +36,12 @@ import numpy as np
 
 TOP_KEYS = ('name', 'frame_id', 'gravity', 'duration', 'dt', 'baumgarte', 'bodies', 'joints',
             'wrenches', 'aero', 'release_groups', 'contacts', 'sway_braces', 'flight',
-            'start_time')
+            'start_time', 'load_scale')
 
 #: Longest scenario ``name`` (it goes into recordings, not topics).
 MAX_TITLE_LENGTH = 200
+#: The load arrows' scales a scenario may state (``load_scale``), N per m of arrow.
+LOAD_SCALE_RANGE = (1e-9, 1e12)
 
 
 def load_scenario(path: str, *, duration: Optional[float] = None,
@@ -168,7 +171,8 @@ def parse_scenario(document: Any, *, source: str = '<scenario>',
                   release_groups=groups,
                   braces=braces.parse_braces(check, top.get('sway_braces'), index, bodies,
                                              wrenches, dt=step),
-                  start_ns=_start_ns(check, top, run_duration))
+                  start_ns=_start_ns(check, top, run_duration),
+                  load_scale=_load_scale(check, top))
     references = _parse_references(check, bodies_doc, index, model)
     if not references:
         return model
@@ -209,6 +213,31 @@ def _start_ns(check: Checker, top: dict, run_duration: float) -> int:
                    f'{run_duration:g} s later, past 2038-01-19T03:14:07Z (the last second '
                    'a ROS stamp holds)', 'an earlier start_time or a shorter duration')
     return start
+
+
+def _load_scale(check: Checker, top: dict) -> Optional[float]:
+    """
+    Return the load arrows' stated scale, N per m (None if not stated).
+
+    1, 2 or 5 times a power of ten, as the scale found when none is stated:
+    every arrow's text states it in one digit (``recording.loadarrows``),
+    so another value would be shown rounded.
+    """
+    if 'load_scale' not in top:
+        return None
+    value = check.number(top['load_scale'], 'load_scale', positive=True)
+    if not LOAD_SCALE_RANGE[0] <= value <= LOAD_SCALE_RANGE[1]:
+        check.fail('load_scale', f'is {value:g} N per m', 'from {:g} to {:g} N per m'.format(
+            *LOAD_SCALE_RANGE))
+    power = 10.0 ** math.floor(math.log10(value))
+    for step in (1.0, 2.0, 5.0, 10.0):
+        if abs(value - step * power) <= 1e-9 * value:
+            return step * power
+    below = max(s * power for s in (1.0, 2.0, 5.0) if s * power < value)
+    above = min(s * power for s in (2.0, 5.0, 10.0) if s * power > value)
+    check.fail('load_scale', f'is {value:g} N per m',
+               f'1, 2 or 5 times a power of ten (e.g. {below:g} or {above:g}), the '
+               'one digit each arrow states')
 
 
 def _parse_references(check: Checker, bodies_doc: dict, index: dict, model: Model) -> tuple:
