@@ -127,9 +127,11 @@ def test_overwrite_replaces(tmp_path):
 
 def test_failed_run_exits_1_and_keeps_a_complete_recording(tmp_path, capsys):
     doc = yaml.safe_load((CONFIG / 'joints' / 'hinge.yaml').read_text())
-    doc['bodies']['rod']['angular_velocity'] = [0, 100.0, 0]
-    doc['bodies']['rod']['velocity'] = [0, 0, -50.0]
-    doc['dt'] = 0.05
+    # a hinge spun fast with a coarse step: its constraint drifts until the run stops, after
+    # many good steps (a run failing within its first step is refused as bad input, exit 2)
+    doc['bodies']['rod']['angular_velocity'] = [0, 40.0, 0]
+    doc['bodies']['rod']['velocity'] = [0, 0, -20.0]
+    doc['dt'] = 0.02
     doc['baumgarte'] = 1.0
     scenario = tmp_path / 'diverge.yaml'
     scenario.write_text(yaml.safe_dump(doc))
@@ -139,6 +141,10 @@ def test_failed_run_exits_1_and_keeps_a_complete_recording(tmp_path, capsys):
     assert 'run failed at t = ' in err and ('diverged' in err or 'singular' in err)
     _, summary, messages = read_checked(out)
     assert summary.statistics.message_count == len(messages) > 0
+    failed_at = float(err.split('run failed at t = ')[1].split(' s')[0])
+    poses = [m for topic, _, _, m in messages if topic == '/cfem/bodies/rod/pose']
+    last = poses[-1].header.stamp.sec + poses[-1].header.stamp.nanosec * 1e-9
+    assert failed_at > 10 * doc['dt'] and last >= failed_at - 0.01   # kept up to the failure
 
 
 def test_inputs_replay_applies_wrenches_and_releases(tmp_path):
