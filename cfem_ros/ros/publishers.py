@@ -111,7 +111,7 @@ class Publishers(Sink):
         # the next sending of the markers: one period after the scene's
         self._marker_cadence = schema.Cadence(schema.MARKERS.period, first=1)
         # the load arrows at every sample and at each event that starts or ends a load, at
-        # the largest force so far (the node cannot know the run's: recording.loadarrows)
+        # the one scale fixed at t = 0, the recording's (recording.loadarrows)
         self.arrows = loadarrows.LoadArrows(model, self.namespace, sim.applied_sources)
         self.arrow_publisher = (self._publisher(schema.LOAD_MARKERS, MarkerArray)
                                 if any(not b.fixed for b in model.bodies) else None)

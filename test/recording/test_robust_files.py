@@ -205,6 +205,10 @@ def test_recover_keeps_every_complete_message_of_a_cut_file(store, tmp_path, cap
             (t, lt) for t, lt, _, _ in original[:expected]]
         theirs, _ = read_rosbags(fixed)
         assert len(theirs) == expected
+        if cut == size // 2:   # the load arrows of the run so far, written as it went
+            arrows = [lt for t, lt, _, _ in messages if t == '/cfem/load_markers']
+            poses = [lt for t, lt, _, _ in messages if t == '/cfem/bodies/store/pose']
+            assert arrows and poses[-1] - arrows[-1] <= 10 ** 6   # within a sample (1 ms)
     # a complete file is copied whole
     fixed = tmp_path / 'whole.mcap'
     report = recover(str(store), str(fixed))
