@@ -15,7 +15,7 @@ a release or an end of stroke, within h^2 / 16 times the jump).
 
 ``least`` finds the least of a distance over a window from its sampled
 values. A bound L on |d distance / dt| in each sample interval (from the
-bodies' relative velocity, rates and sizes) bounds the distance there from
+bodies' relative velocity, rates and sizes, on the interpolant) bounds the distance there from
 below by (d0 + d1 - L h) / 2, d0 and d1 its ends (the rate lets it fall from
 one end and rise to the other, no more). Only the intervals whose bound is
 more than ``DISTANCE_TOLERANCE`` below the best found are probed, all in one
@@ -43,8 +43,6 @@ DISTANCE_TOLERANCE = 1e-9
 GAIN = 1e-12
 #: Points tried in a sample interval before the bounded minimisation.
 PROBES = 8
-#: Margin on the rate of change of a distance read from the interval's ends.
-RATE_MARGIN = 2.0
 
 
 def motion(samples, body: str):
@@ -158,18 +156,40 @@ def rotation(quaternion) -> list:
 
 def interval_rates(a: Motion, b: Motion, radius_a: float, radius_b: float) -> np.ndarray:
     """
-    Return a bound on |d distance / dt| in each sample interval (m/s), read from its ends.
+    Return a bound on |d distance / dt| in each sample interval (m/s), on the interpolant.
 
     A point of a body moves at its CG's velocity plus its rate times its distance
     from the CG (at most the body's radius about the CG, m): the distance between
     the bodies changes at most at their relative CG speed plus each one's rate
-    times its radius, the larger of the interval's two ends, times ``RATE_MARGIN``
-    (the interpolant between them).
+    times its radius. Both are bounded over the interval on the interpolant itself
+    (``hermite_speeds``): the relative CG position's cubic, and each body's rate
+    from its quaternion's cubic, 2 |q'| / |q| (|q| >= 1 - |q'| h from a unit end).
     """
-    relative = np.linalg.norm(a.velocity_world - b.velocity_world, axis=1)
-    turning = a.turn_rate * radius_a + b.turn_rate * radius_b
-    return RATE_MARGIN * (np.maximum(relative[:-1], relative[1:])
-                          + np.maximum(turning[:-1], turning[1:]))
+    h = np.diff(a.time)
+    speed = hermite_speeds(a.position - b.position, a.velocity_world - b.velocity_world,
+                           a.time)
+    out = speed
+    for motion, radius in ((a, radius_a), (b, radius_b)):
+        turning = hermite_speeds(motion.quaternion, motion.quaternion_rate, motion.time)
+        # a quaternion cubic that strays half its length from a unit end: no useful
+        # bound on the turn (a turn of a radian within a sample): every interval searched
+        out = out + np.where(turning * h < 0.5, 2 * turning / (1 - turning * h),
+                             np.inf) * radius
+    return out
+
+
+def hermite_speeds(value, rate, time) -> np.ndarray:
+    """
+    Return, per sample interval, a bound on |d/dt| of the cubic Hermite interpolant.
+
+    Its derivative is (1 - s) v0 + s v1 + 6 s (1 - s) (chord / h - (v0 + v1) / 2)
+    for s in [0, 1]: at most the larger end rate plus 1.5 times that last vector.
+    value, rate: (n, m) at the sample times (n,); returns (n - 1,).
+    """
+    h = np.diff(time)[:, None]
+    bent = (value[1:] - value[:-1]) / h - 0.5 * (rate[1:] + rate[:-1])
+    ends = np.linalg.norm(rate, axis=1)
+    return np.maximum(ends[:-1], ends[1:]) + 1.5 * np.linalg.norm(bent, axis=1)
 
 
 def lower_bounds(first, second, rate, length):

@@ -147,3 +147,20 @@ def test_the_search_agrees_with_a_dense_run_for_a_tumbling_release(tmp_path):
         dense['distance_store_pylon_min'], abs=2e-6)
     assert coarse['distance_store_pylon_min_time'] == pytest.approx(
         dense['distance_store_pylon_min_time'], abs=2e-4)
+
+
+def test_the_rate_bound_holds_on_the_interpolant_and_is_not_loose():
+    # random cubic Hermite data, jumps between the end rates included: the bound on each
+    # interval's speed against the speed of the interpolant evaluated densely
+    from cfem_ros.study.between import hermite_speeds
+    rng = np.random.default_rng(7)
+    time = np.cumsum(rng.uniform(0.001, 0.01, 41))
+    value, rate = rng.normal(size=(41, 3)), rng.normal(scale=50.0, size=(41, 3))
+    bound = hermite_speeds(value, rate, time)
+    s = np.linspace(0.0, 1.0, 2001)[:, None, None]
+    h = np.diff(time)[None, :, None]
+    speed = (6 * s * s - 6 * s) * (value[:-1] - value[1:]) / h \
+        + (3 * s * s - 4 * s + 1) * rate[:-1] + (3 * s * s - 2 * s) * rate[1:]
+    most = np.linalg.norm(speed, axis=2).max(axis=0)
+    assert (most <= bound * (1 + 1e-12)).all()
+    assert (most >= 0.5 * bound).all()   # within a factor of 2 of the true largest speed
