@@ -302,7 +302,7 @@ def fits(folder, call, defect, rng, count):
 # ------------------------------------------------------------------ compare and units
 
 def compare_relative(folder, call, defect, rng, count):
-    """compare --relative-to any body, and export's units; a recording equals itself."""
+    """Compare two runs relative to any body, export with units; a run equals itself."""
     from cfem_ros.recording.units import read_units
     runs = []
     two_hooks = CONFIG / 'inputs' / 'store_release_two_hooks.mcap'
@@ -456,7 +456,7 @@ def _control_action(client, rng, calls):
 
 
 def node_control(folder, call, defect, rng, count):
-    """The simulation control services and action at their limits, in random order."""
+    """Call the simulation control services and action at their limits, in random order."""
     _isolated(rng)
     sys.path.insert(0, str(ROOT / 'test'))
     from rosharness import NodeProcess
