@@ -169,14 +169,20 @@ def flight(folder, call, defect, rng, count):
         block = doc['flight']
         for _ in range(rng.randint(1, 3)):
             key = rng.choice(FLIGHT_KEYS)
-            value = rng.choice(NUMBERS) if rng.random() < 0.3 else rng.choice(
-                [0.3, 0.95, 1.2, 3.0, 1e5, 20000, -500, 90, -90, 89.9, -60, 25.0, 7.5,
-                 'aircraft', 'store', 'nobody'])
+            plausible = {'carrier': ['aircraft', 'store', 'nobody'],
+                         'mach': [0.3, 0.95, 1.2, 3.0], 'airspeed': [50, 290, 1000],
+                         'altitude': [-500, 0, 11000, 20000, 32000, 1e5],
+                         'temperature_offset': [-40, 0, 25], 'flight_path_deg': [-90, -60, 0,
+                                                                                 89.9, 90],
+                         'load_factor': [-3, 0, 1, 2.5, 7.5, 30],
+                         'roll_rate_deg_s': [0, 90, 360, 1e4], 'alpha_deg': [-20, 0, 25, 90],
+                         'unknown': [0]}[key]
+            value = rng.choice(NUMBERS if rng.random() < 0.2 else plausible)
             block[key] = value
             if key == 'unknown':
                 block.pop('unknown')
                 block.pop(rng.choice(['mach', 'altitude', 'carrier', 'load_factor']), None)
-        if rng.random() < 0.1:
+        if k % 10 == 9:   # a motion beside the flight
             doc['bodies']['aircraft']['motion'] = {'velocity': [250, 0, 0]}
         path = _dump(folder / f'flight_{k}.yaml', _absolute(doc))
         status, _, _ = call('flight conditions', ['check', path])
