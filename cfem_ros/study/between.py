@@ -170,11 +170,14 @@ def interval_rates(a: Motion, b: Motion, radius_a: float, radius_b: float) -> np
                            a.time)
     out = speed
     for motion, radius in ((a, radius_a), (b, radius_b)):
+        if not radius > 0:   # a point at the CG: its turn moves it not
+            continue
         turning = hermite_speeds(motion.quaternion, motion.quaternion_rate, motion.time)
         # a quaternion cubic that strays half its length from a unit end: no useful
         # bound on the turn (a turn of a radian within a sample): every interval searched
-        out = out + np.where(turning * h < 0.5, 2 * turning / (1 - turning * h),
-                             np.inf) * radius
+        with np.errstate(invalid='ignore'):
+            out = out + np.where(turning * h < 0.5, 2 * turning / (1 - turning * h),
+                                 np.inf) * radius
     return out
 
 
@@ -187,9 +190,11 @@ def hermite_speeds(value, rate, time) -> np.ndarray:
     value, rate: (n, m) at the sample times (n,); returns (n - 1,).
     """
     h = np.diff(time)[:, None]
-    bent = (value[1:] - value[:-1]) / h - 0.5 * (rate[1:] + rate[:-1])
+    with np.errstate(divide='ignore', invalid='ignore'):   # two samples at one time: no
+        bent = (value[1:] - value[:-1]) / h - 0.5 * (rate[1:] + rate[:-1])   # interval
     ends = np.linalg.norm(rate, axis=1)
-    return np.maximum(ends[:-1], ends[1:]) + 1.5 * np.linalg.norm(bent, axis=1)
+    found = np.maximum(ends[:-1], ends[1:]) + 1.5 * np.linalg.norm(bent, axis=1)
+    return np.where(np.isfinite(found), found, np.inf)
 
 
 def lower_bounds(first, second, rate, length):
@@ -201,9 +206,11 @@ def lower_bounds(first, second, rate, length):
     Ends further apart than the rate allows (the bound does not hold there) give
     -inf: such a piece is searched.
     """
-    reach = rate * length
-    bound = 0.5 * (first + second - reach)
-    return np.where(np.abs(second - first) <= reach * (1 + 1e-9) + 1e-15, bound, -np.inf)
+    with np.errstate(invalid='ignore'):   # no rate bound over no time: NaN, searched
+        reach = rate * length
+        bound = 0.5 * (first + second - reach)
+        return np.where(np.abs(second - first) <= reach * (1 + 1e-9) + 1e-15, bound,
+                        -np.inf)
 
 
 def least(time, sampled, evaluate, rates, start: float, end: float, one=None) -> tuple:
@@ -294,7 +301,9 @@ def _around(evaluate, single, probes, values, j: int, rate: float, best: float) 
     ``DISTANCE_TOLERANCE`` below it: Brent would take some 30 golden sections to
     close on an end, where a minimum inside needs about ten.
     """
-    tolerance = DISTANCE_TOLERANCE / max(rate, 1e-300)
+    # no rate bound (inf): no distance tolerance to give, the time to 1e-13 s; below
+    # 1e-3 m/s, 1e-6 s (within the distance tolerance still, and a search that ends)
+    tolerance = min(max(DISTANCE_TOLERANCE / max(rate, 1e-300), 1e-13), 1e-6)
     last = len(probes) - 1
     if 0 < j < last:
         return _search(single, probes[j - 1], probes[j + 1], tolerance)
