@@ -97,21 +97,20 @@ class Motion:
         one interval index per time: probes of many intervals in one call.
         """
         times = np.atleast_1d(np.asarray(times, dtype=float))
-        k = np.broadcast_to(np.asarray(k, dtype=int), times.shape)
-        h = self.time[k + 1] - self.time[k]
-        s = (times - self.time[k]) / h
+        k = np.asarray(k, dtype=int)
+        if k.ndim == 0:   # one interval: its rows, not a gather per time
+            k = int(k)
+        start, h = self.time[k], self.time[k + 1] - self.time[k]
+        s = (times - start) / h
         s2, s3 = s * s, s * s * s
-        basis = [(2 * s3 - 3 * s2 + 1)[:, None], ((s3 - 2 * s2 + s) * h)[:, None],
-                 (-2 * s3 + 3 * s2)[:, None], ((s3 - s2) * h)[:, None]]
-
-        def cubic(value, rate):
-            return basis[0] * value[k] + basis[1] * rate[k] + basis[2] * value[k + 1] \
-                + basis[3] * rate[k + 1]
-
-        position = cubic(self.position, self.velocity_world)
-        quaternion = cubic(self.quaternion, self.quaternion_rate)
+        # position and quaternion side by side (``_values``, ``_rates``): one cubic of 7
+        both = (2 * s3 - 3 * s2 + 1)[:, None] * self._values[k] \
+            + ((s3 - 2 * s2 + s) * h)[:, None] * self._rates[k] \
+            + (-2 * s3 + 3 * s2)[:, None] * self._values[k + 1] \
+            + ((s3 - s2) * h)[:, None] * self._rates[k + 1]
+        quaternion = both[:, 3:]
         quaternion /= np.linalg.norm(quaternion, axis=1)[:, None]
-        return position, quaternion
+        return both[:, :3], quaternion
 
     def pose(self, k: int, t: float) -> tuple:
         """
