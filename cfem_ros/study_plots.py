@@ -22,6 +22,7 @@ import sys
 
 from cfem_ros import plots
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Status
 from cfem_ros.recording.analysis import shared_run
 from cfem_ros.study.labels import label, unit
 from cfem_ros.study.rounding import at_rounding_level, family_scale
@@ -64,7 +65,7 @@ def drawn_values(table, column: str) -> np.ndarray:
     load in the run (its peak moment, or its peak force on a 1 m lever arm)
     is rounding and drawn as zero, as in the figures of a run.
     """
-    ok = (table['status'] == 'ok').to_numpy()
+    ok = (table['status'] == Status.OK).to_numpy()
     values = table.loc[ok, column].to_numpy(dtype=float)
     force = 'peak_force_' + column[len('peak_moment_'):]
     if column.startswith('peak_moment_') and force in table.columns:
@@ -81,7 +82,7 @@ def histogram_figure(table, column: str, criteria=(), document=None):
     as one value with a note instead. Each criterion on the metric is a
     limit line, the side that fails shaded.
     """
-    ok = table['status'] == 'ok'
+    ok = table['status'] == Status.OK
     values = drawn_values(table, column)
     fig, ax = plt.subplots(figsize=(7, 4))
     if at_rounding_level(values, family_scale(table, column, document)):
@@ -152,7 +153,7 @@ def scatter_figure(table, metric: str, parameters, criteria=(), document=None):
     rows = -(-count // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(4.3 * columns, 3.4 * rows + 0.6),
                              squeeze=False, sharey=True)
-    ok = (table['status'] == 'ok').to_numpy()
+    ok = (table['status'] == Status.OK).to_numpy()
     passed = table['pass'].to_numpy(dtype=bool) if 'pass' in table else ok
     y = table[metric].to_numpy(dtype=float)
     finite = np.isfinite(y)

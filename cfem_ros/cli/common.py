@@ -49,12 +49,6 @@ def cannot_start(scenario: str, errors: list) -> str:
     return startcheck.cannot_start(scenario, errors)
 
 
-def contact_parts(event: dict) -> str:
-    """Return the parts of the two shapes that touched (0 for a convex shape), for a line."""
-    parts = event.get('parts')
-    return f', parts {parts[0]} and {parts[1]}' if parts and len(parts) == 2 else ''
-
-
 def same_file(a: str, b: str) -> bool:
     """Return whether two paths name one file (or would, once made)."""
     try:

@@ -11,6 +11,7 @@ import sys
 from cfem_ros.cli.cluster import close, dask_client, study_imports
 from cfem_ros.cli.common import (error, EXIT_FAILED, EXIT_OK, failed, output_refused,
                                  table_refused, warn)
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError, InputError
 
 
@@ -87,7 +88,7 @@ def summarize_command(args: argparse.Namespace) -> int:
             write_atomic(table, csv)
     except OSError as err:
         return error(f'{output}: cannot write ({err.strerror or err})')
-    unread = table[table['status'] == 'failed']
+    unread = table[table['status'] == Status.FAILED]
     for _, row in unread.iterrows():
         print(f'  {row["message"]}', file=sys.stderr)
     print(f'{output}: {len(table)} recordings, {len(unread)} unreadable')
@@ -160,7 +161,7 @@ def rerun_command(args: argparse.Namespace) -> int:
                       f'{getattr(err, "strerror", None) or err}')
     print(f'{output}: run {run} of {outdir}, status {row["status"]}'
           + (f' ({row["message"]})' if row['message'] else ''))
-    return EXIT_OK if row['status'] == 'ok' else EXIT_FAILED
+    return EXIT_OK if row['status'] == Status.OK else EXIT_FAILED
 
 
 def _rerun_spec(outdir: str, run: int):

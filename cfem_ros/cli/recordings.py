@@ -9,10 +9,9 @@ import os
 import sys
 
 from cfem_ros.cli.cluster import study_imports
-from cfem_ros.cli.common import (contact_parts, error, EXIT_FAILED, EXIT_OK, output_refused,
-                                 same_file)
+from cfem_ros.cli.common import error, EXIT_FAILED, EXIT_OK, output_refused, same_file
 from cfem_ros.cli.figures import write_figures
-from cfem_ros.core.engine.strokes import describe_event
+from cfem_ros.core.engine.events import describe_event, Event
 from cfem_ros.core.errors import CfemError
 from cfem_ros.recording.errors import OutputError
 from cfem_ros.separation import commands as separation
@@ -117,22 +116,24 @@ def _print_names(topics):
 
 def _print_events(events):
     """Print a recording's releases, end-of-stroke figures, brace contacts and contacts."""
-    releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
-                      for e in events if e.get('event') == 'release' and 'time' in e)
-    for t, joint, cause in releases:
-        print(f'  release {joint} at t = {t:.9f} s ({cause})')
+    # a recording's events are read as found: a key a reader needs is checked first
+    releases = sorted(({'joint': '?', 'cause': '?', **e} for e in events
+                       if e.get('event') == Event.RELEASE and 'time' in e),
+                      key=lambda e: (e['time'], e['joint'], e['cause']))
+    for event in releases:
+        print(f'  {describe_event(event)}')
     if not releases:
         print('  no release event')
     for event in events:   # end-of-stroke figures (SPEC section 7), braces (11)
-        if event.get('event') == 'stroke_end' and 'velocity' in event and 'rates' in event:
+        if event.get('event') == Event.STROKE_END and 'velocity' in event and 'rates' in event:
             print(f'  {describe_event(event)}')
-        if (event.get('event') == 'brace_contact' and 'time' in event and 'brace' in event
+        if (event.get('event') == Event.BRACE_CONTACT and 'time' in event and 'brace' in event
                 and 'contact' in event):
             print(f'  {describe_event(event)}')
-    for e in events:
-        if e.get('event') == 'contact' and 'time' in e:
-            print(f'  contact {" ".join(e.get("bodies", ()))} at t = {e["time"]:.9f} s, '
-                  f'point {e.get("point")} m (world){contact_parts(e)}')
+    for event in events:
+        if (event.get('event') == Event.CONTACT and 'time' in event
+                and len(event.get('bodies', ())) == 2 and len(event.get('point', ())) == 3):
+            print(f'  {describe_event(event)}')
 
 
 def recover_command(args: argparse.Namespace) -> int:

@@ -13,12 +13,12 @@ import sys
 import time
 from typing import Optional
 
-from cfem_ros.cli.common import (cannot_start, contact_parts, error, EXIT_CONTACT, EXIT_FAILED,
-                                 EXIT_OK, output_refused, same_file, signals_to, table_refused,
-                                 vec, warn, warnings_held)
+from cfem_ros.cli.common import (cannot_start, error, EXIT_CONTACT, EXIT_FAILED, EXIT_OK,
+                                 output_refused, same_file, signals_to, table_refused, vec, warn,
+                                 warnings_held)
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import describe_event, Event, Status
 from cfem_ros.core.engine.simulator import Simulator
-from cfem_ros.core.engine.strokes import describe_event
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.core.fileio.instants import instant_ns, MAX_SECONDS
 from cfem_ros.core.model.joints import Release
@@ -155,7 +155,7 @@ def run_command(args: argparse.Namespace) -> int:
     if args.layout is not None:
         print(f'layout: {args.layout} (Foxglove/Lichtblick: Layouts > Import from file)')
     sim = run.sim
-    if sim.status == 'contact':
+    if sim.status is Status.CONTACT:
         print(f'stopped: {sim.message}; the recording holds everything up to then',
               file=sys.stderr)
         return EXIT_CONTACT
@@ -299,14 +299,8 @@ def _print_run(run: _Run, wall: float):
     print(f'{run.model.name}: {sim.t:.9g} s simulated in {sim.steps} steps, '
           f'{wall:.3g} s wall ({sim.t / wall if wall > 0 else float("inf"):.3g}x real time)')
     for event in sim.events:
-        if event['event'] == 'contact':
-            a, b = event['bodies']
-            x, y, z = event['point']
-            print(f'contact {a} {b} at t = {event["time"]:.9f} s, point '
-                  f'[{x:.6g}, {y:.6g}, {z:.6g}] m (world){contact_parts(event)}')
-        else:
-            print(describe_event(event))
-    if not any(e['event'] == 'release' for e in sim.events):
+        print(describe_event(event))
+    if not any(e['event'] == Event.RELEASE for e in sim.events):
         print(_no_release(run.model, bool(run.replay)))
     print_state(sim)
 

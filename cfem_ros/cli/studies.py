@@ -13,6 +13,7 @@ import time
 
 from cfem_ros.cli.cluster import close, dask_client, raise_interrupted, study_imports
 from cfem_ros.cli.common import error, EXIT_OK, failed, signals_to, STOPS
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError, InputError
 from cfem_ros.interrupts import exit_now, Interrupted
 from cfem_ros.study.resources import MethodFailed, ResourceFailure
@@ -37,7 +38,7 @@ def study_command(args: argparse.Namespace) -> int:
         return status
     from cfem_ros.study import methods
     table = found['table']
-    not_finished = int((table['status'] != 'ok').sum())
+    not_finished = int((table['status'] != Status.OK).sum())
     print(f'{os.path.join(outdir, "results.parquet")}: {len(table)} runs, {not_finished} did '
           f'not finish, {time.monotonic() - started:.3g} s')
     if args.design is None:

@@ -14,6 +14,7 @@ from typing import Optional
 from cfem_ros.cli import studies
 from cfem_ros.cli.cluster import close, dask_client, raise_interrupted, study_imports
 from cfem_ros.cli.common import error, EXIT_FAILED, EXIT_OK, failed, signals_to, STOPS
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError
 from cfem_ros.interrupts import exit_now, Interrupted
 from cfem_ros.study.resources import ResourceFailure
@@ -176,16 +177,16 @@ def _on_cluster(args, sweep, outdir: str, todo: list) -> tuple:
 
 def _print_sweep(sweep, table, outdir: str, wall: float) -> int:
     """Print what a sweep found and write its estimate; return how many runs failed."""
-    runs_failed = int((table['status'] == 'failed').sum())
-    touched = int((table['status'] == 'contact').sum())
+    runs_failed = int((table['status'] == Status.FAILED).sum())
+    touched = int((table['status'] == Status.CONTACT).sum())
     contact = f'{touched} stopped at a contact, ' if touched else ''
-    invalid = int((table['status'] == 'invalid').sum())
+    invalid = int((table['status'] == Status.INVALID).sum())
     if invalid:   # SPEC section 12: reported, never counted as failures
         contact += (f"{invalid} invalid draws (refused by the scenario's checks, not run, "
                     'left out of every probability), ')
     print(f'{os.path.join(outdir, "results.parquet")}: {sweep.total} runs, {runs_failed} '
           f'failed, {contact}{wall:.3g} s')
-    for _, row in table[table['status'] == 'failed'].head(5).iterrows():
+    for _, row in table[table['status'] == Status.FAILED].head(5).iterrows():
         print(f'  run {row["run"]} failed: {row["message"]}', file=sys.stderr)
     from cfem_ros.study.criteria import no_valid_draw
     if sweep.spec.criteria and no_valid_draw(table) is None:   # else nothing to estimate

@@ -23,6 +23,7 @@ import os
 from typing import Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Event
 from cfem_ros.recording import schema
 from cfem_ros.recording.comparison import attitude_difference_deg, compare_runs, Difference
 from cfem_ros.recording.errors import RecordingError
@@ -168,7 +169,7 @@ def _read_messages(messages, ns: str, renamed: Optional[dict] = None) -> dict:
             try:
                 event = json.loads(decoded.data)
             except (ValueError, TypeError):
-                event = {'event': 'unparsed', 'data': str(decoded.data)}
+                event = {'event': Event.UNPARSED, 'data': str(decoded.data)}
             raw['events'].append(event if isinstance(event, dict) else {'event': event})
             continue
         stamp = decoded.header.stamp
@@ -351,7 +352,7 @@ def _assemble(path, ns, topics, metadata, raw) -> Run:
             velocity=velocity, velocity_world=world)
     joints, applied, joint_frame = {}, {}, {}
     released = {e.get('joint'): e.get('time') for e in raw['events']
-                if e.get('event') == 'release'}
+                if e.get('event') == Event.RELEASE}
     in_joint_frame = {name: [r[:2] for r in rows if r[2] not in raw['world']]
                       for name, rows in raw['joint_in'].items()}   # old files: world axes
     for kind, tracks, found in (('joint', joints, raw['joint']),

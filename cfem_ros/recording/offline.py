@@ -8,6 +8,7 @@ import logging
 import math
 from typing import Callable, Optional
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.run.session import Session
 from cfem_ros.recording import loadarrows, schema, viewframes
 from cfem_ros.recording.container import encoder
@@ -48,7 +49,8 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     Returns
     -------
     bool
-        False if the run failed (``sim.message`` says when and why).
+        False if the run ended before its duration: it failed, or its scenario
+        stopped it (``sim.status``; ``sim.message`` says when and why).
 
     """
     log = log or logging.getLogger('cfem_ros')
@@ -60,9 +62,9 @@ def run(sim, recorder, *, rate_hz: float, duration: float, inputs=(),
     session.run(progress, progress_every)
     # every end before the duration but a contact's (exit 3) is an exit 1: a failure or a
     # table's outside: stop; the recording says why it ends there
-    if session.sim.status not in ('running', 'contact') and recorder is not None:
+    if session.stopped and session.sim.status is not Status.CONTACT and recorder is not None:
         recorder.failed()
-    return not session.failed
+    return not session.stopped
 
 
 #: Sample rates a run accepts, Hz: the node's ``rate_hz`` bounds.

@@ -18,6 +18,7 @@ import json
 import os
 
 from cfem_ros.core.engine.aero import AIR_TOPICS
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.inputs import stamp_problem
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
@@ -175,8 +176,9 @@ class StateRecorder(RowSink):
     def _marker_array(self, stamp_ns: int, t: float) -> bytes:
         """Return the MarkerArray at simulated time t (the joints released by then in red), CDR."""
         released = {e['joint'] for e in self.sim.events
-                    if e.get('event') == 'release' and e['time'] <= t}
-        contacts = [e for e in self.sim.events if e.get('event') == 'contact' and e['time'] <= t]
+                    if e.get('event') == Event.RELEASE and e['time'] <= t}
+        contacts = [e for e in self.sim.events
+                    if e.get('event') == Event.CONTACT and e['time'] <= t]
         return self._marker_bytes(visuals.markers(self.sim.model, stamp(stamp_ns),
                                                   self.namespace, released, contacts))
 
@@ -286,12 +288,13 @@ class StateRecorder(RowSink):
             while drawn and drawn[0][0] < event['time']:
                 self._event_arrows(*drawn.pop(0))
             self._write(schema.EVENTS, {'data': json.dumps(event)}, self.stamp_ns(event['time']))
-            if event.get('event') == 'release':
+            if event.get('event') == Event.RELEASE:
                 self._zero_load(event['joint'], self.stamp_ns(event['time']))
         self._events_written = len(self.sim.events)
         for state in drawn:
             self._event_arrows(*state)
-        if self._scene_written and any(e.get('event') in ('release', 'contact') for e in new):
+        if self._scene_written and any(e.get('event') in (Event.RELEASE, Event.CONTACT)
+                                       for e in new):
             # released joints change colour; contacts get their marker
             self._markers(self.stamp_ns(new[-1]['time']))
 
@@ -324,7 +327,7 @@ class StateRecorder(RowSink):
         """Record the run's failure as an ``error`` event at the time it stopped."""
         sim = self.sim
         self._write(schema.EVENTS, {'data': json.dumps(
-            {'event': 'error', 'time': sim.t, 'message': sim.message})}, self.stamp_ns(sim.t))
+            {'event': Event.ERROR, 'time': sim.t, 'message': sim.message})}, self.stamp_ns(sim.t))
 
     def received(self, item, t: float):
         """

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import json
 
+from cfem_ros.core.engine.events import Event
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import open_mcap
@@ -90,5 +91,5 @@ def _event(data: bytes) -> dict:
         length = int.from_bytes(data[4:8], 'little')
         event = json.loads(data[8:8 + length].rstrip(b'\0').decode())
     except (ValueError, UnicodeDecodeError):
-        return {'event': 'unparsed', 'data': repr(data)}
+        return {'event': Event.UNPARSED, 'data': repr(data)}
     return event if isinstance(event, dict) else {'event': event}

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Event
 import numpy as np
 
 
@@ -204,7 +205,7 @@ class Run:
     def releases(self) -> list:
         """Return the release events as (time, joint, cause), in time order."""
         return sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
-                      for e in self.events if e.get('event') == 'release' and 'time' in e)
+                      for e in self.events if e.get('event') == Event.RELEASE and 'time' in e)
 
     def moving_bodies(self) -> list:
         """Return the bodies that move, in order."""
@@ -223,7 +224,7 @@ class Run:
         """
         out = {}
         for e in self.events:
-            if e.get('event') != 'stroke_end' or 'wrench' not in e:
+            if e.get('event') != Event.STROKE_END or 'wrench' not in e:
                 continue
             out.setdefault(e['wrench'], {
                 'time': float(e['time']), 'body': e.get('body'),

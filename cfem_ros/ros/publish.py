@@ -27,6 +27,7 @@ import math
 import sys
 import time
 
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.inputs import parse_frame_id
 from cfem_ros.recording import schema
 from cfem_ros.ros.qos import TOPIC_QOS
@@ -177,7 +178,7 @@ def main(argv=None) -> int:
         names = list(dict.fromkeys(args.joint))
 
         def confirmed():
-            return [e for e in events if e.get('event') == 'release'
+            return [e for e in events if e.get('event') == Event.RELEASE
                     and (e.get('joint') in names or e.get('group') in names)]
 
         def answered(name):

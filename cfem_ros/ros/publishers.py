@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 
-from cfem_ros.core.engine.strokes import describe_event
+from cfem_ros.core.engine.events import describe_event, Event
 from cfem_ros.core.run.session import Sink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.samplelayout import InBodyAxes
@@ -156,8 +156,8 @@ class Publishers(Sink):
         """Publish the markers (and, the first time, the frames on /tf_static)."""
         model = self.sim.model
         stamp = {'sec': stamp_ns // 1_000_000_000, 'nanosec': stamp_ns % 1_000_000_000}
-        released = {e['joint'] for e in self.sim.events if e.get('event') == 'release'}
-        contacts = [e for e in self.sim.events if e.get('event') == 'contact']
+        released = {e['joint'] for e in self.sim.events if e.get('event') == Event.RELEASE}
+        contacts = [e for e in self.sim.events if e.get('event') == Event.CONTACT]
         self.marker_publisher.publish(MarkerArray(markers=[
             _fill(Marker(), m) for m in visuals.markers(
                 model, stamp, self.namespace, released, contacts)['markers']]))
@@ -287,19 +287,12 @@ class Publishers(Sink):
                 self._arrows(self.stamp_ns(t), row, active, held)
         for event in new:
             self.event_publisher.publish(String(data=json.dumps(event)))
-            if event['event'] == 'contact':
-                self.node.get_logger().warning(
-                    f"contact between {' and '.join(event['bodies'])} at t = "
-                    f"{event['time']:.9g} s, point {event['point']} (world, m), "
-                    f"parts {event.get('parts', [0, 0])}")
+            if event['event'] == Event.CONTACT:   # a contact is a warning: shapes touched
+                self.node.get_logger().warning(describe_event(event))
                 continue
-            if event.get('event') != 'release':
-                self.node.get_logger().info(describe_event(event))
+            self.node.get_logger().info(describe_event(event))
+            if event['event'] != Event.RELEASE:
                 continue
-            group = f" in group {event['group']!r}" if event.get('group') else ''
-            self.node.get_logger().info(
-                f"{event['event']} of joint {event['joint']!r} at t = {event['time']:.9g} s "
-                f"(cause: {event['cause']}){group}")
             k = self.sim.model.joint_index(event['joint'])
             for publisher, wrench in self.wrenches.pop(k, ()):   # zero once: plots end at 0
                 _time_msg(wrench.header.stamp, self.stamp_ns(event['time']))

@@ -28,6 +28,7 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
@@ -70,7 +71,7 @@ class RunControl:
         """Stop advancing where the run is."""
         if self.state == PLAYING:
             self.state = PAUSED
-            self.announce({'event': 'pause', 'time': self.node.run.sim.t})
+            self.announce({'event': Event.PAUSE, 'time': self.node.run.sim.t})
 
     def play(self):
         """Advance again: in real time from now, at the real-time factor; or with /clock."""
@@ -78,7 +79,7 @@ class RunControl:
             return
         node, run = self.node, self.node.run
         self.state = PLAYING
-        self.announce({'event': 'play', 'time': run.sim.t})
+        self.announce({'event': Event.PLAY, 'time': run.sim.t})
         if run.start_ns is None:
             return
         if not run.session.started:
@@ -129,7 +130,7 @@ class RunControl:
         if run.start_ns is None:
             raise ControlError('the run has not started (waiting for /clock)')
         start_ns = node.stepping.reset_stamp()
-        self.announce({'event': 'reset', 'time': run.sim.t, 'start_stamp_ns': int(start_ns)})
+        self.announce({'event': Event.RESET, 'time': run.sim.t, 'start_stamp_ns': int(start_ns)})
         run.restart(start_ns)
         node.stepping.restarted()
         if self.paused or not node.sim_time:
@@ -200,7 +201,7 @@ class RunControl:
                              'the aerodynamic ones beyond double precision at that speed); '
                              'expected a state the run can go on from; nothing changed')
         sim.set_state(y)   # strokes, contacts and aero watched from there, as a batch copy
-        self.announce({'event': 'set_state', 'time': sim.t, 'body': name})
+        self.announce({'event': Event.SET_STATE, 'time': sim.t, 'body': name})
 
     # ---------------------------------------------------------------- events
 
@@ -275,7 +276,7 @@ class StepRun:
         """Announce the steps taken (a ``step`` event) and end the run if it is over."""
         advanced = self.done if self.run.sim is self.sim else 0
         if announce and advanced:
-            self.control.announce({'event': 'step', 'time': self.t0, 'steps': advanced,
+            self.control.announce({'event': Event.STEP, 'time': self.t0, 'steps': advanced,
                                    'to': self.sim.t})
         if self.run.session.finished and self.node.exit_code is None:
             self.node.stepping.end()

@@ -16,6 +16,7 @@ import math
 import time
 from typing import Optional
 
+from cfem_ros.core.engine.events import Event, Status
 from cfem_ros.ros.qos import CLOCK_QOS
 from cfem_ros.ros.stamps import ClockLog, divergence_advice
 from cfem_ros.ros.subscriptions import taken
@@ -283,15 +284,15 @@ class Stepping:
         """End the node's run (reached its duration, failed or stopped at a contact)."""
         node, run = self.node, self.node.run
         sim = run.sim
-        if sim.status == 'contact':
+        if sim.status is Status.CONTACT:
             node.get_logger().warning(f'run stopped: {sim.message}')
             node.exit_code = EXIT_CONTACT
-        elif run.session.failed:
+        elif run.session.stopped:   # a failure or a table's outside: stop (exit 1)
             sim.message = divergence_advice(sim.message, run.timing.late_inputs,
                                             run.odometry_check.warned)
             node.get_logger().error(f'the run failed {sim.message}')
             run.publishers.event_publisher.publish(String(data=json.dumps(
-                {'event': 'error', 'time': sim.t, 'message': sim.message})))
+                {'event': Event.ERROR, 'time': sim.t, 'message': sim.message})))
             if run.recording is not None:
                 run.recording.state.failed()
             node.exit_code = EXIT_FAILED

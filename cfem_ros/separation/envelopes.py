@@ -19,6 +19,7 @@ import json
 import os
 import re
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError
 from cfem_ros.plots import save
 from cfem_ros.recording.analysis import euler_continuous, shared_run
@@ -107,7 +108,7 @@ def worst_run(outdir: str, runs) -> tuple:
     if not criteria:
         return None, None
     table = pd.read_parquet(os.path.join(outdir, 'results.parquet'))
-    table = table[table['run'].isin(list(runs)) & (table['status'] != 'invalid')]
+    table = table[table['run'].isin(list(runs)) & (table['status'] != Status.INVALID)]
     if table.empty:
         return None, criteria[0].name
     margin = criteria[0].margin_of(table)
@@ -216,4 +217,4 @@ def report_figures(outdir: str, directory: str, warn=None) -> list:
 def _valid_runs(outdir: str) -> list:
     import pandas as pd
     table = pd.read_parquet(os.path.join(outdir, 'results.parquet'), columns=['run', 'status'])
-    return table.loc[table['status'] == 'ok', 'run'].tolist()
+    return table.loc[table['status'] == Status.OK, 'run'].tolist()

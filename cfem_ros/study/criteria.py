@@ -23,6 +23,7 @@ import operator
 import re
 from typing import Optional
 
+from cfem_ros.core.engine.events import Status
 import numpy as np
 
 #: Operator text -> numpy comparison.
@@ -31,7 +32,7 @@ RULE = ('"<column> <op> <number>" or "abs(<column>) <op> <number>", op one of '
         '<, <=, >, >=, or such rules joined by and, or and parentheses (e.g. '
         '"distance_store_pylon_min >= 0.0254 and abs(store_max_pitch_deg) <= 30")')
 #: The status of a run whose draw the scenario's checks refuse (SPEC section 12).
-INVALID = 'invalid'
+INVALID = Status.INVALID
 #: The margin of a run that did not finish (or whose value is NaN), in thresholds.
 FAILED_MARGIN = -1.0
 #: Smallest threshold magnitude that scales a margin (below it, as 0: scale 1).
@@ -143,7 +144,7 @@ def parse_rule(name: str, text) -> Criterion:
 
 def finished_runs(table) -> np.ndarray:
     """Return, per run, whether its status is 'ok'."""
-    return (table['status'] == 'ok').to_numpy()
+    return (table['status'] == Status.OK).to_numpy()
 
 
 def valid_runs(table):
@@ -200,7 +201,7 @@ def judge(table, criteria):
     first = np.full(len(table), '', dtype=object)
     for c in reversed(criteria):
         first = np.where(failed[c.name], c.name, first)
-    first = np.where(status != 'ok', status, first)
+    first = np.where(status != Status.OK, status, first)
     table = table.copy()
     import pandas as pd
     passed = pd.array(first == '', dtype='boolean')

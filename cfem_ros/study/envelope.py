@@ -26,6 +26,7 @@ import os
 import re
 from typing import Callable, Optional
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.draws import draw
@@ -282,7 +283,7 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
 
     def done(k, estimate, table):
         # a run that failed (singular or diverging) fails every criterion; said apart
-        unfinished = int((table['status'] == 'failed').sum())
+        unfinished = int((table['status'] == Status.FAILED).sum())
         rows[k] = row(envelope, k, estimate, outdir, unfinished)
         if log is not None:
             log(f'point {k + 1}/{count} ({describe_point(envelope, k)}): P(fail) '

@@ -23,6 +23,7 @@ import os
 import sys
 from typing import Callable, Optional
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.study.draws import RANDOM_NUMBERS
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.folder import read_manifest, read_table
@@ -178,7 +179,7 @@ class Evaluator:
             self.ran += len(todo)
         if self.method != 'mc':
             refuse_invalid(self.spec, self.method, [self.saved[k] for k in runs])
-        failed = sum(self.saved[k]['status'] != 'ok' for k in todo)
+        failed = sum(self.saved[k]['status'] != Status.OK for k in todo)
         self.log(f'{len(points)} runs asked ({len(todo)} run, {len(points) - len(todo)} saved, '
                  f'{failed} failed); {self.count} in all')
         return frame([self.saved[k] for k in runs], self.names)

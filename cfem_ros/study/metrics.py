@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.study import between
 from cfem_ros.study.metricspec import STROKE_COLUMNS
@@ -91,7 +92,7 @@ def _outside(events, t_end: float) -> dict:
 def _contacts(events) -> list:
     """Return the contact events as (time, (body a, body b))."""
     return [(float(e['time']), tuple(e['bodies'])) for e in events
-            if e.get('event') == 'contact' and 'time' in e and len(e.get('bodies', ())) == 2]
+            if e.get('event') == Event.CONTACT and 'time' in e and len(e.get('bodies', ())) == 2]
 
 
 def sample_times(times) -> np.ndarray:
@@ -179,10 +180,10 @@ class Collector(RowSink):
                 joints[joint.name] = (np.concatenate([p[0] for p in parts]),
                                       loads[:, :3], loads[:, 3:])
         releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
-                          for e in self.sim.events if e.get('event') == 'release')
+                          for e in self.sim.events if e.get('event') == Event.RELEASE)
         strokes = {}
         for e in self.sim.events:
-            if e.get('event') == 'stroke_end':
+            if e.get('event') == Event.STROKE_END:
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
         rates = {b.name: bodies_rows[:, 13 * i + 10:13 * i + 13]
                  for i, b in enumerate(model.bodies)}

@@ -22,6 +22,7 @@ import os
 import shlex
 import time
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.study.criteria import margins
 from cfem_ros.study.decision import down, up
 from cfem_ros.study.labels import label
@@ -116,7 +117,7 @@ def worst_runs(table, criteria, count: int = WORST):
     if criteria:
         order = np.argsort(margins(table, criteria), kind='stable')
     else:
-        order = np.argsort((table['status'] == 'ok').to_numpy(), kind='stable')
+        order = np.argsort((table['status'] == Status.OK).to_numpy(), kind='stable')
     return table.iloc[order[:count]]
 
 
@@ -139,7 +140,7 @@ def build(outdir: str, figures=()) -> str:
         criteria = [from_json(c) for c in held['criteria']]
         level = held['confidence']
     method = manifest.get('method', 'mc')
-    ok = int((table['status'] == 'ok').sum())
+    ok = int((table['status'] == Status.OK).sum())
     invalid = int((table['status'] == INVALID).sum())
     everything, table = table, valid_runs(table)
     parts = [f'<h1>Separation study: {_e(document.get("name", ""))}</h1>',

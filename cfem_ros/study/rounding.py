@@ -13,6 +13,7 @@ value.
 
 from __future__ import annotations
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.study.labels import unit
 import numpy as np
 
@@ -46,7 +47,7 @@ def family_scale(table, column: str, document=None) -> float:
     if not own:
         return 0.0
     kind = column.split('_at_')[0] if '_at_' in column else None
-    ok = (table['status'] == 'ok').to_numpy()
+    ok = (table['status'] == Status.OK).to_numpy()
     size = 0.0
     for name in table.columns:
         if name in ('run', 'status', 'message') or table[name].dtype.kind != 'f' \
@@ -73,7 +74,7 @@ def rounding_only(table, column: str, document=None) -> bool:
     A joint's peak moment is judged against its peak force on a 1 m lever
     arm as well; any other metric against ``family_scale``.
     """
-    ok = (table['status'] == 'ok').to_numpy()
+    ok = (table['status'] == Status.OK).to_numpy()
     values = table.loc[ok, column].to_numpy(dtype=float)
     values = values[np.isfinite(values)]
     scale = family_scale(table, column, document)

@@ -15,7 +15,8 @@ import logging
 import os
 from typing import Optional
 
-from cfem_ros.core.engine.dynamics import REDUNDANT_MESSAGES
+from cfem_ros.core.engine.dynamics import redundant_record
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.run.session import Session
@@ -48,9 +49,9 @@ def numeric(variable) -> bool:
 #: The runs' simulators log here: all but the redundant-joint message, given once
 #: per sweep (``warn_once``) instead of once per run, in every worker's log.
 RUNS_LOG = logging.getLogger('cfem_ros.sweep.runs')
-RUNS_LOG.addFilter(lambda record: record.msg not in REDUNDANT_MESSAGES)
+RUNS_LOG.addFilter(lambda record: not redundant_record(record))
 _ONCE_LOG = logging.getLogger('cfem_ros.sweep')
-_ONCE_LOG.addFilter(lambda record: record.msg in REDUNDANT_MESSAGES)   # only it
+_ONCE_LOG.addFilter(redundant_record)   # only it
 
 
 def warn_once(spec: SweepSpec):
@@ -67,8 +68,8 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     Run run k of a sweep and return its table row (a dict, columns in order).
 
     A run whose values the scenario's checks refuse is not run: a row with
-    ``status`` 'invalid' (SPEC section 12) and the check's message. A run
-    that fails is a row with ``status`` 'failed' and the reason in
+    ``status`` ``Status.INVALID`` (SPEC section 12) and the check's message. A
+    run that fails is a row with ``status`` ``Status.FAILED`` and the reason in
     ``message``; its metrics are those of the samples it did take.
     record: the path of an MCAP recording to write of it. models: where the model comes from (a
     ``Models`` of spec, shared by a task's runs); the whole parse if None.
@@ -76,7 +77,7 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     values = spec.run_values(k)
     row = {'run': k}
     row.update((v.path, column_value(values[v.path], numeric(v))) for v in spec.variables)
-    row.update(status='ok', message='')
+    row.update(status=Status.OK, message='')
     try:
         model = full_model(spec, k, values) if models is None else models.model(k, values)
         sim = Simulator(model, logger=RUNS_LOG)
@@ -85,7 +86,7 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
         row.update(empty(spec.metrics))
         return row
     except Exception as err:   # noqa: B902 (any other refusal is this run's failure)
-        row.update(status='failed', message=str(err))
+        row.update(status=Status.FAILED, message=str(err))
         row.update(empty(spec.metrics))
         return row
     try:
@@ -105,13 +106,13 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     except Exception as err:   # noqa: B902
         if record is not None and recording_failure(err):
             raise   # a recording that cannot be written is no result of the run
-        row.update(status='failed', message=f'{type(err).__name__}: {err}')
+        row.update(status=Status.FAILED, message=f'{type(err).__name__}: {err}')
         row.update(empty(spec.metrics))
         return row
-    if sim.status in ('contact', 'aero_outside'):   # stopped as the scenario asks (SPEC 8, 10)
+    if sim.status.stopped_by_scenario:   # stopped as the scenario asks (SPEC 8, 10)
         row.update(status=sim.status, message=sim.message)
-    elif sim.status != 'running':
-        row.update(status='failed', message=f'the run failed {sim.message}')
+    elif sim.status is Status.FAILED:
+        row.update(status=Status.FAILED, message=f'the run failed {sim.message}')
     return row
 
 
@@ -137,7 +138,7 @@ def run_rows(spec: SweepSpec, runs, outdir: Optional[str] = None,
             path = os.path.join(outdir, 'runs', f'run_{k}.mcap')
         try:
             row = run_one(spec, k, path, models)
-            if record == 'failed' and row['status'] == 'failed':
+            if record == 'failed' and row['status'] == Status.FAILED:
                 run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'), models)
         except Exception as err:   # noqa: B902 (run_one lets only a recording failure out)
             unwritten[k] = str(err)

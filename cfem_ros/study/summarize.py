@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError
 from cfem_ros.study.metrics import compute, empty, from_run
 
@@ -18,7 +19,7 @@ def summarize_file(path: str, metrics) -> dict:
     lacks a body the metrics need is a 'failed' row with the reason.
     """
     row = {'file': os.path.basename(path), 'path': os.path.abspath(path),
-           'start_stamp_ns': -1, 'status': 'ok', 'message': ''}
+           'start_stamp_ns': -1, 'status': Status.OK, 'message': ''}
     from cfem_ros.recording.analysis import open_run   # scipy: not on a sweep's path
     try:
         run = open_run(path)
@@ -28,7 +29,7 @@ def summarize_file(path: str, metrics) -> dict:
         message = err.args[0] if isinstance(err, KeyError) else str(err)
         if not message.startswith(f'{path}: '):   # the reader's messages name the file
             message = f'{path}: {message}'
-        row.update(status='failed', message=message)
+        row.update(status=Status.FAILED, message=message)
         row.update(empty(metrics))
     return row
 

@@ -23,6 +23,7 @@ import tempfile
 import time
 from typing import Callable, Optional
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.recording.export import write_frame
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.folder import read_manifest, read_table
@@ -95,7 +96,7 @@ def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
     except OSError as err:
         rows, failure = [], str(unrecorded(runs, f'{part}: cannot write '
                                            f'({err.strerror or err})', outdir))
-    return len(rows), sum(r['status'] == 'failed' for r in rows), failure
+    return len(rows), sum(r['status'] == Status.FAILED for r in rows), failure
 
 
 def task_done(done: tuple, progress=None, failures=None):

@@ -6,7 +6,7 @@ import math
 import pathlib
 
 from cfem_ros import load_scenario, Simulator
-from cfem_ros.core.engine.strokes import describe_event
+from cfem_ros.core.engine.events import describe_event
 from cfem_ros.recording.analysis import open_run
 from cfem_ros.study import Sweep
 from cfem_ros.study.labels import unit

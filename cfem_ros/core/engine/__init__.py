@@ -15,5 +15,6 @@ watched), ``loads``, ``ties``, ``strokes`` and
 shapes are packed by ``cfem_ros.core.native.contacts``), ``braces`` (sway
 braces), ``aero`` (the air each body sees, the events of leaving a table),
 ``carrier`` (kinematic bodies; their trajectories are
-``cfem_ros.core.native.motion``) and ``sampling`` (what a sample shows).
+``cfem_ros.core.native.motion``), ``sampling`` (what a sample shows) and
+``events`` (statuses, event kinds and failures as enums; an event as a line).
 """

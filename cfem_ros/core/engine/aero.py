@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.engine.events import AERO_EVENTS, Event
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.atmosphere import STANDARD_RANGE
 from cfem_ros.core.native.kernel import LOADS
@@ -37,8 +38,6 @@ AIR_TOPICS = (('flow', ('alpha_deg', 'beta_deg', 'mach')),
 AIR_OUTPUTS = LOADS.AIR_OUTPUTS
 #: Slots of the axes a body can leave: alpha, beta, Mach, the proximity axes.
 SLOTS = LOADS.AERO_SLOTS
-#: The events of leaving a table's range and of coming back.
-AERO_EVENTS = ('aero_outside', 'aero_inside')
 #: How close to a grid's end a value located at a crossing is (relative to 1 + |end|).
 AT_END = 1e-9
 #: The slots of the flow angles (alpha, beta): undefined at zero airspeed.
@@ -174,10 +173,10 @@ class AeroWatch:
         events = []
         if was != 0:
             self._outside[k] -= 1
-            events.append({'event': 'aero_inside', **figures})
+            events.append({'event': Event.AERO_INSIDE, **figures})
         if status != 0:
             self._outside[k] += 1
-            events.append({'event': 'aero_outside', **figures})
+            events.append({'event': Event.AERO_OUTSIDE, **figures})
             if aero.stop_outside and not self.stop_message:
                 self.stop_message = (
                     f'at t = {t:.9g} s: {body} left its aerodynamic tables: {name} = '
@@ -220,7 +219,7 @@ class AeroWatch:
 
     def _atmosphere_event(self, k: int, leaving: bool, level: float, time: float,
                           looked: float, seen: float) -> dict:
-        return {'event': 'atmosphere_outside' if leaving else 'atmosphere_inside',
+        return {'event': Event.ATMOSPHERE_OUTSIDE if leaving else Event.ATMOSPHERE_INSIDE,
                 'body': self.model.bodies[self.model.aero[k].body].name, 'altitude': level,
                 'low': STANDARD_RANGE[0], 'high': STANDARD_RANGE[1], 'time': time,
                 'inside_at' if leaving else 'outside_at': looked, 'seen_at': seen}
@@ -271,7 +270,7 @@ def outside_spans(events, body: str, t_end: float) -> list:
     for event in events:
         if event.get('body') != body or event.get('event') not in AERO_EVENTS:
             continue
-        if event['event'] == 'aero_outside':
+        if event['event'] == Event.AERO_OUTSIDE:
             since = event['time'] if outside == 0 else since
             outside += 1
         elif outside > 0:

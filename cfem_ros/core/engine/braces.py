@@ -23,6 +23,7 @@ scenario's ``sway_braces`` into ``model.SwayBrace``.
 
 from __future__ import annotations
 
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.model.loads import SwayBrace
 import numpy as np
 
@@ -74,5 +75,5 @@ def anchor(rows: np.ndarray, first: int, braces, y: np.ndarray, n: int):
 
 def contact_event(brace: SwayBrace, contact: bool, t: float) -> dict:
     """Return a pad's event (SPEC section 11): it touches again (True) or lets go (False)."""
-    return {'event': 'brace_contact', 'brace': brace.name, 'contact': bool(contact),
+    return {'event': Event.BRACE_CONTACT, 'brace': brace.name, 'contact': bool(contact),
             'time': float(t)}

@@ -31,6 +31,7 @@ from typing import Optional
 from cfem_ros.core import rotations
 from cfem_ros.core.engine import sampling
 from cfem_ros.core.engine.bodies import initial_state, mass_table, state_views
+from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.engine.ties import TiedLoads
 from cfem_ros.core.model.model import Model
@@ -49,8 +50,15 @@ REDUNDANT_WARNING = ('the joints %s constrain %d direction(s) more than once (re
 #: split is then the one the scenario asked for, not a fault.
 REDUNDANT_NOTE = ('the joints %s constrain %d direction(s) more than once: the loads of the '
                   "redundant directions are split by the joints' declared compliance")
-#: Both, which a sweep gives once.
-REDUNDANT_MESSAGES = (REDUNDANT_WARNING, REDUNDANT_NOTE)
+#: Marks the log record of either (``extra``), which a sweep gives once: a caller
+#: tells it by this attribute (``redundant_record``), not by its text.
+REDUNDANT_EXTRA = {'cfem_redundant_joints': True}
+
+
+def redundant_record(record) -> bool:
+    """Tell whether a log record is the redundant-joint warning or note."""
+    return getattr(record, 'cfem_redundant_joints', False)
+
 
 #: Velocity corrections smaller than this (m/s, rad/s) are not reported.
 PROJECTION_REPORT = 1e-9
@@ -121,7 +129,7 @@ class Dynamics:
         """Return dy/dt at state y on the rows of top (external wrenches held constant)."""
         out = np.empty_like(y)
         if kernel.derivative(top.system, y, out) < 0.0:
-            raise NumericalFailure(sampling.SINGULAR)
+            raise NumericalFailure(sampling.SINGULAR, Failure.SINGULAR)
         return out
 
     def check_redundancy(self, top, y: np.ndarray) -> int:
@@ -136,9 +144,9 @@ class Dynamics:
                           for k in sorted(set(top.joint[np.any(np.abs(null) > 1e-6, axis=1)]))]
                 names = ', '.join(sorted(joint.name for joint in joints))
                 if all(joint.compliance is not None for joint in joints):
-                    self.log.info(REDUNDANT_NOTE, names, top.m - rank)
+                    self.log.info(REDUNDANT_NOTE, names, top.m - rank, extra=REDUNDANT_EXTRA)
                 else:
-                    self.log.warning(REDUNDANT_WARNING, names, top.m - rank)
+                    self.log.warning(REDUNDANT_WARNING, names, top.m - rank, extra=REDUNDANT_EXTRA)
                 self._warned_redundant = True
             top.dense = 2
         return free_dof - rank

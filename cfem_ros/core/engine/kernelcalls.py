@@ -16,6 +16,7 @@ import math
 from typing import NamedTuple, Optional
 
 from cfem_ros.core.engine import sampling
+from cfem_ros.core.engine.events import Failure
 
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
 from cfem_ros.core.engine.sampling import NumericalFailure
@@ -53,7 +54,8 @@ class Advanced(NamedTuple):
 def diverged(violation: float) -> NumericalFailure:
     """Return the failure of a constraint violation beyond ``DIVERGENCE_VIOLATION``."""
     return NumericalFailure(f'constraint violation {violation:.3g} exceeds '
-                            f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)')
+                            f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)',
+                            Failure.DIVERGED)
 
 
 def kernel_error(code: int, value: float) -> Optional[NumericalFailure]:
@@ -65,13 +67,14 @@ def kernel_error(code: int, value: float) -> Optional[NumericalFailure]:
     search codes).
     """
     if code == kernel.NOT_FINITE:
-        return NumericalFailure(NOT_FINITE)
+        return NumericalFailure(NOT_FINITE, Failure.NOT_FINITE)
     if code == kernel.VIOLATION:
         return diverged(value)
     if code == kernel.SINGULAR:
-        return NumericalFailure(sampling.SINGULAR)
+        return NumericalFailure(sampling.SINGULAR, Failure.SINGULAR)
     if code == kernel.LOADS_NOT_FINITE:
-        return NumericalFailure(sampling.LOADS_NOT_FINITE)
+        return NumericalFailure(sampling.LOADS_NOT_FINITE,
+                                Failure.LOADS_NOT_FINITE)
     if code == kernel.NAN_VALUE:
         return NumericalFailure(f'a release condition or stroke is not a number at '
                                 f'{value:.9g} s into the step, where its crossing was sought')

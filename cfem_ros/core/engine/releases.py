@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+from cfem_ros.core.engine.events import Event
 from cfem_ros.core.engine.topology import JointTables
 import numpy as np
 
@@ -40,7 +41,7 @@ class Releases:
     active : ndarray of bool, shape (n_joints,)
         Joints not yet released.
     events : list of dict
-        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``.
+        Releases so far: ``{'event': Event.RELEASE, 'joint', 'time', 'cause'}``.
     triggers : ndarray, shape (n_joints, 4)
         Time (s), angle (rad), distance (m), force (N) per joint; NaN: none.
     due : float or None
@@ -69,7 +70,7 @@ class Releases:
         events = []
         for k in joints:
             self.active[k] = False
-            event = {'event': 'release', 'joint': self.names[k], 'time': t, 'cause': cause}
+            event = {'event': Event.RELEASE, 'joint': self.names[k], 'time': t, 'cause': cause}
             if self.group_of[k] is not None:
                 event['group'] = self.group_of[k]
             events.append(event)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.errors import CfemError
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import PLAN
@@ -29,7 +30,16 @@ LOADS_NOT_FINITE = ('the joint loads are not finite (masses, inertias or loads b
 
 
 class NumericalFailure(CfemError):
-    """Raised inside a step or a sample; turned into ``status = 'failed'``."""
+    """
+    Raised inside a step or a sample; turned into ``status`` ``Status.FAILED``.
+
+    ``failure`` says which (``events.Failure``), for a caller that tells
+    failures apart; the message says it to a user.
+    """
+
+    def __init__(self, message: str, failure: Failure = Failure.OTHER):
+        super().__init__(message)
+        self.failure = failure
 
 
 def _apply(matrices, vectors):
@@ -130,9 +140,9 @@ class Sampling:
         lines = len(top.plan)
         f_line, m_line = np.empty((lines, 3)), np.empty((lines, 3))
         if not kernel.joint_loads(top.system, np.ascontiguousarray(y), f_line, m_line):
-            raise NumericalFailure(SINGULAR)
+            raise NumericalFailure(SINGULAR, Failure.SINGULAR)
         if not (np.isfinite(f_line).all() and np.isfinite(m_line).all()):
-            raise NumericalFailure(LOADS_NOT_FINITE)
+            raise NumericalFailure(LOADS_NOT_FINITE, Failure.LOADS_NOT_FINITE)
         force[top.plan[:, PLAN.P_JOINT]] = f_line
         moment[top.plan[:, PLAN.P_JOINT]] = m_line
         value = kernel.constraint_values(top.system).copy()

@@ -28,6 +28,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.carrier import Carriers
 from cfem_ros.core.engine.dynamics import Dynamics
+from cfem_ros.core.engine.events import AERO_EVENTS, Failure, LOAD_EVENTS, Status
 from cfem_ros.core.engine.jointset import JointSet
 from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
                                               NOT_FINITE)
@@ -38,10 +39,6 @@ from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel
 import numpy as np
-
-
-#: The events that start or end a load (``load_states``; the viewers' arrows, SPEC section 4).
-LOAD_EVENTS = frozenset({'release', 'stroke_end', 'brace_contact'})
 
 
 class Simulator:
@@ -61,21 +58,25 @@ class Simulator:
         Simulated time, s.
     y : ndarray, shape (13 n,)
         The state (module docstring).
-    status : str
-        'running' or 'failed': a non-finite state or joint load, a constraint
-        violation beyond ``DIVERGENCE_VIOLATION``, or a singular or
-        ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at the
-        last good state; or 'contact': a watched pair with ``on_contact:
-        stop`` touched, and the run stopped there (``events`` says where);
-        or 'aero_outside': a body whose tables say ``outside: stop`` left
-        their range (``aero.AeroWatch``).
+    status : Status
+        ``RUNNING`` or ``FAILED``: a non-finite state or joint load, a
+        constraint violation beyond ``DIVERGENCE_VIOLATION``, or a singular
+        or ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at
+        the last good state; or ``CONTACT``: a watched pair with
+        ``on_contact: stop`` touched, and the run stopped there (``events``
+        says where); or ``AERO_OUTSIDE``: a body whose tables say
+        ``outside: stop`` left their range (``aero.AeroWatch``).
     message : str
-        Why the run failed, with the time ('' while running).
+        Why the run failed or stopped, with the time ('' while running).
+    failure : Failure or None
+        Which failure (``FAILED`` only): what a caller tests, not the message.
+    reason : str
+        The message without its time ('' while running).
     events : list of dict
-        Releases so far: ``{'event': 'release', 'joint', 'time', 'cause'}``
+        Releases so far: ``{'event': Event.RELEASE, 'joint', 'time', 'cause'}``
         (and ``'group'`` for a joint of a release group), the ends of
         ejector strokes (``strokes.stroke_end_event``), contacts
-        (``{'event': 'contact', 'bodies', 'time', 'point', 'parts'}``) and
+        (``{'event': Event.CONTACT, 'bodies', 'time', 'point', 'parts'}``) and
         the braces' pads letting go or touching again
         (``braces.contact_event``).
     active : ndarray of bool, shape (n_joints,)
@@ -104,8 +105,10 @@ class Simulator:
         self._stage_violation = 0.0   # the largest violation within the step being taken
         self.dt = float(model.dt)
         self.t = 0.0
-        self.status = 'running'
+        self.status = Status.RUNNING
         self.message = ''
+        self.failure: Optional[Failure] = None
+        self.reason = ''
         self.steps = 0
         self.max_violation = 0.0
         self._info = np.zeros(kernel.ADVANCE_INFO.WIDTH)   # advance's, reused
@@ -161,7 +164,7 @@ class Simulator:
         self.y = y
         self._scheduled.reanchor(self.y)   # strokes measured from here
         if start:   # the scenario's initial state is not this run's: what it told goes
-            self.events[:] = [e for e in self.events if not e['event'].startswith('aero_')]
+            self.events[:] = [e for e in self.events if e['event'] not in AERO_EVENTS]
         self._watched(*self.watch.arm(self.y, self.t))   # pads, pairs and tables from here
 
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
@@ -233,7 +236,8 @@ class Simulator:
         out = np.empty(self.sampling.outputs_size()) if out is None else out
         code = kernel.sample_outputs(self._topology.system, self.y, out)
         if code == kernel.SINGULAR or code == kernel.LOADS_NOT_FINITE:   # else a finite row
-            raise NumericalFailure(SINGULAR if code == kernel.SINGULAR else LOADS_NOT_FINITE)
+            raise (NumericalFailure(SINGULAR, Failure.SINGULAR) if code == kernel.SINGULAR
+                   else NumericalFailure(LOADS_NOT_FINITE, Failure.LOADS_NOT_FINITE))
         return out
 
     @property
@@ -329,7 +333,7 @@ class Simulator:
         ``release_due()`` or the next call.
         Returns False (and sets ``status`` and ``message``) if the run failed
         (the state is then the last good one) or stopped at a contact (status
-        'contact', the state the one at the contact).
+        ``CONTACT``, the state the one at the contact).
 
         Raises
         ------
@@ -346,7 +350,7 @@ class Simulator:
         limit = math.inf if limit is None else float(limit)
         if math.isnan(limit):
             raise ValueError('limit is nan; expected a time in s (inf for none)')
-        if self.status != 'running':
+        if self.status is not Status.RUNNING:
             return False
         if samples is not None and samples.rows.shape[1] not in (
                 0, self.sampling.outputs_size()):
@@ -377,8 +381,8 @@ class Simulator:
                     if due < t_end:
                         h, t_end = due - self.t, due
                     self._step(h, t_end)
-                    if self.status != 'running':
-                        return False   # shapes touched: the run stops here (status 'contact')
+                    if self.status is not Status.RUNNING:
+                        return False   # shapes touched: the run stops here (CONTACT)
                 if (self.t < t_target or release_at_end) and release_now():
                     self._fire_time_triggers()
                 if samples is not None:
@@ -390,7 +394,7 @@ class Simulator:
             self.carriers.check()
             self.events.extend(self.watch.aero.atmosphere(self.y, self.t))
         except NumericalFailure as err:
-            self.fail(str(err))
+            self.fail(str(err), err.failure)
             return False
         return True
 
@@ -411,10 +415,10 @@ class Simulator:
         if violation > DIVERGENCE_VIOLATION:
             raise diverged(violation)
 
-    def fail(self, reason: str):
-        """Stop the run as failed now (``status``, ``message`` with the time and reason)."""
-        if self.status == 'running':
-            self.status = 'failed'
+    def fail(self, reason: str, failure: Failure = Failure.OTHER):
+        """Stop the run as failed now (``status``, ``failure``, ``message`` with the time)."""
+        if self.status is Status.RUNNING:
+            self.status, self.failure, self.reason = Status.FAILED, failure, reason
             self.message = f'at t = {self.t:.9g} s: {reason}'
 
     def release_due(self) -> list:
@@ -482,12 +486,13 @@ class Simulator:
     def _watched(self, events: list, stops: list):
         """Record the watch's events; stop the run as the first stop says (``Watch``)."""
         self.events.extend(events)
-        if stops and self.status == 'running':
+        if stops and self.status is Status.RUNNING:
             self.status, self.message = stops[0]
+            self.reason = self.message
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():
-            raise NumericalFailure(NOT_FINITE)
+            raise NumericalFailure(NOT_FINITE, Failure.NOT_FINITE)
         if self._stage_violation > DIVERGENCE_VIOLATION:
             raise diverged(self._stage_violation)
         self.max_violation = max(self.max_violation, self._stage_violation)

@@ -14,6 +14,7 @@ when none), in the loaded body's axes.
 from __future__ import annotations
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Event
 import numpy as np
 
 
@@ -66,42 +67,9 @@ def stroke_end_event(sim, k: int) -> dict:
     model = sim.model
     wrench = model.wrenches[k]
     velocity, rates = relative_motion(sim.y, sim.n, wrench.body, wrench.reacts_on)
-    event = {'event': 'stroke_end', 'wrench': wrench.name,
+    event = {'event': Event.STROKE_END, 'wrench': wrench.name,
              'body': model.bodies[wrench.body].name, 'time': sim.t,
              'velocity': [float(v) for v in velocity], 'rates': [float(v) for v in rates]}
     if wrench.reacts_on >= 0:
         event['reacts_on'] = model.bodies[wrench.reacts_on].name
     return event
-
-
-def describe_event(event: dict) -> str:
-    """Return one line for a user about an event (``run``, the node)."""
-    kind = event.get('event')
-    when = f"t = {event['time']:.9f} s"
-    if kind == 'release':
-        group = f"; group {event['group']}" if event.get('group') else ''
-        return f"release {event['joint']} at {when} ({event['cause']}{group})"
-    if kind == 'stroke_end':
-        u, v, w = event['velocity']
-        p, q, r = event['rates']
-        seen = event.get('reacts_on', 'the world')
-        p, q, r = np.degrees([p, q, r])   # rates as a person reads them (SPEC 15): deg/s only
-        return (f"stroke end {event['wrench']} at {when}: {event['body']} relative to {seen}, "
-                f'body axes: u, v, w = {u:.4f}, {v:.4f}, {w:.4f} m/s; p, q, r = {p:.2f}, '
-                f'{q:.2f}, {r:.2f} deg/s')
-    if kind in ('atmosphere_outside', 'atmosphere_inside'):
-        if kind == 'atmosphere_outside':
-            return (f"atmosphere_outside {event['body']} at {when}: beyond {event['altitude']:g} "
-                    f"m, the standard atmosphere's end (between t = {event['inside_at']:.9g} "
-                    f"and {event['seen_at']:.9g} s); beyond, the air is its last layer "
-                    'continued')
-        return (f"atmosphere_inside {event['body']} at {when}: back within "
-                f"[{event['low']:g}, {event['high']:g}] m")
-    if kind in ('aero_outside', 'aero_inside'):
-        where = 'outside' if kind == 'aero_outside' else 'back inside'
-        return (f"{kind} {event['body']} at {when}: {event['axis']} = {event['value']:.6g}, "
-                f"{where} [{event['low']:.6g}, {event['high']:.6g}]")
-    if kind == 'brace_contact':
-        what = 'touches again' if event['contact'] else 'lets go'
-        return f"brace {event['brace']} {what} at {when}"
-    return f'{kind} at {when}'

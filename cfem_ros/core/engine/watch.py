@@ -15,12 +15,8 @@ from __future__ import annotations
 
 from cfem_ros.core.engine import braces
 from cfem_ros.core.engine.aero import AeroWatch
+from cfem_ros.core.engine.events import Event, Status
 import numpy as np
-
-#: The status of a run a watched contact pair stopped.
-CONTACT = 'contact'
-#: The status of a run a table's ``outside: stop`` stopped.
-AERO_OUTSIDE = 'aero_outside'
 
 
 class Watch:
@@ -60,7 +56,8 @@ class Watch:
 
     def aero_events(self, events: list) -> tuple:
         """Return (events, stops) of aero_outside / aero_inside events (a table may stop)."""
-        return events, [(AERO_OUTSIDE, self.aero.stop_message)] if self.aero.stop_message else []
+        stop = self.aero.stop_message
+        return events, [(Status.AERO_OUTSIDE, stop)] if stop else []
 
     def located(self, rows, y: np.ndarray, y_end: np.ndarray, t: float) -> tuple:
         """
@@ -96,10 +93,11 @@ class Watch:
         names = [self.model.bodies[b].name for b in pair.bodies]
         _, points, parts = self.scheduled.gap(k, y)
         point = [float(v) for v in 0.5 * (points[:3] + points[3:])]
-        event = {'event': 'contact', 'bodies': names, 'time': t, 'point': point,
+        event = {'event': Event.CONTACT, 'bodies': names, 'time': t, 'point': point,
                  'parts': parts}
         self.scheduled.touched(k)   # watched again once the shapes part
         if not pair.stop:
             return event, []
-        return event, [(CONTACT, f'at t = {t:.9g} s: {names[0]} touches {names[1]} at '
-                                 f'[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}] (world, m)')]
+        where = f'[{point[0]:.6g}, {point[1]:.6g}, {point[2]:.6g}] (world, m)'
+        return event, [(Status.CONTACT, f'at t = {t:.9g} s: {names[0]} touches {names[1]} at '
+                                        f'{where}')]

@@ -24,6 +24,7 @@ import logging
 import os
 from typing import Optional, Sequence
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.run import startcheck
 import numpy as np
@@ -46,10 +47,10 @@ class Result:
         Its final state (``Simulator.y``).
     events : list of dict
         Its releases (and contacts).
-    status : str
-        'ok' if the copy ran to its duration, 'contact' if it stopped at a
-        watched contact, 'aero_outside' if it left a table that says
-        ``outside: stop``, 'failed' if it failed.
+    status : Status
+        ``OK`` if the copy ran to its duration, ``CONTACT`` if it stopped at
+        a watched contact, ``AERO_OUTSIDE`` if it left a table that says
+        ``outside: stop``, ``FAILED`` if it failed.
     message : str
         Why it failed, with the time ('' if ok).
     steps : int
@@ -60,7 +61,7 @@ class Result:
     t: float
     y: np.ndarray
     events: list
-    status: str
+    status: Status
     message: str
     steps: int
 
@@ -75,8 +76,7 @@ def _copy(model, spec: dict, duration: float) -> Result:
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))
     ok = sim.advance_to(duration)
-    status = 'ok' if ok else (sim.status if sim.status in ('contact', 'aero_outside')
-                              else 'failed')
+    status = Status.OK if ok else sim.status   # FAILED, or the scenario's stop
     return Result(sim.t, sim.y, sim.events, status, sim.message, sim.steps)
 
 
@@ -102,7 +102,7 @@ def run(model, copies: Sequence[dict], *, duration: Optional[float] = None,
     -------
     list of Result
         In the order of ``copies``. A copy that fails keeps its last good
-        state, with ``status == 'failed'``; the others are unaffected.
+        state, with ``status`` ``Status.FAILED``; the others are unaffected.
 
     Raises
     ------

@@ -22,7 +22,7 @@ node, so that a recording of the node replays offline to the same numbers:
   it (``interpolate_odometry``); a replay knows every message from the start,
   the node waits for the next one, and both step through the same cubics;
 - a numerical failure (in a step, or in a sample's outputs, the first one
-  included) sets ``sim.status = 'failed'`` and ends the run: nothing
+  included) sets ``sim.status`` to ``Status.FAILED`` and ends the run: nothing
   non-finite reaches an output, and what was taken before stays.
 
 Outputs are ``Sink``s: ``sample()``, ``events()`` and ``received(item, t)``,
@@ -38,6 +38,7 @@ import math
 import time
 from typing import Callable, ClassVar, Optional, Protocol, Sequence
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
 from cfem_ros.core.run.inputs import apply_input, Input, input_topic, InputQueue, validate_input
 import numpy as np
@@ -130,13 +131,18 @@ class Session:
 
     @property
     def failed(self) -> bool:
-        """Tell whether the simulation stopped on a failure; ``sim.message`` says why."""
-        return self.sim.status != 'running'
+        """Tell whether the simulation failed (``Status.FAILED``); ``sim.message`` says why."""
+        return self.sim.status is Status.FAILED
+
+    @property
+    def stopped(self) -> bool:
+        """Tell whether the run ended before its duration: it failed or its scenario stops it."""
+        return self.sim.status is not Status.RUNNING
 
     @property
     def finished(self) -> bool:
-        """Tell whether the run reached its duration or failed."""
-        return self.failed or self.sim.t >= self.duration
+        """Tell whether the run reached its duration or stopped."""
+        return self.stopped or self.sim.t >= self.duration
 
     def start(self):
         """
@@ -151,9 +157,9 @@ class Session:
             return
         self.started = True
         self._apply_due('odom')
-        if not self.failed:
+        if not self.stopped:
             self._sample()
-        if not self.failed:
+        if not self.stopped:
             self._apply_due()
 
     def submit(self, item: Input, *, check: bool = True):
@@ -220,7 +226,7 @@ class Session:
                 return
             if sim.t >= self.next_sample_time:
                 self._sample()
-                if self.failed:
+                if self.stopped:
                     return
             self._release_due()
             if sim.t >= self.duration:
@@ -254,7 +260,7 @@ class Session:
         wall = time.monotonic()
         # simulated s per kernel call: a first guess, then what takes progress_every / 2
         span = math.inf if progress is None else 100 * sim.dt
-        while not self.failed and (sim.t < self.duration or self.next_sample_time <= sim.t):
+        while not self.stopped and (sim.t < self.duration or self.next_sample_time <= sim.t):
             target = self.duration
             if self.inputs.next_time is not None:
                 target = max(min(target, self.inputs.next_time), sim.t)
@@ -324,7 +330,7 @@ class Session:
             for sink in self.outputs:
                 sink.sample()
         except NumericalFailure as err:
-            self.sim.fail(str(err))
+            self.sim.fail(str(err), err.failure)
             self._emit_events()
             return
         self.samples += 1

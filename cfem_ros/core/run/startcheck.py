@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import math
 
+from cfem_ros.core.engine.events import Failure, Status
 from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
 from cfem_ros.core.errors import CfemError
 import numpy as np
@@ -34,8 +35,6 @@ MAX_TURN_PER_STEP = 1.0
 FAR_ANCHOR = 1e4
 #: Steps over which the aerodynamic loads' feedback on speed and rates is followed.
 FIRST_STEPS = 5
-#: Marks a first step that a table's ``outside: stop`` ends at t = 0.
-STOPPED = 'stopped: '
 #: A logger that says nothing: the trial simulators' (the scenario's own has said it).
 QUIET = logging.getLogger('cfem_ros.startcheck.trial')
 QUIET.addHandler(logging.NullHandler())
@@ -159,7 +158,7 @@ def start_problems(sim) -> tuple:
     model = sim.model
     errors, warnings = _aero_products(model)
     warnings += _spin_warnings(model)
-    if sim.status == 'aero_outside':   # outside: stop, and outside from t = 0
+    if sim.status is Status.AERO_OUTSIDE:   # outside: stop, and outside from t = 0
         return errors + [_stops_at_start(sim.message)], warnings
     try:
         with np.errstate(all='ignore'):
@@ -173,12 +172,15 @@ def start_problems(sim) -> tuple:
         errors.append('the accelerations or joint loads at t = 0 are not finite: masses, '
                       'inertias or loads whose products are beyond double precision')
         return errors, warnings
-    failed = _first_step_failure(sim)
-    if failed.startswith(STOPPED):
-        errors.append(_stops_at_start(failed[len(STOPPED):]))
-    elif failed == SINGULAR:
-        errors.append(f'the first step cannot be solved ({failed}): {_why_singular(model)}')
-    elif failed:
+    trial = _failed_first_step(sim)
+    if trial is None:
+        pass
+    elif trial.status is Status.AERO_OUTSIDE:
+        errors.append(_stops_at_start(trial.message))
+    elif trial.failure is Failure.SINGULAR:
+        errors.append(f'the first step cannot be solved ({SINGULAR}): {_why_singular(model)}')
+    else:
+        failed = trial.reason if trial.t == 0.0 else f'at t = {trial.t:.3g} s, {trial.reason}'
         errors.append(f'the first step of dt {model.dt:g} s fails ({failed}): loads, masses, '
                       'inertias or rates (a table value, a coefficient) whose products go '
                       'beyond double precision within a step; expected realistic values')
@@ -223,9 +225,9 @@ def _why_singular(model) -> str:
     return 'joint axes parallel or degenerate?'
 
 
-def _first_step_failure(sim) -> str:
+def _failed_first_step(sim):
     """
-    Return why the run's first step of dt fails ('' if it does not).
+    Return the simulator whose first step of dt failed (None if it does not).
 
     The step is taken by a new simulator of the same model (the one given
     stays at t = 0), with the scenario's own loads and no inputs: a run
@@ -233,20 +235,16 @@ def _first_step_failure(sim) -> str:
     scenario's own fault (a coefficient of 1e30 diverges within the step);
     what grows later is the run's to tell. A table's ``outside: stop``
     ending the run at t = 0 (an angle that jumps out of its table as the
-    body starts to move through still air) is returned after ``STOPPED``.
+    body starts to move through still air) is returned too (its status
+    ``AERO_OUTSIDE``); its failure (``Simulator.failure``) says which.
     """
     model = sim.model
     if not model.duration > 0.0:
-        return ''
+        return None
     with np.errstate(all='ignore'):
         trial = type(sim)(model, logger=QUIET)
         if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
-            return ''
-    if trial.status == 'aero_outside' and trial.t == 0.0:
-        return STOPPED + trial.message
-    if trial.status != 'failed':
-        return ''
-    why = trial.message.split(': ', 1)[-1]
-    if trial.message.endswith(SINGULAR):
-        return SINGULAR
-    return why if trial.t == 0.0 else f'at t = {trial.t:.3g} s, {why}'
+            return None
+    if trial.status is Status.AERO_OUTSIDE and trial.t == 0.0:
+        return trial
+    return trial if trial.status is Status.FAILED else None

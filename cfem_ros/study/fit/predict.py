@@ -29,6 +29,7 @@ import math
 import os
 from typing import Optional
 
+from cfem_ros.core.engine.events import Status, STOPS
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.textfile import read_text
@@ -50,7 +51,7 @@ LOG = logging.getLogger('cfem_ros.predict.runs')
 QUANTILES = (5.0, 50.0, 95.0)
 #: The runs the band is made of: those that ran (to the end, or stopped by a contact or an
 #: aero table's edge as the scenario asks); a failed or invalid draw is counted and said.
-BANDED = ('ok', 'contact', 'aero_outside')
+BANDED = frozenset({Status.OK}) | STOPS
 #: The six quantities of the pose relative to the carrier: (column suffix, unit).
 QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll_deg', 'deg'), ('pitch_deg', 'deg'),
               ('yaw_deg', 'deg'))
@@ -236,7 +237,7 @@ class Prediction:
     def run_one(self, values) -> tuple:
         """Return (row, times, poses (n, 6) or None, releases) of a run at values."""
         row = dict(zip(self.fitted.paths, map(float, values)))
-        row.update(status='ok', message='')
+        row.update(status=Status.OK, message='')
         document = _with_values(self.next.document, self.fitted.paths, values)
         try:
             model = parse_scenario(document, source=self.next.scenario)
@@ -245,7 +246,7 @@ class Prediction:
             row.update(status=INVALID, message=str(err), **empty(self.next.metrics))
             return row, None, None, {}
         except Exception as err:   # noqa: B902 (any other refusal is this draw's failure)
-            row.update(status='failed', message=str(err), **empty(self.next.metrics))
+            row.update(status=Status.FAILED, message=str(err), **empty(self.next.metrics))
             return row, None, None, {}
         collector = Collector(sim)
         session = Session(sim, rate_hz=self.next.rate_hz, duration=model.duration,
@@ -259,13 +260,13 @@ class Prediction:
             samples = collector.samples()
             row.update(compute(samples, self.next.metrics))
         except Exception as err:   # noqa: B902 (as a sweep's run: the draw failed, said)
-            row.update(status='failed', message=f'{type(err).__name__}: {err}',
+            row.update(status=Status.FAILED, message=f'{type(err).__name__}: {err}',
                        **empty(self.next.metrics))
             return row, None, None, {}
-        if sim.status in ('contact', 'aero_outside'):   # stopped as the scenario asks
+        if sim.status.stopped_by_scenario:   # stopped as the scenario asks
             row.update(status=sim.status, message=sim.message)
-        elif session.failed or sim.status != 'running':
-            row.update(status='failed', message=f'the run failed {sim.message}')
+        elif session.failed:
+            row.update(status=Status.FAILED, message=f'the run failed {sim.message}')
         times, poses = self._poses(samples)
         releases = {}
         for t, joint, _ in samples.releases:

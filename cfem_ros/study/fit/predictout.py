@@ -21,6 +21,7 @@ import json
 import math
 import os
 
+from cfem_ros.core.engine.events import Status
 from cfem_ros.study.fit.outputs import write_by_renames
 from cfem_ros.study.fit.predict import Fitted, PredictionResult, QUANTILES, QUANTITIES
 import numpy as np
@@ -123,7 +124,7 @@ def notes(fitted: Fitted, result: PredictionResult, summary: dict) -> list:
         if entry['outside_bounds']:
             out.append(f'{entry["name"]}: {entry["outside_bounds"]} draw(s) outside the '
                        "fit's bounds (drawn from the fitted covariance as they are)")
-    others = {k: v for k, v in summary['status'].items() if k != 'ok'}
+    others = {k: v for k, v in summary['status'].items() if k != Status.OK}
     if others:
         out.append('draws not run to the end: ' + ', '.join(
             f'{v} {k}' for k, v in sorted(others.items())) + ' (failed and invalid draws are '

@@ -110,7 +110,7 @@ class Trajectories:
             if item.time <= model.duration:
                 session.submit(item, check=False)
         session.run()
-        if session.failed:
+        if session.stopped:   # a failure, or a stop the scenario asks for: no trajectory
             raise FitError(spec.path, 'parameters', f'the run with {shown} failed '
                            f'{sim.message}', 'bounds within which the scenario runs')
         samples = collector.samples()
