@@ -164,3 +164,40 @@ def test_the_rate_bound_holds_on_the_interpolant_and_is_not_loose():
     most = np.linalg.norm(speed, axis=2).max(axis=0)
     assert (most <= bound * (1 + 1e-12)).all()
     assert (most >= 0.5 * bound).all()   # within a factor of 2 of the true largest speed
+
+
+def test_a_dip_between_two_samples_far_from_the_least_sample_is_found():
+    """A narrow dip the samples miss: the rate bound must leave its interval to search."""
+    from cfem_ros.study.between import least
+    from scipy.optimize import minimize_scalar
+    depth, width, centre = 0.8, 0.0008, 0.5025    # between the samples at 0.500 and 0.505
+
+    def distance(t):
+        t = np.asarray(t, dtype=float)
+        return 1.0 + t - depth * np.exp(-((t - centre) / width) ** 2)
+
+    time = np.arange(0.0, 1.0 + 1e-9, 0.005)
+    sampled = distance(time)
+    assert np.argmin(sampled) == 0 and sampled.min() == 1.0   # the dip is not sampled
+    # a true bound on |d'| per interval: 1 + depth x the Gaussian's steepest slope within
+    # the interval (sqrt(2/e) / width at its steepest; far off, its value at the nearer end)
+    lo, hi = time[:-1], time[1:]
+    gap = np.maximum(np.maximum(lo - centre, centre - hi), 0.0) / width
+    steepest = np.where(gap < 1 / np.sqrt(2), np.sqrt(2 / np.e), 2 * gap * np.exp(-gap ** 2))
+    rates = 1.0 + depth * steepest / width
+    probed = set()
+
+    def evaluate(k, times):
+        probed.update(np.atleast_1d(k).tolist())
+        return distance(times)
+
+    value, when = least(time, sampled, evaluate, rates, 0.0, 1.0,
+                        lambda k, t: float(distance(t)))
+    reference = minimize_scalar(distance, bounds=(0.500, 0.505), method='bounded',
+                                options={'xatol': 1e-13})
+    assert value == pytest.approx(reference.fun, abs=1e-9)
+    assert when == pytest.approx(reference.x, abs=1e-6)
+    assert value < 0.71
+    assert probed <= {0, 99, 100, 101}, sorted(probed)   # the rest pruned by the bound
+    # a window that closes before the dip: the least sample stands
+    assert least(time, sampled, evaluate, rates, 0.0, 0.5, None) == (1.0, 0.0)
