@@ -37,12 +37,15 @@ def dask_client(workers: Optional[int], scheduler: Optional[str]):
         return client, None
     # the worker processes start with SIGINT ignored (and keep it so): a Ctrl-C at the
     # terminal, sent to every process of the group, stops only this one, which then closes
-    # the cluster (no tracebacks from the workers, no leaked semaphores)
+    # the cluster (no tracebacks from the workers, no leaked semaphores). The workers'
+    # own logs are not shown: a SIGTERM to this process alone closes the scheduler under
+    # them, and a heartbeat then fails with an ERROR and its traceback on stderr (issue
+    # 52.3's campaign); what a run does wrong comes back to the client as its row.
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
                                threads_per_worker=1, processes=True, dashboard_address=':0',
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.CRITICAL)
         return Client(cluster), cluster
     finally:
         signal.signal(signal.SIGINT, previous)
