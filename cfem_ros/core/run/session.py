@@ -131,7 +131,7 @@ class Session:
 
     @property
     def failed(self) -> bool:
-        """Tell whether the simulation failed (``Status.FAILED``); ``sim.message`` says why."""
+        """Tell whether the run failed, its status ``FAILED``; ``sim.message`` says why."""
         return self.sim.status is Status.FAILED
 
     @property
