@@ -19,7 +19,7 @@ import pytest
 
 pytest.importorskip('dask.distributed')
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-SCRIPT = '''
+SCRIPT = """
 import logging
 import sys
 sys.path.insert(0, {root!r})
@@ -40,7 +40,7 @@ if __name__ == '__main__':
     assert client.submit(heartbeat_fails, pure=False).result()
     close(client, cluster)
     print('closed')
-'''
+"""
 
 
 def test_a_workers_error_log_does_not_reach_stderr(tmp_path):
