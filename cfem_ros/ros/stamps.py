@@ -26,6 +26,8 @@ import math
 from typing import Callable, Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import Failure
+from cfem_ros.core.engine.kernelcalls import SMALLER_DT
 from cfem_ros.core.run.inputs import Input, stamp_problem
 import numpy as np
 
@@ -212,16 +214,16 @@ class OdometryCheck:
                 'for this topic')
 
 
-def divergence_advice(message: str, late_inputs: int, odometry_warned) -> str:
+def divergence_advice(message: str, failure, late_inputs: int, odometry_warned) -> str:
     """
     Return a failure message whose advice names the cure.
 
-    The engine says "try a smaller dt" when the joints diverge; when inputs
-    came late or an odometry stream disagreed with itself, the jumps they
-    made are the likelier cause, and a smaller dt would not cure them.
+    The engine says "try a smaller dt" when the joints diverge (failure
+    ``Failure.DIVERGED``, ``Simulator.failure``); when inputs came late or
+    an odometry stream disagreed with itself, the jumps they made are the
+    likelier cause, and a smaller dt would not cure them.
     """
-    advice = '; try a smaller dt'
-    if advice not in message or not (late_inputs or odometry_warned):
+    if failure is not Failure.DIVERGED or not (late_inputs or odometry_warned):
         return message
     causes = []
     if late_inputs:
@@ -230,5 +232,5 @@ def divergence_advice(message: str, late_inputs: int, odometry_warned) -> str:
     if odometry_warned:
         causes.append('odometry on ' + ', '.join(sorted(odometry_warned))
                       + ' has positions and velocities that disagree')
-    return message.replace(advice, '; ' + ' and '.join(causes)
+    return message.replace(SMALLER_DT, '; ' + ' and '.join(causes)
                            + ': a smaller dt would not help; fix the inputs')

@@ -288,7 +288,7 @@ class Stepping:
             node.get_logger().warning(f'run stopped: {sim.message}')
             node.exit_code = EXIT_CONTACT
         elif run.session.stopped:   # a failure or a table's outside: stop (exit 1)
-            sim.message = divergence_advice(sim.message, run.timing.late_inputs,
+            sim.message = divergence_advice(sim.message, sim.failure, run.timing.late_inputs,
                                             run.odometry_check.warned)
             node.get_logger().error(f'the run failed {sim.message}')
             run.publishers.event_publisher.publish(String(data=json.dumps(

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import types
 
+from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.run.inputs import odometry_input, wrench_input
 from cfem_ros.ros.stamps import (ClockLog, CURE_CLOCK, divergence_advice, InputTiming, next_ns,
                                  OdometryCheck)
@@ -118,8 +119,10 @@ def test_odometry_whose_positions_and_velocities_disagree_is_warned_about_once()
 def test_the_smaller_dt_advice_only_where_it_is_the_cure():
     failed = 'at t = 6.44 s: constraint violation 0.0022 exceeds 0.001 (the system ' \
              'diverged; try a smaller dt)'
-    assert divergence_advice(failed, 0, set()) == failed
-    told = divergence_advice(failed, 3, {'/cfem/bodies/jet/odom'})
+    assert divergence_advice(failed, Failure.DIVERGED, 0, set()) == failed
+    # told by its kind: another failure is left as it is, whatever its text
+    assert divergence_advice(failed, Failure.NOT_FINITE, 3, {'/cfem/bodies/jet/odom'}) == failed
+    told = divergence_advice(failed, Failure.DIVERGED, 3, {'/cfem/bodies/jet/odom'})
     assert 'smaller dt would not help' in told and 'try a smaller dt' not in told
     assert '3 inputs came after their stamps' in told and '/cfem/bodies/jet/odom' in told
 

@@ -31,6 +31,10 @@ DIVERGENCE_VIOLATION = 1e-3
 #: Why a run failed when its state is no longer finite.
 NOT_FINITE = 'the state is no longer finite (the system diverged)'
 
+#: The advice a diverged run's message ends with (``diverged``); a caller that knows a
+#: likelier cause replaces it (``ros.stamps.divergence_advice``).
+SMALLER_DT = '; try a smaller dt'
+
 #: What ``kernel.advance`` gets for no sample grid.
 _NO_GRID = np.zeros(3)
 _NO_ROWS = np.empty((0, 0))
@@ -54,7 +58,7 @@ class Advanced(NamedTuple):
 def diverged(violation: float) -> NumericalFailure:
     """Return the failure of a constraint violation beyond ``DIVERGENCE_VIOLATION``."""
     return NumericalFailure(f'constraint violation {violation:.3g} exceeds '
-                            f'{DIVERGENCE_VIOLATION:g} (the system diverged; try a smaller dt)',
+                            f'{DIVERGENCE_VIOLATION:g} (the system diverged{SMALLER_DT})',
                             Failure.DIVERGED)
 
 
