@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.events import contact_label
 from cfem_ros.core.model.shapes import default_shape, Shape, triangles
 import numpy as np
 
@@ -213,7 +214,7 @@ def markers(model, stamp: dict, namespace: str, released=(), contacts=()) -> dic
                              'orientation': _quat((0, 0, 0, 1))},
                     'scale': _xyz((size, size, size)), 'frame_locked': False,
                     'color': _color(CONTACT_COLOR),
-                    'text': f'contact {" ".join(event["bodies"])} t={event["time"]:.6f} s'})
+                    'text': contact_label(event)})
     for k, (joint, point) in enumerate(zip(model.joints, joint_points_on_parents(model))):
         size = max(0.01, JOINT_SIZE * min(thickness(shapes[joint.parent]),
                                           thickness(shapes[joint.child])))

@@ -28,7 +28,7 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
-from cfem_ros.core.engine.events import Event
+from cfem_ros.core.engine.events import describe_event, Event
 from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
@@ -211,9 +211,7 @@ class RunControl:
         run.publishers.event_publisher.publish(String(data=json.dumps(event)))
         if run.recording is not None and run.start_ns is not None:
             run.recording.state.note(event)
-        details = ', '.join(f'{k} {v}' for k, v in event.items() if k not in ('event', 'time'))
-        node.get_logger().info(f"{event['event']} at t = {event['time']:.9g} s"
-                               + (f' ({details})' if details else ''))
+        node.get_logger().info(describe_event(event))
 
 
 class StepRun:

@@ -9,7 +9,8 @@ import pathlib
 import pickle
 import re
 
-from cfem_ros.core.engine.events import describe_event, Event, Failure, Status, STOPS
+from cfem_ros.core.engine.events import (contact_label, describe_event, Event, Failure, Status,
+                                         STOPS)
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.run.session import Session
 from cfem_ros.core.scenario.parse import parse_scenario
@@ -144,3 +145,14 @@ def test_the_pattern_finds_the_literals_it_is_meant_to():
                  "if e.get('event') in ('release', 'contact')"):
         assert LITERAL.search(line), line
     assert not LITERAL.search('if sim.status is Status.CONTACT:')
+
+
+def test_a_control_event_is_told_with_its_other_keys_and_a_contact_labelled_short():
+    step = {'event': Event.STEP, 'time': 0.5, 'steps': 3, 'to': 0.503}
+    assert describe_event(step) == 'step at t = 0.5 s (steps 3, to 0.503)'
+    assert describe_event({'event': 'pause', 'time': 1.25}) == 'pause at t = 1.25 s'
+    contact = {'event': 'contact', 'bodies': ['store', 'pylon'], 'time': 0.25,
+               'point': [1.0, 0.0, -0.5]}
+    assert contact_label(contact) == 'contact store pylon t=0.250000 s'
+    assert describe_event(contact) == ('contact store pylon at t = 0.250000000 s, '
+                                       'point [1, 0, -0.5] m (world)')

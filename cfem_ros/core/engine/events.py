@@ -12,7 +12,7 @@ run failed, carried by ``NumericalFailure`` and kept by the simulator
 (``Simulator.failure``), so that a caller tells failures apart by kind,
 never by reading the message. ``describe_event`` is the one place an event
 becomes a line for a user (``cfem-sim run``, ``cfem-sim info``, the node's
-log).
+log), ``contact_label`` the label of a contact in the 3D view.
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ class Event(_Text):
 LOAD_EVENTS = frozenset({Event.RELEASE, Event.STROKE_END, Event.BRACE_CONTACT})
 #: The events of leaving an aero table's range and of coming back.
 AERO_EVENTS = (Event.AERO_OUTSIDE, Event.AERO_INSIDE)
+#: The events of the node's run control (``ros.runcontrol``), told with their other keys.
+CONTROL_EVENTS = frozenset({Event.PAUSE, Event.PLAY, Event.STEP, Event.RESET, Event.SET_STATE})
 
 
 class Failure(_Text):
@@ -149,7 +151,15 @@ def describe_event(event: dict) -> str:
         x, y, z = event['point']
         return (f'contact {a} {b} at {when}, point [{x:.6g}, {y:.6g}, {z:.6g}] m '
                 f'(world){contact_parts(event)}')
+    if what in CONTROL_EVENTS:
+        details = ', '.join(f'{k} {v}' for k, v in event.items() if k not in ('event', 'time'))
+        return f"{what} at t = {event['time']:.9g} s" + (f' ({details})' if details else '')
     return f'{what} at {when}'
+
+
+def contact_label(event: dict) -> str:
+    """Return the short label of a contact's marker in the 3D view (recorded with the scene)."""
+    return f'contact {" ".join(event["bodies"])} t={event["time"]:.6f} s'
 
 
 def contact_parts(event: dict) -> str:
