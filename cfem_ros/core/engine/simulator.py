@@ -59,19 +59,14 @@ class Simulator:
     y : ndarray, shape (13 n,)
         The state (module docstring).
     status : Status
-        ``RUNNING`` or ``FAILED``: a non-finite state or joint load, a
-        constraint violation beyond ``DIVERGENCE_VIOLATION``, or a singular
-        or ill-conditioned solve (``kernel.PIVOT_RTOL``) stops the run at
-        the last good state; or ``CONTACT``: a watched pair with
-        ``on_contact: stop`` touched, and the run stopped there (``events``
-        says where); or ``AERO_OUTSIDE``: a body whose tables say
-        ``outside: stop`` left their range (``aero.AeroWatch``).
-    message : str
-        Why the run failed or stopped, with the time ('' while running).
+        ``RUNNING``; ``FAILED`` (a non-finite state or joint load, a violation
+        beyond ``DIVERGENCE_VIOLATION``, a singular solve: the last good state
+        kept); ``CONTACT`` (a pair with ``on_contact: stop`` touched) or
+        ``AERO_OUTSIDE`` (a table's ``outside: stop``): stopped there.
+    message, reason : str
+        Why it failed or stopped, with the time, and without ('' while running).
     failure : Failure or None
         Which failure (``FAILED`` only): what a caller tests, not the message.
-    reason : str
-        The message without its time ('' while running).
     events : list of dict
         Releases so far: ``{'event': Event.RELEASE, 'joint', 'time', 'cause'}``
         (and ``'group'`` for a joint of a release group), the ends of
