@@ -19,7 +19,7 @@ import os
 
 from cfem_ros.core.engine.aero import AIR_TOPICS
 from cfem_ros.core.engine.events import Event
-from cfem_ros.core.run.inputs import stamp_problem
+from cfem_ros.core.run.inputs import InputKind, stamp_problem
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.container import encoder, offered_qos, Recorder
@@ -338,14 +338,14 @@ class StateRecorder(RowSink):
         had none).
         """
         stamp_ns = self.stamp_ns(t)
-        if item.kind == 'release':
+        if item.kind is InputKind.RELEASE:
             self._write(schema.RELEASE_INPUT, {'data': item.target}, stamp_ns)
             return
         header_ns = stamp_ns if item.header_ns is None else item.header_ns
         if stamp_problem(header_ns):   # refused, and no header can hold it: the log time's
             header_ns = stamp_ns
-        self._arrows_on = self._arrows_on or item.kind == 'wrench'
-        if item.kind == 'odom':
+        self._arrows_on = self._arrows_on or item.kind is InputKind.WRENCH
+        if item.kind is InputKind.ODOM:
             v = item.values
             self._write(schema.ODOMETRY_INPUT, {
                 'header': {'stamp': stamp(header_ns), 'frame_id': item.frame_id},

@@ -8,7 +8,7 @@ from dataclasses import replace
 from typing import Optional
 
 from cfem_ros.core.errors import InputError
-from cfem_ros.core.run.inputs import odometry_input, release_input, wrench_input
+from cfem_ros.core.run.inputs import InputKind, odometry_input, release_input, wrench_input
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
@@ -58,7 +58,7 @@ def _late(item, start_ns: int, recorded: bool):
     its stamp; the replay does the same at the same time (and does not know
     it ahead), so it moves the carrier as the node did.
     """
-    if not (recorded and item.kind == 'odom' and item.header_ns):
+    if not (recorded and item.kind is InputKind.ODOM and item.header_ns):
         return item
     own = (item.header_ns - start_ns) / 1e9
     return replace(item, at=own) if own < item.time else item

@@ -28,7 +28,7 @@ from typing import Callable, Optional
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.engine.kernelcalls import SMALLER_DT
-from cfem_ros.core.run.inputs import Input, stamp_problem
+from cfem_ros.core.run.inputs import Input, InputKind, stamp_problem
 import numpy as np
 
 #: What a position may differ from the velocities' account of it by, beyond what the
@@ -94,12 +94,13 @@ class InputTiming:
         """
         if stamp_problem(item.header_ns):
             return item   # refused by the session, with the reason
-        if item.kind in ('wrench', 'odom') and item.header_ns and self.start_ns is not None:
+        if (item.kind in (InputKind.WRENCH, InputKind.ODOM) and item.header_ns
+                and self.start_ns is not None):
             own = (item.header_ns - self.start_ns) / 1e9
             if own >= self.sim.t:
                 return replace(item, time=own)
             self._late(topic, own)
-            if item.kind == 'odom':
+            if item.kind is InputKind.ODOM:
                 item = replace(item, at=own)
         at = next_ns(self.sim.t)   # a recording's log time holds it exactly
         if now is not None and math.isfinite(now):
@@ -186,7 +187,7 @@ class OdometryCheck:
 
     def check(self, topic: str, item: Input):
         """Compare an odometry message with the topic's previous one."""
-        if item.kind != 'odom' or not item.header_ns or topic in self.warned:
+        if item.kind is not InputKind.ODOM or not item.header_ns or topic in self.warned:
             return
         v = item.values
         if not np.isfinite(v).all() or not 0.999 < np.linalg.norm(v[3:7]) < 1.001:

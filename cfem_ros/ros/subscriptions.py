@@ -13,7 +13,8 @@ and moves it on through the node's pacing (``node.stepping``).
 import time
 from typing import Optional
 
-from cfem_ros.core.run.inputs import Input, odometry_input, release_input, wrench_input
+from cfem_ros.core.run.inputs import (Input, InputKind, odometry_input, release_input,
+                                      wrench_input)
 from cfem_ros.recording import schema
 from cfem_ros.ros.qos import input_qos
 from cfem_ros.ros.refusals import bounded
@@ -217,7 +218,7 @@ class Subscriptions:
         except ValueError as err:
             self.refused[topic] = self.refused.get(topic, 0) + 1
             node.refusals.warning(f'{topic}: message not applied: {err}')
-        if item.kind == 'odom' and run.gate.interpolate and not self._taking:
+        if item.kind is InputKind.ODOM and run.gate.interpolate and not self._taking:
             # what waited for it goes on (taken with others: once they are all taken)
             if node.sim_time and stepping.clock_limit is not None:
                 stepping.catch_up()

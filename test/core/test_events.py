@@ -12,6 +12,7 @@ import re
 from cfem_ros.core.engine.events import (contact_label, describe_event, Event, Failure, Status,
                                          STOPS)
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.run.inputs import InputKind
 from cfem_ros.core.run.session import Session
 from cfem_ros.core.scenario.parse import parse_scenario
 import pandas as pd
@@ -58,7 +59,7 @@ class _Sink:
         pass
 
 
-@pytest.mark.parametrize('kind', [Status, Event, Failure])
+@pytest.mark.parametrize('kind', [Status, Event, Failure, InputKind])
 def test_each_member_is_its_text_wherever_a_string_goes(kind):
     texts = [m.value for m in kind]
     assert len(set(texts)) == len(texts)   # one text form each, no two members alike
@@ -122,27 +123,27 @@ def test_the_scenario_stops_are_contact_and_aero_outside():
     assert [s for s in Status if s.stopped_by_scenario] == [Status.CONTACT, Status.AERO_OUTSIDE]
 
 
-#: A status or an event kind compared with a literal: ``x['status'] == 'ok'``,
-#: ``e.get('event') in ('release', ...)``, ``sim.status != 'running'``.
+#: A status, an event kind or an input kind compared with a literal: ``x['status'] == 'ok'``,
+#: ``e.get('event') in ('release', ...)``, ``sim.status != 'running'``, ``item.kind == 'odom'``.
 LITERAL = re.compile(r"""(?:\[['"](?:status|event)['"]\]|\.get\(['"](?:status|event)['"]\)"""
-                     r"""|\.status)\)?\s*(?:==|!=|\bnot in\b|\bin\b|\bis not\b|\bis\b)"""
+                     r"""|\.status|\.kind)\)?\s*(?:==|!=|\bnot in\b|\bin\b|\bis not\b|\bis\b)"""
                      r"""\s*[\(\[\{]?\s*['"](\w+)['"]""")
 
 
 def test_no_status_or_event_kind_is_compared_as_a_literal():
-    kinds = {m.value for m in Status} | {m.value for m in Event}
+    kinds = {m.value for m in Status} | {m.value for m in Event} | {m.value for m in InputKind}
     found = []
     for path in sorted(PACKAGE.rglob('*.py')):
         for number, line in enumerate(path.read_text().splitlines(), 1):
             for match in LITERAL.finditer(line):
                 if match.group(1) in kinds:
                     found.append(f'{path.relative_to(PACKAGE.parent)}:{number}: {line.strip()}')
-    assert not found, 'compare with Status or Event members:\n' + '\n'.join(found)
+    assert not found, 'compare with Status, Event or InputKind members:\n' + '\n'.join(found)
 
 
 def test_the_pattern_finds_the_literals_it_is_meant_to():
     for line in ("if sim.status == 'contact':", "x = table['status'] != 'ok'",
-                 "if e.get('event') in ('release', 'contact')"):
+                 "if e.get('event') in ('release', 'contact')", "if item.kind == 'odom':"):
         assert LITERAL.search(line), line
     assert not LITERAL.search('if sim.status is Status.CONTACT:')
 

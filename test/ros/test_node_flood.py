@@ -19,6 +19,7 @@ import re
 import signal
 
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.run.inputs import InputKind
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import offline
 from cfem_ros.recording.container import Recorder
@@ -46,7 +47,7 @@ def rss_mb(pid) -> float:
 
 def good(item, released):
     """Tell whether the node must apply an input of store_release_on_command."""
-    if item.kind == 'release':
+    if item.kind is InputKind.RELEASE:
         return item.target == 'pivot' and not released
     return (item.target == 'store' and item.frame_id in ('world', 'store')
             and np.isfinite(item.force).all() and np.isfinite(item.torque).all())
@@ -143,7 +144,7 @@ def test_flood_of_good_and_bad_inputs(tmp_path, peer_factory):  # noqa: F811
     for item in read_inputs(str(recording)):
         if good(item, released):
             inputs.append(item)
-            released = released or item.kind == 'release'
+            released = released or item.kind is InputKind.RELEASE
     assert len(inputs) == len(recorded_good) + 1
     samples = [(topic, log, m) for topic, log, _, m in messages
                if topic.endswith(('/pose', '/twist'))]

@@ -22,7 +22,7 @@ import enum
 import numpy as np
 
 
-class _Text(str, enum.Enum):
+class TextEnum(str, enum.Enum):
     """An enum member that is its text form wherever a string goes (format, hash, JSON)."""
 
     def __str__(self) -> str:
@@ -36,7 +36,7 @@ class _Text(str, enum.Enum):
     __hash__ = str.__hash__
 
 
-class Status(_Text):
+class Status(TextEnum):
     """
     A run's status (``Simulator.status``) and a study row's (SPEC sections 6, 8, 10, 12).
 
@@ -63,7 +63,7 @@ class Status(_Text):
 STOPS = frozenset({Status.CONTACT, Status.AERO_OUTSIDE})
 
 
-class Event(_Text):
+class Event(TextEnum):
     """The kind of an event: its ``"event"`` key (SPEC sections 3, 7, 8, 10, 11)."""
 
     RELEASE = 'release'
@@ -93,7 +93,7 @@ AERO_EVENTS = (Event.AERO_OUTSIDE, Event.AERO_INSIDE)
 CONTROL_EVENTS = frozenset({Event.PAUSE, Event.PLAY, Event.STEP, Event.RESET, Event.SET_STATE})
 
 
-class Failure(_Text):
+class Failure(TextEnum):
     """
     Why a run failed (``NumericalFailure.failure``, ``Simulator.failure``).
 

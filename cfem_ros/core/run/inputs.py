@@ -16,7 +16,16 @@ import heapq
 import itertools
 from typing import Optional
 
+from cfem_ros.core.engine.events import TextEnum
 import numpy as np
+
+
+class InputKind(TextEnum):
+    """What an input is (``Input.kind``): its text is the topic's last word but for release."""
+
+    WRENCH = 'wrench'
+    RELEASE = 'release'
+    ODOM = 'odom'
 
 
 @dataclass(frozen=True)
@@ -29,8 +38,8 @@ class Input:
     time : float or None
         Simulated time at which it takes effect, s; None: as soon as it is
         received.
-    kind : str
-        'wrench', 'release' or 'odom'.
+    kind : InputKind
+        ``WRENCH``, ``RELEASE`` or ``ODOM``.
     target : str
         The body (wrench), or the joints and release groups (release: one
         name, or several separated by spaces or commas) it names.
@@ -56,7 +65,7 @@ class Input:
     """
 
     time: Optional[float]
-    kind: str
+    kind: InputKind
     target: str
     force: Optional[np.ndarray] = None
     torque: Optional[np.ndarray] = None
@@ -69,7 +78,7 @@ class Input:
 def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[float] = None,
                  header_ns: Optional[int] = None) -> Input:
     """Build an external wrench input (arrays copied as floats)."""
-    return Input(time=time, kind='wrench', target=body,
+    return Input(time=time, kind=InputKind.WRENCH, target=body,
                  force=np.array(force, dtype=float), torque=np.array(torque, dtype=float),
                  frame_id=frame_id, header_ns=header_ns)
 
@@ -77,14 +86,14 @@ def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[floa
 def odometry_input(body: str, position, quaternion, velocity, rates, frame_id: str, *,
                    time: Optional[float] = None, header_ns: Optional[int] = None) -> Input:
     """Build an odometry input (nav_msgs/Odometry: twist in the body's axes)."""
-    return Input(time=time, kind='odom', target=body, frame_id=frame_id, header_ns=header_ns,
-                 values=np.concatenate([np.asarray(v, dtype=float) for v in (
+    return Input(time=time, kind=InputKind.ODOM, target=body, frame_id=frame_id,
+                 header_ns=header_ns, values=np.concatenate([np.asarray(v, dtype=float) for v in (
                      position, quaternion, velocity, rates)]))
 
 
 def release_input(joint: str, *, time: Optional[float] = None) -> Input:
     """Build a release command."""
-    return Input(time=time, kind='release', target=joint)
+    return Input(time=time, kind=InputKind.RELEASE, target=joint)
 
 
 def parse_frame_id(frame_id: str):
@@ -129,9 +138,9 @@ def _bounded(values, what: str):
 
 def input_topic(item: Input) -> str:
     """Topic of an input, relative to the namespace."""
-    if item.kind == 'odom':
+    if item.kind is InputKind.ODOM:
         return f'bodies/{item.target}/odom'
-    return 'release' if item.kind == 'release' else f'bodies/{item.target}/wrench'
+    return 'release' if item.kind is InputKind.RELEASE else f'bodies/{item.target}/wrench'
 
 
 def validate_input(sim, item: Input):
@@ -146,7 +155,7 @@ def validate_input(sim, item: Input):
 
     """
     model = sim.model
-    if item.kind == 'release':
+    if item.kind is InputKind.RELEASE:
         # joints or release groups, one or several (groups.command_names)
         sim.groups.check_command(item.target, sim.active)
         return
@@ -156,7 +165,7 @@ def validate_input(sim, item: Input):
     names = [body.name for body in model.bodies]
     if item.target not in names:
         raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
-    if item.kind == 'odom':
+    if item.kind is InputKind.ODOM:
         if model.bodies[names.index(item.target)].motion is None:
             raise ValueError(f'body {item.target!r} is not kinematic (no motion): odometry '
                              'drives only kinematic bodies')
@@ -191,12 +200,12 @@ def validate_input(sim, item: Input):
 def apply_input(sim, item: Input):
     """Apply one input now (ValueError with the reason if it cannot be)."""
     validate_input(sim, item)
-    if item.kind == 'odom':
+    if item.kind is InputKind.ODOM:
         v = item.values   # from now: the time it takes effect (a sample's at most)
         at = sim.t if item.at is None else min(item.at, sim.t)   # a late one: its own time
         sim.carriers.set_odometry(item.target, at, v[0:3], v[3:7], v[7:10], v[10:13])
         return
-    if item.kind == 'wrench':
+    if item.kind is InputKind.WRENCH:
         # the world frame wins: a body named as the world frame is loaded in world axes
         frame, point = parse_frame_id(item.frame_id)
         sim.set_wrench(item.target, item.force, item.torque,
@@ -236,10 +245,10 @@ class InputQueue:
         self._expect(item)
         heapq.heappush(self._heap, (time, next(self._order), item))
 
-    def due(self, t: float, kind: Optional[str] = None):
+    def due(self, t: float, kind: Optional[InputKind] = None):
         """Take out the inputs held for t or before, in order (only those of ``kind`` if given)."""
         if kind is not None:
-            taken = sorted(e for e in self._heap if e[0] <= t and e[2].kind == kind)
+            taken = sorted(e for e in self._heap if e[0] <= t and e[2].kind is kind)
             if taken:
                 self._heap = [entry for entry in self._heap if entry not in taken]
                 heapq.heapify(self._heap)
@@ -251,7 +260,7 @@ class InputQueue:
 
     def _expect(self, item: Input):
         """Make an odometry input held for later known to the simulator (interpolation)."""
-        if not (self.interpolate_odometry and item.kind == 'odom' and item.time is not None
+        if not (self.interpolate_odometry and item.kind is InputKind.ODOM and item.time is not None
                 and item.time > self.sim.t and item.at is None):
             return
         try:

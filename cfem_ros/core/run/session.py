@@ -40,7 +40,8 @@ from typing import Callable, ClassVar, Optional, Protocol, Sequence
 
 from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
-from cfem_ros.core.run.inputs import apply_input, Input, input_topic, InputQueue, validate_input
+from cfem_ros.core.run.inputs import (apply_input, Input, input_topic, InputKind, InputQueue,
+                                      validate_input)
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -156,7 +157,7 @@ class Session:
         if self.started:
             return
         self.started = True
-        self._apply_due('odom')
+        self._apply_due(InputKind.ODOM)
         if not self.stopped:
             self._sample()
         if not self.stopped:
@@ -301,7 +302,7 @@ class Session:
         if self.sim.release_due():
             self._emit_events()
 
-    def _apply_due(self, kind: Optional[str] = None):
+    def _apply_due(self, kind: Optional[InputKind] = None):
         for item in self.inputs.due(self.sim.t, kind):
             try:
                 self._apply(item)
@@ -316,7 +317,7 @@ class Session:
     def _apply(self, item: Input):
         self._record(item)
         apply_input(self.sim, item)
-        if item.kind == 'release':
+        if item.kind is InputKind.RELEASE:
             self._emit_events()
 
     def _emit_events(self):
