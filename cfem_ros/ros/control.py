@@ -132,7 +132,7 @@ class SimulationServices:
             if target == s.STATE_PLAYING:
                 control.play()
             elif target == s.STATE_PAUSED:
-                if control.state == STOPPED:
+                if control.state is STOPPED:
                     response.result = _result(SetSimulationState.Response.INCORRECT_TRANSITION,
                                               'stopped: play it, then pause')
                     return response

@@ -28,13 +28,23 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
-from cfem_ros.core.engine.events import describe_event, Event
+from cfem_ros.core.engine.events import describe_event, Event, TextEnum
 from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
 from std_msgs.msg import String
 
-PLAYING, PAUSED, STOPPED = 'playing', 'paused', 'stopped'
+
+class ControlState(TextEnum):
+    """Where the node's run is (``RunControl.state``): playing, paused, or stopped (reset)."""
+
+    PLAYING = 'playing'
+    PAUSED = 'paused'
+    STOPPED = 'stopped'
+
+
+PLAYING, PAUSED, STOPPED = ControlState.PLAYING, ControlState.PAUSED, ControlState.STOPPED
+
 #: Most steps taken between two looks at the wall clock (``StepRun.go``).
 SLICE_STEPS = 100
 
@@ -63,19 +73,19 @@ class RunControl:
     @property
     def paused(self) -> bool:
         """Tell whether the run waits (paused or stopped)."""
-        return self.state != PLAYING
+        return self.state is not PLAYING
 
     # ---------------------------------------------------------------- states
 
     def pause(self):
         """Stop advancing where the run is."""
-        if self.state == PLAYING:
+        if self.state is PLAYING:
             self.state = PAUSED
             self.announce({'event': Event.PAUSE, 'time': self.node.run.sim.t})
 
     def play(self):
         """Advance again: in real time from now, at the real-time factor; or with /clock."""
-        if self.state == PLAYING:
+        if self.state is PLAYING:
             return
         node, run = self.node, self.node.run
         self.state = PLAYING
