@@ -3,6 +3,7 @@
 """Sway braces as hardware (SPEC section 11, issue 45.1, 52.2): pads fixed on the carrier."""
 
 import pathlib
+import warnings
 
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ScenarioError
@@ -71,6 +72,21 @@ def test_braces_rk4_cannot_follow_are_refused_with_the_dt_that_would_do(
     sim = Simulator(parse_scenario(doc, source='two_hooks.yaml'))
     assert sim.advance_to(doc['duration']), sim.message   # runs, and ends
     assert len([e for e in sim.events if e['event'] == 'brace_contact']) < 100
+
+
+@pytest.mark.parametrize('key', ['stiffness', 'damping'])
+def test_a_pad_no_step_can_follow_is_refused_without_a_warning(key):
+    # found by issue 52.3's campaign: 1e300 overflowed RK4's amplification (a numpy
+    # RuntimeWarning before the ERROR line) and the refusal asked for 'dt <= 0 s'
+    doc = two_hooks_released(duration=0.3)
+    doc['sway_braces'][1][key] = 1e300
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        with pytest.raises(ScenarioError) as err:
+            parse_scenario(doc, source='two_hooks.yaml')
+    text = str(err.value)
+    assert err.value.key == f'sway_braces[1].{key}', text
+    assert 'dt <=' not in text and 'no step of at least 1e-09 s can follow' in text, text
 
 
 def test_a_brace_point_out_of_place_is_named_as_the_file_gives_it():

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
+from cfem_ros.core.scenario.checker import MIN_DT
 import numpy as np
 
 #: The stability bound is taken with this margin (RK4's region is left at |R| = 1).
@@ -26,8 +27,11 @@ MARGIN = 0.9
 
 
 def amplification(z: np.ndarray) -> np.ndarray:
-    """Return |R(z)| of RK4 at the complex numbers z = lambda dt."""
-    return np.abs(1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0))))
+    """Return |R(z)| of RK4 at the complex numbers z = lambda dt (inf or NaN: beyond it)."""
+    # a pad of 1e300 N/m gives z of 1e149: z^4 overflows, which is unstable all the same
+    # (inf, or NaN, is not <= 1), without numpy's warning before the refusal
+    with np.errstate(over='ignore', invalid='ignore'):
+        return np.abs(1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0))))
 
 
 def eigenvalues(braces, bodies, springs: bool = True, dashpots: bool = True) -> np.ndarray:
@@ -104,11 +108,14 @@ def check_step(check, braces, bodies, dt: float):
              if key == 'damping' else
              f'is {brace.stiffness:g} N/m (damping {brace.damping:g} N s/m)')
     motion = 'decay' if key == 'damping' else 'move'
+    pad = f'{"less damped" if key == "damping" else "softer"} pad'
+    # no dt of the scenario's range follows the pad: say so, not 'dt <= 0 s'
+    expected = (f'dt <= {would:.2g} s with these braces, or a {pad}' if would >= MIN_DT else
+                f'a {pad} (no step of at least {MIN_DT:g} s can follow these braces)')
     check.fail(f'sway_braces[{k}].{key}',
                f'{shown}: the braced bodies {motion} at up to {fastest:.4g} 1/s, which RK4 '
                f'with dt = {dt:g} s cannot follow (the pads would gain energy at every step '
-               'and chatter)', f'dt <= {would:.2g} s with these braces, or a '
-               f'{"less damped" if key == "damping" else "softer"} pad')
+               'and chatter)', expected)
 
 
 def _moving(lams: np.ndarray):
