@@ -516,6 +516,8 @@ def interrupts(folder, rng, count, sweeps):
                     if rc not in (0, 2) or (rc == 0 and not readable(fixed)):
                         return f'recover of the partial file gave {rc}'
                     p.unlink()
+                    # its name holds '.partial-': left, it read as the next case's leftover
+                    fixed.unlink(missing_ok=True)
                 return None
             if status not in (0, 2, 128 + sig, 1):
                 return f'exit {status}'
