@@ -226,7 +226,7 @@ def estimate(spec: SweepSpec, method: str, evaluate, criteria, target_cov: float
     except Exception as err:   # noqa: B902 (what the limit state raised, not its wrapping)
         if raised:
             raise raised[0] from None
-        if isinstance(err, SweepError):
+        if isinstance(err, (SweepError, MethodFailed)):   # said already, with the fix
             raise
         for signum in (signal.SIGINT, signal.SIGTERM):
             if signal.Signals(signum).name in str(err):
@@ -275,11 +275,11 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
         try:
             return samplers.form(ot, inputs, margins_of, runs, seed, repeat, target_cov,
                                  calls, said, start)
+        except samplers.FlatLimitState as err:
+            raise MethodFailed(spec.path, '--method form', str(err).replace('FORM: ', ''),
+                               'criteria whose margins change with the varied key '
+                               'paths, or --method mc') from None
         except RuntimeError as err:   # no design point within the budget
-            if 'no gradient' in str(err):
-                raise MethodFailed(spec.path, '--method form', str(err).replace('FORM: ', ''),
-                                   'criteria whose margins change with the varied key '
-                                   'paths, or --method mc') from None
             if 'maximum calls' not in str(err):
                 raise
             raise MethodFailed(spec.path, '--method form', f'found no design point in '

@@ -49,6 +49,14 @@ TOLERANCE = 1e-3
 MAX_ITERATIONS = 100
 HALVINGS = 4
 ARMIJO = 1e-4
+#: FORM's design point, at most this many standard deviations from the origin: beyond
+#: it P by FORM is below 1e-300 (a double's smallest normal number is 2.2e-308), and no
+#: draw there is a value of the inputs anyone meant.
+MAX_BETA = 37.0
+
+
+class FlatLimitState(RuntimeError):
+    """A limit state FORM cannot search: no gradient, or its surface beyond MAX_BETA."""
 
 
 @dataclass
@@ -255,9 +263,15 @@ def design_point(margins, start: np.ndarray, calls: int) -> tuple:
     for _ in range(MAX_ITERATIONS):
         norm = float(np.linalg.norm(grad))
         if not norm > 0:
-            raise RuntimeError(f'FORM: the limit state does not change with the inputs at '
-                               f'u = {np.array2string(u, precision=4)} (no gradient)')
+            raise FlatLimitState(f'FORM: the limit state does not change with the inputs at '
+                                 f'u = {np.array2string(u, precision=4)} (no gradient)')
         target = (grad @ u - g) / norm ** 2 * grad
+        if not np.linalg.norm(target) <= MAX_BETA:   # asked before any run is made there
+            raise FlatLimitState(
+                f'FORM: the limit state hardly changes with the inputs: its linearization at '
+                f'u = {np.array2string(u, precision=4)} puts the failure surface '
+                f'{float(np.linalg.norm(target)):.3g} standard deviations away (beyond '
+                f'{MAX_BETA:g}: P by FORM below 1e-300, at inputs nobody meant)')
         along = u - (u @ grad) / norm ** 2 * grad   # the part of u off the gradient
         # on the surface (its linearization within TOLERANCE standard deviations) and
         # u along the gradient there: the closest point of the surface

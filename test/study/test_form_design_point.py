@@ -63,6 +63,23 @@ def test_a_limit_state_that_does_not_change_is_refused():
         samplers.design_point(lambda u: np.ones(len(u)), np.zeros(2), 100)
 
 
+def test_a_surface_beyond_every_double_is_refused_before_a_run_goes_there():
+    """A margin that hardly changes (1e-4 per SD) puts its surface 1e4 SD away: refused."""
+    asked = []
+
+    def margins(u):
+        asked.append(np.abs(np.atleast_2d(u)).max())
+        return 1.0 - 1e-4 * np.atleast_2d(u)[:, 0]
+
+    with pytest.raises(samplers.FlatLimitState, match='1e[+]04 standard deviations'):
+        samplers.design_point(margins, np.zeros(2), 100)
+    assert max(asked) < 1e-3   # only the origin and its stencil were run
+    # a surface within reach, however far in probability, is still found
+    star, beta, p_form = samplers.design_point(lambda u: 30.0 - np.atleast_2d(u)[:, 0],
+                                               np.zeros(2), 100)
+    assert beta == pytest.approx(30.0, rel=1e-9) and 0 < p_form < 1e-190
+
+
 def test_a_search_past_its_budget_stops():
     margins, batches = _counted(_curved)
     with pytest.raises(RuntimeError, match='maximum calls'):

@@ -146,3 +146,22 @@ def test_plot_of_a_study_prints_its_estimate_not_the_fractions_of_its_runs(tmp_p
     assert printed == ['the runs of --method nais are not drawn from the inputs: their failure '
                        'fractions are not P(fail)', found['estimate'].sentence()]
     assert any(p.endswith('criteria.png') for p in paths)
+
+
+def test_form_on_a_criterion_that_hardly_changes_says_so_and_keeps_its_runs(tmp_path):
+    """The clearance moves 1e-9 m per degree: FORM names the cause, not OpenTURNS."""
+    from cfem_ros.study.resources import MethodFailed
+    spec = _linear_sweep(tmp_path, 1e-3, 10)
+
+    def flat_rows(spec, runs):
+        rows = _linear_rows(spec, runs)
+        for row in rows:
+            row['clearance_store_pylon_min'] = 0.2 - 1e-9 * (row[ANGLE] - MEAN)
+        return rows
+
+    out = str(tmp_path / 'form')
+    with pytest.raises(MethodFailed) as raised:
+        run_study(spec, out, method='form', rows=flat_rows, log=lambda line: None)
+    message = str(raised.value)
+    assert 'hardly changes with the inputs' in message and 'OpenTURNS' not in message
+    assert '--method mc' in message
