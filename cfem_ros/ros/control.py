@@ -142,9 +142,16 @@ class SimulationServices:
             elif target == s.STATE_QUITTING:
                 self.node.get_logger().info('quitting (set_simulation_state)')
                 self.node.exit_code = 0
-            else:
+            elif target in (s.STATE_NO_WORLD, s.STATE_LOADING_WORLD):
                 response.result = _result(Result.RESULT_FEATURE_UNSUPPORTED,
                                           f'state {target}: no worlds to load or unload')
+                return response
+            else:
+                response.result = _result(
+                    Result.RESULT_OPERATION_FAILED,
+                    f'state {target}: not a SimulationState; expected {s.STATE_STOPPED} '
+                    f'(stopped), {s.STATE_PLAYING} (playing), {s.STATE_PAUSED} (paused) or '
+                    f'{s.STATE_QUITTING} (quitting)')
                 return response
         except ControlError as err:
             response.result = _result(SetSimulationState.Response.STATE_TRANSITION_ERROR,

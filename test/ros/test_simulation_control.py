@@ -171,6 +171,14 @@ def test_pause_step_state_reset_play_and_the_action(tmp_path, client):
         assert client.set_state(SimulationState.STATE_PAUSED).result == Result.RESULT_OK
         assert client.set_state(SimulationState.STATE_PAUSED).result == \
             SetSimulationState.Response.ALREADY_IN_TARGET_STATE
+        # a world state is unsupported; a number that is no state is named as such
+        world = client.set_state(SimulationState.STATE_NO_WORLD)
+        assert world.result == Result.RESULT_FEATURE_UNSUPPORTED
+        assert 'no worlds to load or unload' in world.error_message
+        wrong = client.set_state(77)
+        assert wrong.result == Result.RESULT_OPERATION_FAILED
+        assert wrong.error_message == ('state 77: not a SimulationState; expected 0 (stopped), '
+                                       '1 (playing), 2 (paused) or 3 (quitting)')
         assert client.set_state(SimulationState.STATE_QUITTING).result == Result.RESULT_OK
         assert node.wait(timeout=60.0) == 0, node.output
     finally:
