@@ -96,11 +96,12 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
         else:
             from cfem_ros.recording.container import Recorder
             from cfem_ros.recording.recorder import run_metadata, StateRecorder
-            meta = run_metadata(model, spec.scenario, spec.rate_hz, 0,
+            meta = run_metadata(model, spec.scenario, spec.rate_hz, model.start_ns,
                                 sweep=os.path.abspath(spec.path), run=k,
                                 values=json.dumps(values))
             with Recorder(record, overwrite=True, metadata=meta) as recorder:
-                collector = Collector(sim, forward=StateRecorder(recorder, sim))
+                collector = Collector(sim, forward=StateRecorder(recorder, sim,
+                                                                 start_ns=model.start_ns))
                 session_run(sim, model, spec, collector)
         row.update(compute(collector.samples(), spec.metrics))
     except Exception as err:   # noqa: B902

@@ -232,3 +232,22 @@ def test_collected_samples_are_the_recordings_numbers_at_any_rate(tmp_path):
         np.testing.assert_array_equal(a, b)
     assert mine.releases == theirs.releases and len(mine.releases) == 1
     assert not np.array_equal(mine.bodies['store'][0], np.arange(19) / 30.0)
+
+
+def test_a_dated_scenario_gives_dated_sweep_recordings(tmp_path):
+    # the scenario's start_time dates a sweep's recordings as it dates cfem-sim run's
+    start = '2026-03-14T09:30:00.123456789Z'
+    dated = {**STORE, 'start_time': start}
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, scenario=dated,
+                                       vary={'bodies.store.mass': {'grid': [907.0]}}))
+    sweep.run(None, str(tmp_path / 'sweep'), record='all')
+    scenario = tmp_path / 'run_0.yaml'
+    scenario.write_text(yaml.safe_dump(sweep.scenario(0)))
+    alone = str(tmp_path / 'run_0.mcap')
+    assert cli.main(['run', str(scenario), '-o', alone]) == 0
+    from cfem_ros.recording.analysis import open_run
+    from cfem_ros.core.fileio.instants import instant_ns
+    ours, theirs = open_run(str(tmp_path / 'sweep' / 'runs' / 'run_0.mcap')), open_run(alone)
+    assert ours.start_ns == theirs.start_ns == instant_ns(start) > 0
+    for name, body in ours.bodies.items():
+        np.testing.assert_array_equal(body.stamp_ns, theirs.bodies[name].stamp_ns)

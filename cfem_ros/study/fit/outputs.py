@@ -224,7 +224,7 @@ def _record(scenario: str, document: dict, output: str, inputs, interpolate_odom
     rate = min(1.0 / model.dt, 1000.0)
     sim = Simulator(model)
     with Recorder(output, overwrite=True, atomic=True,
-                  metadata=run_metadata(model, scenario, rate, 0)) as recorder:
-        offline.run(sim, StateRecorder(recorder, sim), rate_hz=rate, duration=model.duration,
+                  metadata=run_metadata(model, scenario, rate, model.start_ns)) as recorder:
+        offline.run(sim, StateRecorder(recorder, sim, start_ns=model.start_ns), rate_hz=rate, duration=model.duration,
                     inputs=[i for i in inputs if i.time <= model.duration],
                     interpolate_odometry=interpolate_odometry)
