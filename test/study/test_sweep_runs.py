@@ -239,7 +239,7 @@ def test_a_dated_scenario_gives_dated_sweep_recordings(tmp_path):
     start = '2026-03-14T09:30:00.123456789Z'
     dated = {**STORE, 'start_time': start}
     sweep = Sweep.from_file(write_sweep(tmp_path, runs=1, scenario=dated,
-                                       vary={'bodies.store.mass': {'grid': [907.0]}}))
+                                        vary={'bodies.store.mass': {'grid': [907.0]}}))
     sweep.run(None, str(tmp_path / 'sweep'), record='all')
     scenario = tmp_path / 'run_0.yaml'
     scenario.write_text(yaml.safe_dump(sweep.scenario(0)))

@@ -225,6 +225,7 @@ def _record(scenario: str, document: dict, output: str, inputs, interpolate_odom
     sim = Simulator(model)
     with Recorder(output, overwrite=True, atomic=True,
                   metadata=run_metadata(model, scenario, rate, model.start_ns)) as recorder:
-        offline.run(sim, StateRecorder(recorder, sim, start_ns=model.start_ns), rate_hz=rate, duration=model.duration,
+        offline.run(sim, StateRecorder(recorder, sim, start_ns=model.start_ns), rate_hz=rate,
+                    duration=model.duration,
                     inputs=[i for i in inputs if i.time <= model.duration],
                     interpolate_odometry=interpolate_odometry)
