@@ -32,8 +32,8 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine import sampling
 from cfem_ros.core.engine.bodies import initial_state, mass_table, state_views
 from cfem_ros.core.engine.events import Failure
+from cfem_ros.core.engine.loads import ScheduledLoads
 from cfem_ros.core.engine.sampling import NumericalFailure
-from cfem_ros.core.engine.ties import TiedLoads
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel, motion
 from cfem_ros.core.native.kernel import LOADS
@@ -96,7 +96,7 @@ class Dynamics:
         Whether any body follows a trajectory (``carrier.Carriers``).
     bodies : ndarray
         The bodies' table, as the kernel reads it (``bodies.mass_table``).
-    scheduled : TiedLoads
+    scheduled : ScheduledLoads
         The applied loads (``loads``, ``ties``); ``loads`` is their packed array.
 
     """
@@ -119,7 +119,7 @@ class Dynamics:
             self.bodies = np.ascontiguousarray(np.hstack([self.bodies, trajectories]))
         # applied loads, packed (loads.py): per body force (3), torque (3), 1.0 when in
         # body axes, point (3); then the scenario's scheduled wrenches
-        self.scheduled = TiedLoads(model, n)   # starts and ends may wait for releases
+        self.scheduled = ScheduledLoads(model, n)   # starts and ends may wait for releases
         self.loads = self.scheduled.array
         self.y0 = initial_state(model)
         self._warned_redundant = False

@@ -39,7 +39,7 @@ branch there.
 from __future__ import annotations
 
 from cfem_ros.core.engine import aeropack, braces
-
+from cfem_ros.core.engine.ties import Ties
 from cfem_ros.core.native import contacts, kernel
 from cfem_ros.core.native.kernel import LOADS
 import numpy as np
@@ -81,6 +81,9 @@ class ScheduledLoads:
         The packed loads (the held rows first, zero).
     started, done : ndarray of bool
         Per wrench: switched on once; switched off for good.
+    start, end : ndarray, shape (count,)
+        Per wrench: when it switches on and off, s; inf while it waits for
+        the release it is tied to (``released``), or for no end.
 
     """
 
@@ -147,6 +150,10 @@ class ScheduledLoads:
         self.pairs = pairs
         self.started = np.zeros(self.count, dtype=bool)
         self.done = np.zeros(self.count, dtype=bool)
+        #: Which starts and ends wait for a release (``ties.Ties``), and per wrench when it
+        #: switches on and off, s: inf while it waits for that release, or for no end.
+        self.ties = Ties(model)
+        self.start, self.end = self.ties.times()
         #: Numbers a sample's applied loads take (6 a source), then the air of each body
         #: with aero tables (``AIR_OUTPUTS`` each: ``cpp/loads.cpp`` sample_applied).
         self.outputs_size = 6 * len(self.sources()) + LOADS.AIR_OUTPUTS * len(aero)
@@ -159,30 +166,42 @@ class ScheduledLoads:
     def due(self, t: float):
         """Return the next time after t at which a wrench switches, or None."""
         times = []
-        for k, w in enumerate(self.model.wrenches):
+        for k in range(self.count):
             if self.done[k]:
                 continue
-            if not self.started[k] and w.start > t:
-                times.append(w.start)
-            elif self.started[k] and w.end is not None and w.end > t:
-                times.append(w.end)
-        return min(times) if times else None
+            if not self.started[k] and t < self.start[k] < np.inf:
+                times.append(self.start[k])
+            elif self.started[k] and t < self.end[k] < np.inf:
+                times.append(self.end[k])
+        return float(min(times)) if times else None
 
     def switch(self, t: float, y: np.ndarray) -> bool:
         """Switch the wrenches whose start or end is t or earlier; True if any did."""
         changed = False
-        for k, w in enumerate(self.model.wrenches):
+        for k in range(self.count):
             if self.done[k]:
                 continue
-            if not self.started[k] and w.start <= t:
+            if not self.started[k] and self.end[k] <= t:
+                self.done[k] = True   # its end came first (a release): it never starts
+                continue
+            if not self.started[k] and self.start[k] <= t:
                 self.started[k] = True
                 self._anchor(k, y)
+                self.array[self.n + k, LOADS.S_START] = self.start[k]   # tables against time
                 self.array[self.n + k, LOADS.S_ON] = 1.0
                 changed = True
-            if self.started[k] and w.end is not None and w.end <= t:
+            if self.started[k] and self.end[k] <= t:
                 self._off(k)
                 changed = True
         return changed
+
+    def released(self, joints, t: float) -> bool:
+        """
+        Time the wrenches tied to the release of ``joints`` at t (``ties.Ties``).
+
+        Returns True if any is now due at t (the caller then calls ``switch``).
+        """
+        return self.ties.released(joints, t, self.start, self.end)
 
     def reanchor(self, y: np.ndarray):
         """Measure the strokes of the wrenches already on from state y (a new initial state)."""
