@@ -4,7 +4,13 @@
 
 import os
 
+from cfem_ros.study import load_sweep
+from cfem_ros.study.sweep import columns
 import yaml
+
+#: The linear studies' input: the release angle, normal with this mean and SD (deg).
+ANGLE = 'joints.pivot.release.angle_deg'
+MEAN, SIGMA = 10.0, 1.0
 
 #: The store on its hinge (config/store_separation.yaml), shorter and coarser.
 STORE = {
@@ -48,3 +54,27 @@ def write_sweep(folder, *, runs=3, seed=7, vary=None, metrics=None, scenario=Non
     with open(path, 'w') as stream:
         yaml.safe_dump(sweep, stream, sort_keys=False)
     return path
+
+
+def linear_sweep(folder, z_fail, runs, seed=5, **extra):
+    """Return a sweep that fails when the (normal) release angle is beyond z_fail SDs."""
+    threshold = float(0.1 - 0.01 * SIGMA * z_fail)
+    path = write_sweep(folder, runs=runs, seed=seed,
+                       vary={ANGLE: {'normal': [MEAN, SIGMA]},
+                             'bodies.store.mass': {'uniform': [900.0, 910.0]}},   # ignored
+                       criteria={'miss': f'clearance_store_pylon_min >= {threshold!r}'},
+                       **extra)
+    return load_sweep(path)
+
+
+def linear_rows(spec, runs):
+    """Return the runs' rows without simulating: the clearance falls with the angle."""
+    names = columns(spec)
+    out = []
+    for k in runs:
+        values = spec.run_values(k)
+        row = dict.fromkeys(names, float('nan'))
+        row.update(run=k, status='ok', message='', **values)
+        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN)
+        out.append(row)
+    return out

@@ -20,37 +20,17 @@ import os
 from cfem_ros.study import load_sweep
 from cfem_ros.study.methods import run_study
 from cfem_ros.study.runs import run_one
-from cfem_ros.study.sweep import columns
 import numpy as np
 import pytest
 from scipy.stats import norm
-from sweeps import STORE, write_sweep
+from sweeps import ANGLE, linear_rows, linear_sweep, MEAN, SIGMA, STORE, write_sweep
 
 LONG = os.environ.get('CFEM_LONG_TESTS') == '1'
-ANGLE = 'joints.pivot.release.angle_deg'
-MEAN, SIGMA = 10.0, 1.0
 
 
 def _linear_sweep(folder, probability, runs, seed=5):
     """Return a sweep whose clearance 0.1 - 0.01 (angle - 10) fails beyond a quantile."""
-    threshold = float(0.1 - 0.01 * SIGMA * norm.isf(probability))
-    path = write_sweep(folder, runs=runs, seed=seed,
-                       vary={ANGLE: {'normal': [MEAN, SIGMA]},
-                             'bodies.store.mass': {'uniform': [900.0, 910.0]}},   # ignored
-                       criteria={'miss': f'clearance_store_pylon_min >= {threshold!r}'})
-    return load_sweep(path)
-
-
-def _linear_rows(spec, runs):
-    names = columns(spec)
-    out = []
-    for k in runs:
-        values = spec.run_values(k)
-        row = dict.fromkeys(names, float('nan'))
-        row.update(run=k, status='ok', message='', **values)
-        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN)
-        out.append(row)
-    return out
+    return linear_sweep(folder, norm.isf(probability), runs, seed)
 
 
 def _check(found, probability, outdir, method):
@@ -79,7 +59,7 @@ def test_each_method_s_interval_holds_the_exact_probability(tmp_path, method, pr
                                                             runs):
     spec = _linear_sweep(tmp_path, probability, runs)
     out = str(tmp_path / method)
-    found = run_study(spec, out, method=method, rows=_linear_rows, log=lambda line: None)
+    found = run_study(spec, out, method=method, rows=linear_rows, log=lambda line: None)
     _check(found, probability, out, method)
 
 
@@ -90,7 +70,7 @@ def test_a_study_resumes_without_running_again(tmp_path):
 
     def rows(part, runs):
         calls.append(len(runs))
-        return _linear_rows(part, runs)
+        return linear_rows(part, runs)
 
     first = run_study(spec, out, method='form', rows=rows, log=lambda line: None)
     ran = sum(calls)
@@ -139,7 +119,7 @@ def test_plot_of_a_study_prints_its_estimate_not_the_fractions_of_its_runs(tmp_p
     from cfem_ros import study_plots
     spec = _linear_sweep(tmp_path, 1e-3, 200)
     out = str(tmp_path / 'nais')
-    found = run_study(spec, out, method='nais', rows=_linear_rows, log=lambda line: None)
+    found = run_study(spec, out, method='nais', rows=linear_rows, log=lambda line: None)
     capsys.readouterr()
     paths = study_plots.write_sweep_figures(out, str(tmp_path / 'figures'))
     printed = capsys.readouterr().out.splitlines()
@@ -154,7 +134,7 @@ def test_form_on_a_criterion_that_hardly_changes_says_so_and_keeps_its_runs(tmp_
     spec = _linear_sweep(tmp_path, 1e-3, 10)
 
     def flat_rows(spec, runs):
-        rows = _linear_rows(spec, runs)
+        rows = linear_rows(spec, runs)
         for row in rows:
             row['clearance_store_pylon_min'] = 0.2 - 1e-9 * (row[ANGLE] - MEAN)
         return rows

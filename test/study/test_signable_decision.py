@@ -17,7 +17,6 @@ import json
 import math
 import os
 
-from cfem_ros.study import load_sweep
 from cfem_ros.study.bounds import student_bounds
 from cfem_ros.study.decision import (
     decide, decide_runs, DOES_NOT_MEET, MEETS, UNDECIDED, up, verdict)
@@ -27,34 +26,7 @@ from cfem_ros.study.tails import DOF, mc_tail, SCALE
 import numpy as np
 import pytest
 from scipy import stats
-from sweeps import write_sweep
-
-ANGLE = 'joints.pivot.release.angle_deg'
-MEAN, SIGMA = 10.0, 1.0
-
-
-def _sweep(folder, z_fail, runs, seed=5, **extra):
-    """Return a sweep that fails when the (normal) release angle is beyond z_fail SDs."""
-    threshold = float(0.1 - 0.01 * SIGMA * z_fail)
-    path = write_sweep(folder, runs=runs, seed=seed,
-                       vary={ANGLE: {'normal': [MEAN, SIGMA]},
-                             'bodies.store.mass': {'uniform': [900.0, 910.0]}},   # ignored
-                       criteria={'miss': f'clearance_store_pylon_min >= {threshold!r}'},
-                       **extra)
-    return load_sweep(path)
-
-
-def _rows(spec, runs):
-    """Return the runs' rows without simulating: the clearance falls with the angle."""
-    names = columns(spec)
-    out = []
-    for k in runs:
-        values = spec.run_values(k)
-        row = dict.fromkeys(names, float('nan'))
-        row.update(run=k, status='ok', message='', **values)
-        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN)
-        out.append(row)
-    return out
+from sweeps import ANGLE, linear_rows, linear_sweep, MEAN, SIGMA
 
 
 def _quiet(line):
@@ -73,9 +45,9 @@ def test_decide_runs_bound_is_scipy_s_beta_quantile_to_the_bit(failures, runs, c
 
 
 def test_a_monte_carlo_study_s_p_upper_is_the_beta_quantile_exactly(tmp_path):
-    spec = _sweep(tmp_path, 2.0, 400, target=0.05)
+    spec = linear_sweep(tmp_path, 2.0, 400, target=0.05)
     out = str(tmp_path / 'mc')
-    found = run_study(spec, out, method='mc', rows=_rows, log=_quiet)
+    found = run_study(spec, out, method='mc', rows=linear_rows, log=_quiet)
     estimate = found['estimate']
     failed = int((~found['table']['pass']).sum())
     assert 0 < failed < 400 and estimate.failed_runs == failed
@@ -148,9 +120,9 @@ def test_importance_sampling_bounds_cover_the_exact_p_at_their_rate(method):
 
 def test_a_decision_that_rests_on_the_normal_tail_is_undecided(tmp_path):
     """Beyond 4 SDs: P = 3.2e-5 normal, 1.9e-3 with Student-t tails, target 1e-3."""
-    spec = _sweep(tmp_path, 4.0, 1000, target=1e-3)
+    spec = linear_sweep(tmp_path, 4.0, 1000, target=1e-3)
     out = str(tmp_path / 'nais')
-    found = run_study(spec, out, method='nais', rows=_rows, log=_quiet)
+    found = run_study(spec, out, method='nais', rows=linear_rows, log=_quiet)
     estimate = found['estimate']
     heavy = stats.t.sf(4.0 / SCALE, DOF)
     assert estimate.p_upper < 1e-3 < heavy
@@ -166,8 +138,8 @@ def test_a_decision_that_rests_on_the_normal_tail_is_undecided(tmp_path):
 
 def test_a_decision_that_does_not_rest_on_the_tail_is_unchanged(tmp_path):
     """Beyond 2 SDs (P = 0.023) against 1e-3: does not meet, with either tails."""
-    spec = _sweep(tmp_path, 2.0, 1000, target=1e-3)
-    found = run_study(spec, str(tmp_path / 'nais'), method='nais', rows=_rows, log=_quiet)
+    spec = linear_sweep(tmp_path, 2.0, 1000, target=1e-3)
+    found = run_study(spec, str(tmp_path / 'nais'), method='nais', rows=linear_rows, log=_quiet)
     estimate = found['estimate']
     assert estimate.decision == DOES_NOT_MEET
     assert 'unchanged with heavier tails' in estimate.decision_sentence
@@ -175,7 +147,7 @@ def test_a_decision_that_does_not_rest_on_the_tail_is_unchanged(tmp_path):
 
 def test_monte_carlo_s_tail_bound_holds_the_heavier_tailed_p(tmp_path):
     """The reweighted runs' bound is exact: it covers P_heavy at (at least) its rate."""
-    spec = _sweep(tmp_path, 2.5, 3, target=1e-2)
+    spec = linear_sweep(tmp_path, 2.5, 3, target=1e-2)
     heavy = stats.t.sf(2.5 / SCALE, DOF)
     covered, n = 0, 500
     rng = np.random.default_rng(3)
@@ -279,7 +251,7 @@ def test_form_and_its_importance_sampling_that_disagree_say_so(tmp_path):
     """A parabola: FORM's Phi(-3) = 1.35e-3 where P is half that; the report says so."""
     from scipy.integrate import quad
     from cfem_ros.study.report import build
-    spec = _sweep(tmp_path, 3.0, 200, target=1e-2)
+    spec = linear_sweep(tmp_path, 3.0, 200, target=1e-2)
     out = str(tmp_path / 'form')
     estimate = run_study(spec, out, method='form', rows=_curved_rows, log=_quiet)['estimate']
     exact = quad(lambda v: stats.norm.pdf(v) * stats.norm.sf(3.0 + KAPPA * v * v), -12, 12)[0]
