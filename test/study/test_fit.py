@@ -147,6 +147,10 @@ def test_fit_recovers_the_ejector_forces_and_writes_its_outputs(flight, tmp_path
     # the residuals are the noise: their RMS is the sigma, within the scatter of 126 x 3
     assert found['residual_rms']['position'] == pytest.approx(SIGMA_POSITION, rel=0.15)
     assert found['residual_rms']['attitude_deg'] == pytest.approx(SIGMA_ATTITUDE, rel=0.15)
+    # printed in m and deg, as every length and angle the tool prints (SPEC 15), 3 digits
+    rms = found['residual_rms']
+    assert f"residual {rms['position']:.3g} m, {rms['attitude_deg']:.3g} deg" in said
+    assert ' mm' not in said and 0.001 < float(f"{rms['position']:.3g}") < 0.01
     # fitted.yaml holds the fitted values and runs where it is; fitted.mcap is its run
     fitted = yaml.safe_load((out / 'fitted.yaml').read_text())
     assert fitted['wrenches'][1]['force'][2] == aft['value']

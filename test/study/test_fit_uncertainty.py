@@ -153,7 +153,7 @@ def test_profile_intervals_cover_the_truth_at_their_rate_over_20_seeds(flight, t
     assert np.all(covered >= 16), covered
 
 
-def test_two_flights_determine_the_shared_forces_better_than_either_alone(tmp_path):
+def test_two_flights_determine_the_shared_forces_better_than_either_alone(tmp_path, capsys):
     # the same ejectors under two conditions: a store of 907 kg and one of 1,200 kg
     heavy = {'bodies.store.mass': 1200.0}
     poses = {'light': ff.truth(tmp_path, 'light'), 'heavy': ff.truth(tmp_path, 'heavy', heavy)}
@@ -179,6 +179,11 @@ def test_two_flights_determine_the_shared_forces_better_than_either_alone(tmp_pa
     assert cli.main(['fit', path, '-o', str(tmp_path / 'both'), '--threads', '2']) == 0
     found['both'] = json.loads((tmp_path / 'both' / 'fit.json').read_text())
     both = found['both']
+    said = capsys.readouterr().out
+    for key, flight in zip(('measured[0]', 'measured[1]'), both['flights']):   # m, as SPEC 15
+        rms = flight['residual_rms']
+        assert (f"{key}: residual {rms['position']:.3g} m, {rms['attitude_deg']:.3g} deg over "
+                f"{flight['samples']} poses") in said, said
     assert [f['set'] for f in both['flights']] == [{}, heavy]
     assert [f['samples'] for f in both['flights']] == [61, 61]
     # the chi-square is the flights' sum; each flight's residuals are its noise

@@ -6,7 +6,8 @@ What a fit says when it ends: one sentence, its notes, and its warnings.
 The errors printed are the scaled standard errors (the standard error
 times sqrt(max(1, reduced chi-square))); a reduced chi-square above 2 is a
 WARNING line, and so are a flight's residuals that are not noise
-(``uncertainty.residual_structure``).
+(``uncertainty.residual_structure``). The residual's RMS is printed in m and
+deg, as every other length and angle the tool prints (SPEC section 15).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def sentence(fit: Fit, result: FitResult) -> str:
                 parts.append(f'correlation {parameters[i].name} / {parameters[k].name} '
                              f'{c:+.2f}')
     rms = result.residual_rms
-    parts.append(f'residual {rms["position"] * 1000:.3g} mm, {rms["attitude_deg"]:.3g} deg')
+    parts.append(f'residual {rms["position"]:.3g} m, {rms["attitude_deg"]:.3g} deg')
     parts.append(f'reduced chi-square {u.reduced_chi2:.3g}')
     text = ', '.join(parts) + f' ({result.status}, {result.runs} runs)'
     if result.intervals is not None:
@@ -65,7 +66,7 @@ def sentence(fit: Fit, result: FitResult) -> str:
     if len(result.flights) > 1:
         for flight, summary in zip(fit.spec.flights, result.flights):
             rms = summary['residual_rms']
-            text += (f'\n{flight.key}: residual {rms["position"] * 1000:.3g} mm, '
+            text += (f'\n{flight.key}: residual {rms["position"]:.3g} m, '
                      f'{rms["attitude_deg"]:.3g} deg over {summary["samples"]} poses')
     if result.problems:
         text += '\n' + '\n'.join(f'note: {p}' for p in result.problems)
