@@ -41,3 +41,11 @@ class ScenarioError(CfemError):
 
 class InputError(CfemError):
     """A command-line argument or input log that cannot be used."""
+
+
+class ArgumentError(CfemError, ValueError):
+    """
+    An argument a call of the API refuses (a state of the wrong shape, an unknown body).
+
+    A ``ValueError`` too, as these refusals were before they were ``CfemError``.
+    """

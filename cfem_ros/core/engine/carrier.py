@@ -21,6 +21,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.graph import adjacency
 from cfem_ros.core.native import kernel, motion
 import numpy as np
@@ -162,8 +163,8 @@ class Carriers:
         i, t, position, quat, velocity, rates = self._message(
             body, t, position, quaternion, velocity_body, rates_body)
         if t <= self.sim.t:
-            raise ValueError(f'odometry at t = {t:.9g} s is not after now ({self.sim.t:.9g} s); '
-                             'set_odometry applies it now')
+            raise ArgumentError(f'odometry at t = {t:.9g} s is not after now '
+                                f'({self.sim.t:.9g} s); set_odometry applies it now')
         turn = rotations.matrices(quat[None])[0]
         ahead = self._ahead.setdefault(i, {})
         ahead[t] = (position, quat, turn @ velocity, rates)
@@ -192,19 +193,19 @@ class Carriers:
         i = self.sim.body_index(body)
         name = self.sim.model.bodies[i].name
         if self.sim.model.bodies[i].motion is None:
-            raise ValueError(f'body {name!r} is not kinematic (no motion): odometry drives '
-                             'only kinematic bodies')
+            raise ArgumentError(f'body {name!r} is not kinematic (no motion): odometry drives '
+                                'only kinematic bodies')
         values = [np.asarray(v, dtype=float)
                   for v in (position, quaternion, velocity_body, rates_body)]
         if [v.shape for v in values] != [(3,), (4,), (3,), (3,)] or not all(
                 np.isfinite(v).all() for v in values) or not math.isfinite(t):
-            raise ValueError('odometry must have a finite time, position (3), quaternion (4), '
-                             'linear and angular velocity (3 each)')
+            raise ArgumentError('odometry must have a finite time, position (3), quaternion (4), '
+                                'linear and angular velocity (3 each)')
         position, quat, velocity, rates = values
         norm = np.linalg.norm(quat)
         if abs(norm - 1.0) > 1e-3:
-            raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
-                             'quaternion (to 1e-3)')
+            raise ArgumentError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
+                                'quaternion (to 1e-3)')
         return i, float(t), position, quat / norm, velocity, rates
 
     def _pack(self, i: int):

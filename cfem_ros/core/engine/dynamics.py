@@ -34,6 +34,7 @@ from cfem_ros.core.engine.bodies import initial_state, mass_table, state_views
 from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.engine.loads import ScheduledLoads
 from cfem_ros.core.engine.sampling import NumericalFailure
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel, motion
 from cfem_ros.core.native.kernel import LOADS
@@ -70,7 +71,7 @@ def _index(lookup, item, what: str) -> int:
         try:
             return lookup(item)
         except ValueError:
-            raise ValueError(f'unknown {what} {item!r}') from None
+            raise ArgumentError(f'unknown {what} {item!r}') from None
     return int(item)
 
 
@@ -234,11 +235,11 @@ def held_wrench(body, force, torque, point=None):
     torque = np.asarray(torque, dtype=float)
     point = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     if force.shape != (3,) or torque.shape != (3,) or point.shape != (3,):
-        raise ValueError('force, torque and point must have 3 components each')
+        raise ArgumentError('force, torque and point must have 3 components each')
     if not (np.isfinite(force).all() and np.isfinite(torque).all()
             and np.isfinite(point).all()):
-        raise ValueError('force, torque and point must be finite')
+        raise ArgumentError('force, torque and point must be finite')
     if not body.dynamic:
         what = 'fixed' if body.fixed else 'kinematic (it follows its motion)'
-        raise ValueError(f'body {body.name!r} is {what} and cannot be loaded')
+        raise ArgumentError(f'body {body.name!r} is {what} and cannot be loaded')
     return force, torque, point

@@ -19,6 +19,7 @@ from __future__ import annotations
 import re
 from typing import Optional
 
+from cfem_ros.core.errors import ArgumentError
 import numpy as np
 
 #: A release command may name several joints or groups, separated by spaces or commas.
@@ -100,9 +101,9 @@ class ReleaseGroups:
                 return (k,)
         joints = ', '.join(j.name for j in self.model.joints) or 'none'
         if not self.members:
-            raise ValueError(f'unknown joint {name!r} (joints: {joints})')
-        raise ValueError(f'unknown joint or release group {name!r} (joints: {joints}; '
-                         f'release groups: {", ".join(self.members)})')
+            raise ArgumentError(f'unknown joint {name!r} (joints: {joints})')
+        raise ArgumentError(f'unknown joint or release group {name!r} (joints: {joints}; '
+                            f'release groups: {", ".join(self.members)})')
 
     def check_command(self, text: str, active: np.ndarray) -> list:
         """
@@ -113,14 +114,14 @@ class ReleaseGroups:
         """
         names = command_names(text)
         if not names:
-            raise ValueError('empty release command; expected the name of a joint or of a '
-                             'release group')
+            raise ArgumentError('empty release command; expected the name of a joint or of a '
+                                'release group')
         joints = []
         for name in names:
             members = self.resolve(name)
             if not any(active[k] for k in members):
                 what = 'release group' if name in self.members else 'joint'
-                raise ValueError(f'{what} {name!r} is already released')
+                raise ArgumentError(f'{what} {name!r} is already released')
             joints.extend(k for k in members if active[k] and k not in joints)
         return joints
 

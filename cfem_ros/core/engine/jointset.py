@@ -15,6 +15,7 @@ from __future__ import annotations
 from cfem_ros.core.engine.groups import ReleaseGroups, row_weights
 from cfem_ros.core.engine.releases import Releases
 from cfem_ros.core.engine.topology import JointTables, Topology
+from cfem_ros.core.errors import ArgumentError
 import numpy as np
 
 
@@ -82,7 +83,7 @@ class JointSet:
             return self.groups.check_command(names, active)
         k = joint_index(names)
         if not active[k]:
-            raise ValueError(f'joint {self.model.joints[k].name!r} is already released')
+            raise ArgumentError(f'joint {self.model.joints[k].name!r} is already released')
         return [k]
 
     def release(self, joints, t: float, cause: str) -> tuple:

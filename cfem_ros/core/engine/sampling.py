@@ -15,7 +15,7 @@ from __future__ import annotations
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import Failure
-from cfem_ros.core.errors import CfemError
+from cfem_ros.core.errors import ArgumentError, CfemError
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import PLAN
 import numpy as np
@@ -72,7 +72,7 @@ class SampleGrid:
     def reset(self, next_index: int, rows: np.ndarray):
         """Take samples from index next_index on, into rows (C-contiguous float64)."""
         if rows.ndim != 2 or rows.dtype != np.float64 or not rows.flags.c_contiguous:
-            raise ValueError('sample rows must be a C-contiguous 2-d float64 array')
+            raise ArgumentError('sample rows must be a C-contiguous 2-d float64 array')
         self.state[1:] = (next_index, 0)
         self.rows = rows
 

@@ -36,6 +36,7 @@ from cfem_ros.core.engine.sampling import (LOADS_NOT_FINITE, NumericalFailure, S
                                            Sampling, SINGULAR)
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.watch import Watch
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel
 import numpy as np
@@ -151,11 +152,11 @@ class Simulator:
         """
         y = np.array(y, dtype=float)
         if y.shape != self.y.shape:
-            raise ValueError(f'the state has shape {y.shape}; expected {self.y.shape} '
-                             f'(13 numbers per body, {self.n} bodies)')
+            raise ArgumentError(f'the state has shape {y.shape}; expected {self.y.shape} '
+                                f'(13 numbers per body, {self.n} bodies)')
         if start and self.steps:
-            raise ValueError(f'start: the run has taken {self.steps} steps (t = {self.t:.9g} '
-                             's); expected a state set before the first step')
+            raise ArgumentError(f'start: the run has taken {self.steps} steps (t = {self.t:.9g} '
+                                's); expected a state set before the first step')
         self.y = y
         self._scheduled.reanchor(self.y)   # strokes measured from here
         if start:   # the scenario's initial state is not this run's: what it told goes
@@ -338,19 +339,19 @@ class Simulator:
         """
         t_target = float(t_target)
         if not math.isfinite(t_target):
-            raise ValueError(f't_target is {t_target!r}; expected a finite time in s')
+            raise ArgumentError(f't_target is {t_target!r}; expected a finite time in s')
         if t_target < self.t:
-            raise ValueError(f't_target is {t_target:.9g} s, before the current time '
-                             f'{self.t:.9g} s; time only moves forward')
+            raise ArgumentError(f't_target is {t_target:.9g} s, before the current time '
+                                f'{self.t:.9g} s; time only moves forward')
         limit = math.inf if limit is None else float(limit)
         if math.isnan(limit):
-            raise ValueError('limit is nan; expected a time in s (inf for none)')
+            raise ArgumentError('limit is nan; expected a time in s (inf for none)')
         if self.status is not Status.RUNNING:
             return False
         if samples is not None and samples.rows.shape[1] not in (
                 0, self.sampling.outputs_size()):
-            raise ValueError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
-                             f'of this state have {self.sampling.outputs_size()}')
+            raise ArgumentError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
+                                f'of this state have {self.sampling.outputs_size()}')
         steps = self.steps
 
         def release_now():

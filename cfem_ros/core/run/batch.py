@@ -26,6 +26,7 @@ from typing import Optional, Sequence
 
 from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.run import startcheck
 import numpy as np
 
@@ -71,7 +72,7 @@ def _copy(model, spec: dict, duration: float) -> Result:
     if 'y0' in spec:
         y0 = np.asarray(spec['y0'], dtype=float)
         if y0.shape != sim.y.shape:
-            raise ValueError(f'y0 has shape {y0.shape}; expected {sim.y.shape}')
+            raise ArgumentError(f'y0 has shape {y0.shape}; expected {sim.y.shape}')
         sim.set_state(y0, start=True)   # strokes, contacts and aero watched from there
     for body, (force, torque, *axes) in spec.get('loads', {}).items():
         sim.set_wrench(body, force, torque, body_axes=bool(axes and axes[0]))

@@ -17,6 +17,7 @@ import itertools
 from typing import Optional
 
 from cfem_ros.core.engine.events import TextEnum
+from cfem_ros.core.errors import ArgumentError
 import numpy as np
 
 
@@ -111,8 +112,8 @@ def parse_frame_id(frame_id: str):
     except ValueError:
         values = np.array([])
     if values.shape != (3,) or not np.isfinite(values).all():
-        raise ValueError(f'frame_id {frame_id!r}: the point after @ is not three finite '
-                         'numbers x,y,z (body axes, from the CG, m)')
+        raise ArgumentError(f'frame_id {frame_id!r}: the point after @ is not three finite '
+                            'numbers x,y,z (body axes, from the CG, m)')
     return frame, values
 
 
@@ -132,8 +133,8 @@ def stamp_problem(header_ns: Optional[int]) -> Optional[str]:
 
 def _bounded(values, what: str):
     if np.max(np.abs(values)) > MAX_INPUT_MAGNITUDE:
-        raise ValueError(f'{what} must be at most {MAX_INPUT_MAGNITUDE:g} in magnitude, as '
-                         'in a scenario')
+        raise ArgumentError(f'{what} must be at most {MAX_INPUT_MAGNITUDE:g} in magnitude, as '
+                            'in a scenario')
 
 
 def input_topic(item: Input) -> str:
@@ -161,32 +162,32 @@ def validate_input(sim, item: Input):
         return
     stamp = stamp_problem(item.header_ns)
     if stamp:
-        raise ValueError(stamp)
+        raise ArgumentError(stamp)
     names = [body.name for body in model.bodies]
     if item.target not in names:
-        raise ValueError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
+        raise ArgumentError(f'unknown body {item.target!r} (bodies: {", ".join(names)})')
     if item.kind is InputKind.ODOM:
         if model.bodies[names.index(item.target)].motion is None:
-            raise ValueError(f'body {item.target!r} is not kinematic (no motion): odometry '
-                             'drives only kinematic bodies')
+            raise ArgumentError(f'body {item.target!r} is not kinematic (no motion): odometry '
+                                'drives only kinematic bodies')
         if item.frame_id != model.frame_id:
-            raise ValueError(f'odometry frame_id {item.frame_id!r} is not the world frame '
-                             f'{model.frame_id!r}')
+            raise ArgumentError(f'odometry frame_id {item.frame_id!r} is not the world frame '
+                                f'{model.frame_id!r}')
         if item.values is None or not np.isfinite(item.values).all():
-            raise ValueError('odometry must be finite numbers')
+            raise ArgumentError('odometry must be finite numbers')
         _bounded(item.values, 'odometry numbers')
         norm = np.linalg.norm(item.values[3:7])
         if abs(norm - 1.0) > 1e-3:
-            raise ValueError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
-                             'quaternion (to 1e-3)')
+            raise ArgumentError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
+                                'quaternion (to 1e-3)')
         return
     frame, _ = parse_frame_id(item.frame_id)
     if frame not in (model.frame_id, item.target):
-        raise ValueError(f'frame_id {item.frame_id!r} is neither the world frame '
-                         f'{model.frame_id!r} nor the body {item.target!r} (optionally '
-                         'followed by @x,y,z, the point in body axes)')
+        raise ArgumentError(f'frame_id {item.frame_id!r} is neither the world frame '
+                            f'{model.frame_id!r} nor the body {item.target!r} (optionally '
+                            'followed by @x,y,z, the point in body axes)')
     if not (np.isfinite(item.force).all() and np.isfinite(item.torque).all()):
-        raise ValueError('force and torque must be finite')
+        raise ArgumentError('force and torque must be finite')
     _bounded(np.concatenate([item.force, item.torque]), 'force (N) and torque (N m)')
     _, point = parse_frame_id(item.frame_id)
     if point is not None:
@@ -194,7 +195,7 @@ def validate_input(sim, item: Input):
     body = model.bodies[names.index(item.target)]
     if not body.dynamic:
         what = 'fixed' if body.fixed else 'kinematic'
-        raise ValueError(f'body {item.target!r} is {what} and cannot be loaded')
+        raise ArgumentError(f'body {item.target!r} is {what} and cannot be loaded')
 
 
 def apply_input(sim, item: Input):

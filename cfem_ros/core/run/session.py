@@ -40,6 +40,7 @@ from typing import Callable, ClassVar, Optional, Protocol, Sequence
 
 from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.sampling import NumericalFailure, SampleGrid
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.run.inputs import (apply_input, Input, input_topic, InputKind, InputQueue,
                                       validate_input)
 import numpy as np
@@ -115,7 +116,7 @@ class Session:
                  warn: Optional[Callable[[str], None]] = None,
                  interpolate_odometry: bool = True):
         if not (math.isfinite(rate_hz) and rate_hz > 0):
-            raise ValueError(f'rate_hz is {rate_hz!r}; expected a rate > 0')
+            raise ArgumentError(f'rate_hz is {rate_hz!r}; expected a rate > 0')
         self.sim = sim
         self.rate_hz = float(rate_hz)
         self.duration = float(duration)
@@ -250,7 +251,7 @@ class Session:
         steps are taken.
         """
         if not math.isfinite(self.duration):
-            raise ValueError('run() needs a finite duration')
+            raise ArgumentError('run() needs a finite duration')
         self.start()
         sink = self.outputs[0] if len(self.outputs) == 1 else None
         if len(self.outputs) > 1 or (sink is not None and not sink.takes_rows):
