@@ -81,11 +81,12 @@ def summarize_command(args: argparse.Namespace) -> int:
         table = study.summarize(args.recordings, spec.metrics, client)
     finally:
         close(client, cluster)
+    from cfem_ros.study.summarize import UNITS
     from cfem_ros.study.sweep import write_atomic
-    try:
-        write_atomic(table, output)
+    try:   # each column's unit: Parquet field metadata, or the CSV's header
+        write_atomic(table, output, spec.document, UNITS)
         if args.csv:
-            write_atomic(table, csv)
+            write_atomic(table, csv, spec.document, UNITS)
     except OSError as err:
         return error(f'{output}: cannot write ({err.strerror or err})')
     unread = table[table['status'] == Status.FAILED]

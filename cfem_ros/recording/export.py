@@ -29,7 +29,7 @@ import uuid
 from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.relative import matching, relative_pose, release_time
-from cfem_ros.recording.units import AERO, BODY, JOINT, with_units
+from cfem_ros.recording.units import AERO, BODY, csv_header, JOINT, with_units
 import numpy as np
 
 __all__ = ['BODY_COLUMNS', 'JOINT_COLUMNS', 'AERO_COLUMNS', 'export_table', 'write_table']
@@ -237,12 +237,14 @@ def write_frame(table, path: str, float_format=None, units: Optional[dict] = Non
     Write a DataFrame to Parquet (pyarrow), or CSV (pandas) for .csv, through a temporary file.
 
     float_format: the CSV's number format (pandas' default, shortest round trip, if None);
-    units: {column: unit}, written as the Parquet fields' metadata (``units.with_units``).
+    units: {column: unit}, written as the Parquet fields' metadata (``units.with_units``)
+    or, in a CSV, after each column's name (``units.csv_header``: ``store_q [deg/s]``).
     """
     tmp = f'{path}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}'
     try:
         if path.lower().endswith('.csv'):   # T.CSV is CSV too, as write_table takes it
-            table.to_csv(tmp, index=False, float_format=float_format)
+            header = [csv_header(c, (units or {}).get(c)) for c in table.columns]
+            table.to_csv(tmp, index=False, float_format=float_format, header=header)
         else:
             import pyarrow.parquet as pq
             pq.write_table(with_units(table, units), tmp)

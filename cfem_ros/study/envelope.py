@@ -12,7 +12,8 @@ sweep's own machinery in ``OUTDIR/points/point_<k>`` (Monte Carlo: ``Sweep``;
 a rare-event method: ``methods.run_study``), so a point is resumed as a
 sweep is. Each point gets its estimate of P(any criterion fails), its
 one-sided bound and, with a ``target``, its decision (section 9);
-``envelope.parquet`` holds one row per point (``envelope_chart`` draws it).
+``envelope.parquet`` holds one row per point (``envelope_chart`` draws it),
+each numeric column's unit in its field metadata (``UNITS``).
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ POINTS = 'points'
 #: The table's columns after the axes.
 COLUMNS = ('point', 'method', 'runs', 'failed_runs', 'unfinished_runs', 'pass_fraction',
            'probability', 'p_upper', 'confidence', 'target', 'decision', 'folder', 'note')
+#: The units of the numeric columns after the axes (counts and fractions: none); an axis has
+#: its key's unit (``labels.unit_rule``), in the Parquet field metadata (SPEC section 15).
+UNITS = {'point': '', 'runs': '', 'failed_runs': '', 'unfinished_runs': '',
+         'pass_fraction': '', 'probability': '', 'p_upper': '', 'confidence': '', 'target': ''}
 
 
 @dataclasses.dataclass
@@ -309,7 +314,7 @@ def run_envelope(envelope: Envelope, outdir: str, *, method: str = 'mc', client=
         done(k, estimate, table)
     table = pd.DataFrame([rows[k] for k in range(count)],
                          columns=list(envelope.axes) + list(COLUMNS))
-    write_atomic(table, os.path.join(outdir, ENVELOPE))
+    write_atomic(table, os.path.join(outdir, ENVELOPE), envelope.spec.document, UNITS)
     return table
 
 

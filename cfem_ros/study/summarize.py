@@ -10,6 +10,10 @@ from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError
 from cfem_ros.study.metrics import compute, empty, from_run
 
+#: The units of the summary's own numeric columns (a clock stamp, ns); the metrics have
+#: their rules' (``labels.unit_rule``), as in a sweep's table.
+UNITS = {'start_stamp_ns': 'ns'}
+
 
 def summarize_file(path: str, metrics) -> dict:
     """

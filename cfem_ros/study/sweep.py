@@ -58,20 +58,24 @@ def frame(rows, names):
     return pd.DataFrame.from_records(rows, columns=names)
 
 
-def write_atomic(table, path: str, document: Optional[dict] = None):
+def write_atomic(table, path: str, document: Optional[dict] = None,
+                 units: Optional[dict] = None):
     """
     Write a DataFrame to Parquet (or CSV for .csv) through a temporary file.
 
     With the base scenario's document, each numeric column's unit
-    (``labels.unit_rule``) goes into the Parquet field metadata (SPEC section 15).
+    (``labels.unit_rule``) goes into the Parquet field metadata, or a CSV's
+    header (``store_q [deg/s]``), SPEC section 15; units ({column: unit})
+    gives those of columns the rules do not know, and wins over them.
     """
-    units = None
+    found = {}
     if document is not None:
         from cfem_ros.study.labels import unit_rule
-        units = {c: unit_rule(c, document) for c in table.columns
+        found = {c: unit_rule(c, document) for c in table.columns
                  if table[c].dtype.kind in 'fiub'}
-        units = {c: u for c, u in units.items() if u is not None}
-    write_frame(table, path, units=units)
+        found = {c: u for c, u in found.items() if u is not None}
+    found.update(units or {})
+    write_frame(table, path, units=found or None)
 
 
 def run_task(spec: SweepSpec, runs, outdir: str, record: str = 'none',
@@ -180,7 +184,7 @@ def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
     table = decide(spec, outdir, table)
     write_atomic(table, os.path.join(outdir, RESULTS), spec.document)
     if csv:
-        write_atomic(table, os.path.join(outdir, 'results.csv'))
+        write_atomic(table, os.path.join(outdir, 'results.csv'), spec.document)
     return table
 
 

@@ -14,6 +14,7 @@ import math
 
 from cfem_ros import cli
 from cfem_ros.recording.analysis import open_run
+from cfem_ros.recording.units import read_csv, read_units
 import numpy as np
 import pandas as pd
 import pytest
@@ -67,7 +68,7 @@ def _run(tmp_path, doc, name, rate=100) -> str:
 def _export(tmp_path, recording, name, *extra) -> pd.DataFrame:
     path = tmp_path / name
     assert cli.main(['export', recording, '-o', str(path), *extra]) == 0
-    return pd.read_csv(path) if name.endswith('.csv') else pd.read_parquet(path)
+    return read_csv(str(path)) if name.endswith('.csv') else pd.read_parquet(path)
 
 
 @pytest.fixture(scope='module')
@@ -122,6 +123,11 @@ def test_csv_holds_the_same_numbers_and_rate_keeps_recorded_samples(turning, cap
     parquet = _export(tmp, recording, 'all.parquet')
     csv = _export(tmp, recording, 'all.csv')
     assert list(csv.columns) == list(parquet.columns)
+    with open(tmp / 'all.csv') as stream:   # each header says its unit (a CSV has no metadata)
+        header = stream.readline().strip().split(',')
+    units = read_units(str(tmp / 'all.parquet'))
+    assert header == [f'{c} [{units[c] or 1}]' for c in parquet.columns]
+    assert 'aircraft_q [deg/s]' in header and 'store_roll_deg [deg]' in header
     assert 'aircraft_x' in csv and 'time_from_release' not in csv   # no reference
     np.testing.assert_array_equal(csv.to_numpy(), parquet.to_numpy())   # 17 digits: exact
     coarse = _export(tmp, recording, 'coarse.parquet', '--rate', '20')

@@ -17,7 +17,8 @@ releases the file records. Three sources:
   composed with the ``relative_to`` body's recorded poses;
 - a CSV in the columns of ``cfem-sim export --relative-to`` (``time``,
   ``<body>_x``, ``_y``, ``_z`` in m, ``_roll_deg``, ``_pitch_deg``,
-  ``_yaw_deg``, Z-Y-X).
+  ``_yaw_deg``, Z-Y-X), each header the bare name or the name with its
+  unit as export writes it (``store_x [m]``); another unit is refused.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import decoded_messages, open_mcap
 from cfem_ros.recording.relative import relative_pose
 from cfem_ros.recording.replay import start_stamp_ns
+from cfem_ros.recording.units import bare_columns, BODY
 from cfem_ros.study.fit.flights import FitError, Flight
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -145,6 +147,12 @@ def _from_csv(path: str, spec: Flight) -> Measured:
         raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} cannot be read '
                        f'as CSV ({err})', 'a CSV written by cfem-sim export') from err
     names = ['time'] + [f'{spec.body}_{q}' for q in CSV_QUANTITIES]
+    expected = {'time': 's', **{f'{spec.body}_{q}': BODY[q] for q in CSV_QUANTITIES}}
+    try:   # a header 'store_x [m]' (as export writes it) or 'store_x'
+        table.columns = bare_columns(spec.measured_file, table.columns, expected)
+    except RecordingError as err:
+        raise FitError(path, f'{spec.key}.file', str(err), 'the units of cfem-sim export '
+                       '(m, deg, s)') from err
     missing = [n for n in names if n not in table.columns]
     if missing:
         raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} has no column '

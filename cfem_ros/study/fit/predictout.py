@@ -8,7 +8,8 @@ the last sample, the criteria's pass fraction with its exact interval),
 ``band.parquet`` (per sample time: the draws counted and, per quantity of
 the body relative to the carrier, the 5 %, median and 95 % values over the
 draws and the run at the fitted values), ``draws.parquet`` (one row per
-draw: its values, status, metrics, pass), the six-panel sheet
+draw: its values, status, metrics, pass), each numeric column's unit in
+the Parquet field metadata (``table_units``, SPEC section 15), the six-panel sheet
 ``prediction.png`` and the page ``prediction.html`` (self-contained). The
 files are written by renames from a hidden folder, as a fit's are.
 """
@@ -22,8 +23,10 @@ import math
 import os
 
 from cfem_ros.core.engine.events import Status
+from cfem_ros.recording.units import with_units
 from cfem_ros.study.fit.outputs import write_by_renames
 from cfem_ros.study.fit.predict import Fitted, PredictionResult, QUANTILES, QUANTITIES
+from cfem_ros.study.labels import unit_rule
 import numpy as np
 
 NAMES = ('prediction.json', 'band.parquet', 'draws.parquet', 'prediction.png',
@@ -65,6 +68,34 @@ def band_table(fitted: Fitted, result: PredictionResult):
                        result.fitted[:, q]):
             columns[next(names)] = values
     return pd.DataFrame(columns)
+
+
+def table_units(table, document: dict, body: str) -> dict:
+    """
+    Return {column: unit} of band.parquet's or draws.parquet's numeric columns.
+
+    The band's ``time`` (s), ``draws`` (a count) and each quantity's unit
+    (``QUANTITIES``); a draw's ``run``, ``pass`` and its values and metrics
+    as a sweep's table gives them (``labels.unit_rule`` with the next
+    point's scenario).
+    """
+    known = {'time': 's', 'draws': '', 'run': '', 'pass': ''}
+    for q, unit in QUANTITIES:
+        known.update((f'{body}_{q}_{what}', unit) for what in ('p05', 'median', 'p95', 'fitted'))
+    units = {}
+    for column in table.columns:
+        if column in known:
+            units[column] = known[column]
+        elif table[column].dtype.kind in 'fiub':
+            rule = unit_rule(column, document)
+            if rule is not None:
+                units[column] = rule
+    return units
+
+
+def _write_parquet(table, path: str, document: dict, body: str):
+    import pyarrow.parquet as pq
+    pq.write_table(with_units(table, table_units(table, document, body)), path)
 
 
 def prediction_json(fitted: Fitted, nxt, result: PredictionResult, seed: int) -> dict:
@@ -260,8 +291,9 @@ def write_prediction(fitted: Fitted, nxt, result: PredictionResult, seed: int,
     def write(local):
         with open(local['prediction.json'], 'w', encoding='utf-8') as stream:
             json.dump(_clean(summary), stream, indent=1, allow_nan=False)
-        band_table(fitted, result).to_parquet(local['band.parquet'], index=False)
-        result.table.to_parquet(local['draws.parquet'], index=False)
+        _write_parquet(band_table(fitted, result), local['band.parquet'], nxt.document,
+                       fitted.body)
+        _write_parquet(result.table, local['draws.parquet'], nxt.document, fitted.body)
         draw_sheet(fitted, result, local['prediction.png'])
         with open(local['prediction.html'], 'w', encoding='utf-8') as stream:
             stream.write(page(fitted, result, summary, said.split('\n') + extra,
