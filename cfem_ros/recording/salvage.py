@@ -14,6 +14,7 @@ import io
 import struct
 import zlib
 
+from cfem_ros.core.errors import CfemError
 from cfem_ros.recording.reader import READ_ERRORS
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile
@@ -32,7 +33,7 @@ DATA_OPCODES = {Opcode.HEADER, Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Op
                 Opcode.MESSAGE_INDEX, Opcode.ATTACHMENT, Opcode.METADATA, Opcode.DATA_END}
 
 
-class Damaged(Exception):
+class Damaged(CfemError):
     """A record that does not check out (its message says why)."""
 
 

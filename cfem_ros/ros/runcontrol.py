@@ -30,6 +30,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import describe_event, Event, TextEnum
 from cfem_ros.core.engine.sampling import NumericalFailure
+from cfem_ros.core.errors import CfemError
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
 from std_msgs.msg import String
@@ -49,7 +50,7 @@ PLAYING, PAUSED, STOPPED = ControlState.PLAYING, ControlState.PAUSED, ControlSta
 SLICE_STEPS = 100
 
 
-class ControlError(Exception):
+class ControlError(CfemError):
     """A request the run cannot do now (the message says why); nothing changed."""
 
 

@@ -37,7 +37,7 @@ def unrecorded(runs, reason: str, outdir: str) -> ResourceFailure:
                            'writable) and run the same command again to do them')
 
 
-class PartialRows(Exception):
+class PartialRows(CfemError):
     """The rows of a task's runs that were written, and the failure of the others."""
 
     def __init__(self, rows: list, failure: ResourceFailure):

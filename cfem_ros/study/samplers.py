@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import math
 from typing import Optional
 
+from cfem_ros.core.errors import CfemError
 from cfem_ros.study.bounds import batch_means
 import numpy as np
 
@@ -55,7 +56,7 @@ ARMIJO = 1e-4
 MAX_BETA = 37.0
 
 
-class FlatLimitState(RuntimeError):
+class FlatLimitState(CfemError, RuntimeError):
     """A limit state FORM cannot search: no gradient, or its surface beyond MAX_BETA."""
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.graph import carriers
 import numpy as np
 
@@ -104,7 +105,7 @@ class Model:
         for i, body in enumerate(self.bodies):
             if body.name == name:
                 return i
-        raise ValueError(f'no body named {name!r}')
+        raise ArgumentError(f'no body named {name!r}')
 
     def carrier(self, body: int) -> int:
         """
@@ -123,7 +124,7 @@ class Model:
         for i, joint in enumerate(self.joints):
             if joint.name == name:
                 return i
-        raise ValueError(f'no joint named {name!r}')
+        raise ArgumentError(f'no joint named {name!r}')
 
 
 def default_baumgarte(dt: float) -> float:
