@@ -110,13 +110,13 @@ def _exported_with_noise(folder, path, seed):
     """Export the flight's recording relative to the pylon; add noise to its pose columns."""
     assert cli.main(['export', str(folder / 'truth.mcap'), '-o', str(path),
                      '--relative-to', 'pylon']) == 0
-    table = pd.read_csv(path)
+    table = pd.read_csv(path)   # the headers as export writes them, with their units
     rng = np.random.default_rng(seed)
     for q in ('x', 'y', 'z'):
-        table[f'store_{q}'] += rng.normal(0.0, SIGMA_POSITION, len(table))
+        table[f'store_{q} [m]'] += rng.normal(0.0, SIGMA_POSITION, len(table))
     for q in ('roll', 'pitch', 'yaw'):
-        table[f'store_{q}_deg'] += rng.normal(0.0, SIGMA_ATTITUDE, len(table))
-    table.to_csv(path, index=False)
+        table[f'store_{q}_deg [deg]'] += rng.normal(0.0, SIGMA_ATTITUDE, len(table))
+    table.to_csv(path, index=False, float_format='%.17g')
     return str(path)
 
 

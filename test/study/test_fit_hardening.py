@@ -111,6 +111,28 @@ def test_a_measured_value_that_is_no_pose_is_refused_with_its_line(
              f'{problem}', 'finite measured poses')
 
 
+@pytest.mark.parametrize('header, found, want', [
+    ('store_x [mm]', 'mm', 'm'), ('store_pitch_deg [rad]', 'rad', 'deg'),
+    ('time [ms]', 'ms', 's')])
+def test_a_measured_csv_column_in_another_unit_is_refused(flight, tmp_path, capsys, header,
+                                                           found, want):
+    # a header 'name [unit]' (as export writes it) is read as name only in export's unit
+    table = pd.read_csv(ff.csv(tmp_path / 'poses.csv', *flight[2]))
+    units = {'time': 's', 'store_x': 'm', 'store_y': 'm', 'store_z': 'm'}
+    good = [f'{c} [{units.get(c, "deg")}]' for c in table.columns]
+    table.columns = good
+    table.to_csv(tmp_path / 'poses.csv', index=False, float_format='%.17g')
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(str(tmp_path / 'poses.csv')), AFT)
+    chosen = observed_flights(load_fit(fit))[0].measured   # the units export writes: taken
+    np.testing.assert_array_equal(chosen.time, flight[2][0])
+    np.testing.assert_allclose(chosen.position, flight[2][1], rtol=0, atol=1e-12)
+    name = header.split(' ')[0]
+    table.columns = [header if c.startswith(name + ' ') else c for c in good]
+    table.to_csv(tmp_path / 'poses.csv', index=False)
+    _refused(capsys, fit, tmp_path / 'out', ': measured.file: ', 'poses.csv: column '
+             f"'{header}' is in {found}; expected {want} ('{name} [{want}]' or '{name}')")
+
+
 def _pose_log(path, poses, bad_row, position=None, quaternion=None):
     time, xyz, attitude = poses
     quaternions = attitude.as_quat()
