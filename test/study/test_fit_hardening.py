@@ -114,8 +114,8 @@ def test_a_measured_value_that_is_no_pose_is_refused_with_its_line(
 @pytest.mark.parametrize('header, found, want', [
     ('store_x [mm]', 'mm', 'm'), ('store_pitch_deg [rad]', 'rad', 'deg'),
     ('time [ms]', 'ms', 's')])
-def test_a_measured_csv_column_in_another_unit_is_refused(flight, tmp_path, capsys, header,
-                                                           found, want):
+def test_a_measured_csv_column_in_another_unit_is_refused(
+        flight, tmp_path, capsys, header, found, want):
     # a header 'name [unit]' (as export writes it) is read as name only in export's unit
     table = pd.read_csv(ff.csv(tmp_path / 'poses.csv', *flight[2]))
     units = {'time': 's', 'store_x': 'm', 'store_y': 'm', 'store_z': 'm'}
