@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import itertools
 import math
 
-from cfem_ros.study.errors import number_list, short
+from cfem_ros.core.fileio.messages import show
+from cfem_ros.study.errors import number_list
 from cfem_ros.study.keypaths import parse_key_path, resolve
 import numpy as np
 
@@ -53,14 +54,14 @@ class Variable:
 
 def parse_vary(fail, vary, base) -> list:
     if not isinstance(vary, dict):
-        fail('vary', f'is {short(vary)}', 'a mapping of key path -> distribution')
+        fail('vary', f'is {show(vary)}', 'a mapping of key path -> distribution')
     variables = []
     for path, spec in vary.items():
         key = f'vary.{path}'
         try:
             tokens = parse_key_path(path)
         except ValueError:
-            fail(key, f'{short(path)} is not a key path',
+            fail(key, f'{show(path)} is not a key path',
                  'keys joined by dots, list indices in brackets: wrenches[1].force[2]')
         try:
             _, _, existing, exists = resolve(base, tokens)
@@ -70,7 +71,7 @@ def parse_vary(fail, vary, base) -> list:
             fail(key, f'{err.args[0]}', there + 'a key path to a value of the base '
                  'scenario, or a new key under one of its mappings)')
         if not isinstance(spec, dict) or len(spec) != 1:
-            fail(key, f'is {short(spec)}', 'one distribution: ' + ', '.join(
+            fail(key, f'is {show(spec)}', 'one distribution: ' + ', '.join(
                 f'{{{name}: {what}}}' for name, what in DISTRIBUTIONS.items()))
         kind, params = next(iter(spec.items()))
         if kind not in DISTRIBUTIONS:
@@ -79,18 +80,18 @@ def parse_vary(fail, vary, base) -> list:
         if kind in RANDOM_NUMBERS:
             if exists and (isinstance(existing, bool)
                            or not isinstance(existing, (int, float))):
-                fail(key, f'draws numbers but the base scenario has {short(existing)} there',
+                fail(key, f'draws numbers but the base scenario has {show(existing)} there',
                      'a key path to a number (choice or grid for other values)')
             length = {'uniform': 2, 'normal': 2, 'truncnormal': 4}[kind]
             params = number_list(fail, where, params, length)
             if kind == 'uniform' and not params[0] < params[1]:
-                fail(where, f'is {short(params)}', DISTRIBUTIONS[kind])
+                fail(where, f'is {show(params)}', DISTRIBUTIONS[kind])
             if kind == 'normal' and params[1] < 0:
-                fail(where, f'is {short(params)}', DISTRIBUTIONS[kind])
+                fail(where, f'is {show(params)}', DISTRIBUTIONS[kind])
             if kind == 'truncnormal' and not (params[1] > 0 and params[2] < params[3]):
-                fail(where, f'is {short(params)}', DISTRIBUTIONS[kind])
+                fail(where, f'is {show(params)}', DISTRIBUTIONS[kind])
         elif not isinstance(params, list) or not params:
-            fail(where, f'is {short(params)}', DISTRIBUTIONS[kind])
+            fail(where, f'is {show(params)}', DISTRIBUTIONS[kind])
         variables.append(Variable(path=path, tokens=tokens, kind=kind, params=params))
     return variables
 
@@ -98,27 +99,27 @@ def parse_vary(fail, vary, base) -> list:
 def parse_correlate(fail, correlate, variables) -> list:
     """Check ``correlate``: pairs of random key paths, rho in [-1, 1], a PSD matrix."""
     if not isinstance(correlate, list):
-        fail('correlate', f'is {short(correlate)}', 'a list of ' + CORRELATE_ENTRY)
+        fail('correlate', f'is {show(correlate)}', 'a list of ' + CORRELATE_ENTRY)
     kinds = {v.path: v.kind for v in variables}
     drawn = [v.path for v in variables if v.kind in CORRELATABLE]
     pairs = {}
     for i, entry in enumerate(correlate):
         key = f'correlate[{i}]'
         if not isinstance(entry, list) or len(entry) != 3:
-            fail(key, f'is {short(entry)}', CORRELATE_ENTRY)
+            fail(key, f'is {show(entry)}', CORRELATE_ENTRY)
         for j in (0, 1):
             path = entry[j]
             if not isinstance(path, str) or path not in kinds:
-                fail(f'{key}[{j}]', f'{short(path)} is not a key path under vary',
+                fail(f'{key}[{j}]', f'{show(path)} is not a key path under vary',
                      'one of the key paths drawn at random: ' + (', '.join(drawn) or 'none'))
             if kinds[path] not in CORRELATABLE:
-                fail(f'{key}[{j}]', f'{short(path)} is a {kinds[path]}, not a random draw',
+                fail(f'{key}[{j}]', f'{show(path)} is a {kinds[path]}, not a random draw',
                      'a key path drawn from ' + ', '.join(CORRELATABLE) + ' (a grid runs '
                      'every value with every draw)')
         rho = entry[2]
         if isinstance(rho, bool) or not isinstance(rho, (int, float)) \
                 or not math.isfinite(rho) or not -1 <= rho <= 1:
-            fail(f'{key}[2]', f'is {short(rho)}', 'a correlation rho with -1 <= rho <= 1')
+            fail(f'{key}[2]', f'is {show(rho)}', 'a correlation rho with -1 <= rho <= 1')
         a, b = entry[0], entry[1]
         if a == b:
             fail(key, f'correlates {a} with itself', 'two different key paths')
@@ -154,7 +155,7 @@ def check_draws(fail, variables, runs: int):
             else:
                 spans = []
         if not all(math.isfinite(x) for x in spans):
-            fail(where, f'is {short(p)}: its draws overflow (beyond double precision)',
+            fail(where, f'is {show(p)}: its draws overflow (beyond double precision)',
                  'bounds and spreads whose differences are finite numbers')
         if variable.kind == 'grid':
             total *= len(p)

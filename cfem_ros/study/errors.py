@@ -5,18 +5,13 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.fileio.messages import show
 
 
 class SweepError(ScenarioError):
     """A sweep file that cannot be run (file, key path, problem, expected)."""
-
-
-def short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + '...'
 
 
 def one_line(text, limit: int) -> str:
@@ -27,9 +22,9 @@ def one_line(text, limit: int) -> str:
 
 def number_list(fail, key, value, length=None):
     if not isinstance(value, list) or (length is not None and len(value) != length):
-        fail(key, f'is {short(value)}', f'a list of {length} numbers' if length
+        fail(key, f'is {show(value)}', f'a list of {length} numbers' if length
              else 'a list of numbers')
     for v in value:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            fail(key, f'holds {short(v)}', 'finite numbers')
+            fail(key, f'holds {show(v)}', 'finite numbers')
     return [float(v) for v in value]

@@ -8,9 +8,10 @@ from dataclasses import dataclass, field
 import math
 from typing import Optional
 
+from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 from cfem_ros.study import windowed
-from cfem_ros.study.errors import number_list, short
+from cfem_ros.study.errors import number_list
 from cfem_ros.study.shape_metrics import parse_distance, parse_name, parse_window, Window
 import numpy as np
 
@@ -99,7 +100,7 @@ class Metrics:
 
 def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
     if not isinstance(metrics, dict):
-        fail('metrics', f'is {short(metrics)}', 'a mapping with clearance and at')
+        fail('metrics', f'is {show(metrics)}', 'a mapping with clearance and at')
     for name in metrics:
         if name not in METRIC_KEYS:
             fail(f'metrics.{name}', 'unknown key', 'one of ' + ', '.join(METRIC_KEYS))
@@ -108,7 +109,7 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
 
     def body(key, name):
         if name not in bodies:
-            fail(key, f'{short(name)} is not a body of the scenario', 'one of ' +
+            fail(key, f'{show(name)} is not a body of the scenario', 'one of ' +
                  ', '.join(bodies))
         return name
 
@@ -119,18 +120,18 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
     out = Metrics(joints=joints, strokes=list(dict.fromkeys(strokes)), aero=aero)
     clearance = metrics.get('clearance') or []
     if not isinstance(clearance, list):
-        fail('metrics.clearance', f'is {short(clearance)}', 'a list of body pairs')
+        fail('metrics.clearance', f'is {show(clearance)}', 'a list of body pairs')
     seen = {}
     for i, entry in enumerate(clearance):
         key = f'metrics.clearance[{i}]'
         if not isinstance(entry, dict):
-            fail(key, f'is {short(entry)}', 'a mapping with bodies, points_a, points_b')
+            fail(key, f'is {show(entry)}', 'a mapping with bodies, points_a, points_b')
         for name in entry:
             if name not in CLEARANCE_KEYS:
                 fail(f'{key}.{name}', 'unknown key', 'one of ' + ', '.join(CLEARANCE_KEYS))
         pair = entry.get('bodies')
         if not isinstance(pair, list) or len(pair) != 2 or pair[0] == pair[1]:
-            fail(f'{key}.bodies', f'is {short(pair)}', 'two different body names')
+            fail(f'{key}.bodies', f'is {show(pair)}', 'two different body names')
         a, b = body(f'{key}.bodies[0]', pair[0]), body(f'{key}.bodies[1]', pair[1])
         found = Clearance(a, b, _points(fail, f'{key}.points_a', entry.get('points_a')),
                           _points(fail, f'{key}.points_b', entry.get('points_b')),
@@ -139,25 +140,25 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
         out.clearance.append(found)
     distance = metrics.get('distance') or []
     if not isinstance(distance, list):
-        fail('metrics.distance', f'is {short(distance)}', 'a list of {bodies: [a, b], from, to}')
+        fail('metrics.distance', f'is {show(distance)}', 'a list of {bodies: [a, b], from, to}')
     for i, entry in enumerate(distance):
         found = parse_distance(fail, entry, f'metrics.distance[{i}]', base, model)
         _unique(fail, seen, found, f'metrics.distance[{i}]', entry.get('bodies'))
         out.distance.append(found)
     at = metrics.get('at') or []
     if not isinstance(at, list):
-        fail('metrics.at', f'is {short(at)}', 'a list of {time, body, relative_to}')
+        fail('metrics.at', f'is {show(at)}', 'a list of {time, body, relative_to}')
     for i, entry in enumerate(at):
         key = f'metrics.at[{i}]'
         if not isinstance(entry, dict):
-            fail(key, f'is {short(entry)}', 'a mapping {time, body, relative_to}')
+            fail(key, f'is {show(entry)}', 'a mapping {time, body, relative_to}')
         for name in entry:
             if name not in AT_KEYS:
                 fail(f'{key}.{name}', 'unknown key', 'one of ' + ', '.join(AT_KEYS))
         t = entry.get('time')
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) \
                 or t < 0:
-            fail(f'{key}.time', f'is {short(t)}', 'a time >= 0 s')
+            fail(f'{key}.time', f'is {show(t)}', 'a time >= 0 s')
         _check_at_time(fail, f'{key}.time', t, rate)
         after, groups = None, ()
         if 'after' in entry:   # from a release: between samples, interpolated
@@ -179,7 +180,7 @@ def _unique(fail, seen: dict, entry, key: str, pair):
     prefix = entry.prefix
     if prefix in seen:
         fail(f'{key}.name' if entry.name else f'{key}.bodies',
-             f'{short(pair)} gives the columns {prefix}_* of {seen[prefix]} again',
+             f'{show(pair)} gives the columns {prefix}_* of {seen[prefix]} again',
              "each pair once, or a `name:` for each window of a pair (its columns' prefix)")
     seen[prefix] = key
 
@@ -188,7 +189,7 @@ def _points(fail, key, value):
     if value is None:
         return np.zeros((1, 3))
     if not isinstance(value, list) or not value:
-        fail(key, f'is {short(value)}', 'a list of points [x, y, z] in body axes, m')
+        fail(key, f'is {show(value)}', 'a list of points [x, y, z] in body axes, m')
     points = np.array([number_list(fail, f'{key}[{i}]', p, 3) for i, p in enumerate(value)])
     far = np.flatnonzero(np.any(np.abs(points) > MAX_MAGNITUDE, axis=1))
     if far.size:   # as every scenario position: beyond it distances lose every digit

@@ -22,12 +22,13 @@ import re
 from typing import Optional
 
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.draws import (
     check_draws, draw, MAX_RUNS, parse_correlate, parse_vary, RANDOM_NUMBERS)
-from cfem_ros.study.errors import one_line, short, SweepError
+from cfem_ros.study.errors import one_line, SweepError
 from cfem_ros.study.keypaths import apply_values, format_key_path, resolve
 from cfem_ros.study.metricspec import check_unique_at, Metrics, parse_metrics
 from cfem_ros.study.shape_metrics import Window
@@ -150,14 +151,14 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
         raise SweepError(path, one_line(key, 120), one_line(problem, 240), one_line(expected, 240))
 
     if not isinstance(document, dict):
-        fail('', f'is {short(document)}', 'a mapping with scenario, runs, seed, vary, metrics')
+        fail('', f'is {show(document)}', 'a mapping with scenario, runs, seed, vary, metrics')
     for key in document:
         if key not in TOP_KEYS:
             fail(str(key), 'unknown key', 'one of ' + ', '.join(TOP_KEYS))
     if 'scenario' not in document:
         fail('scenario', 'missing', 'the base scenario file, relative to the sweep file')
     if not isinstance(document['scenario'], str):
-        fail('scenario', f'is {short(document["scenario"])}', 'a file name')
+        fail('scenario', f'is {show(document["scenario"])}', 'a file name')
     scenario = os.path.join(os.path.dirname(os.path.abspath(path)), document['scenario'])
     base = _load_yaml(scenario, 'scenario file (SPEC section 1)')
     model = parse_scenario(base, source=scenario)   # the base scenario must be valid
@@ -167,11 +168,11 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     count = document.get('runs', 1) if runs is None else runs
     seed = document.get('seed', 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        fail('seed', f'is {short(seed)}', 'a whole number >= 0')
+        fail('seed', f'is {show(seed)}', 'a whole number >= 0')
     rate = document.get('rate_hz', 100.0)
     if isinstance(rate, bool) or not isinstance(rate, (int, float)) \
             or not math.isfinite(rate) or rate <= 0:
-        fail('rate_hz', f'is {short(rate)}', 'a sample rate > 0 Hz')
+        fail('rate_hz', f'is {show(rate)}', 'a sample rate > 0 Hz')
     rate = float(rate)
     _check_rate(fail, rate, model)
     variables = parse_vary(fail, document.get('vary') or {}, base)
@@ -214,10 +215,10 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
     level = document.get('confidence', 0.95)
     if isinstance(level, bool) or not isinstance(level, (int, float)) \
             or not 0 < level < 1:
-        fail('confidence', f'is {short(level)}', 'a confidence level 0 < c < 1 (0.95)')
+        fail('confidence', f'is {show(level)}', 'a confidence level 0 < c < 1 (0.95)')
     rules = document.get('criteria') or {}
     if not isinstance(rules, dict):
-        fail('criteria', f'is {short(rules)}', 'a mapping of name -> rule ' + RULE)
+        fail('criteria', f'is {show(rules)}', 'a mapping of name -> rule ' + RULE)
     allowed = [c for c in metrics.columns() if not c.endswith('_cause')] + [
         v.path for v in variables if v.kind in RANDOM_NUMBERS
         or all(isinstance(p, (int, float)) and not isinstance(p, bool) for p in v.params)]
@@ -225,7 +226,7 @@ def _parse_decision(fail, document, variables, metrics) -> tuple:
     for name, text in rules.items():
         key = f'criteria.{name}'
         if not isinstance(name, str) or not re.fullmatch(r'[A-Za-z_][\w-]*', name):
-            fail(key, f'{short(name)} is not a name', 'letters, digits, _ or -')
+            fail(key, f'{show(name)} is not a name', 'letters, digits, _ or -')
         try:
             criterion = parse_criterion(name, text)
         except ValueError as err:
@@ -245,7 +246,7 @@ def _parse_target(fail, document, criteria) -> Optional[float]:
         return None
     if isinstance(target, bool) or not isinstance(target, (int, float)) \
             or not 0 < target < 1:
-        fail('target', f'is {short(target)}', 'the probability P(any criterion fails) must '
+        fail('target', f'is {show(target)}', 'the probability P(any criterion fails) must '
              'be shown below, 0 < target < 1 (1.0e-6)')
     if not criteria:
         fail('target', f'is {target!r} but the sweep has no criteria',
@@ -256,7 +257,7 @@ def _parse_target(fail, document, criteria) -> Optional[float]:
 def _check_runs(fail, key: str, count):
     """Refuse a ``runs`` (or ``--runs``) that is not a whole number from 1 to ``MAX_RUNS``."""
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        fail(key, f'is {short(count)}', 'a whole number of runs >= 1')
+        fail(key, f'is {show(count)}', 'a whole number of runs >= 1')
     if count > MAX_RUNS:
         fail(key, f'is {count:,}', f'at most {MAX_RUNS:,} runs (each run is a row of the '
              'table and a task; split a larger study into several sweeps)')

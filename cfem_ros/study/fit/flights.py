@@ -21,6 +21,7 @@ import os
 from typing import Optional
 
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.scenario.parse import parse_scenario
@@ -82,12 +83,6 @@ class Flight:
             container, last, _, _ = resolve(out, parameter.tokens)
             container[last] = float(value)
         return out
-
-
-def show(value) -> str:
-    """Return a value as a message shows it (60 characters at most)."""
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + '...'
 
 
 def finite_number(value) -> bool:
