@@ -186,6 +186,9 @@ inline int ranges(const P& p, int* watched, double* low, double* high) {
   return 3 + axes;
 }
 
+// The dynamic pressure of air of density rho (kg/m^3) at speed v (m/s), Pa: rho v^2 / 2.
+inline double dynamic_pressure(double rho, double v) { return 0.5 * rho * v * v; }
+
 // The aerodynamic wrench of the body into out (force (3), moment about the CG (3),
 // world axes). p: the packed table (Flat or Rows). position, velocity: CG, world (m, m/s);
 // rot: body to world, row-major (3x3); rates: body axes (rad/s); carrier_position,
@@ -227,7 +230,7 @@ inline void wrench(const P& p, const double* position, const double* velocity,
       }
     }
   }
-  double dynamic = 0.5 * f.density * f.speed * f.speed;
+  double dynamic = dynamic_pressure(f.density, f.speed);
   double qs = dynamic * p[kArea];
   double length = p[kLength];
   double scale = length / (2.0 * f.speed);

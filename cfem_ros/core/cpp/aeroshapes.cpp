@@ -81,8 +81,7 @@ py::tuple py_isa(double altitude, double temperature_offset) {
 }
 
 // the aerodynamic wrench at n states: (n, 6) world force and moment about the CG, and
-// (n, 22) alpha, beta, Mach, speed, density, altitude, coefficients (6), increments (6),
-// dynamic pressure, the moment coefficients about the CG (3)
+// (n, aero_air::WIDTH) the air it was computed from (layout.hpp, CFEM_AERO_AIR_LAYOUT)
 py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot, Array rates,
                       Array carrier_position, Array carrier_rot) {
   need(packed.ndim() == 1 && packed.shape(0) >= cfem::aero::kHeader &&
@@ -97,7 +96,7 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
   need_rows(rates, "rates", 3, n);
   need_rows(carrier_position, "carrier_position", 3, n);
   need_rows(carrier_rot, "carrier_rot", 9, n);
-  Array out({n, py::ssize_t(6)}), air({n, py::ssize_t(22)});
+  Array out({n, py::ssize_t(6)}), air({n, py::ssize_t(cfem::aero_air::WIDTH)});
   double* o = out.mutable_data();
   double* a = air.mutable_data();
   {
@@ -108,16 +107,19 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
                          rot.data() + 9 * k, rates.data() + 3 * k,
                          carrier_position.data() + 3 * k, carrier_rot.data() + 9 * k,
                          o + 6 * k, &info);
-      double head[6] = {info.alpha, info.beta, info.mach, info.speed, info.density,
-                        info.altitude};
-      double* row = a + 22 * k;
+      double* row = a + cfem::aero_air::WIDTH * k;
+      row[cfem::aero_air::W_ALPHA] = info.alpha;
+      row[cfem::aero_air::W_BETA] = info.beta;
+      row[cfem::aero_air::W_MACH] = info.mach;
+      row[cfem::aero_air::W_SPEED] = info.speed;
+      row[cfem::aero_air::W_DENSITY] = info.density;
+      row[cfem::aero_air::W_ALTITUDE] = info.altitude;
       for (int j = 0; j < 6; ++j) {
-        row[j] = head[j];
-        row[6 + j] = info.coefficients[j];
-        row[12 + j] = info.increments[j];
+        row[cfem::aero_air::W_COEFFICIENTS + j] = info.coefficients[j];
+        row[cfem::aero_air::W_INCREMENTS + j] = info.increments[j];
       }
-      row[18] = info.pressure;
-      for (int j = 0; j < 3; ++j) row[19 + j] = info.about_cg[j];
+      row[cfem::aero_air::W_PRESSURE] = info.pressure;
+      for (int j = 0; j < 3; ++j) row[cfem::aero_air::W_ABOUT_CG + j] = info.about_cg[j];
     }
   }
   return py::make_tuple(out, air);

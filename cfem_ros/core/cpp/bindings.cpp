@@ -22,6 +22,7 @@
 #include "metrics.hpp"
 #include "motion.hpp"
 #include "pyargs.hpp"
+#include "recorded.hpp"
 #include "solve.hpp"
 
 namespace py = pybind11;
@@ -54,6 +55,7 @@ PYBIND11_MODULE(_kernel, m) {
   cfem::bind_layout(m);                // LAYOUT, workspace_size, workspace_parts
   cfem::bind_system(m, testing);       // System and the solves that take it
   cfem::bind_aeroshapes(m, testing);   // aerodynamic tables and shape distances, vectorised
+  cfem::bind_recorded(m);              // the kernel's formulas over recorded arrays
 
   testing.def("conditions", [](const py::handle& y, const py::handle& joints_i,
                          const py::handle& joints_f, const py::handle& watch,

@@ -103,6 +103,25 @@ inline double reach(const P& d) {
   }
 }
 
+// The radius about the body's CG of a sphere that holds a packed shape (convex or compound:
+// the farthest of its parts' spheres), m.
+template <class P>
+inline double bounding_radius(const P& d) {
+  const bool compound = static_cast<int>(d[kKind]) == kCompound;
+  const int count = compound ? static_cast<int>(d[1]) : 1;
+  long at = compound ? kShapeHeader : 0;
+  double most = 0.0;
+  for (int k = 0; k < count; ++k) {
+    double radius = compound ? d[at] : 0.0;
+    if (compound) ++at;
+    Shifted<P> part{d, at};
+    double x = part[kCentre], y = part[kCentre + 1], z = part[kCentre + 2];
+    most = std::fmax(most, std::sqrt(x * x + y * y + z * z) + (compound ? radius : reach(part)));
+    at += convex_length(part);
+  }
+  return most;
+}
+
 // The parts of a packed shape placed on a body: where each starts, its bounding sphere's
 // centre (world) and radius. A convex shape is its own one part.
 struct Parts {

@@ -34,6 +34,8 @@ void bind_layout(py::module_& m) {
   CFEM_EXPORT("joints_f", CFEM_JOINTS_F_LAYOUT)
   CFEM_EXPORT("advance_info", CFEM_ADVANCE_INFO_LAYOUT)
   CFEM_EXPORT("locate_info", CFEM_LOCATE_INFO_LAYOUT)
+  CFEM_EXPORT("sample", CFEM_SAMPLE_LAYOUT)
+  CFEM_EXPORT("aero_air", CFEM_AERO_AIR_LAYOUT)
 #undef CFEM_EXPORT
 #undef CFEM_EXPORT_NUMBER
 #undef CFEM_EXPORT_COLUMN

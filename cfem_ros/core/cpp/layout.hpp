@@ -95,7 +95,6 @@
   COLUMN(table, T_MOMENT, 4, 3)                                                            \
   NUMBER(int, AERO_ROW, 23)                                                                \
   NUMBER(int, AERO_SLOTS, 10)                                                              \
-  NUMBER(int, AIR_OUTPUTS, 12)                                                             \
   NUMBER(int, TABLE_NONE, 0)                                                               \
   NUMBER(int, TABLE_TIME, 1)                                                               \
   NUMBER(int, TABLE_STROKE, 2)                                                             \
@@ -222,6 +221,56 @@
   COLUMN(info, L_WRENCHES, 6, 1)                                                           \
   NUMBER(int, WIDTH, 7)
 
+// A sample's outputs (sampling.cpp's sample_outputs; size: sample_size): per body BODY
+// numbers: its CG position (world, m), quaternion (x y z w, body to world), CG velocity
+// and angular velocity (body axes, m/s and rad/s); then per joint sampled JOINT numbers:
+// its force and moment on the child (world axes, N and N m about the joint point); then
+// per applied source (a scheduled wrench, its reaction, a brace, an aero table) WRENCH
+// numbers: force and moment about the CG of the body it acts on (world axes); then per
+// body with aero tables AIR numbers (loads.cpp's sample_applied): alpha, beta (deg),
+// Mach, dynamic pressure (Pa), density (kg/m^3), airspeed (m/s), CX, CY, CZ, and Cl, Cm,
+// Cn about the CG; then per body sampled in a reference's frame BODY numbers, the same
+// columns in the reference's frame and axes (motion.cpp's sample_relative, last).
+#define CFEM_SAMPLE_LAYOUT(COLUMN, NUMBER)                                                 \
+  COLUMN(body, O_POSITION, 0, 3)                                                           \
+  COLUMN(body, O_QUATERNION, 3, 4)                                                         \
+  COLUMN(body, O_VELOCITY, 7, 3)                                                           \
+  COLUMN(body, O_RATES, 10, 3)                                                             \
+  NUMBER(int, BODY, 13)                                                                    \
+  COLUMN(joint, O_FORCE, 0, 3)                                                             \
+  COLUMN(joint, O_MOMENT, 3, 3)                                                            \
+  NUMBER(int, JOINT, 6)                                                                    \
+  COLUMN(applied, O_WRENCH_FORCE, 0, 3)                                                    \
+  COLUMN(applied, O_WRENCH_MOMENT, 3, 3)                                                   \
+  NUMBER(int, WRENCH, 6)                                                                   \
+  COLUMN(air, O_ALPHA, 0, 1)                                                               \
+  COLUMN(air, O_BETA, 1, 1)                                                                \
+  COLUMN(air, O_MACH, 2, 1)                                                                \
+  COLUMN(air, O_PRESSURE, 3, 1)                                                            \
+  COLUMN(air, O_DENSITY, 4, 1)                                                             \
+  COLUMN(air, O_SPEED, 5, 1)                                                               \
+  COLUMN(air, O_FORCE_COEFFICIENTS, 6, 3)                                                  \
+  COLUMN(air, O_MOMENT_COEFFICIENTS, 9, 3)                                                 \
+  NUMBER(int, AIR, 12)
+
+// ``air`` of the vectorised aerodynamic wrench (aeroshapes.cpp's aero_wrench, (k, WIDTH)):
+// alpha, beta (rad), Mach, airspeed (m/s), density (kg/m^3), altitude (m), the
+// coefficients CX .. Cn (free stream, increments and delta; moments about the reference
+// point), the proximity increments (6), the dynamic pressure (Pa), Cl, Cm, Cn about the
+// CG (damping included).
+#define CFEM_AERO_AIR_LAYOUT(COLUMN, NUMBER)                                               \
+  COLUMN(air, W_ALPHA, 0, 1)                                                               \
+  COLUMN(air, W_BETA, 1, 1)                                                                \
+  COLUMN(air, W_MACH, 2, 1)                                                                \
+  COLUMN(air, W_SPEED, 3, 1)                                                               \
+  COLUMN(air, W_DENSITY, 4, 1)                                                             \
+  COLUMN(air, W_ALTITUDE, 5, 1)                                                            \
+  COLUMN(air, W_COEFFICIENTS, 6, 6)                                                        \
+  COLUMN(air, W_INCREMENTS, 12, 6)                                                         \
+  COLUMN(air, W_PRESSURE, 18, 1)                                                           \
+  COLUMN(air, W_ABOUT_CG, 19, 3)                                                           \
+  NUMBER(int, WIDTH, 22)
+
 #define CFEM_LAYOUT_COLUMN(group, name, first, width) constexpr int name = first;
 #define CFEM_LAYOUT_NUMBER(type, name, value) constexpr type name = value;
 
@@ -256,6 +305,12 @@ CFEM_ADVANCE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace locate_info {
 CFEM_LOCATE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace locate_info
+namespace sample {
+CFEM_SAMPLE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace sample
+namespace aero_air {
+CFEM_AERO_AIR_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace aero_air
 }  // namespace cfem
 
 #undef CFEM_LAYOUT_COLUMN

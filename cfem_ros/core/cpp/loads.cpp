@@ -316,24 +316,24 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
       if (aero_first < 0) aero_first = row;
       ++aero_count;
       aero_wrench(y, rot, loads, row, n, w);
-      for (int k = 0; k < 6; ++k) out[o + k] = w[k];
-      o += 6;
+      for (int k = 0; k < 6; ++k) out[o + sample::O_WRENCH_FORCE + k] = w[k];
+      o += sample::WRENCH;
       continue;
     }
     bool brace = kind == KIND_BRACE;
     if (kind != KIND_SCHEDULED && !brace) continue;
     bool on = brace ? braces::wrench(y, rot, loads, row, n, w)
                     : scheduled_wrench(y, rot, loads, row, n, w);
-    for (int k = 0; k < 6; ++k) out[o + k] = on ? w[k] : 0.0;
-    o += 6;
+    for (int k = 0; k < 6; ++k) out[o + sample::O_WRENCH_FORCE + k] = on ? w[k] : 0.0;
+    o += sample::WRENCH;
     idx j = static_cast<idx>(loads(row, S_REACT));
     if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
       double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
       double g0 = brace ? 0.0 : w[9], g1 = brace ? 0.0 : w[10], g2 = brace ? 0.0 : w[11];
       double reaction[6] = {-w[0], -w[1], -w[2], -(g0 + r1 * w[2] - r2 * w[1]),
                             -(g1 + r2 * w[0] - r0 * w[2]), -(g2 + r0 * w[1] - r1 * w[0])};
-      for (int k = 0; k < 6; ++k) out[o + k] = on ? reaction[k] : 0.0;
-      o += 6;
+      for (int k = 0; k < 6; ++k) out[o + sample::O_WRENCH_FORCE + k] = on ? reaction[k] : 0.0;
+      o += sample::WRENCH;
     }
   }
   // the air each body with aero tables sees: flow, air, force and moment coefficients
@@ -341,12 +341,18 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
   for (idx row = aero_first; row >= 0 && row < aero_first + aero_count; ++row) {
     aero::Air air;
     aero_wrench(y, rot, loads, row, n, w, &air);
-    double numbers[AIR_OUTPUTS] = {air.alpha * deg, air.beta * deg, air.mach, air.pressure,
-                                   air.density, air.speed, air.coefficients[0],
-                                   air.coefficients[1], air.coefficients[2], air.about_cg[0],
-                                   air.about_cg[1], air.about_cg[2]};
-    for (int k = 0; k < AIR_OUTPUTS; ++k) out[o + k] = numbers[k];
-    o += AIR_OUTPUTS;
+    double* a = out + o;
+    a[sample::O_ALPHA] = air.alpha * deg;
+    a[sample::O_BETA] = air.beta * deg;
+    a[sample::O_MACH] = air.mach;
+    a[sample::O_PRESSURE] = air.pressure;
+    a[sample::O_DENSITY] = air.density;
+    a[sample::O_SPEED] = air.speed;
+    for (int k = 0; k < 3; ++k) {
+      a[sample::O_FORCE_COEFFICIENTS + k] = air.coefficients[k];
+      a[sample::O_MOMENT_COEFFICIENTS + k] = air.about_cg[k];
+    }
+    o += sample::AIR;
   }
 }
 
@@ -356,10 +362,11 @@ idx applied_size(const Mat& bodies, const Mat& loads) {
     double kind = loads(row, S_KIND);
     if (kind == KIND_TABLE || kind == KIND_SCRATCH) break;   // as sample_applied
     if (kind == KIND_AERO) {
-      size += 6 + AIR_OUTPUTS;
+      size += sample::WRENCH + sample::AIR;
     } else if (kind == KIND_SCHEDULED || kind == KIND_BRACE) {
       idx j = static_cast<idx>(loads(row, S_REACT));
-      size += j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0 ? 12 : 6;
+      size += j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0 ? 2 * sample::WRENCH
+                                                            : sample::WRENCH;
     }
   }
   return size;

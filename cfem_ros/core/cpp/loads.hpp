@@ -22,7 +22,7 @@ namespace loads {
 // it: the time it costs is this over the approach speed).
 // An aerodynamic row keeps in A_STATUS (AERO_SLOTS columns) where its body was on each
 // axis of its tables the last time it was told (-1 below the grid, 0 on it, 1 above;
-// aero.hpp's slots); a sample holds AIR_OUTPUTS numbers per aerodynamic row after the
+// aero.hpp's slots); a sample holds sample::AIR numbers per aerodynamic row after the
 // applied loads: alpha, beta (deg), Mach, dynamic pressure (Pa), density (kg/m^3),
 // airspeed (m/s), CX, CY, CZ, and Cl, Cm, Cn about the CG.
 
@@ -74,7 +74,7 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
                    int* parts = nullptr);
 
 // Each scheduled wrench's (and aero table's) load at y into out, 6 a source, then the air
-// of each aero row (AIR_OUTPUTS numbers); rot (n, 3, 3) and w (18) scratch.
+// of each aero row (sample::AIR numbers); rot (n, 3, 3) and w (18) scratch.
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,
                     double* rot, double* w);
 

@@ -186,45 +186,50 @@ void set_time(const Mat& bodies, double t) {
   for (idx i = 0; i < bodies.rows; ++i) bodies(i, M_T0) = t;
 }
 
+void relative_state(const double* position, const double* velocity, const double* quaternion,
+                    const double* rates, const double* ref_position, const double* ref_velocity,
+                    const double* ref_quaternion, const double* ref_rates, double* out) {
+  const double* qc = ref_quaternion;
+  const double* qi = quaternion;
+  double nc = std::sqrt(qc[0] * qc[0] + qc[1] * qc[1] + qc[2] * qc[2] + qc[3] * qc[3]);
+  double ni = std::sqrt(qi[0] * qi[0] + qi[1] * qi[1] + qi[2] * qi[2] + qi[3] * qi[3]);
+  double x = qc[0] / nc, yy = qc[1] / nc, z = qc[2] / nc, w = qc[3] / nc;
+  Q4 rel = qmul(-x, -yy, -z, w, qi[0] / ni, qi[1] / ni, qi[2] / ni, qi[3] / ni);
+  V3 d = {position[0] - ref_position[0], position[1] - ref_position[1],
+          position[2] - ref_position[2]};
+  V3 wc = turn(x, yy, z, w, ref_rates[0], ref_rates[1], ref_rates[2], false);
+  double xi = qi[0] / ni, yi = qi[1] / ni, zi = qi[2] / ni, wi = qi[3] / ni;
+  V3 wi_world = turn(xi, yi, zi, wi, rates[0], rates[1], rates[2], false);
+  V3 carried = cross(wc, d);
+  V3 v = {velocity[0] - ref_velocity[0] - carried.x, velocity[1] - ref_velocity[1] - carried.y,
+          velocity[2] - ref_velocity[2] - carried.z};
+  V3 p = turn(x, yy, z, w, d.x, d.y, d.z, true);
+  v = turn(x, yy, z, w, v.x, v.y, v.z, true);
+  V3 wr = turn(x, yy, z, w, wi_world.x - wc.x, wi_world.y - wc.y, wi_world.z - wc.z, true);
+  for (int k = 0; k < 3; ++k) {
+    out[sample::O_POSITION + k] = p[k];
+    out[sample::O_VELOCITY + k] = v[k];
+    out[sample::O_RATES + k] = wr[k];
+  }
+  out[sample::O_QUATERNION] = rel.x;
+  out[sample::O_QUATERNION + 1] = rel.y;
+  out[sample::O_QUATERNION + 2] = rel.z;
+  out[sample::O_QUATERNION + 3] = rel.w;
+}
+
 void sample_relative(const double* y, const Mat& bodies, double* out, idx size) {
   idx n = bodies.rows;
   idx count = 0;
   for (idx i = 0; i < n; ++i)
     if (bodies(i, M_REF) > 0.0) ++count;
-  idx o = size - 13 * count;
+  idx o = size - sample::BODY * count;
   for (idx i = 0; i < n; ++i) {
     idx c = static_cast<idx>(bodies(i, M_REF)) - 1;
     if (c < 0) continue;
-    idx qc = 6 * n + 4 * c, qi = 6 * n + 4 * i;
-    double nc = std::sqrt(y[qc] * y[qc] + y[qc + 1] * y[qc + 1] + y[qc + 2] * y[qc + 2]
-                          + y[qc + 3] * y[qc + 3]);
-    double ni = std::sqrt(y[qi] * y[qi] + y[qi + 1] * y[qi + 1] + y[qi + 2] * y[qi + 2]
-                          + y[qi + 3] * y[qi + 3]);
-    double x = y[qc] / nc, yy = y[qc + 1] / nc, z = y[qc + 2] / nc, w = y[qc + 3] / nc;
-    Q4 rel = qmul(-x, -yy, -z, w, y[qi] / ni, y[qi + 1] / ni, y[qi + 2] / ni, y[qi + 3] / ni);
-    V3 d = {y[3 * i] - y[3 * c], y[3 * i + 1] - y[3 * c + 1], y[3 * i + 2] - y[3 * c + 2]};
-    V3 wc = turn(x, yy, z, w, y[10 * n + 3 * c], y[10 * n + 3 * c + 1], y[10 * n + 3 * c + 2],
-                 false);
-    double xi = y[qi] / ni, yi = y[qi + 1] / ni, zi = y[qi + 2] / ni, wi = y[qi + 3] / ni;
-    V3 wi_world = turn(xi, yi, zi, wi, y[10 * n + 3 * i], y[10 * n + 3 * i + 1],
-                       y[10 * n + 3 * i + 2], false);
-    V3 carried = cross(wc, d);
-    V3 v = {y[3 * n + 3 * i] - y[3 * n + 3 * c] - carried.x,
-            y[3 * n + 3 * i + 1] - y[3 * n + 3 * c + 1] - carried.y,
-            y[3 * n + 3 * i + 2] - y[3 * n + 3 * c + 2] - carried.z};
-    V3 p = turn(x, yy, z, w, d.x, d.y, d.z, true);
-    v = turn(x, yy, z, w, v.x, v.y, v.z, true);
-    V3 wr = turn(x, yy, z, w, wi_world.x - wc.x, wi_world.y - wc.y, wi_world.z - wc.z, true);
-    for (int k = 0; k < 3; ++k) {
-      out[o + k] = p[k];
-      out[o + 7 + k] = v[k];
-      out[o + 10 + k] = wr[k];
-    }
-    out[o + 3] = rel.x;
-    out[o + 4] = rel.y;
-    out[o + 5] = rel.z;
-    out[o + 6] = rel.w;
-    o += 13;
+    relative_state(y + 3 * i, y + 3 * n + 3 * i, y + 6 * n + 4 * i, y + 10 * n + 3 * i,
+                   y + 3 * c, y + 3 * n + 3 * c, y + 6 * n + 4 * c, y + 10 * n + 3 * c,
+                   out + o);
+    o += sample::BODY;
   }
 }
 

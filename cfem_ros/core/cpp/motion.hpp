@@ -39,7 +39,18 @@ void place(double* y, const Mat& bodies, double offset);
 // Write the time of the step's start into the kinematic bodies' columns.
 void set_time(const Mat& bodies, double t);
 
-// Each body's pose and twist relative to its reference, at the end of out (size).
+// One body's pose and twist relative to a reference body into out, sample::BODY numbers in
+// a sample's body columns (layout.hpp): the CG from the reference's CG and the attitude
+// relative to it (x y z w), the CG velocity seen from the reference and the relative
+// angular velocity; all in the reference's axes. Each body's CG position and velocity
+// (world, m and m/s), quaternion (x y z w, body to world, any non-zero norm) and rates
+// (body axes, rad/s).
+void relative_state(const double* position, const double* velocity, const double* quaternion,
+                    const double* rates, const double* ref_position, const double* ref_velocity,
+                    const double* ref_quaternion, const double* ref_rates, double* out);
+
+// Each body's pose and twist relative to its reference (relative_state), at the end of out
+// (size).
 void sample_relative(const double* y, const Mat& bodies, double* out, idx size);
 
 }  // namespace motion

@@ -48,7 +48,7 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
                    double* out, idx size) {
   const idx n = s.n();
   for (idx i = 0; i < n; ++i) {
-    idx o = 13 * i, q = 6 * n + 4 * i;
+    idx o = sample::BODY * i, q = 6 * n + 4 * i;
     double norm = std::sqrt(y[q] * y[q] + y[q + 1] * y[q + 1] + y[q + 2] * y[q + 2]
                             + y[q + 3] * y[q + 3]);
     Products p = products(y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm);
@@ -58,40 +58,40 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
     V3 body = unit_turn(p, velocity.x, velocity.y, velocity.z, true);
     body.x = dot_yx({1 - 2 * (p.yy + p.zz), 2 * (p.xy + p.wz), 2 * (p.xz - p.wy)}, velocity);
     for (int c = 0; c < 3; ++c) {
-      out[o + c] = y[3 * i + c];
-      out[o + 10 + c] = y[10 * n + 3 * i + c];
+      out[o + sample::O_POSITION + c] = y[3 * i + c];
+      out[o + sample::O_RATES + c] = y[10 * n + 3 * i + c];
     }
-    for (int c = 0; c < 4; ++c) out[o + 3 + c] = y[q + c];
-    out[o + 7] = body.x;
-    out[o + 8] = body.y;
-    out[o + 9] = body.z;
+    for (int c = 0; c < 4; ++c) out[o + sample::O_QUATERNION + c] = y[q + c];
+    out[o + sample::O_VELOCITY] = body.x;
+    out[o + sample::O_VELOCITY + 1] = body.y;
+    out[o + sample::O_VELOCITY + 2] = body.z;
   }
   if (s.loads.rows > n)  // the scheduled wrenches' applied loads, after the joints'
-    loads::sample_applied(y, s.bodies, s.loads, out + 13 * n + 6 * k, v.sample_rot,
-                          v.sample_wrench);
+    loads::sample_applied(y, s.bodies, s.loads, out + sample::BODY * n + sample::JOINT * k,
+                          v.sample_rot, v.sample_wrench);
   if (motion::any(s.bodies)) motion::sample_relative(y, s.bodies, out, size);  // last
   if (k == 0) return REACHED;
   if (!joint_loads(y, s, v, v.force, v.moment)) return SINGULAR;
   for (idx j = 0; j < k; ++j) {
-    idx o = 13 * n + 6 * j;
+    idx o = sample::BODY * n + sample::JOINT * j;
     for (int c = 0; c < 3; ++c) {
-      out[o + c] = v.force[3 * order[j] + c];
-      out[o + 3 + c] = v.moment[3 * order[j] + c];
+      out[o + sample::O_FORCE + c] = v.force[3 * order[j] + c];
+      out[o + sample::O_MOMENT + c] = v.moment[3 * order[j] + c];
     }
   }
   // the state is finite (every step checks it); its loads may still not be
-  for (idx j = 13 * n; j < 13 * n + 6 * k; ++j)
+  for (idx j = sample::BODY * n; j < sample::BODY * n + sample::JOINT * k; ++j)
     if (!std::isfinite(out[j])) return LOADS_NOT_FINITE;
   return REACHED;
 }
 
 idx sample_size(const System& s, idx k) {
   const idx n = s.n();
-  idx size = 13 * n + 6 * k;
+  idx size = sample::BODY * n + sample::JOINT * k;
   if (s.loads.rows > n) size += loads::applied_size(s.bodies, s.loads);
   if (motion::any(s.bodies))
     for (idx i = 0; i < n; ++i)
-      if (s.bodies(i, motion::M_REF) > 0.0) size += 13;   // motion::sample_relative
+      if (s.bodies(i, motion::M_REF) > 0.0) size += sample::BODY;   // motion::sample_relative
   return size;
 }
 

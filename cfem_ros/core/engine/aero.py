@@ -25,7 +25,7 @@ from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import AERO_EVENTS, Event
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.atmosphere import STANDARD_RANGE
-from cfem_ros.core.native.kernel import LOADS
+from cfem_ros.core.native.kernel import LOADS, SAMPLE
 import numpy as np
 
 #: The topics of the air a body sees, under ``bodies/<body>/aero/`` (Vector3Stamped):
@@ -35,7 +35,7 @@ AIR_TOPICS = (('flow', ('alpha_deg', 'beta_deg', 'mach')),
               ('force_coefficients', ('CX', 'CY', 'CZ')),
               ('moment_coefficients', ('Cl', 'Cm', 'Cn')))
 #: Numbers a sample holds per body with aero tables (``cpp/layout.hpp``).
-AIR_OUTPUTS = LOADS.AIR_OUTPUTS
+AIR_OUTPUTS = SAMPLE.AIR
 #: Slots of the axes a body can leave: alpha, beta, Mach, the proximity axes.
 SLOTS = LOADS.AERO_SLOTS
 #: How close to a grid's end a value located at a crossing is (relative to 1 + |end|).

@@ -41,7 +41,7 @@ from __future__ import annotations
 from cfem_ros.core.engine import aeropack, braces
 from cfem_ros.core.engine.ties import Ties
 from cfem_ros.core.native import contacts, kernel
-from cfem_ros.core.native.kernel import LOADS
+from cfem_ros.core.native.kernel import LOADS, SAMPLE
 import numpy as np
 
 #: Numbers of a packed aerodynamic table or shape a row holds (the last column is S_KIND).
@@ -155,8 +155,8 @@ class ScheduledLoads:
         self.ties = Ties(model)
         self.start, self.end = self.ties.times()
         #: Numbers a sample's applied loads take (6 a source), then the air of each body
-        #: with aero tables (``AIR_OUTPUTS`` each: ``cpp/loads.cpp`` sample_applied).
-        self.outputs_size = 6 * len(self.sources()) + LOADS.AIR_OUTPUTS * len(aero)
+        #: with aero tables (``SAMPLE.AIR`` each: ``cpp/loads.cpp`` sample_applied).
+        self.outputs_size = SAMPLE.WRENCH * len(self.sources()) + SAMPLE.AIR * len(aero)
 
     def set_time(self, t: float):
         """Write the current time into the scheduled rows."""

@@ -99,7 +99,9 @@ class Layout:
 
 #: The arrays' layouts (``cpp/layout.hpp``): ``bodies`` and the kinematic bodies'
 #: columns, ``loads``, a packed aerodynamic table's header (``aero_table``), ``plan``,
-#: and the ``info`` of ``advance`` and of ``locate``.
+#: the ``info`` of ``advance`` and of ``locate``, a sample's outputs (``sample``: per
+#: body, joint, applied source and aero body) and the air of ``aero_wrench``
+#: (``aero_air``).
 BODIES = Layout('bodies')
 LOADS = Layout('loads')
 AERO_TABLE = Layout('aero_table')
@@ -110,6 +112,8 @@ JOINTS_I = Layout('joints_i')
 JOINTS_F = Layout('joints_f')
 ADVANCE_INFO = Layout('advance_info')
 LOCATE_INFO = Layout('locate_info')
+SAMPLE = Layout('sample')
+AERO_AIR = Layout('aero_air')
 
 #: ``advance`` results in ``info[ADVANCE_INFO.I_RESULT]`` (LOADS_NOT_FINITE: a
 #: sample's outputs or a force-release check's joint loads are not finite while
