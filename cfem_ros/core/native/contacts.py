@@ -33,7 +33,7 @@ def pack_shape(shape: Shape) -> np.ndarray:
         out[0][0], out[0][1] = COMPOUND, len(shape.parts)
         for part in shape.parts:
             packed = _pack_convex(part)
-            out += [np.array([_reach(packed)]), packed]
+            out += [np.array([kernel.shape_reach(packed)]), packed]
         return np.concatenate(out)
     return _pack_convex(shape)
 
@@ -54,28 +54,6 @@ def _pack_convex(shape: Shape) -> np.ndarray:
     return out
 
 
-def _reach(packed: np.ndarray) -> float:
-    """Return the radius about its centre of a sphere holding a packed convex shape, m."""
-    kind, size = int(packed[0]), packed[1:4]
-    reach = {0: size[0], 1: 0.5 * size[1], 2: 0.5 * float(np.linalg.norm(size)),
-             3: float(np.hypot(size[0], 0.5 * size[1]))}.get(kind)
-    if reach is None:   # a hull: its farthest vertex
-        reach = float(np.max(np.linalg.norm(packed[SHAPE_HEADER:].reshape(-1, 3), axis=1)))
-    return float(reach)
-
-
-def _parts(packed: np.ndarray):
-    """Yield a packed shape's convex parts with their reach (itself if convex)."""
-    if int(packed[0]) != COMPOUND:
-        yield packed, _reach(packed)
-        return
-    at = SHAPE_HEADER
-    for _ in range(int(packed[1])):
-        length = SHAPE_HEADER + 3 * int(packed[at + SHAPE_HEADER])
-        yield packed[at + 1:at + 1 + length], float(packed[at])
-        at += 1 + length
-
-
 def packed_length(flat: np.ndarray) -> int:
     """Return how many numbers the packed shape at the start of flat takes."""
     if int(flat[0]) != COMPOUND:
@@ -87,8 +65,8 @@ def packed_length(flat: np.ndarray) -> int:
 
 
 def bounding_radius(packed: np.ndarray) -> float:
-    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
-    return max(float(np.linalg.norm(part[13:16])) + reach for part, reach in _parts(packed))
+    """Return the radius about the body's CG of a sphere holding a packed shape, m (kernel's)."""
+    return kernel.bounding_radius(packed)
 
 
 def distances(shape_a: np.ndarray, quat_a: np.ndarray, position_a: np.ndarray,

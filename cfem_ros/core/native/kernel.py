@@ -216,3 +216,41 @@ def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
 def _floats(a) -> np.ndarray:
     """Return a as float64 in C order (the same array when it already is)."""
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+# The kernel's formulas over many samples (cpp/recorded.cpp): the step's and the
+# sample's own, so that Python keeps no copy of them.
+
+def relative_states(position, velocity, quaternion, rates, ref_position, ref_velocity,
+                    ref_quaternion, ref_rates) -> np.ndarray:
+    """
+    Return k bodies' poses and twists relative to k reference bodies, (k, ``SAMPLE.BODY``).
+
+    Each body's CG position and velocity (world, m and m/s), quaternion (x y z
+    w, body to world, any non-zero norm) and rates (body axes, rad/s), (k, 3)
+    or (k, 4). The result has a sample's body columns (``SAMPLE``): the CG from
+    the reference's CG, the attitude relative to it (unit, x y z w), the CG
+    velocity seen from the reference and the relative angular velocity, all in
+    the reference's axes: what a sample of a body with a ``reference`` holds.
+    """
+    return _kernel.relative_states(*(_floats(a) for a in (
+        position, velocity, quaternion, rates, ref_position, ref_velocity, ref_quaternion,
+        ref_rates)))
+
+
+def dynamic_pressure(density, speed) -> np.ndarray:
+    """Return the dynamic pressure rho v^2 / 2 of densities (kg/m^3) at speeds (m/s), Pa."""
+    density, speed = np.broadcast_arrays(np.asarray(density, dtype=np.float64),
+                                         np.asarray(speed, dtype=np.float64))
+    out = _kernel.dynamic_pressure(_floats(density.ravel()), _floats(speed.ravel()))
+    return out.reshape(density.shape)
+
+
+def shape_reach(convex) -> float:
+    """Return the radius about its centre of a sphere holding a packed convex shape, m."""
+    return _kernel.shape_reach(_floats(convex))
+
+
+def bounding_radius(shape) -> float:
+    """Return the radius about the body's CG of a sphere holding a packed shape, m."""
+    return _kernel.bounding_radius(_floats(shape))
