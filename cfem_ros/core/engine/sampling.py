@@ -17,7 +17,7 @@ from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.errors import ArgumentError, CfemError
 from cfem_ros.core.native import kernel
-from cfem_ros.core.native.kernel import PLAN
+from cfem_ros.core.native.kernel import PLAN, SAMPLE
 import numpy as np
 
 
@@ -162,8 +162,8 @@ class Sampling:
         ``model.references`` pair, the body's pose and twist in its
         reference's frame (``motion.sample_relative``).
         """
-        return (13 * self.n + 6 * len(self.active_joints) + self.scheduled.outputs_size
-                + 13 * len(self.model.references))
+        return (SAMPLE.BODY * self.n + SAMPLE.JOINT * len(self.active_joints)
+                + self.scheduled.outputs_size + SAMPLE.BODY * len(self.model.references))
 
     @property
     def applied_sources(self) -> list:
@@ -172,19 +172,21 @@ class Sampling:
 
     def applied_loads(self, outputs: np.ndarray) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
-        first = 13 * self.n + 6 * len(self.active_joints)
-        return outputs[first:first + 6 * len(self.applied_sources)].reshape(-1, 6)
+        first = SAMPLE.BODY * self.n + SAMPLE.JOINT * len(self.active_joints)
+        return outputs[first:first + SAMPLE.WRENCH * len(self.applied_sources)].reshape(
+            -1, SAMPLE.WRENCH)
 
     def air(self, outputs: np.ndarray) -> np.ndarray:
         """
-        Return the air each body with aero tables sees, (len(model.aero), 12), of a sample.
+        Return the air each body with aero tables sees, (len(model.aero), ``SAMPLE.AIR``).
 
         Per body: alpha, beta (deg), Mach, dynamic pressure (Pa), density
         (kg/m^3), airspeed (m/s), CX, CY, CZ, and Cl, Cm, Cn about the
         actual CG (``aero.AIR_TOPICS``).
         """
-        first = 13 * self.n + 6 * len(self.active_joints) + 6 * len(self.applied_sources)
-        return outputs[first:first + 12 * len(self.model.aero)].reshape(-1, 12)
+        first = (SAMPLE.BODY * self.n + SAMPLE.JOINT * len(self.active_joints)
+                 + SAMPLE.WRENCH * len(self.applied_sources))
+        return outputs[first:first + SAMPLE.AIR * len(self.model.aero)].reshape(-1, SAMPLE.AIR)
 
     def relative_states(self, y) -> np.ndarray:
         """
@@ -193,25 +195,15 @@ class Sampling:
         Per pair: CG position relative to the reference's CG (3) and attitude
         (x y z w, body to reference), then the CG velocity seen from the
         reference and the relative angular velocity (3 + 3); all in the
-        reference's axes (``motion.sample_relative``, computed here in numpy).
+        reference's axes (``kernel.relative_states``: the sample's own formula).
         """
         pairs = self.model.references
-        out = np.empty((len(pairs), 13))
         if not pairs:
-            return out
+            return np.empty((0, SAMPLE.BODY))
         body, ref = (np.array(p, dtype=int) for p in zip(*pairs))
         pos, vel, quat, rates = state_views(y, self.n)
-        quat = quat / np.linalg.norm(quat, axis=1)[:, None]
-        rot = rotations.matrices(quat)
-        omega = np.einsum('nij,nj->ni', rot, rates)
-        d = pos[body] - pos[ref]
-        v = vel[body] - vel[ref] - np.cross(omega[ref], d)
-        turn = rot[ref].transpose(0, 2, 1)
-        out[:, :3] = np.einsum('nij,nj->ni', turn, d)
-        out[:, 3:7] = rotations.multiply(rotations.conjugate(quat[ref]), quat[body])
-        out[:, 7:10] = np.einsum('nij,nj->ni', turn, v)
-        out[:, 10:] = np.einsum('nij,nj->ni', turn, omega[body] - omega[ref])
-        return out
+        return kernel.relative_states(pos[body], vel[body], quat[body], rates[body], pos[ref],
+                                      vel[ref], quat[ref], rates[ref])
 
     def joint_points(self, y):
         """
