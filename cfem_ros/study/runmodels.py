@@ -14,19 +14,35 @@ import json
 import threading
 from typing import Optional
 
-from cfem_ros.core.scenario.parse import parse_scenario, reparse
+from cfem_ros.core.scenario.parse import parse_scenario, reparse, unscaled_aero
 from cfem_ros.study.draws import RANDOM_NUMBERS
 from cfem_ros.study.keypaths import apply_values, resolve
 from cfem_ros.study.spec import SweepSpec
 
 
+#: A body's keys read by other parts of the document: a whole parse (``fixed``; ``cg_offset``
+#: moves the points of its wrenches and its aero reference point).
+_WHOLE = ('fixed', 'cg_offset')
+
+
 def _section(tokens, document) -> Optional[tuple]:
-    """Return ('bodies'|'joints', name) or ('wrenches', '') if a key path lies inside one."""
+    """
+    Return the part of the document a key path lies inside, None if none.
+
+    ('bodies'|'joints', name), ('wrenches', ''), or ('aero', name) for a
+    key path inside an aero entry's ``scale`` or ``delta`` (outside
+    ``flight:``, which sets the aero air).
+    """
     if len(tokens) >= 3 and tokens[0] == 'wrenches' and isinstance(tokens[1], int) \
             and isinstance(document.get('wrenches'), list):
         return 'wrenches', ''
+    if len(tokens) == 4 and tokens[0] == 'aero' and tokens[2] in ('scale', 'delta') \
+            and 'flight' not in document and isinstance(document.get('aero'), dict) \
+            and isinstance(document['aero'].get(tokens[1]), dict) \
+            and isinstance(document['aero'][tokens[1]].get(tokens[2]), dict):
+        return 'aero', tokens[1]
     if len(tokens) < 3 or tokens[0] not in ('bodies', 'joints') \
-            or not isinstance(tokens[1], str) or tokens[:3] == ('bodies', tokens[1], 'fixed'):
+            or not isinstance(tokens[1], str) or tokens[0] == 'bodies' and tokens[2] in _WHOLE:
         return None
     mapping = document.get(tokens[0])
     if not isinstance(mapping, dict) or not isinstance(mapping.get(tokens[1]), dict):
@@ -48,9 +64,10 @@ class Models:
     """
     The runs' models, the base scenario parsed once per task.
 
-    A key path inside a body (but its ``fixed``), a joint or a wrench only
-    needs that body or joint, or the wrenches, parsed again
-    (``scenario.reparse``); the others (``dt``, ``aero``, ...) need a whole
+    A key path inside a body (but its ``fixed`` and ``cg_offset``), a joint or a wrench only
+    needs that body or joint, or the wrenches, parsed again, and one inside
+    an aero entry's ``scale`` or ``delta`` only needs them set on its tables
+    read once (``scenario.reparse``); the others (``dt``, ``aero``, ...) need a whole
     parse, done once per distinct set of their
     values if they are choices or grids (a run drawing numbers for them is
     parsed whole). A run whose values do not parse is parsed whole again,
@@ -70,9 +87,10 @@ class Models:
         self.inside = {s: [v for v in spec.variables if sections[v.path] == s]
                        for s in self.touched}
         self._bases = {}
+        self._unscaled = {}   # the base's aero entries unscaled (scenario.unscaled_aero)
         self._lock = threading.Lock()
         self._parts = {kind: [n for k, n in self.touched if k == kind]
-                       for kind in ('bodies', 'joints')}
+                       for kind in ('bodies', 'joints', 'aero')}
 
     def full(self, k: int, values: dict):
         """Return run k's model parsed whole from its document."""
@@ -89,12 +107,15 @@ class Models:
             document = apply_values(self.spec.document, self.slow, values)
             try:
                 model = parse_scenario(document, source=_source(self.spec, k))
+                unscaled = (unscaled_aero(model, document, source=_source(self.spec, k))
+                            if self._parts['aero'] else ())
             except Exception:   # noqa: B902 (this run's whole parse names the error)
-                model = None
-            base = (document, model)
+                model, unscaled = None, ()
             with self._lock:
-                self._bases.setdefault(key, base)
+                self._unscaled.setdefault(key, unscaled)
+                base = self._bases.setdefault(key, (document, model))
         document, model = base
+        unscaled = self._unscaled[key]
         if model is None:
             return self.full(k, values)
         try:
@@ -111,7 +132,8 @@ class Models:
                     _set_copying(part, variable.tokens[2:], values[variable.path])
             return reparse(model, top, source=_source(self.spec, k),
                            bodies=self._parts['bodies'], joints=self._parts['joints'],
-                           wrenches=('wrenches', '') in self.touched)
+                           wrenches=('wrenches', '') in self.touched,
+                           aero=self._parts['aero'], unscaled=unscaled)
         except Exception:   # noqa: B902
             return self.full(k, values)
 

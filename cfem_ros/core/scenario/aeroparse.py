@@ -24,13 +24,14 @@ from typing import Optional
 from cfem_ros.core.model.loads import Aero, Proximity
 from cfem_ros.core.native.atmosphere import (
     ALTITUDE_RANGE, isa_density, OFFSET_RANGE, STANDARD_RANGE)
+from cfem_ros.core.scenario.aeroscale import (
+    AERO_COEFFICIENTS, DAMPING_DERIVATIVES, factors_of, INCREMENTS, refuse_lone_increments,
+    scaled)
 import numpy as np
 
 AERO_KEYS = ('area', 'length', 'density', 'altitude', 'atmosphere', 'freestream', 'wind',
              'alpha_deg', 'beta_deg', 'mach', 'CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn', 'Clp', 'Cmq',
              'Cnr', 'scale', 'delta', 'reference_point', 'outside', 'proximity', 'zero')
-AERO_COEFFICIENTS = ('CX', 'CY', 'CZ', 'Cl', 'Cm', 'Cn')
-DAMPING_DERIVATIVES = ('Clp', 'Cmq', 'Cnr')
 ATMOSPHERE_KEYS = ('altitude', 'temperature_offset')
 #: What a table does beyond the range of an axis.
 OUTSIDE = ('hold', 'stop')
@@ -39,8 +40,6 @@ PROXIMITY_KEYS = ('carrier', 'table', 'outside')
 PROXIMITY_AXES = ('dx', 'dy', 'dz', 'dphi_deg', 'dtheta_deg', 'dpsi_deg', 'mach')
 #: The axes that are positions (m): a fade is measured along them.
 POSITION_AXES = ('dx', 'dy', 'dz')
-#: Increment columns of a proximity table.
-INCREMENTS = ('dCX', 'dCY', 'dCZ', 'dCl', 'dCm', 'dCn')
 #: Most points of a proximity grid.
 MAX_GRID_POINTS = 2_000_000
 
@@ -54,9 +53,11 @@ class _Context:
     bodies: tuple
     base_dir: str
     gravity: np.ndarray
+    unscaled: bool = False
 
 
-def parse_aero(check, doc, index: dict, bodies, base_dir: str = '', gravity=None) -> tuple:
+def parse_aero(check, doc, index: dict, bodies, base_dir: str = '', gravity=None,
+               unscaled: bool = False) -> tuple:
     """
     Parse ``aero``: body name -> reference values, tables, air and proximity.
 
@@ -64,14 +65,16 @@ def parse_aero(check, doc, index: dict, bodies, base_dir: str = '', gravity=None
     ``number``, ``vector``); ``index`` maps body names to indices;
     ``base_dir`` is the folder proximity tables are relative to;
     ``gravity`` (world, m/s^2) says which way is up, for each body's own
-    altitude at t = 0 (refused beyond the standard atmosphere).
+    altitude at t = 0 (refused beyond the standard atmosphere). ``unscaled``:
+    each entry's tables as read, its ``scale`` and ``delta`` checked and not
+    applied (``aeroscale.rescaled`` applies them).
     """
     if doc is None:
         return ()
     if not isinstance(doc, dict):
         check.fail('aero', f'is {doc!r:.80}', 'a mapping of body names')
     gravity = np.zeros(3) if gravity is None else np.asarray(gravity, dtype=float)
-    context = _Context(check, index, tuple(bodies), base_dir, gravity)
+    context = _Context(check, index, tuple(bodies), base_dir, gravity, unscaled)
     return tuple(_parse_body(context, name, spec) for name, spec in doc.items())
 
 
@@ -103,8 +106,7 @@ def _parse_body(context: _Context, name, spec) -> Aero:
                    'fixed carrier): both are the velocity of the air, world axes, m/s')
     altitude, offset = _atmosphere(check, spec, key)
     if altitude is not None:
-        given = f'{key}.atmosphere.altitude' if 'atmosphere' in spec else f'{key}.altitude'
-        _body_altitude(context, body, altitude, given)
+        _body_altitude(context, body, altitude, altitude_key(spec, key))
     density = (check.number(spec['density'], f'{key}.density', positive=True)
                if altitude is None else isa_density(altitude, offset))
     air = spec.get('wind', spec.get('freestream', [0.0, 0.0, 0.0]))
@@ -125,28 +127,13 @@ def _parse_body(context: _Context, name, spec) -> Aero:
     proximity = None
     if 'proximity' in spec:
         proximity = _parse_proximity(context, spec['proximity'], f'{key}.proximity', body)
-    # multipliers of the coefficients, damping derivatives and increments (what a study varies)
-    scaled = AERO_COEFFICIENTS + DAMPING_DERIVATIVES + INCREMENTS
-    scales = check.mapping(spec.get('scale', {}), f'{key}.scale', scaled)
-    factors = {c: check.number(v, f'{key}.scale.{c}') for c, v in scales.items()}
-    for c, coefficient in enumerate(AERO_COEFFICIENTS):
-        table[..., c] *= factors.get(coefficient, 1.0)
-    damping *= [factors.get(d, 1.0) for d in DAMPING_DERIVATIVES]
-    # increments added after interpolation and scale (what a study varies, additively)
-    deltas = check.mapping(spec.get('delta', {}), f'{key}.delta',
-                           AERO_COEFFICIENTS + DAMPING_DERIVATIVES)
-    added = {c: check.number(v, f'{key}.delta.{c}') for c, v in deltas.items()}
-    damping += [added.get(d, 0.0) for d in DAMPING_DERIVATIVES]
+    # multipliers of the coefficients, damping derivatives and increments, and increments
+    # added after interpolation and scale (what a study varies): applied last (aeroscale)
+    factors, added = factors_of(check, spec, key)
     if proximity is not None and 'mach' in proximity.axes and altitude is None:
         check.fail(f'{key}.density', 'is given with a proximity table over Mach',
                    'altitude (m): the ISA speed of sound there gives the Mach number')
-    if proximity is not None:
-        increments = proximity.increments * [factors.get(d, 1.0) for d in INCREMENTS]
-        proximity = Proximity(**{**proximity.__dict__, 'increments': increments})
-    elif any(d in factors for d in INCREMENTS):
-        first = next(d for d in INCREMENTS if d in factors)
-        check.fail(f'{key}.scale.{first}', 'scales an increment, and there is no proximity '
-                   'table', f'{key}.proximity, or no {first}')
+    refuse_lone_increments(check, factors, proximity, key)
     outside = spec.get('outside', 'hold')
     if outside not in OUTSIDE:
         check.fail(f'{key}.outside', f'is {outside!r:.80}',
@@ -154,15 +141,16 @@ def _parse_body(context: _Context, name, spec) -> Aero:
     reference = check.vector(spec.get('reference_point', [0.0, 0.0, 0.0]),
                              f'{key}.reference_point')
     cg_offset = np.asarray(getattr(context.bodies[body], 'cg_offset', np.zeros(3)), float)
-    return Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
+    aero = Aero(body=body, area=check.number(spec['area'], f'{key}.area', positive=True),
                 length=check.number(spec['length'], f'{key}.length', positive=True),
                 density=density, freestream=air, alpha=np.radians(grids[0]),
                 beta=np.radians(grids[1]), coefficients=table, damping=damping,
                 mach=grids[2], altitude=altitude, proximity=proximity,
                 temperature_offset=offset, reference_point=np.asarray(reference, float),
                 reference_from_cg=np.asarray(reference, float) - cg_offset,
-                delta=np.array([added.get(c, 0.0) for c in AERO_COEFFICIENTS]),
+                delta=np.zeros(len(AERO_COEFFICIENTS)),
                 stop_outside=outside == 'stop', zero=tuple(spec.get('zero', ())))
+    return aero if context.unscaled else scaled(aero, factors, added)
 
 
 def _atmosphere(check, spec: dict, key: str) -> tuple:
@@ -223,19 +211,28 @@ def _complete(check, spec: dict, key: str):
 
 
 def _body_altitude(context: _Context, body: int, altitude: float, given: str):
+    body_altitude(context.check, context.gravity, context.bodies[body], altitude, given)
+
+
+def altitude_key(spec: dict, key: str) -> str:
+    """Return the key path an aero entry gives its altitude at."""
+    return f'{key}.atmosphere.altitude' if 'atmosphere' in spec else f'{key}.altitude'
+
+
+def body_altitude(check, gravity, body, altitude: float, given: str):
     """Refuse a body whose own altitude at t = 0 is beyond the standard atmosphere."""
-    norm = float(np.linalg.norm(context.gravity))
-    up = -context.gravity / norm if norm > 0.0 else np.zeros(3)
-    position = np.asarray(context.bodies[body].position, dtype=float)
+    norm = float(np.linalg.norm(gravity))
+    up = -gravity / norm if norm > 0.0 else np.zeros(3)
+    position = np.asarray(body.position, dtype=float)
     own = altitude + float(up @ position)   # as the kernel: its height along -gravity
     if STANDARD_RANGE[0] <= own <= STANDARD_RANGE[1]:
         return
-    name = context.bodies[body].name
-    context.check.fail(f'bodies.{name}.position', f'puts {name} at {own:.6g} m ({given} '
-                       f'{altitude:g} m at the world origin, {own - altitude:+.6g} m from '
-                       'there along -gravity), beyond the standard atmosphere',
-                       f'a body from {STANDARD_RANGE[0]:g} to {STANDARD_RANGE[1]:g} m '
-                       '(the 1976 standard, geopotential)')
+    name = body.name
+    check.fail(f'bodies.{name}.position', f'puts {name} at {own:.6g} m ({given} '
+               f'{altitude:g} m at the world origin, {own - altitude:+.6g} m from '
+               'there along -gravity), beyond the standard atmosphere',
+               f'a body from {STANDARD_RANGE[0]:g} to {STANDARD_RANGE[1]:g} m '
+               '(the 1976 standard, geopotential)')
 
 
 def _grid(check, values, key: str, what: str, angles: bool) -> np.ndarray:

@@ -12,6 +12,7 @@ can represent (see the constants below) are refused by ``check`` already.
 
 from __future__ import annotations
 
+from dataclasses import replace
 import math
 import os
 from typing import Any, Optional
@@ -23,7 +24,7 @@ from cfem_ros.core.fileio.yamlfile import load_yaml
 from cfem_ros.core.model.graph import carriers
 from cfem_ros.core.model.model import (
     BAUMGARTE_DT_LIMIT, default_baumgarte, Model, STANDARD_GRAVITY)
-from cfem_ros.core.scenario import aeroparse, braces, flight
+from cfem_ros.core.scenario import aeroparse, aeroscale, braces, flight
 from cfem_ros.core.scenario.bodies import parse_body
 from cfem_ros.core.scenario.checker import (
     body_of, Checker, key_path, MAX_STEPS, MIN_DT, source_dir)
@@ -259,7 +260,7 @@ def _parse_references(check: Checker, bodies_doc: dict, index: dict, model: Mode
 
 
 def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool = False,
-            source: str = '<scenario>') -> Model:
+            aero=(), unscaled=(), source: str = '<scenario>') -> Model:
     """
     Return a model with some bodies and joints, and the wrenches, parsed again from a document.
 
@@ -270,8 +271,13 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
     joint's and a wrench's only the bodies' names and ``fixed`` (and the
     frame's name), and the rest reads of a body only its name and ``fixed``:
     so the result is the whole parse's, number for number, when it does
-    not raise. A ``ScenarioError`` here may not be the first one the whole
-    parse would name: parse the whole document for the message.
+    not raise (a body's ``cg_offset`` changed raises: its wrenches' points
+    move too). ``aero`` names the aero entries whose ``scale`` and ``delta``
+    alone differ: they are set on ``unscaled`` (``unscaled_aero`` of the
+    document ``model`` was parsed from). An aero entry on a body parsed again
+    has its altitude checked again. A ``ScenarioError`` here may not
+    be the first one the whole parse would name: parse the whole document
+    for the message.
     """
     check = Checker(clip(source, 400))
     top = check.mapping(document, '', TOP_KEYS, required=('bodies',))
@@ -284,6 +290,9 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
         new_bodies[i] = parse_body(check, name, top['bodies'][name])
         if new_bodies[i].fixed != model.bodies[i].fixed:
             check.fail(key_path('bodies', name) + '.fixed', 'changed', 'a whole parse')
+        if not np.array_equal(getattr(new_bodies[i], 'cg_offset', 0.0),
+                              getattr(model.bodies[i], 'cg_offset', 0.0)):
+            raise ValueError('a CG offset moves wrench points too, a whole parse')
     index = {b.name: i for i, b in enumerate(new_bodies)}
     new_joints = list(model.joints)
     for name in joints:
@@ -295,6 +304,45 @@ def reparse(model: Model, document: Any, *, bodies=(), joints=(), wrenches: bool
         new_wrenches = parse_wrenches(check, top.get('wrenches'), index, new_bodies,
                                       model.frame_id,
                                       releases=release_names(model.joints, model.release_groups))
+    new_aero = list(model.aero)
+    if aero and flown is not None:
+        raise ValueError('flight: sets the aero air, a whole parse')
+    for name in aero:
+        i = list(top['aero']).index(name)
+        new_aero[i] = aeroscale.rescaled(check, unscaled[i], top['aero'][name], f'aero.{name}')
+    moved = {model.body_index(n) for n in bodies}
+    for i, entry in enumerate(new_aero):
+        if entry.body in moved:
+            new_aero[i] = _aero_on(check, entry, new_bodies[entry.body], model,
+                                   top['aero'][new_bodies[entry.body].name])
     name = top['name'] if 'name' in top else os.path.splitext(os.path.basename(source))[0]
     return Model(**{**model.__dict__, 'name': name, 'bodies': tuple(new_bodies),
-                    'joints': tuple(new_joints), 'wrenches': new_wrenches})
+                    'joints': tuple(new_joints), 'wrenches': new_wrenches,
+                    'aero': tuple(new_aero)})
+
+
+def _aero_on(check: Checker, aero, body, model: Model, spec: dict):
+    """Return an aero entry on its body parsed again: its altitude checked, its CG followed."""
+    if body.dynamic != model.bodies[aero.body].dynamic:
+        raise ValueError('a body moved by forces or not, a whole parse')
+    key = f'aero.{body.name}'   # as aeroparse names it
+    if aero.altitude is not None:
+        aeroparse.body_altitude(check, model.gravity, body, aero.altitude,
+                                aeroparse.altitude_key(spec, key))
+    cg_offset = np.asarray(getattr(body, 'cg_offset', np.zeros(3)), float)
+    return replace(aero, reference_from_cg=aero.reference_point - cg_offset)
+
+
+def unscaled_aero(model: Model, document: Any, source: str = '<scenario>') -> tuple:
+    """
+    Return the aero entries of the document ``model`` was parsed from, unscaled.
+
+    Their ``scale`` and ``delta`` are checked and not applied: what
+    ``reparse`` sets a run's on. A document with ``flight:`` has none here.
+    """
+    if 'flight' in document or not document.get('aero'):
+        return ()
+    check = Checker(clip(source, 400))
+    index = {b.name: i for i, b in enumerate(model.bodies)}
+    return aeroparse.parse_aero(check, document['aero'], index, model.bodies,
+                                source_dir(check), model.gravity, unscaled=True)
