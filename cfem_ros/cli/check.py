@@ -27,7 +27,7 @@ def add_parser(sub):
 
 def check_command(args: argparse.Namespace) -> int:
     """Validate a scenario and print a summary; exit status 0 or 2."""
-    from cfem_ros.core.run.startcheck import start_problems
+    from cfem_ros.core.engine.startcheck import cannot_analyse, start_problems
     scenario = args.scenario
     try:
         with warnings_held():   # a refused scenario says only its ERROR line
@@ -40,9 +40,7 @@ def check_command(args: argparse.Namespace) -> int:
     except CfemError as err:
         return error(str(err))
     except (ArithmeticError, np.linalg.LinAlgError) as err:
-        why = ' '.join(str(err).split())[:120]
-        return error(f'{scenario}: the joints cannot be analysed at t = 0 '
-                     f'({type(err).__name__}: {why}); expected a regular configuration')
+        return error(cannot_analyse(scenario, err))
     for text in warnings:
         print(f'WARNING: {scenario}: {text}', file=sys.stderr)
     print(f'{scenario}: valid scenario {model.name!r}')

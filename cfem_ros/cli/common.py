@@ -45,7 +45,7 @@ def vec(values, fmt='{:+.6g}') -> str:
 
 def cannot_start(scenario: str, errors: list) -> str:
     """Return the error line of a scenario that check, run and the node refuse (``startcheck``)."""
-    from cfem_ros.core.run import startcheck   # the engine, imported when a run is made
+    from cfem_ros.core.engine import startcheck   # the engine, imported when a run is made
     return startcheck.cannot_start(scenario, errors)
 
 

@@ -210,7 +210,7 @@ def _prepare(args) -> _Run:
     if os.path.lexists(args.output) and not args.overwrite:
         raise InputError(f'{args.output}: already exists; pass --overwrite to replace it')
     sim = Simulator(model)
-    from cfem_ros.core.run.startcheck import start_problems
+    from cfem_ros.core.engine.startcheck import start_problems
     errors, _ = start_problems(sim)   # what check refuses, run refuses (exit 2)
     if errors:
         raise InputError(cannot_start(args.scenario, errors))

@@ -28,8 +28,8 @@ import time
 from typing import Optional
 
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.startcheck import CannotStart, refuse_start
 from cfem_ros.core.errors import CfemError
-from cfem_ros.core.run.startcheck import CannotStart, refuse_start
 from cfem_ros.core.scenario.parse import load_scenario
 from cfem_ros.recording import schema
 from cfem_ros.recording.errors import OutputError

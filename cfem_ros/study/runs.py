@@ -68,8 +68,10 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
     Run run k of a sweep and return its table row (a dict, columns in order).
 
     A run whose values the scenario's checks refuse is not run: a row with
-    ``status`` ``Status.INVALID`` (SPEC section 12) and the check's message. A
-    run that fails is a row with ``status`` ``Status.FAILED`` and the reason in
+    ``status`` ``Status.INVALID`` (SPEC section 12) and the check's message;
+    so is one that ends within its first step of a draw ``cfem-sim check``
+    refuses (``Simulator.refusal``: check's line; no metrics). A run that
+    fails is a row with ``status`` ``Status.FAILED`` and the reason in
     ``message``; its metrics are those of the samples it did take.
     record: the path of an MCAP recording to write of it. models: where the model comes from (a
     ``Models`` of spec, shared by a task's runs); the whole parse if None.
@@ -108,9 +110,14 @@ def run_one(spec: SweepSpec, k: int, record: Optional[str] = None,
         if record is not None and recording_failure(err):
             raise   # a recording that cannot be written is no result of the run
         row.update(status=Status.FAILED, message=f'{type(err).__name__}: {err}')
+        if sim.refusal:
+            row.update(status=INVALID, message=sim.refusal)
         row.update(empty(spec.metrics))
         return row
-    if sim.status.stopped_by_scenario:   # stopped as the scenario asks (SPEC 8, 10)
+    if sim.refusal:   # check refuses the draw (asked as its run ended at its start)
+        row.update(status=INVALID, message=sim.refusal)
+        row.update(empty(spec.metrics))
+    elif sim.status.stopped_by_scenario:   # stopped as the scenario asks (SPEC 8, 10)
         row.update(status=sim.status, message=sim.message)
     elif sim.status is Status.FAILED:
         row.update(status=Status.FAILED, message=f'the run failed {sim.message}')

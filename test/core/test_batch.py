@@ -5,7 +5,8 @@
 import pathlib
 
 from cfem_ros import cli, load_scenario, Simulator
-from cfem_ros.core.run import batch, startcheck
+from cfem_ros.core.engine import startcheck
+from cfem_ros.core.run import batch
 import numpy as np
 import pytest
 import yaml

@@ -15,6 +15,8 @@ watched), ``loads``, ``ties``, ``strokes`` and
 shapes are packed by ``cfem_ros.core.native.contacts``), ``braces`` (sway
 braces), ``aero`` (the air each body sees, the events of leaving a table),
 ``carrier`` (kinematic bodies; their trajectories are
-``cfem_ros.core.native.motion``), ``sampling`` (what a sample shows) and
+``cfem_ros.core.native.motion``), ``sampling`` (what a sample shows),
+``startcheck`` (can a run start: what ``cfem-sim check`` refuses, and the
+same words for a run that ends within its first step) and
 ``events`` (statuses, event kinds and failures as enums; an event as a line).
 """

@@ -34,6 +34,7 @@ from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOL
                                               NOT_FINITE)
 from cfem_ros.core.engine.sampling import (LOADS_NOT_FINITE, NumericalFailure, SampleGrid,
                                            Sampling, SINGULAR)
+from cfem_ros.core.engine.startcheck import start_refusal
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.errors import ArgumentError
@@ -52,6 +53,10 @@ class Simulator:
         Built by ``scenario.parse_scenario``.
     logger : logging.Logger, optional
         Where warnings go (velocity projection, redundant joints).
+    check_start : bool
+        A run that ends within its first step asks ``startcheck`` whether
+        ``cfem-sim check`` refuses its scenario (True; the check's own
+        trial runs say False).
 
     Attributes
     ----------
@@ -66,6 +71,11 @@ class Simulator:
         ``AERO_OUTSIDE`` (a table's ``outside: stop``): stopped there.
     message, reason : str
         Why it failed or stopped, with the time, and without ('' while running).
+        A run that ended within its first step of a scenario ``cfem-sim
+        check`` refuses has check's line as its message (``refusal``).
+    refusal : str
+        Check's line (``startcheck.cannot_start``) if the run ended within
+        its first step and check refuses its scenario; '' otherwise.
     failure : Failure or None
         Which failure (``FAILED`` only): what a caller tests, not the message.
     events : list of dict
@@ -87,8 +97,11 @@ class Simulator:
 
     """
 
-    def __init__(self, model: Model, logger: Optional[logging.Logger] = None):
+    def __init__(self, model: Model, logger: Optional[logging.Logger] = None, *,
+                 check_start: bool = True):
         self.model = model
+        self.check_start = check_start
+        self.refusal = ''
         self.dynamics = dynamics = Dynamics(model, logger)
         # the dynamics' tables, read through the simulator too (the same arrays)
         self.log, self.eta, self.n, self.free = dynamics.log, dynamics.eta, dynamics.n, \
@@ -416,6 +429,7 @@ class Simulator:
         if self.status is Status.RUNNING:
             self.status, self.failure, self.reason = Status.FAILED, failure, reason
             self.message = f'at t = {self.t:.9g} s: {reason}'
+            self._refused_at_start()
 
     def release_due(self) -> list:
         """
@@ -485,6 +499,13 @@ class Simulator:
         if stops and self.status is Status.RUNNING:
             self.status, self.message = stops[0]
             self.reason = self.message
+            self._refused_at_start()
+
+    def _refused_at_start(self):
+        """Give check's line as the message of a run check refuses, ended at its start."""
+        if self.check_start:
+            self.refusal = start_refusal(self)   # '' at once unless it ended in its first step
+            self.message = self.refusal or self.message
 
     def _commit(self, y1, t1):
         if not np.isfinite(y1).all():

@@ -11,6 +11,12 @@ anchor far beyond the bodies it joins, aerodynamic loads beyond double
 precision) instead of the run failing at t = 0. What only the run can tell
 (an explicit step too long for a spin rate or an aerodynamic damping) is
 returned as a warning.
+
+Check, run, the node and ``batch.run`` ask before they start. Every other
+run (the Python API, sweeps, fits, predictions) asks only when it ends
+within its first step (``start_refusal``, which ``Simulator`` calls as it
+fails or stops): a run that starts fine pays nothing, and one check refuses
+ends with check's line.
 """
 
 from __future__ import annotations
@@ -23,7 +29,8 @@ from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
 from cfem_ros.core.errors import CfemError
 import numpy as np
 
-__all__ = ['cannot_start', 'CannotStart', 'refuse_start', 'RK4_STABILITY', 'start_problems']
+__all__ = ['cannot_analyse', 'cannot_start', 'CannotStart', 'ended_at_start', 'refuse_start',
+           'RK4_STABILITY', 'start_problems', 'start_refusal']
 
 #: Explicit RK4 on y' = -k y is stable for k dt up to about 2.785; beyond it
 #: the run diverges. A spin of w rad/s asks for w dt well under 1 rad.
@@ -203,6 +210,47 @@ def refuse_start(sim, scenario: str) -> list:
     return warnings
 
 
+def ended_at_start(sim) -> bool:
+    """
+    Tell whether a simulator's run ended within its first step.
+
+    It failed at a time no later than its step dt (the last good state is
+    the start, or within the first step, or the first step's end whose
+    check failed), or a table's ``outside: stop`` ended it at t = 0: the
+    two ends ``start_problems`` looks for.
+    """
+    if sim.status is Status.FAILED:
+        return sim.t <= sim.dt
+    return sim.status is Status.AERO_OUTSIDE and sim.t == 0.0
+
+
+def start_refusal(sim) -> str:
+    """
+    Return check's line for a run that ended within its first step ('' if check passes).
+
+    Asked only of a run that ``ended_at_start`` (otherwise '' at once): its
+    model is checked at its start as ``cfem-sim check`` checks it, on a
+    new simulator (the state, loads and inputs given to sim since are not
+    the scenario's). The scenario is named as ``batch.run`` names it.
+    """
+    if not ended_at_start(sim):
+        return ''
+    scenario = f'scenario {sim.model.name!r}'
+    try:
+        with np.errstate(all='ignore'):
+            errors, _ = start_problems(type(sim)(sim.model, logger=QUIET, check_start=False))
+    except (ArithmeticError, np.linalg.LinAlgError) as err:
+        return cannot_analyse(scenario, err)
+    return cannot_start(scenario, errors) if errors else ''
+
+
+def cannot_analyse(scenario: str, err: Exception) -> str:
+    """Return check's line of a scenario whose start the arithmetic itself refuses (err)."""
+    why = ' '.join(str(err).split())[:120]
+    return (f'{scenario}: the joints cannot be analysed at t = 0 ({type(err).__name__}: '
+            f'{why}); expected a regular configuration')
+
+
 def cannot_start(scenario: str, errors: list) -> str:
     """Return the one line of a scenario ``start_problems`` refuses (check, run, the node)."""
     more = f' (and {len(errors) - 1} more problem(s))' if len(errors) > 1 else ''
@@ -242,7 +290,7 @@ def _failed_first_step(sim):
     if not model.duration > 0.0:
         return None
     with np.errstate(all='ignore'):
-        trial = type(sim)(model, logger=QUIET)
+        trial = type(sim)(model, logger=QUIET, check_start=False)
         if trial.advance_to(min(model.dt, model.duration), release_at_end=False):
             return None
     if trial.status is Status.AERO_OUTSIDE and trial.t == 0.0:

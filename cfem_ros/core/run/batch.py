@@ -24,10 +24,10 @@ import logging
 import os
 from typing import Optional, Sequence
 
+from cfem_ros.core.engine import startcheck
 from cfem_ros.core.engine.events import Status
 from cfem_ros.core.engine.simulator import Simulator
 from cfem_ros.core.errors import ArgumentError
-from cfem_ros.core.run import startcheck
 import numpy as np
 
 __all__ = ['Result', 'run']

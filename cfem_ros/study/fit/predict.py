@@ -263,6 +263,9 @@ class Prediction:
             row.update(status=Status.FAILED, message=f'{type(err).__name__}: {err}',
                        **empty(self.next.metrics))
             return row, None, None, {}
+        if sim.refusal:   # cfem-sim check refuses the draw (asked as its run ended at its start)
+            row.update(status=INVALID, message=sim.refusal, **empty(self.next.metrics))
+            return row, None, None, {}
         if sim.status.stopped_by_scenario:   # stopped as the scenario asks
             row.update(status=sim.status, message=sim.message)
         elif session.failed:

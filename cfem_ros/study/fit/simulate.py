@@ -110,6 +110,9 @@ class Trajectories:
             if item.time <= model.duration:
                 session.submit(item, check=False)
         session.run()
+        if sim.refusal:   # cfem-sim check refuses it (asked as its run ended at its start)
+            raise FitError(spec.path, 'parameters', f'{shown} make the scenario invalid: '
+                           f'{sim.refusal}', 'bounds that keep the scenario valid')
         if session.stopped:   # a failure, or a stop the scenario asks for: no trajectory
             raise FitError(spec.path, 'parameters', f'the run with {shown} failed '
                            f'{sim.message}', 'bounds within which the scenario runs')
