@@ -39,6 +39,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine import simulator
+from cfem_ros.core.native.kernel import LOADS, SAMPLE
 from cfem_ros.recording import visuals
 import numpy as np
 
@@ -203,24 +204,27 @@ class LoadArrows:
         """
         model = self.model
         n = len(model.bodies)
-        state = row[:13 * n].reshape(n, 13)
-        turns = rotations.matrices(state[:, 3:7])   # body to world
+        state = row[:SAMPLE.BODY * n].reshape(n, SAMPLE.BODY)
+        turns = rotations.matrices(state[:, SAMPLE.span('O_QUATERNION')])   # body to world
         out = []
-        first = 13 * n
+        first = SAMPLE.BODY * n
+        joints = row[first:first + SAMPLE.JOINT * len(active)].reshape(-1, SAMPLE.JOINT)
         for i, k in enumerate(active):
             joint = model.joints[k]
-            force = row[first + 6 * i:first + 6 * i + 3] @ turns[joint.child]
+            force = joints[i, SAMPLE.span('O_FORCE')] @ turns[joint.child]
             out.append(('joint_loads', k, joint.name, 'joint', joint.name, np.zeros(3), force))
-        first += 6 * len(active)
+        first += SAMPLE.JOINT * len(active)
+        applied = row[first:first + SAMPLE.WRENCH * len(self.sources)].reshape(-1, SAMPLE.WRENCH)
         for j, ((body, source), (kind, place)) in enumerate(zip(self.sources, self.kinds)):
-            values = row[first + 6 * j:first + 6 * j + 6]
-            force, moment = values.reshape(2, 3) @ turns[body]   # in body axes
+            force, moment = np.stack([applied[j, SAMPLE.span('O_WRENCH_FORCE')],   # body axes
+                                      applied[j, SAMPLE.span('O_WRENCH_MOMENT')]]) @ turns[body]
             start = self._start(j, body, place, state, turns, force, moment)
             out.append(('applied_loads', j, model.bodies[body].name, kind, source, start, force))
-        for body in np.flatnonzero(np.abs(held[:, :3]).sum(axis=1) > 0.0):
-            force = held[body, :3] if held[body, 6] else held[body, :3] @ turns[body]
+        forces = held[:, LOADS.span('H_FORCE')]
+        for body in np.flatnonzero(np.abs(forces).sum(axis=1) > 0.0):
+            force = forces[body] if held[body, LOADS.H_AXES] else forces[body] @ turns[body]
             out.append(('held_loads', int(body), model.bodies[body].name, 'input',
-                        model.bodies[body].name, held[body, 7:10], force))
+                        model.bodies[body].name, held[body, LOADS.span('H_POINT')], force))
         largest = max((float(np.linalg.norm(a[6])) for a in out), default=0.0)
         return [a for a in out if np.linalg.norm(a[6]) > SMALLEST * largest]
 
@@ -295,8 +299,9 @@ class LoadArrows:
 def _in_axes(state: np.ndarray, turns: np.ndarray, axes: int, body: int,
              point: np.ndarray) -> np.ndarray:
     """Return a point fixed on body (its axes, m) in the axes of body ``axes``, from its CG."""
-    world = state[body, :3] + turns[body] @ point
-    return (world - state[axes, :3]) @ turns[axes]
+    cg = state[:, SAMPLE.span('O_POSITION')]
+    world = cg[body] + turns[body] @ point
+    return (world - cg[axes]) @ turns[axes]
 
 
 def _xyz(v) -> dict:

@@ -20,6 +20,7 @@ import os
 from cfem_ros.core.engine.aero import AIR_TOPICS
 from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.inputs import InputKind, stamp_problem
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.container import encoder, offered_qos, Recorder
@@ -30,6 +31,10 @@ import numpy as np
 
 #: The events that start or end a load: the load arrows are drawn at each (SPEC section 4).
 LOAD_EVENTS = loadarrows.LOAD_EVENTS
+#: A pose message's numbers (CG position, quaternion) and a twist's (CG velocity, rates):
+#: a sample's body columns (``SAMPLE``), in their order.
+POSE = SAMPLE.width('O_POSITION') + SAMPLE.width('O_QUATERNION')
+TWIST = SAMPLE.width('O_VELOCITY') + SAMPLE.width('O_RATES')
 
 
 def stamp(stamp_ns: int) -> dict:
@@ -85,7 +90,7 @@ class StateRecorder(RowSink):
         moving = [i for i, b in enumerate(model.bodies) if not b.fixed]
         self._transforms = TransformsOf(
             self.world, tuple(model.bodies[i].name for i in moving),
-            tuple(13 * i for i in moving)) if moving else None
+            tuple(SAMPLE.BODY * i + SAMPLE.O_POSITION for i in moving)) if moving else None
         # the carriers' z-up frames, computed from their poses, in the same message (a
         # viewer seeking shows the last /tf message before the time: it must hold all)
         self._views = viewframes.of_model(model)
@@ -245,27 +250,28 @@ class StateRecorder(RowSink):
         bodies = model.bodies
         row = self._sampled
         for body in bodies:
-            messages += [row(schema.POSE, 7, body=body.name),
-                         row(schema.TWIST, 6, body=body.name)]
-        column = 13 * len(bodies)
+            messages += [row(schema.POSE, POSE, body=body.name),
+                         row(schema.TWIST, TWIST, body=body.name)]
+        column = SAMPLE.BODY * len(bodies)
         for k in active:
             joint = model.joints[k]
-            messages.append(row(schema.JOINT_WRENCH_WORLD, 6, joint=joint.name))
-            turned.append(row(schema.JOINT_WRENCH, InBodyAxes(column, 13 * joint.child + 3),
-                              joint=joint.name))
-            column += 6
+            messages.append(row(schema.JOINT_WRENCH_WORLD, SAMPLE.JOINT, joint=joint.name))
+            turned.append(row(schema.JOINT_WRENCH, InBodyAxes(
+                column, SAMPLE.BODY * joint.child + SAMPLE.O_QUATERNION), joint=joint.name))
+            column += SAMPLE.JOINT
         for body, source in self.sim.applied_sources:   # scheduled loads
-            messages.append(row(schema.APPLIED_WORLD, 6, body=body, source=source))
-            turned.append(row(schema.APPLIED, InBodyAxes(column, 13 * model.body_index(body) + 3),
-                              body=body, source=source))
-            column += 6
+            messages.append(row(schema.APPLIED_WORLD, SAMPLE.WRENCH, body=body, source=source))
+            turned.append(row(schema.APPLIED, InBodyAxes(
+                column, SAMPLE.BODY * model.body_index(body) + SAMPLE.O_QUATERNION),
+                body=body, source=source))
+            column += SAMPLE.WRENCH
         for entry in model.aero:   # the air each body sees (SPEC section 10), 3 a topic
             body = bodies[entry.body].name
             messages += [row(schema.AIR, 3, body=body, quantity=name) for name, _ in AIR_TOPICS]
         for body, ref in self.sim.model.references:   # in a carrier's frame (core/motion.py)
             names = {'body': bodies[body].name, 'reference': bodies[ref].name}
-            messages += [row(schema.RELATIVE_POSE, 7, **names),
-                         row(schema.RELATIVE_TWIST, 6, **names)]
+            messages += [row(schema.RELATIVE_POSE, POSE, **names),
+                         row(schema.RELATIVE_TWIST, TWIST, **names)]
         messages += turned
         if self._transforms is not None:
             messages.append((self.topic(schema.TF), schema.TF.msgtype, self._transforms,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.native.kernel import BODIES
 import numpy as np
 
 
@@ -66,8 +67,11 @@ def mass_table(model):
     inv_inertia_body = np.array([
         np.linalg.inv(b.inertia) if b.dynamic else np.zeros((3, 3)) for b in bodies])
     _check_inverses(model, inv_mass, inv_inertia_body)
-    return free, np.column_stack([mass, inv_mass, inertia_body.reshape(n, 9),
-                                  inv_inertia_body.reshape(n, 9)])
+    table = np.empty((n, BODIES.BODY_COLUMNS))
+    table[:, BODIES.B_MASS], table[:, BODIES.B_INV_MASS] = mass, inv_mass
+    table[:, BODIES.span('B_INERTIA')] = inertia_body.reshape(n, 9)
+    table[:, BODIES.span('B_INV_INERTIA')] = inv_inertia_body.reshape(n, 9)
+    return free, table
 
 
 def _check_inverses(model, inv_mass, inv_inertia_body):

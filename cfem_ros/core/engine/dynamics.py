@@ -37,7 +37,7 @@ from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel, motion
-from cfem_ros.core.native.kernel import LOADS
+from cfem_ros.core.native.kernel import BODIES, LOADS
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -109,9 +109,11 @@ class Dynamics:
         n = self.n = len(model.bodies)
         # fixed and kinematic bodies are carried with zero inverse mass and inertia
         self.free, self.bodies = mass_table(model)
-        self.mass, self.inv_mass = self.bodies[:, 0].copy(), self.bodies[:, 1].copy()
-        self.inertia_body = self.bodies[:, 2:11].reshape(n, 3, 3).copy()   # kg m^2, body axes
-        self.inv_inertia_body = self.bodies[:, 11:20].reshape(n, 3, 3).copy()
+        self.mass = self.bodies[:, BODIES.B_MASS].copy()
+        self.inv_mass = self.bodies[:, BODIES.B_INV_MASS].copy()
+        self.inertia_body = self.bodies[:, BODIES.span('B_INERTIA')].reshape(n, 3, 3).copy()
+        self.inv_inertia_body = self.bodies[:, BODIES.span('B_INV_INERTIA')].reshape(
+            n, 3, 3).copy()   # kg m^2 and its inverse, body axes
         self.gravity = np.asarray(model.gravity, dtype=float)
         # kinematic bodies' trajectories: extra columns, only if there are any (motion.py)
         trajectories = motion.columns(model)

@@ -91,6 +91,10 @@ class Layout:
             setattr(self, name, entry[1] if isinstance(entry, tuple) else entry)
         self.array = array
 
+    def width(self, name: str) -> int:
+        """Return how many numbers a column holds (0: to the end of the row)."""
+        return self.columns[name][2]
+
     def span(self, name: str) -> slice:
         """Return the slice of a column's numbers in a row."""
         _, first, width = self.columns[name]
