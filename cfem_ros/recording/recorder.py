@@ -19,8 +19,8 @@ import os
 
 from cfem_ros.core.engine.aero import AIR_TOPICS
 from cfem_ros.core.engine.events import Event
-from cfem_ros.core.run.inputs import InputKind, stamp_problem
 from cfem_ros.core.native.kernel import SAMPLE
+from cfem_ros.core.run.inputs import InputKind, stamp_problem
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.container import encoder, offered_qos, Recorder
