@@ -231,7 +231,7 @@ def export_command(args: argparse.Namespace) -> int:
     """Write a recording's time histories as a table (SPEC section 12); exit 0 or 2."""
     try:
         print(separation.export(args.recording, args.output, args.relative_to, args.rate,
-                                args.overwrite))
+                                args.overwrite, args.point))
     except CfemError as err:
         return error(str(err))
     return EXIT_OK

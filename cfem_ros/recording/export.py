@@ -27,16 +27,19 @@ from typing import Optional
 import uuid
 
 from cfem_ros.core import rotations
+from cfem_ros.recording.carriage import CARRIAGE, carriage_point, EXPECTED, parse_point
 from cfem_ros.recording.errors import RecordingError
-from cfem_ros.recording.relative import matching, relative_pose, release_time
-from cfem_ros.recording.units import AERO, BODY, csv_header, JOINT, with_units
+from cfem_ros.recording.relative import matching, relative_pose, relative_velocity, release_time
+from cfem_ros.recording.units import AERO, BODY, csv_header, JOINT, RELATIVE, with_units
 import numpy as np
 
-__all__ = ['BODY_COLUMNS', 'JOINT_COLUMNS', 'AERO_COLUMNS', 'export_table', 'write_table']
+__all__ = ['BODY_COLUMNS', 'JOINT_COLUMNS', 'AERO_COLUMNS', 'RELATIVE_COLUMNS', 'export_table',
+           'write_table']
 
 BODY_COLUMNS = tuple(BODY)
 JOINT_COLUMNS = tuple(JOINT)
 AERO_COLUMNS = tuple(AERO)
+RELATIVE_COLUMNS = tuple(RELATIVE)
 FORMATS = ('.csv', '.parquet')
 
 
@@ -76,23 +79,66 @@ def _fill(n: int, width: int, rows: np.ndarray, values: np.ndarray) -> np.ndarra
     return out
 
 
-def _body_block(run, name: str, stamps: np.ndarray, reference: Optional[str]) -> np.ndarray:
-    """Return a body's 12 columns at the stamps (NaN where it has no sample)."""
+def _body_block(run, name: str, stamps: np.ndarray, reference: Optional[str],
+                point=None) -> np.ndarray:
+    """
+    Return a body's 12 columns at the stamps (NaN where it has no sample).
+
+    With a reference, 15: then ``u_rel, v_rel, w_rel``, the positions from
+    point (the reference's axes, m; its CG if None; NaN to leave them NaN).
+    """
     track = run.bodies[name]
     rows, mine = matching(stamps, track.stamp_ns)
     position, quaternion = track.position[mine], track.quaternion[mine]
+    extra = []
     if reference is not None:
         ref = run.bodies[reference]
         ref_rows, theirs = matching(stamps, ref.stamp_ns)
         both, here, there = np.intersect1d(rows, ref_rows, return_indices=True)
-        rows, mine = both, mine[here]
+        rows, mine, theirs = both, mine[here], theirs[there]
         position, quaternion = relative_pose(track.position[mine], track.quaternion[mine],
-                                             ref.position[theirs[there]],
-                                             ref.quaternion[theirs[there]])
+                                             ref.position[theirs], ref.quaternion[theirs])
+        if point is not None:
+            position = position - np.asarray(point, dtype=float)
+        extra = [relative_velocity(track, ref, mine, theirs)]
     euler = rotations.to_rpy_deg(quaternion) if len(rows) else np.zeros((0, 3))
     values = np.column_stack([position, euler, track.velocity[mine],
-                              np.degrees(track.rates[mine])])
-    return _fill(len(stamps), 12, rows, values)
+                              np.degrees(track.rates[mine])] + extra)
+    return _fill(len(stamps), values.shape[1], rows, values)
+
+
+def _points(run, model, reference: str, point, names, warn) -> dict:
+    """Return {body: its point of the reference (reference axes, m)} for ``--point``."""
+    if point is None:
+        return {}
+    try:
+        point = parse_point(point)
+    except ValueError as err:
+        raise RecordingError(f'{run.path}: --point {err}; expected {EXPECTED}') from None
+    if not isinstance(point, str):
+        return {name: point for name in names}
+    if model is None:
+        raise RecordingError(
+            f'{run.path}: --point {CARRIAGE}: the scenario named in the recording '
+            f"({run.metadata.get('scenario') or 'none'}) cannot be read for its joints' "
+            f"anchors; expected --point [x, y, z] (m, the carrier's axes, from its CG)")
+    ref = run.bodies[reference]
+    if not len(ref.time) or abs(ref.time[0]) > 1e-9:
+        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no sample of {reference} at '
+                             't = 0, where the anchors are given; expected [x, y, z]')
+    released = [joint for _, joint, _ in run.releases()]
+    out = {name: carriage_point(model, name, reference, released, ref.position[0],
+                                ref.quaternion[0]) for name in names}
+    if all(p is None for p in out.values()):
+        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no joint between '
+                             f'{reference} and {", ".join(names) or "another body"}; expected '
+                             'a carrier that holds a body, or --point [x, y, z]')
+    for name in [n for n, p in out.items() if p is None]:
+        out[name] = np.full(3, np.nan)
+        if warn is not None:
+            warn(f'{run.path}: {name} has no joint to {reference}: its x, y, z from the '
+                 f'{CARRIAGE} are NaN')
+    return out
 
 
 def _joint_block(run, name: str, stamps: np.ndarray) -> np.ndarray:
@@ -154,7 +200,7 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
 
 
 def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] = None,
-                 warn=None):
+                 warn=None, point=None):
     """
     Return a recording's time histories as a pandas DataFrame (columns as the module says).
 
@@ -170,19 +216,28 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
         the recording's).
     warn : callable, optional
         Called with a line when the aero columns cannot be made (the
-        scenario file is gone).
+        scenario file is gone), or a body has no ``carriage``.
+    point : str or sequence of 3 floats, optional
+        With relative_to: the positions from this point of it instead of
+        its CG, ``'carriage'`` or [x, y, z] (``carriage.parse_point``).
 
     Raises
     ------
     RecordingError
-        If relative_to is not a body of the recording, or rate does not
-        divide the recording's.
+        If relative_to is not a body of the recording, rate does not
+        divide the recording's, or point is not a point of relative_to.
 
     """
     import pandas as pd
     if relative_to is not None and relative_to not in run.bodies:
         raise RecordingError(f'{run.path}: --relative-to {relative_to}: no such body in the '
                              f'recording; expected one of {", ".join(run.bodies)}')
+    if point is not None and relative_to is None:
+        raise RecordingError(f'{run.path}: --point {point}: without --relative-to; expected '
+                             '--relative-to BODY (the carrier the point is on)')
+    model = _scenario_model(run)
+    others = [name for name in run.bodies if name != relative_to]
+    points = _points(run, model, relative_to, point, others, warn)
     stamps = _sample_stamps(run, rate)
     time = (stamps - run.start_ns) / 1e9
     columns = {'time': time}
@@ -191,12 +246,10 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
         since = time - released
         since[~(time >= released - 0.5e-9)] = np.nan
         columns['time_from_release'] = since
-    for name in run.bodies:
-        if name == relative_to:
-            continue
-        block = _body_block(run, name, stamps, relative_to)
-        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(BODY_COLUMNS))
-    model = _scenario_model(run)
+    names = BODY_COLUMNS + (RELATIVE_COLUMNS if relative_to is not None else ())
+    for name in others:
+        block = _body_block(run, name, stamps, relative_to, points.get(name))
+        columns.update((f'{name}_{c}', block[:, k]) for k, c in enumerate(names))
     order = [j.name for j in model.joints] if model is not None else []
     joints = [n for n in order if n in run.joint_frame] + [n for n in run.joint_frame
                                                            if n not in order]
@@ -218,7 +271,7 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
 def export_units(names, bodies, joints, aero) -> dict:
     """Return {column: unit} of an export's columns (``units.BODY``, ``JOINT``, ``AERO``)."""
     units = {'time': 's', 'time_from_release': 's'}
-    for owners, table in ((bodies, BODY), (joints, JOINT), (aero, AERO)):
+    for owners, table in ((bodies, BODY), (bodies, RELATIVE), (joints, JOINT), (aero, AERO)):
         units.update((f'{name}_{c}', u) for name in owners for c, u in table.items())
     return {name: units[name] for name in names if name in units}
 

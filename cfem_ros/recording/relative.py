@@ -6,7 +6,9 @@ Recorded poses in another body's axes: what a captive trajectory system gives.
 ``relative_pose`` composes two stacks of poses sample by sample (the body's
 and the reference's, both body-to-world as recorded): the body's CG from
 the reference's CG in the reference's axes, and its attitude relative to
-the reference. ``relative_track`` does it for two bodies of a ``Run``
+the reference. ``relative_velocity`` gives the CG's velocity seen from the
+reference (the compiled core's formula of a sample of a body with a
+``reference``, ``kernel.relative_states``). ``relative_track`` does it for two bodies of a ``Run``
 matched by their stamps; ``release_time`` gives a run's first release.
 Used by ``cfem-sim export``, ``plot --relative-to`` and the sweep
 envelopes; no second simulation is involved anywhere.
@@ -20,7 +22,8 @@ from cfem_ros.core import rotations
 from cfem_ros.recording.errors import RecordingError
 import numpy as np
 
-__all__ = ['RelativeTrack', 'relative_pose', 'relative_track', 'release_time']
+__all__ = ['RelativeTrack', 'relative_pose', 'relative_track', 'relative_velocity',
+           'release_time']
 
 
 def relative_pose(position, quaternion, ref_position, ref_quaternion) -> tuple:
@@ -55,6 +58,38 @@ def relative_pose(position, quaternion, ref_position, ref_quaternion) -> tuple:
     unit = quaternion / np.linalg.norm(quaternion, axis=1)[:, None]
     ref_unit = ref_quaternion / np.linalg.norm(ref_quaternion, axis=1)[:, None]
     return moved, rotations.multiply(rotations.conjugate(ref_unit), unit)
+
+
+def relative_velocity(body, ref, mine=None, theirs=None) -> np.ndarray:
+    """
+    Return a body's CG velocity seen from a reference body, in the reference's axes, (n, 3).
+
+    ``R_ref^T (v - v_ref - w_ref x (p - p_ref))``, m/s: the velocity relative
+    to the reference-fixed point where the CG is, what a tracker on the
+    reference measures (the time derivative of ``relative_pose``'s
+    position). From the compiled core (``kernel.relative_states``), the
+    formula a sample of a body with a ``reference`` holds.
+
+    Parameters
+    ----------
+    body, ref : recording.tracks BodyTrack
+        The two recorded bodies (CG, world velocity, attitude, body rates).
+    mine, theirs : ndarray of int, optional
+        Their samples to take, matched (all, if not given).
+
+    """
+    from cfem_ros.core.native import kernel
+    mine = slice(None) if mine is None else mine
+    theirs = slice(None) if theirs is None else theirs
+    position = body.position[mine]
+    if not len(position):
+        return np.zeros((0, 3))
+    out = kernel.relative_states(position, body.velocity_world[mine], body.quaternion[mine],
+                                 body.rates[mine], ref.position[theirs],
+                                 ref.velocity_world[theirs], ref.quaternion[theirs],
+                                 ref.rates[theirs])
+    first = kernel.SAMPLE.O_VELOCITY
+    return out[:, first:first + 3]
 
 
 @dataclass

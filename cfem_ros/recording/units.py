@@ -23,8 +23,8 @@ from typing import Optional
 
 from cfem_ros.recording.errors import RecordingError
 
-__all__ = ['BODY', 'JOINT', 'AERO', 'ANGLE', 'RATE', 'bare_columns', 'csv_header', 'read_csv',
-           'read_units', 'with_units']
+__all__ = ['BODY', 'JOINT', 'AERO', 'RELATIVE', 'ANGLE', 'RATE', 'bare_columns', 'csv_header',
+           'read_csv', 'read_units', 'with_units']
 
 #: The units of angles and angular rates wherever a person reads them.
 ANGLE = 'deg'
@@ -34,6 +34,9 @@ RATE = 'deg/s'
 BODY = {'x': 'm', 'y': 'm', 'z': 'm', 'roll_deg': ANGLE, 'pitch_deg': ANGLE,
         'yaw_deg': ANGLE, 'u': 'm/s', 'v': 'm/s', 'w': 'm/s', 'p': RATE, 'q': RATE,
         'r': RATE}
+#: With a carrier (``--relative-to``), after ``<body>_``: the CG's velocity seen from the
+#: carrier, in its axes (``relative.relative_velocity``).
+RELATIVE = {'u_rel': 'm/s', 'v_rel': 'm/s', 'w_rel': 'm/s'}
 #: A joint's load after ``<joint>_``: force (N) and moment about the joint point (N m).
 JOINT = {'fx': 'N', 'fy': 'N', 'fz': 'N', 'mx': 'N m', 'my': 'N m', 'mz': 'N m'}
 #: An aero body's air data after ``<body>_``.

@@ -33,6 +33,10 @@ def add_export_parser(sub):
     export.add_argument('--relative-to', metavar='BODY',
                         help="positions and attitudes in this body's axes, from its CG, and "
                         'time_from_release')
+    export.add_argument('--point', metavar='carriage|[x,y,z]',
+                        help='with --relative-to: positions from this point of the carrier '
+                        "instead of its CG: carriage (the mean of the released joints' "
+                        "anchors) or [x,y,z] (m, the carrier's axes, from its CG)")
     export.add_argument('--rate', type=float, metavar='HZ',
                         help='keep the samples at multiples of 1/HZ s (HZ divides the '
                         "recording's rate)")
@@ -51,7 +55,7 @@ def add_plot_options(plot):
 
 
 def export(recording: str, output: str, relative_to=None, rate=None,
-           overwrite: bool = False) -> str:
+           overwrite: bool = False, point=None) -> str:
     """Write a recording's table (``recording.export``); return the path."""
     from cfem_ros.recording.analysis import open_run
     from cfem_ros.recording.export import export_table, write_table
@@ -66,7 +70,8 @@ def export(recording: str, output: str, relative_to=None, rate=None,
                              'told by the extension)')
     run = open_run(recording)
     table = export_table(run, relative_to, rate,
-                         warn=lambda line: print(f'WARNING: {line}', file=sys.stderr))
+                         warn=lambda line: print(f'WARNING: {line}', file=sys.stderr),
+                         point=point)
     try:
         return write_table(table, output)
     except OSError as err:

@@ -85,7 +85,7 @@ def test_export_composes_the_recorded_poses_as_scipy_does(turning):
     body = ['x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg', 'u', 'v', 'w', 'p', 'q', 'r']
     loads = ['fx', 'fy', 'fz', 'mx', 'my', 'mz']
     want = (['time', 'time_from_release'] + [f'{b}_{c}' for b in ('pylon', 'store')
-                                             for c in body]
+                                             for c in body + ['u_rel', 'v_rel', 'w_rel']]
             + [f'{j}_{c}' for j in ('mount', 'fwd', 'aft') for c in loads])
     assert list(table.columns) == want
     ref, store = run.bodies['aircraft'], run.bodies['store']
@@ -102,6 +102,13 @@ def test_export_composes_the_recorded_poses_as_scipy_does(turning):
     np.testing.assert_array_equal(table[['store_u', 'store_v', 'store_w']], store.velocity)
     np.testing.assert_allclose(table[['store_p', 'store_q', 'store_r']],
                                np.degrees(store.rates), rtol=1e-15, atol=0)
+    # the CG's velocity seen from the turning carrier, its axes: R^T (v - v_c - w_c x d)
+    omega = Rotation.from_quat(ref.quaternion).apply(ref.rates)   # world
+    seen = turn.apply(store.velocity_world - ref.velocity_world
+                      - np.cross(omega, store.position - ref.position))
+    np.testing.assert_allclose(table[['store_u_rel', 'store_v_rel', 'store_w_rel']], seen,
+                               rtol=0, atol=1e-9)
+    assert np.abs(seen - turn.apply(store.velocity_world - ref.velocity_world)).max() > 0.01
     # time from the group's release; NaN before it
     release = run.releases()[0][0]
     assert release == pytest.approx(0.05)

@@ -1,0 +1,99 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+A named point of a carrier, in the carrier's axes (SPEC section 15).
+
+Positions relative to a carrier are measured from its CG unless a point is
+named: ``carriage`` or ``[x, y, z]``. A point ``[x, y, z]`` is in the
+carrier's axes, m, from its CG (the origin of its recorded body frame, the
+actual CG with a ``cg_offset``). ``carriage`` is the mean of the anchors of
+the joints between the body and the carrier that the run released (all the
+joints between them if it released none, a run ended before its release):
+the point the store hangs from. A joint's anchor is a world point at t = 0
+fixed on both bodies (SPEC section 1), so in the carrier's axes it is
+``R_c(0)^T (anchor - p_c(0))`` with the carrier's pose at t = 0, the same
+point the simulation carries (``topology.JointTables`` ``anchor_a``); it
+stays there whatever the carrier does afterwards.
+
+``parse_point`` reads ``--point`` or a metric's ``point:``;
+``carriage_point`` and ``carrier_offsets`` give the point in the carrier's
+axes.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Optional, Union
+
+from cfem_ros.core import rotations
+from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
+import numpy as np
+
+__all__ = ['CARRIAGE', 'EXPECTED', 'carriage_point', 'parse_point']
+
+CARRIAGE = 'carriage'
+#: What a point may be, for the errors.
+EXPECTED = (f"'{CARRIAGE}' (the mean of the released joints' anchors) or [x, y, z] (m, the "
+            "carrier's axes, from its CG)")
+
+
+def parse_point(value) -> Union[str, np.ndarray]:
+    """
+    Return ``'carriage'`` or the point [x, y, z] (m) a ``--point`` or ``point:`` gives.
+
+    value: 'carriage', a list of 3 numbers, or the text '[x, y, z]' (or 'x,y,z').
+
+    Raises
+    ------
+    ValueError
+        If it is neither (the message says what it is; ``EXPECTED`` what it may be).
+
+    """
+    said = repr(value)
+    if isinstance(value, str):
+        text = value.strip()
+        if text == CARRIAGE:
+            return CARRIAGE
+        parts = text[1:-1] if text.startswith('[') and text.endswith(']') else text
+        try:
+            value = [float(p) for p in parts.split(',')]
+        except ValueError:
+            raise ValueError(f'{said} is neither {CARRIAGE} nor three numbers') from None
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        raise ValueError(f'{said} is neither {CARRIAGE} nor three numbers')
+    if not all(math.isfinite(v) and abs(v) <= MAX_MAGNITUDE for v in value):
+        raise ValueError(f'{said} is not finite within {MAX_MAGNITUDE:g} m')
+    return np.array(value, dtype=float)
+
+
+def carriage_point(model, body: str, carrier: str, released, carrier_position,
+                   carrier_quaternion) -> Optional[np.ndarray]:
+    """
+    Return the carriage of body on carrier in the carrier's axes (m), None if no joint.
+
+    Parameters
+    ----------
+    model : core.model Model
+        The scenario: its joints' anchors (world, t = 0).
+    body, carrier : str
+        Body names.
+    released : iterable of str
+        The joints the run released.
+    carrier_position, carrier_quaternion : array_like (3,), (4,)
+        The carrier's CG (world, m) and attitude (x y z w) at t = 0.
+
+    """
+    names = [b.name for b in model.bodies]
+    if body not in names or carrier not in names:
+        return None
+    pair = {names.index(body), names.index(carrier)}
+    between = [j for j in model.joints if {j.parent, j.child} == pair]
+    released = set(released)
+    anchors = [j.anchor for j in between if j.name in released] or [j.anchor for j in between]
+    if not anchors:
+        return None
+    quaternion = np.asarray(carrier_quaternion, dtype=float)
+    turn = rotations.matrices(quaternion[None] / np.linalg.norm(quaternion))[0]
+    mean = np.mean(np.asarray(anchors, dtype=float), axis=0)
+    return turn.T @ (mean - np.asarray(carrier_position, dtype=float))

@@ -1,0 +1,121 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+``cfem-sim export --relative-to BODY --point carriage|[x,y,z]`` and ``_u_rel`` (SPEC 15).
+
+The pull-up example (``config/store_release_from_pullup.yaml``): a store on
+one hook under an aircraft pitching up at g (n - 1) / V, released at 0.5 s.
+The carriage is checked against the hook's anchor read from the YAML here;
+the relative velocities against the time derivative of the relative
+position in the carrier's axes, by central differences of the exported
+positions (error h^2 / 6 times the third derivative, away from the
+release where the relative acceleration jumps), and against the velocity
+that forgets the carrier's rotation (which they must not equal).
+"""
+
+import os
+
+from cfem_ros import cli
+from cfem_ros.recording.units import read_units
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCENARIO = os.path.join(ROOT, 'config', 'store_release_from_pullup.yaml')
+RATE = 1000
+
+
+@pytest.fixture(scope='module')
+def pullup(tmp_path_factory):
+    """Record the pull-up release to 0.8 s at 1 kHz; return (folder, recording, document)."""
+    folder = tmp_path_factory.mktemp('pullup')
+    with open(SCENARIO) as stream:
+        document = yaml.safe_load(stream)
+    document['duration'] = 0.8
+    (folder / 'pullup.yaml').write_text(yaml.safe_dump(document))
+    recording = str(folder / 'pullup.mcap')
+    assert cli.main(['run', str(folder / 'pullup.yaml'), '-o', recording,
+                     '--rate', str(RATE)]) == 0
+    return folder, recording, document
+
+
+def _export(folder, recording, name, *extra) -> pd.DataFrame:
+    path = str(folder / name)
+    assert cli.main(['export', recording, '-o', path, '--relative-to', 'aircraft',
+                     '--overwrite', *extra]) == 0
+    return pd.read_parquet(path)
+
+
+def test_carriage_is_the_hook_anchor_in_the_carrier_s_axes(pullup, capsys):
+    folder, recording, document = pullup
+    from_cg = _export(folder, recording, 'cg.parquet')
+    carriage = _export(folder, recording, 'carriage.parquet', '--point', 'carriage')
+    # the anchor is a world point at t = 0; the aircraft is level then (flight_path_deg and
+    # alpha 0: its axes are the world's), its CG at its YAML position
+    anchor = np.array(document['joints']['hook']['anchor'], dtype=float)
+    expected = anchor - np.array(document['bodies']['aircraft']['position'], dtype=float)
+    assert expected.tolist() == [0.0, 0.0, 1.25]
+    xyz = ['store_x', 'store_y', 'store_z']
+    np.testing.assert_allclose(from_cg[xyz].to_numpy() - carriage[xyz].to_numpy(),
+                               np.tile(expected, (len(from_cg), 1)), rtol=0, atol=1e-12)
+    # at t = 0 the store's CG is 0.25 m below the hook (its YAML position less the anchor)
+    start = np.array(document['bodies']['store']['position']) - anchor
+    np.testing.assert_allclose(carriage[xyz].to_numpy()[0], start, atol=1e-12)
+    # the same point given as numbers: the same table; the attitudes do not move
+    given = _export(folder, recording, 'given.parquet', '--point', '[0, 0, 1.25]')
+    pd.testing.assert_frame_equal(given, carriage)
+    angles = ['store_roll_deg', 'store_pitch_deg', 'store_yaw_deg']
+    pd.testing.assert_frame_equal(carriage[angles], from_cg[angles])
+    assert read_units(str(folder / 'carriage.parquet'))['store_x'] == 'm'
+
+
+def test_relative_velocity_is_the_derivative_of_the_relative_position(pullup):
+    folder, recording, _ = pullup
+    table = _export(folder, recording, 'velocity.parquet')
+    time = table['time'].to_numpy()
+    h = 1.0 / RATE
+    assert np.allclose(np.diff(time), h, rtol=0, atol=1e-12)
+    position = table[['store_x', 'store_y', 'store_z']].to_numpy()
+    relative = table[['store_u_rel', 'store_v_rel', 'store_w_rel']].to_numpy()
+    derivative = (position[2:] - position[:-2]) / (2 * h)   # central, at time[1:-1]
+    inner = time[1:-1]
+    release = 0.5
+    away = np.abs(inner - release) > 2.5 * h   # the relative acceleration jumps there
+    error = np.abs(derivative - relative[1:-1])[away]
+    # h^2 / 6 |x'''|: the relative jerk is about q * n g ~ 0.04 * 20 m/s^3 -> 1e-7 m/s
+    assert error.max() < 1e-5, error.max()
+    # after the release the store falls away: w_rel grows to n g t-ish, not noise
+    late = time > release + 0.2
+    assert relative[late, 2].min() > 1.0
+    # carried (before the release) the store does not move relative to the aircraft
+    np.testing.assert_allclose(relative[time < release - 2 * h], 0.0, atol=1e-6)
+    # the velocity that forgets w_c x (p_b - p_c) differs by more than the tolerance
+    from cfem_ros.recording.analysis import open_run
+    from cfem_ros.recording.relative import relative_pose
+    run = open_run(recording)
+    store, aircraft = run.bodies['store'], run.bodies['aircraft']
+    naive, _ = relative_pose(store.position + store.velocity_world, store.quaternion,
+                             aircraft.position + aircraft.velocity_world, aircraft.quaternion)
+    naive -= relative_pose(store.position, store.quaternion, aircraft.position,
+                           aircraft.quaternion)[0]   # R_c^T (v_b - v_c)
+    assert np.abs(naive - relative).max() > 100 * error.max() + 1e-3
+
+
+@pytest.mark.parametrize('point, said', [
+    ('[1, 2]', "'[1, 2]' is neither carriage nor three numbers"),
+    ('cariage', "'cariage' is neither carriage nor three numbers"),
+    ('[0, nan, 0]', 'is not finite'),
+])
+def test_a_bad_point_is_refused_saying_what_a_point_is(pullup, capsys, point, said):
+    folder, recording, _ = pullup
+    out = folder / 'bad.csv'
+    assert cli.main(['export', recording, '-o', str(out), '--relative-to', 'aircraft',
+                     '--point', point]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ERROR: ') and said in err, err
+    assert "expected 'carriage' (the mean of the released joints' anchors) or [x, y, z]" in err
+    assert not out.exists()
+    assert cli.main(['export', recording, '-o', str(out), '--point', '[0, 0, 1]']) == 2
+    assert 'without --relative-to' in capsys.readouterr().err
