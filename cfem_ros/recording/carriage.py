@@ -27,9 +27,10 @@ from typing import Optional, Union
 
 from cfem_ros.core import rotations
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
+from cfem_ros.recording.errors import RecordingError
 import numpy as np
 
-__all__ = ['CARRIAGE', 'EXPECTED', 'carriage_point', 'parse_point']
+__all__ = ['CARRIAGE', 'EXPECTED', 'carriage_point', 'carrier_offsets', 'parse_point']
 
 CARRIAGE = 'carriage'
 #: What a point may be, for the errors.
@@ -97,3 +98,50 @@ def carriage_point(model, body: str, carrier: str, released, carrier_position,
     turn = rotations.matrices(quaternion[None] / np.linalg.norm(quaternion))[0]
     mean = np.mean(np.asarray(anchors, dtype=float), axis=0)
     return turn.T @ (mean - np.asarray(carrier_position, dtype=float))
+
+
+def carrier_offsets(run, model, reference: str, point, names, warn=None) -> dict:
+    """
+    Return {body: its point of the reference (reference axes, m)} for ``export --point``.
+
+    point: as ``parse_point`` takes it (None: {}); model: the recording's
+    scenario (None if it cannot be read: ``carriage`` is refused). A body
+    without a joint to the reference gets NaN (and a ``warn`` line), unless
+    none has one: refused.
+
+    Raises
+    ------
+    RecordingError
+        If point is no point, or its carriage cannot be found.
+
+    """
+    if point is None:
+        return {}
+    try:
+        point = parse_point(point)
+    except ValueError as err:
+        raise RecordingError(f'{run.path}: --point {err}; expected {EXPECTED}') from None
+    if not isinstance(point, str):
+        return {name: point for name in names}
+    if model is None:
+        raise RecordingError(
+            f'{run.path}: --point {CARRIAGE}: the scenario named in the recording '
+            f"({run.metadata.get('scenario') or 'none'}) cannot be read for its joints' "
+            f"anchors; expected --point [x, y, z] (m, the carrier's axes, from its CG)")
+    ref = run.bodies[reference]
+    if not len(ref.time) or abs(ref.time[0]) > 1e-9:
+        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no sample of {reference} at '
+                             't = 0, where the anchors are given; expected [x, y, z]')
+    released = [joint for _, joint, _ in run.releases()]
+    out = {name: carriage_point(model, name, reference, released, ref.position[0],
+                                ref.quaternion[0]) for name in names}
+    if all(p is None for p in out.values()):
+        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no joint between '
+                             f'{reference} and {", ".join(names) or "another body"}; expected '
+                             'a carrier that holds a body, or --point [x, y, z]')
+    for name in [n for n, p in out.items() if p is None]:
+        out[name] = np.full(3, np.nan)
+        if warn is not None:
+            warn(f'{run.path}: {name} has no joint to {reference}: its x, y, z from the '
+                 f'{CARRIAGE} are NaN')
+    return out

@@ -14,9 +14,19 @@ Columns: ``time`` (s), with a reference also ``time_from_release`` (s,
 NaN before the first release); per body ``<body>_x, _y, _z`` (m),
 ``_roll_deg, _pitch_deg, _yaw_deg`` (Z-Y-X), ``_u, _v, _w`` (m/s, CG
 velocity relative to the world in body axes), ``_p, _q, _r`` (deg/s,
-body axes); per joint ``<joint>_fx, _fy, _fz`` (N) and ``_mx, _my, _mz``
-(N m about the joint point), joint frame, NaN once released; per aero
-body ``<body>_alpha_deg, _beta_deg, _mach, _dynamic_pressure`` (Pa).
+body axes), with a reference also ``_u_rel, _v_rel, _w_rel`` (m/s, the
+CG's velocity seen from the reference, in its axes:
+``relative.relative_velocity``); per joint ``<joint>_fx, _fy, _fz`` (N)
+and ``_mx, _my, _mz`` (N m about the joint point), joint frame, NaN once
+released; per aero body ``<body>_alpha_deg, _beta_deg, _mach,
+_dynamic_pressure`` (Pa). With a reference and a point (``--point
+carriage`` or ``[x, y, z]``, ``carriage.carrier_offsets``) the positions
+are from that point of the reference instead of its CG.
+
+Units: a Parquet file says each column's unit in its field metadata
+(``unit``), a CSV in its header after the name (``store_q [deg/s]``,
+``[1]`` for a number without one: ``units.csv_header``); the names are
+the same in both.
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ from typing import Optional
 import uuid
 
 from cfem_ros.core import rotations
-from cfem_ros.recording.carriage import CARRIAGE, carriage_point, EXPECTED, parse_point
+from cfem_ros.recording.carriage import carrier_offsets
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.relative import matching, relative_pose, relative_velocity, release_time
 from cfem_ros.recording.units import AERO, BODY, csv_header, JOINT, RELATIVE, with_units
@@ -105,40 +115,6 @@ def _body_block(run, name: str, stamps: np.ndarray, reference: Optional[str],
     values = np.column_stack([position, euler, track.velocity[mine],
                               np.degrees(track.rates[mine])] + extra)
     return _fill(len(stamps), values.shape[1], rows, values)
-
-
-def _points(run, model, reference: str, point, names, warn) -> dict:
-    """Return {body: its point of the reference (reference axes, m)} for ``--point``."""
-    if point is None:
-        return {}
-    try:
-        point = parse_point(point)
-    except ValueError as err:
-        raise RecordingError(f'{run.path}: --point {err}; expected {EXPECTED}') from None
-    if not isinstance(point, str):
-        return {name: point for name in names}
-    if model is None:
-        raise RecordingError(
-            f'{run.path}: --point {CARRIAGE}: the scenario named in the recording '
-            f"({run.metadata.get('scenario') or 'none'}) cannot be read for its joints' "
-            f"anchors; expected --point [x, y, z] (m, the carrier's axes, from its CG)")
-    ref = run.bodies[reference]
-    if not len(ref.time) or abs(ref.time[0]) > 1e-9:
-        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no sample of {reference} at '
-                             't = 0, where the anchors are given; expected [x, y, z]')
-    released = [joint for _, joint, _ in run.releases()]
-    out = {name: carriage_point(model, name, reference, released, ref.position[0],
-                                ref.quaternion[0]) for name in names}
-    if all(p is None for p in out.values()):
-        raise RecordingError(f'{run.path}: --point {CARRIAGE}: no joint between '
-                             f'{reference} and {", ".join(names) or "another body"}; expected '
-                             'a carrier that holds a body, or --point [x, y, z]')
-    for name in [n for n, p in out.items() if p is None]:
-        out[name] = np.full(3, np.nan)
-        if warn is not None:
-            warn(f'{run.path}: {name} has no joint to {reference}: its x, y, z from the '
-                 f'{CARRIAGE} are NaN')
-    return out
 
 
 def _joint_block(run, name: str, stamps: np.ndarray) -> np.ndarray:
@@ -237,7 +213,7 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
                              '--relative-to BODY (the carrier the point is on)')
     model = _scenario_model(run)
     others = [name for name in run.bodies if name != relative_to]
-    points = _points(run, model, relative_to, point, others, warn)
+    points = carrier_offsets(run, model, relative_to, point, others, warn)
     stamps = _sample_stamps(run, rate)
     time = (stamps - run.start_ns) / 1e9
     columns = {'time': time}
