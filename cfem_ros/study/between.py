@@ -46,13 +46,24 @@ PROBES = 8
 
 
 def motion(samples, body: str):
-    """Return a body's ``Motion`` from a run's samples, or None without its whole twist."""
+    """
+    Return a body's ``Motion`` from a run's samples, or None without its whole twist.
+
+    Made once per body and kept in ``samples.motions`` (where the samples
+    have it): a run's metrics ask for the same body's several times.
+    """
+    made = getattr(samples, 'motions', None)
+    if made is not None and body in made:
+        return made[body]
     t, position, quaternion = samples.bodies[body]
     velocity, rates = samples.velocities.get(body), samples.rates.get(body)
-    if velocity is None or rates is None or len(t) < 2 \
-            or not (np.isfinite(velocity).all() and np.isfinite(rates).all()):
-        return None
-    return Motion(t, position, quaternion, velocity, rates)
+    found = None
+    if not (velocity is None or rates is None or len(t) < 2
+            or not (np.isfinite(velocity).all() and np.isfinite(rates).all())):
+        found = Motion(t, position, quaternion, velocity, rates)
+    if made is not None:
+        made[body] = found
+    return found
 
 
 class Motion:

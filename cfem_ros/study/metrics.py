@@ -53,6 +53,9 @@ class Samples:
         Per body its body rates at its samples, rad/s (body axes).
     velocities : dict of str to ndarray (n, 3)
         Per body its CG velocity at its samples, m/s (body axes).
+    motions : dict of str to between.Motion or None
+        Per body its interpolant between the samples, made once for all the
+        metrics that search between samples (``between.motion``).
 
     """
 
@@ -65,6 +68,7 @@ class Samples:
     cg_offsets: dict = field(default_factory=dict)
     rates: dict = field(default_factory=dict)
     velocities: dict = field(default_factory=dict)
+    motions: dict = field(default_factory=dict, repr=False, compare=False)
 
 
 def from_run(run) -> Samples:

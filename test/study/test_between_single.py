@@ -52,3 +52,29 @@ def test_distance_at_one_pose_is_that_of_distances():
                                       capsule, np.array([[0.0, 0.0, 0.0, 1.0]]),
                                       np.zeros((1, 3)))[0][0]
         assert abs(found - expected) < 1e-12
+
+
+def test_a_body_s_motion_is_made_once_per_run_and_the_metrics_are_those_made_afresh():
+    from cfem_ros.study import Sweep
+    from cfem_ros.study import runs
+    from cfem_ros.study.metrics import compute
+    import os
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    spec = Sweep.from_file(os.path.join(root, 'config', 'sweeps',
+                                        'store_release_near_pylon_sweep.yaml'), runs=3).spec
+    kept = []
+    compute_run = runs.compute
+    runs.compute = lambda samples, metrics: kept.append(samples) or compute_run(samples, metrics)
+    try:
+        rows = runs.run_rows(spec, range(spec.total))
+    finally:
+        runs.compute = compute_run
+    for samples, row in zip(kept, rows):
+        assert set(samples.motions) == {'store', 'pylon', 'wing'}   # its three, once each
+        assert between.motion(samples, 'store') is samples.motions['store']
+        samples.motions = None   # no cache: every metric makes its own
+        afresh = compute(samples, spec.metrics)
+        assert afresh.keys() <= row.keys()
+        for key, value in afresh.items():
+            assert np.array_equal(value, row[key], equal_nan=True) if isinstance(value, float) \
+                else value == row[key], key
