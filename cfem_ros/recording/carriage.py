@@ -16,13 +16,15 @@ point the simulation carries (``topology.JointTables`` ``anchor_a``); it
 stays there whatever the carrier does afterwards.
 
 ``parse_point`` reads ``--point`` or a metric's ``point:``;
-``carriage_point`` and ``carrier_offsets`` give the point in the carrier's
-axes.
+``carriage_point`` (from ``joint_anchors``) and ``carrier_offsets`` give
+the point in the carrier's axes; ``scenario_model`` reads the scenario a
+recording names.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from typing import Optional, Union
 
 from cfem_ros.core import rotations
@@ -30,7 +32,8 @@ from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 from cfem_ros.recording.errors import RecordingError
 import numpy as np
 
-__all__ = ['CARRIAGE', 'EXPECTED', 'carriage_point', 'carrier_offsets', 'parse_point']
+__all__ = ['CARRIAGE', 'EXPECTED', 'carriage_point', 'carrier_offsets', 'joint_anchors',
+           'parse_point', 'scenario_model']
 
 CARRIAGE = 'carriage'
 #: What a point may be, for the errors.
@@ -68,15 +71,35 @@ def parse_point(value) -> Union[str, np.ndarray]:
     return np.array(value, dtype=float)
 
 
-def carriage_point(model, body: str, carrier: str, released, carrier_position,
+def joint_anchors(model) -> list:
+    """Return a model's joints as (name, parent name, child name, anchor (world, t = 0))."""
+    names = [b.name for b in model.bodies]
+    return [(j.name, names[j.parent], names[j.child], np.asarray(j.anchor, dtype=float))
+            for j in model.joints]
+
+
+def scenario_model(run):
+    """Return the scenario named in a recording's metadata, parsed (None if gone or invalid)."""
+    from cfem_ros.core.errors import CfemError
+    from cfem_ros.core.scenario.parse import load_scenario
+    path = run.metadata.get('scenario')
+    if not path or not os.path.isfile(path):
+        return None
+    try:
+        return load_scenario(path)
+    except CfemError:
+        return None
+
+
+def carriage_point(joints, body: str, carrier: str, released, carrier_position,
                    carrier_quaternion) -> Optional[np.ndarray]:
     """
     Return the carriage of body on carrier in the carrier's axes (m), None if no joint.
 
     Parameters
     ----------
-    model : core.model Model
-        The scenario: its joints' anchors (world, t = 0).
+    joints : iterable of (name, parent, child, anchor)
+        The scenario's joints (``joint_anchors``): anchors in the world at t = 0.
     body, carrier : str
         Body names.
     released : iterable of str
@@ -85,13 +108,10 @@ def carriage_point(model, body: str, carrier: str, released, carrier_position,
         The carrier's CG (world, m) and attitude (x y z w) at t = 0.
 
     """
-    names = [b.name for b in model.bodies]
-    if body not in names or carrier not in names:
-        return None
-    pair = {names.index(body), names.index(carrier)}
-    between = [j for j in model.joints if {j.parent, j.child} == pair]
+    between = [(name, anchor) for name, parent, child, anchor in joints
+               if {parent, child} == {body, carrier} and body != carrier]
     released = set(released)
-    anchors = [j.anchor for j in between if j.name in released] or [j.anchor for j in between]
+    anchors = [a for name, a in between if name in released] or [a for _, a in between]
     if not anchors:
         return None
     quaternion = np.asarray(carrier_quaternion, dtype=float)
@@ -133,7 +153,8 @@ def carrier_offsets(run, model, reference: str, point, names, warn=None) -> dict
         raise RecordingError(f'{run.path}: --point {CARRIAGE}: no sample of {reference} at '
                              't = 0, where the anchors are given; expected [x, y, z]')
     released = [joint for _, joint, _ in run.releases()]
-    out = {name: carriage_point(model, name, reference, released, ref.position[0],
+    joints = joint_anchors(model)
+    out = {name: carriage_point(joints, name, reference, released, ref.position[0],
                                 ref.quaternion[0]) for name in names}
     if all(p is None for p in out.values()):
         raise RecordingError(f'{run.path}: --point {CARRIAGE}: no joint between '

@@ -37,7 +37,7 @@ from typing import Optional
 import uuid
 
 from cfem_ros.core import rotations
-from cfem_ros.recording.carriage import carrier_offsets
+from cfem_ros.recording.carriage import carrier_offsets, scenario_model
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.relative import matching, relative_pose, relative_velocity, release_time
 from cfem_ros.recording.units import AERO, BODY, csv_header, JOINT, RELATIVE, with_units
@@ -123,19 +123,6 @@ def _joint_block(run, name: str, stamps: np.ndarray) -> np.ndarray:
     return _fill(len(stamps), 6, rows, np.column_stack([track.force[mine], track.moment[mine]]))
 
 
-def _scenario_model(run):
-    """Return the recording's scenario parsed (None if its file is gone or invalid)."""
-    from cfem_ros.core.errors import CfemError
-    from cfem_ros.core.scenario.parse import load_scenario
-    path = run.metadata.get('scenario')
-    if not path or not os.path.isfile(path):
-        return None
-    try:
-        return load_scenario(path)
-    except CfemError:
-        return None
-
-
 def aero_blocks(run, stamps: np.ndarray, model) -> dict:
     """
     Return per aero body its (n, 4) alpha (deg), beta (deg), Mach, dynamic pressure (Pa).
@@ -211,7 +198,7 @@ def export_table(run, relative_to: Optional[str] = None, rate: Optional[float] =
     if point is not None and relative_to is None:
         raise RecordingError(f'{run.path}: --point {point}: without --relative-to; expected '
                              '--relative-to BODY (the carrier the point is on)')
-    model = _scenario_model(run)
+    model = scenario_model(run)
     others = [name for name in run.bodies if name != relative_to]
     points = carrier_offsets(run, model, relative_to, point, others, warn)
     stamps = _sample_stamps(run, rate)
