@@ -18,6 +18,7 @@ import math
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.session import RowSink
+from cfem_ros.recording.carriage import carriage_point, joint_anchors
 from cfem_ros.study import between
 from cfem_ros.study.metricspec import STROKE_COLUMNS
 from cfem_ros.study.shape_metrics import compute_distance
@@ -56,6 +57,9 @@ class Samples:
     motions : dict of str to between.Motion or None
         Per body its interpolant between the samples, made once for all the
         metrics that search between samples (``between.motion``).
+    anchors : list of (joint, parent, child, anchor (3,))
+        The run's joints, anchors in the world at t = 0
+        (``carriage.joint_anchors``): an ``at`` entry's ``point: carriage``.
 
     """
 
@@ -69,6 +73,7 @@ class Samples:
     rates: dict = field(default_factory=dict)
     velocities: dict = field(default_factory=dict)
     motions: dict = field(default_factory=dict, repr=False, compare=False)
+    anchors: list = field(default_factory=list)
 
 
 def from_run(run) -> Samples:
@@ -83,7 +88,15 @@ def from_run(run) -> Samples:
         aero_outside=_outside(run.events, max((float(b.time[-1]) for b in run.bodies.values()
                                                if len(b.time)), default=0.0)),
         rates={name: b.rates for name, b in run.bodies.items()},
-        velocities={name: b.velocity for name, b in run.bodies.items()})
+        velocities={name: b.velocity for name, b in run.bodies.items()},
+        anchors=_recorded_anchors(run))
+
+
+def _recorded_anchors(run) -> list:
+    """Return the joints' anchors of the scenario a recording names ([] if it is gone)."""
+    from cfem_ros.recording.carriage import scenario_model
+    model = scenario_model(run)
+    return [] if model is None else joint_anchors(model)
 
 
 def _outside(events, t_end: float) -> dict:
@@ -198,7 +211,25 @@ class Collector(RowSink):
                        aero_outside=_outside(self.sim.events, self.sim.t),
                        cg_offsets={b.name: b.cg_offset for b in model.bodies
                                    if np.any(b.cg_offset)},
-                       rates=rates, velocities=velocities)
+                       rates=rates, velocities=velocities, anchors=joint_anchors(model))
+
+
+def _from_point(entry, samples, values: list) -> list:
+    """Return an ``at`` entry's values with x, y, z from its ``point`` of the carrier."""
+    if entry.point is None:
+        return values
+    if isinstance(entry.point, str):   # carriage: the run's anchors, the carrier at t = 0
+        t, position, quaternion = samples.bodies[entry.relative_to]
+        released = [joint for _, joint, _ in samples.releases]
+        point = None
+        if len(t) and abs(float(t[0])) <= 0.5e-9:
+            point = carriage_point(samples.anchors, entry.body, entry.relative_to, released,
+                                   position[0], quaternion[0])
+        if point is None:   # no joint between them, or no sample at t = 0: no number
+            point = np.full(3, NAN)
+    else:
+        point = entry.point
+    return [float(v - c) for v, c in zip(values[:3], point)] + list(values[3:])
 
 
 def _kernel():
@@ -251,7 +282,9 @@ def compute(samples: Samples, metrics) -> dict:
     the largest |force| and |moment| of each joint over the samples while it
     was active (NaN if never sampled). ``at``: the body's CG position and
     Z-Y-X roll, pitch, yaw at the sample at that time (NaN if the run has no
-    sample there), relative to the ``relative_to`` body's frame if given.
+    sample there), relative to the ``relative_to`` body's frame if given,
+    from its ``point`` (``carriage`` or [x, y, z], its axes) if given: a
+    carriage the run's joints do not give (no joint between the two) is NaN.
 
     Raises
     ------
@@ -315,7 +348,7 @@ def compute(samples: Samples, metrics) -> dict:
             if name is not None and name not in samples.bodies:
                 raise KeyError(f'no body {name!r} in the run')
         if entry.after is not None:   # s after a release (SPEC section 12)
-            out.update(zip(names, at_after(entry, samples)))
+            out.update(zip(names, _from_point(entry, samples, at_after(entry, samples))))
             continue
         t, pos, quat = samples.bodies[entry.body]
         want = int(round(entry.time * 1e9))
@@ -327,7 +360,7 @@ def compute(samples: Samples, metrics) -> dict:
                 p, q = _relative(p, q, pos_r[k], quat_r[k])
             rpy = rotations.to_rpy_deg(np.asarray(q, dtype=float))
             values = [float(p[0]), float(p[1]), float(p[2])] + [float(a) for a in rpy]
-        out.update(zip(names, values))
+        out.update(zip(names, _from_point(entry, samples, values)))
     for wrench in getattr(metrics, 'strokes', ()):
         t, velocity, rates = samples.strokes.get(wrench, (NAN, [NAN] * 3, [NAN] * 3))
         # rates in deg/s, as the export's _p, _q, _r (SPEC 15: one unit per quantity)

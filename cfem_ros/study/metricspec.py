@@ -10,6 +10,7 @@ from typing import Optional
 
 from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
+from cfem_ros.recording.carriage import EXPECTED, parse_point
 from cfem_ros.study import windowed
 from cfem_ros.study.errors import number_list
 from cfem_ros.study.shape_metrics import parse_distance, parse_name, parse_window, Window
@@ -17,7 +18,7 @@ import numpy as np
 
 METRIC_KEYS = ('clearance', 'at', 'distance', 'extremes')
 CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to', 'name')
-AT_KEYS = ('time', 'body', 'relative_to', 'after')
+AT_KEYS = ('time', 'body', 'relative_to', 'after', 'point')
 #: A sample time within this many samples of the grid is on it.
 ON_GRID = 1e-9
 #: Sweep columns of a stroke end, after ``stroke_<wrench>_`` (SPEC section 7).
@@ -48,7 +49,10 @@ class At:
 
     With ``after`` (a joint or release group, SPEC section 12) the time is
     counted from that release (``windowed.at_after``); ``groups`` are the
-    scenario's release groups, (name, joints) pairs.
+    scenario's release groups, (name, joints) pairs. With ``relative_to``,
+    ``point`` (SPEC section 15) measures the position from that point of the
+    carrier instead of its CG: ``'carriage'`` or [x, y, z] (m, carrier axes,
+    ``recording.carriage``).
     """
 
     time: float
@@ -56,6 +60,7 @@ class At:
     relative_to: Optional[str] = None
     after: Optional[str] = None
     groups: tuple = ()
+    point: Optional[object] = None
 
     @property
     def prefix(self) -> str:
@@ -168,11 +173,26 @@ def parse_metrics(fail, metrics, base, rate, model=None) -> Metrics:
                  f'a multiple of 1/rate_hz = {1 / rate:g} s (or a time after a release: '
                  '`after: <joint or group>`)')
         relative = entry.get('relative_to')
+        point = _point(fail, key, entry, relative)
         out.at.append(At(float(t), body(f'{key}.body', entry.get('body')),
                          None if relative is None else body(f'{key}.relative_to', relative),
-                         after, groups))
+                         after, groups, point))
     out.extremes = windowed.parse_extremes(fail, metrics.get('extremes') or [], base, body)
     return out
+
+
+def _point(fail, key: str, entry: dict, relative):
+    """Return an ``at`` entry's ``point`` ('carriage', [x, y, z] or None), checked."""
+    if entry.get('point') is None:
+        return None
+    if relative is None:
+        fail(f'{key}.point', f'is {show(entry["point"])} without relative_to',
+             'relative_to: the carrier the point is on')
+    try:
+        point = parse_point(entry['point'])
+    except ValueError:
+        fail(f'{key}.point', f'is {show(entry["point"])}', EXPECTED)
+    return point if isinstance(point, str) else [float(v) for v in point]
 
 
 def _unique(fail, seen: dict, entry, key: str, pair):

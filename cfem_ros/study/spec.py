@@ -119,6 +119,8 @@ class SweepSpec:
             resolved['metrics']['windows'] = windows
             resolved['metrics']['distance'] = [
                 [d.body_a, d.body_b, d.window.describe()] for d in self.metrics.distance]
+        if any(a.point is not None for a in self.metrics.at):   # absent otherwise, as windows
+            resolved['metrics']['at_point'] = [a.point for a in self.metrics.at]
         if any(a.after for a in self.metrics.at) or self.metrics.extremes:   # as windows
             resolved['metrics']['at_after'] = [a.after for a in self.metrics.at]
             resolved['metrics']['extremes'] = [e.describe() for e in self.metrics.extremes]

@@ -119,3 +119,53 @@ def test_a_bad_point_is_refused_saying_what_a_point_is(pullup, capsys, point, sa
     assert not out.exists()
     assert cli.main(['export', recording, '-o', str(out), '--point', '[0, 0, 1]']) == 2
     assert 'without --relative-to' in capsys.readouterr().err
+
+
+def test_at_metrics_take_the_point_as_export_does(pullup, capsys):
+    # a sweep's run (the samples kept in memory) and summarize (the recording) give the
+    # export's numbers at 0.7 s and 0.15 s after the release
+    folder, recording, _ = pullup
+    table = _export(folder, recording, 'at.parquet', '--point', 'carriage')
+    at = [{'time': 0.7, 'body': 'store', 'relative_to': 'aircraft', 'point': 'carriage'},
+          {'time': 0.15, 'after': 'hook', 'body': 'store', 'relative_to': 'aircraft',
+           'point': [0, 0, 1.25]},
+          {'time': 0.2, 'body': 'store', 'relative_to': 'aircraft'}]
+    # free fall without air: the relative motion does not depend on the mass varied
+    sweep = {'scenario': 'pullup.yaml', 'runs': 1, 'seed': 1, 'rate_hz': RATE,
+             'vary': {'bodies.store.mass': {'uniform': [900.0, 910.0]}},
+             'metrics': {'at': at}}
+    (folder / 'sweep.yaml').write_text(yaml.safe_dump(sweep))
+    assert cli.main(['sweep', str(folder / 'sweep.yaml'), '-o', str(folder / 'swept')]) == 0
+    assert cli.main(['summarize', recording, '--metrics', str(folder / 'sweep.yaml'), '-o',
+                     str(folder / 'summary.parquet')]) == 0
+    capsys.readouterr()
+    xyz = ['x', 'y', 'z']
+    for path in (folder / 'swept' / 'results.parquet', folder / 'summary.parquet'):
+        row = pd.read_parquet(path).iloc[0]
+        for when, prefix in ((0.7, 'store_at_0.7_'), (0.65, 'store_at_0.15r_')):
+            k = int(np.argmin(np.abs(table['time'] - when)))
+            assert abs(table['time'][k] - when) < 1e-9
+            np.testing.assert_allclose([row[prefix + c] for c in xyz],
+                                       [table[f'store_{c}'][k] for c in xyz], atol=1e-9)
+        k = int(np.argmin(np.abs(table['time'] - 0.2)))   # no point: from the CG
+        assert row['store_at_0.2_z'] == pytest.approx(table['store_z'][k] + 1.25, abs=1e-9)
+
+
+@pytest.mark.parametrize('entry, said', [
+    ({'point': 'carriage'}, "metrics.at[0].point: is 'carriage' without relative_to"),
+    ({'relative_to': 'aircraft', 'point': [1, 2]}, 'metrics.at[0].point: is [1, 2]'),
+    ({'relative_to': 'aircraft', 'point': 'hook'}, "metrics.at[0].point: is 'hook'"),
+])
+def test_a_bad_metric_point_is_refused_with_its_key(pullup, capsys, entry, said):
+    folder, _, _ = pullup
+    sweep = {'scenario': 'pullup.yaml', 'runs': 1, 'seed': 1, 'rate_hz': RATE,
+             'vary': {'bodies.store.mass': {'uniform': [900.0, 910.0]}},
+             'metrics': {'at': [dict({'time': 0.1, 'body': 'store'}, **entry)]}}
+    (folder / 'bad.yaml').write_text(yaml.safe_dump(sweep))
+    out = folder / 'refused'
+    assert cli.main(['sweep', str(folder / 'bad.yaml'), '-o', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count('\n') == 1, err
+    assert ("carriage' (the mean of the released joints' anchors) or [x, y, z]" in err
+            or 'relative_to: the carrier the point is on' in err), err
+    assert not out.exists()
