@@ -108,7 +108,7 @@ inline double reach(const P& d) {
 template <class P>
 inline double bounding_radius(const P& d) {
   const bool compound = static_cast<int>(d[kKind]) == kCompound;
-  const int count = compound ? static_cast<int>(d[1]) : 1;
+  const int count = compound ? static_cast<int>(d[kParts]) : 1;
   long at = compound ? kShapeHeader : 0;
   double most = 0.0;
   for (int k = 0; k < count; ++k) {
@@ -134,7 +134,7 @@ struct Parts {
 template <class P>
 inline void parts_of(const P& d, const double* rot, const double* position, Parts& out) {
   const bool compound = static_cast<int>(d[kKind]) == kCompound;
-  out.count = compound ? static_cast<int>(d[1]) : 1;
+  out.count = compound ? static_cast<int>(d[kParts]) : 1;
   long at = compound ? kShapeHeader : 0;
   for (int k = 0; k < out.count; ++k) {
     double radius = compound ? d[at] : 0.0;
@@ -216,7 +216,7 @@ inline long checked_length(const P& d, long size) {
     return at + length <= size ? length : -1;
   };
   if (static_cast<int>(d[kKind]) != kCompound) return convex(0);
-  double count = d[1];
+  double count = d[kParts];
   if (!(count >= 1.0 && count <= kMaxParts)) return -1;
   long at = kShapeHeader;
   for (int k = 0; k < static_cast<int>(count); ++k) {

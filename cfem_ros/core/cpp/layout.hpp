@@ -16,8 +16,8 @@
 // ``bodies`` (n, BODY_COLUMNS), then the columns of kinematic bodies (motion.cpp) when the
 // model has any: the step's start time, the accelerations at the last time evaluated (CG,
 // world; angular, world), 1 + the body whose frame this body is sampled in (0 none), then
-// its trajectory (motion.py packs it: constant, a steady manoeuvre (arc), or a table of
-// SEGMENT numbers a piece).
+// its trajectory (CFEM_TRAJECTORY_LAYOUT below: constant, a steady manoeuvre (arc), or a
+// table of segments).
 #define CFEM_BODIES_LAYOUT(COLUMN, NUMBER)                                                 \
   COLUMN(body, B_MASS, 0, 1)                                                               \
   COLUMN(body, B_INV_MASS, 1, 1)                                                           \
@@ -32,8 +32,7 @@
   NUMBER(double, KIND_NONE, 0.0)                                                           \
   NUMBER(double, KIND_CONSTANT, 1.0)                                                       \
   NUMBER(double, KIND_TABLE, 2.0)                                                          \
-  NUMBER(double, KIND_ARC, 3.0)                                                            \
-  NUMBER(int, SEGMENT, 28)
+  NUMBER(double, KIND_ARC, 3.0)
 
 // ``loads`` (n + rows, WIDTH): per body the held wrench (force, torque, 1.0 if in body
 // axes, application point in body axes from the CG); then one row per scheduled wrench
@@ -221,6 +220,57 @@
   COLUMN(info, L_WRENCHES, 6, 1)                                                           \
   NUMBER(int, WIDTH, 7)
 
+// A kinematic body's trajectory in ``bodies``, from column M_DATA on (motion.py packs it,
+// motion.cpp reads it). Constant motion or a steady manoeuvre, CONSTANT numbers: the CG
+// at t = 0 (world, m), its velocity (m/s; world, or body axes for a manoeuvre), the
+// attitude at t = 0 (x y z w) and the body rates (rad/s). A table: the number of segments
+// k, the k + 1 breakpoints (s), then per segment SEGMENT numbers: the cubic coefficients
+// of the CG position (3 axes x 4, highest power first: scipy's CubicSpline), the key
+// attitude (x y z w) and the cubic coefficients of the rotation vector from it (3 x 4:
+// scipy's RotationSpline).
+#define CFEM_TRAJECTORY_LAYOUT(COLUMN, NUMBER)                                             \
+  COLUMN(constant, D_POSITION, 0, 3)                                                       \
+  COLUMN(constant, D_VELOCITY, 3, 3)                                                       \
+  COLUMN(constant, D_QUATERNION, 6, 4)                                                     \
+  COLUMN(constant, D_RATES, 10, 3)                                                         \
+  NUMBER(int, CONSTANT, 13)                                                                \
+  COLUMN(table, D_COUNT, 0, 1)                                                             \
+  COLUMN(table, D_TIMES, 1, 0)                                                             \
+  COLUMN(segment, G_POSITION, 0, 12)                                                       \
+  COLUMN(segment, G_KEY, 12, 4)                                                            \
+  COLUMN(segment, G_ROTATION, 16, 12)                                                      \
+  NUMBER(int, SEGMENT, 28)
+
+// A packed collision shape (contacts.py packs it; shapecore.hpp and distance.hpp read it).
+// A convex shape: HEADER numbers, its kind (KIND_*), size (box edges; cylinder radius,
+// length; sphere radius; capsule radius, overall length; cylinders and capsules along the
+// shape's x axis), the shape's axes in its body's (row-major 3x3), its centre from the CG
+// (body axes, m) and the hull's vertex count; then the hull's vertices (3 each, shape
+// axes, m). A compound shape (SPEC section 11): HEADER numbers (KIND_COMPOUND, the part
+// count, zeros), then per part the radius of a sphere about the part's centre that holds
+// it (m) and the part packed as a convex shape.
+#define CFEM_SHAPE_LAYOUT(COLUMN, NUMBER)                                                  \
+  COLUMN(convex, SH_KIND, 0, 1)                                                            \
+  COLUMN(convex, SH_SIZE, 1, 3)                                                            \
+  COLUMN(convex, SH_AXES, 4, 9)                                                            \
+  COLUMN(convex, SH_CENTRE, 13, 3)                                                         \
+  COLUMN(convex, SH_VERTICES, 16, 1)                                                       \
+  COLUMN(compound, SH_PARTS, 1, 1)                                                         \
+  NUMBER(int, HEADER, 17)                                                                  \
+  NUMBER(int, KIND_SPHERE, 0)                                                              \
+  NUMBER(int, KIND_CAPSULE, 1)                                                             \
+  NUMBER(int, KIND_BOX, 2)                                                                 \
+  NUMBER(int, KIND_CYLINDER, 3)                                                            \
+  NUMBER(int, KIND_HULL, 4)                                                                \
+  NUMBER(int, KIND_COMPOUND, 5)
+
+// ``delta`` of project (n, WIDTH): per body the velocity correction of its CG and of its
+// angular velocity (world axes, m/s and rad/s).
+#define CFEM_TWIST_LAYOUT(COLUMN, NUMBER)                                                  \
+  COLUMN(body, V_LINEAR, 0, 3)                                                             \
+  COLUMN(body, V_ANGULAR, 3, 3)                                                            \
+  NUMBER(int, WIDTH, 6)
+
 // A sample's outputs (sampling.cpp's sample_outputs; size: sample_size): per body BODY
 // numbers: its CG position (world, m), quaternion (x y z w, body to world), CG velocity
 // and angular velocity (body axes, m/s and rad/s); then per joint sampled JOINT numbers:
@@ -311,6 +361,15 @@ CFEM_SAMPLE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace aero_air {
 CFEM_AERO_AIR_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace aero_air
+namespace trajectory {
+CFEM_TRAJECTORY_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace trajectory
+namespace shape_layout {
+CFEM_SHAPE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace shape_layout
+namespace twist {
+CFEM_TWIST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace twist
 }  // namespace cfem
 
 #undef CFEM_LAYOUT_COLUMN

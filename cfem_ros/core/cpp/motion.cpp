@@ -9,6 +9,10 @@
 namespace cfem {
 namespace motion {
 
+using trajectory::D_POSITION, trajectory::D_VELOCITY, trajectory::D_QUATERNION,
+    trajectory::D_RATES, trajectory::D_COUNT, trajectory::D_TIMES, trajectory::G_POSITION,
+    trajectory::G_KEY, trajectory::G_ROTATION, trajectory::SEGMENT;
+
 namespace {
 
 // The unit quaternion of the rotation vector (rx, ry, rz), x y z w.
@@ -26,14 +30,15 @@ Q4 exp_map(double rx, double ry, double rz) {
 void constant(const Mat& bodies, idx i, double t, double* y, idx n) {
   const int c = M_DATA;
   for (int k = 0; k < 3; ++k) {
-    y[3 * i + k] = bodies(i, c + k) + bodies(i, c + 3 + k) * t;
-    y[3 * n + 3 * i + k] = bodies(i, c + 3 + k);
-    y[10 * n + 3 * i + k] = bodies(i, c + 10 + k);
+    y[3 * i + k] = bodies(i, c + D_POSITION + k) + bodies(i, c + D_VELOCITY + k) * t;
+    y[3 * n + 3 * i + k] = bodies(i, c + D_VELOCITY + k);
+    y[10 * n + 3 * i + k] = bodies(i, c + D_RATES + k);
     bodies(i, M_ACC + k) = 0.0;
     bodies(i, M_ACC + 3 + k) = 0.0;  // constant body rates: d(R w)/dt = R (w x w) = 0
   }
-  Q4 e = exp_map(bodies(i, c + 10) * t, bodies(i, c + 11) * t, bodies(i, c + 12) * t);
-  Q4 q = qmul(bodies(i, c + 6), bodies(i, c + 7), bodies(i, c + 8), bodies(i, c + 9), e.x, e.y,
+  const int r = c + D_RATES, a = c + D_QUATERNION;
+  Q4 e = exp_map(bodies(i, r) * t, bodies(i, r + 1) * t, bodies(i, r + 2) * t);
+  Q4 q = qmul(bodies(i, a), bodies(i, a + 1), bodies(i, a + 2), bodies(i, a + 3), e.x, e.y,
               e.z, e.w);
   y[6 * n + 4 * i] = q.x;
   y[6 * n + 4 * i + 1] = q.y;
@@ -61,23 +66,24 @@ V3 rate(const V3& r, const V3& rd, double k1, double k2) {
 }
 
 void table(const Mat& bodies, idx i, double t, double* y, idx n) {
-  idx count = static_cast<idx>(bodies(i, M_DATA));
-  const idx first = M_DATA + 1;
+  idx count = static_cast<idx>(bodies(i, M_DATA + D_COUNT));
+  const idx first = M_DATA + D_TIMES;
   idx seg = 0;
   while (seg < count - 1 && bodies(i, first + seg + 1) <= t) ++seg;
   double s = t - bodies(i, first + seg);
   idx o = first + count + 1 + SEGMENT * seg;
   for (int k = 0; k < 3; ++k) {
-    double c0 = bodies(i, o + 4 * k), c1 = bodies(i, o + 4 * k + 1);
-    double c2 = bodies(i, o + 4 * k + 2), c3 = bodies(i, o + 4 * k + 3);
+    const idx at = o + G_POSITION + 4 * k;
+    double c0 = bodies(i, at), c1 = bodies(i, at + 1);
+    double c2 = bodies(i, at + 2), c3 = bodies(i, at + 3);
     y[3 * i + k] = ((c0 * s + c1) * s + c2) * s + c3;
     y[3 * n + 3 * i + k] = (3.0 * c0 * s + 2.0 * c1) * s + c2;
     bodies(i, M_ACC + k) = 6.0 * c0 * s + 2.0 * c1;
   }
-  idx key = o + 12;
-  V3 r = cubic(bodies, i, o + 16, s, 0);
-  V3 rd = cubic(bodies, i, o + 16, s, 1);
-  V3 rdd = cubic(bodies, i, o + 16, s, 2);
+  idx key = o + G_KEY;
+  V3 r = cubic(bodies, i, o + G_ROTATION, s, 0);
+  V3 rd = cubic(bodies, i, o + G_ROTATION, s, 1);
+  V3 rdd = cubic(bodies, i, o + G_ROTATION, s, 2);
   Q4 e = exp_map(r.x, r.y, r.z);
   Q4 q = qmul(bodies(i, key), bodies(i, key + 1), bodies(i, key + 2), bodies(i, key + 3), e.x,
               e.y, e.z, e.w);
@@ -133,8 +139,8 @@ V3 turn(double x, double y, double z, double w, double a0, double a1, double a2,
 void arc(const Mat& bodies, idx i, double t, double* y, idx n) {
   const int c = M_DATA;
   constant(bodies, i, t, y, n);  // the attitude and the body rates; the rest below
-  V3 v{bodies(i, c + 3), bodies(i, c + 4), bodies(i, c + 5)};
-  V3 w{bodies(i, c + 10), bodies(i, c + 11), bodies(i, c + 12)};
+  V3 v{bodies(i, c + D_VELOCITY), bodies(i, c + D_VELOCITY + 1), bodies(i, c + D_VELOCITY + 2)};
+  V3 w{bodies(i, c + D_RATES), bodies(i, c + D_RATES + 1), bodies(i, c + D_RATES + 2)};
   double a = std::sqrt(w.x * w.x + w.y * w.y + w.z * w.z) * t;
   double k1, k2;
   if (a < 1e-2) {  // the series, to rounding (the closed forms cancel)
@@ -148,16 +154,16 @@ void arc(const Mat& bodies, idx i, double t, double* y, idx n) {
   V3 wv = cross(w, v);
   V3 wwv = cross(w, wv);
   double s1 = t * t * k1, s2 = t * t * t * k2;
-  const double* q0 = &bodies(i, c + 6);
+  const double* q0 = &bodies(i, c + D_QUATERNION);
   V3 moved = turn(q0[0], q0[1], q0[2], q0[3], t * v.x + s1 * wv.x + s2 * wwv.x,
                   t * v.y + s1 * wv.y + s2 * wwv.y, t * v.z + s1 * wv.z + s2 * wwv.z, false);
   const double* q = y + 6 * n + 4 * i;
   Products now = products(q[0], q[1], q[2], q[3]);
   V3 velocity = unit_turn(now, v.x, v.y, v.z, false);
   V3 acceleration = unit_turn(now, wv.x, wv.y, wv.z, false);
-  y[3 * i] = bodies(i, c) + moved.x;
-  y[3 * i + 1] = bodies(i, c + 1) + moved.y;
-  y[3 * i + 2] = bodies(i, c + 2) + moved.z;
+  y[3 * i] = bodies(i, c + D_POSITION) + moved.x;
+  y[3 * i + 1] = bodies(i, c + D_POSITION + 1) + moved.y;
+  y[3 * i + 2] = bodies(i, c + D_POSITION + 2) + moved.z;
   y[3 * n + 3 * i] = velocity.x;
   y[3 * n + 3 * i + 1] = velocity.y;
   y[3 * n + 3 * i + 2] = velocity.z;

@@ -115,7 +115,7 @@ bool project(const double* y, const System& s, const Work& v, double* delta) {
     for (idx k = 0; k < 6 * n; ++k) v.acc[k] = 0.0;
     if (!tree_solve(y, s, v)) return false;
   }
-  for (idx k = 0; k < 6 * n; ++k) delta[k] = v.acc[k];
+  for (idx k = 0; k < twist::WIDTH * n; ++k) delta[k] = v.acc[k];   // as acc: layout.hpp
   return true;
 }
 

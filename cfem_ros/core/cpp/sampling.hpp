@@ -23,7 +23,8 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
 // The numbers a sample of k joints' loads takes (sample_outputs's size at least).
 idx sample_size(const System& s, idx k);
 
-// The mass-weighted velocity correction that satisfies the joints at y into delta (n, 6).
+// The mass-weighted velocity correction that satisfies the joints at y into delta (n,
+// twist::WIDTH; layout.hpp).
 bool project(const double* y, const System& s, const Work& v, double* delta);
 
 // The workspace's J and J M^-1 blocks at y.

@@ -14,16 +14,13 @@
 // is known to kTolerance m); overlapping cores, by EPA's penetration depth.
 // Pure functions over flat arrays; no allocation.
 //
-// A packed shape (cfem_ros.core.native.contacts builds it) is kShapeHeader doubles:
-// kind, size (3), the shape's axes in the body's (row-major 3x3) and its
-// centre from the CG (3, body axes, m), the hull's vertex count; then the
-// hull's vertices (3 each, shape axes, m). Cylinders and capsules lie along
-// the shape's x axis; size: box edges (x, y, z); cylinder radius, length;
-// sphere radius; capsule radius, overall length.
-//
-// A compound shape (SPEC section 11) is a header of kShapeHeader doubles (kCompound, the
-// part count, zeros) and then its parts, each the radius of a sphere about the part's
-// centre that holds it (m) followed by the part's own packed convex shape. Its distance
+// A packed shape (cfem_ros.core.native.contacts builds it; laid out in layout.hpp,
+// CFEM_SHAPE_LAYOUT) is kShapeHeader doubles: kind, size (3), the shape's axes in the
+// body's (row-major 3x3) and its centre from the CG (3, body axes, m), the hull's vertex
+// count; then the hull's vertices (3 each, shape axes, m). A compound shape (SPEC section
+// 11): kShapeHeader doubles (kCompound, the part count, zeros) and then its parts, each
+// the radius of a sphere about the part's centre that holds it (m) followed by the part's
+// own packed convex shape. Its distance
 // to another shape is the least over the pairs of parts; a pair whose bounding spheres
 // are farther apart than the least found so far is skipped (the pairs in the order of
 // that bound), the test the contact rows' bounding spheres make for whole shapes.
@@ -31,14 +28,20 @@
 
 #include <cmath>
 
+#include "layout.hpp"
 #include "multilinear.hpp"   // Flat, Rows: how a packed table is read
 
 namespace cfem {
 namespace shapes {
 
-constexpr int kSphere = 0, kCapsule = 1, kBox = 2, kCylinder = 3, kHull = 4, kCompound = 5;
-constexpr int kKind = 0, kSize = 1, kAxes = 4, kCentre = 13, kVertices = 16;
-constexpr int kShapeHeader = 17;
+// The kinds and columns of a packed shape: layout.hpp (CFEM_SHAPE_LAYOUT).
+constexpr int kSphere = shape_layout::KIND_SPHERE, kCapsule = shape_layout::KIND_CAPSULE,
+              kBox = shape_layout::KIND_BOX, kCylinder = shape_layout::KIND_CYLINDER,
+              kHull = shape_layout::KIND_HULL, kCompound = shape_layout::KIND_COMPOUND;
+constexpr int kKind = shape_layout::SH_KIND, kSize = shape_layout::SH_SIZE,
+              kAxes = shape_layout::SH_AXES, kCentre = shape_layout::SH_CENTRE,
+              kVertices = shape_layout::SH_VERTICES, kParts = shape_layout::SH_PARTS;
+constexpr int kShapeHeader = shape_layout::HEADER;
 //: The distance is known to this much, m (GJK's stop).
 constexpr double kTolerance = 1e-12;
 constexpr int kMaxIterations = 256;

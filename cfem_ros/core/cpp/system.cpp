@@ -189,7 +189,7 @@ joints_i, watch, watch_plan, order) in C order, kept and used without copies.
 
   m.def("project", [](BoundSystem& b, const py::handle& y, const py::handle& delta) {
     const double* yp = b.state(y, "y", false);
-    Mat d = mat(delta, "delta", true, 6);
+    Mat d = mat(delta, "delta", true, twist::WIDTH);
     if (d.rows != b.s.n()) throw py::value_error("delta: expected one row per body");
     py::gil_scoped_release free;
     return project(yp, b.s, b.v, d.data);

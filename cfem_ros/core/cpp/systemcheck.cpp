@@ -121,14 +121,14 @@ void check_motion(const Mat& bodies) {
     index_in(bodies(i, motion::M_REF), at("bodies", i, "M_REF"), "not 1 + a body", 0, n);
     idx needed = motion::M_DATA;
     if (kind == motion::KIND_CONSTANT || kind == motion::KIND_ARC) {
-      needed += 13;
+      needed += trajectory::CONSTANT;
     } else if (kind == motion::KIND_TABLE) {
       double most = (static_cast<double>(bodies.cols) - motion::M_DATA - 2)
-                    / (motion::SEGMENT + 1);
+                    / (trajectory::SEGMENT + 1);
       idx count = index_in(bodies(i, motion::M_DATA), at("bodies", i, "M_DATA"),
                            "not a number of segments the row holds", 1,
                            static_cast<idx>(std::floor(most)));
-      needed += 2 + (motion::SEGMENT + 1) * count;
+      needed += 2 + (trajectory::SEGMENT + 1) * count;
     }
     if (needed > bodies.cols)
       throw py::value_error(at("bodies", i, "M_DATA") + ": its trajectory takes "

@@ -104,8 +104,10 @@ class Layout:
 #: The arrays' layouts (``cpp/layout.hpp``): ``bodies`` and the kinematic bodies'
 #: columns, ``loads``, a packed aerodynamic table's header (``aero_table``), ``plan``,
 #: the ``info`` of ``advance`` and of ``locate``, a sample's outputs (``sample``: per
-#: body, joint, applied source and aero body) and the air of ``aero_wrench``
-#: (``aero_air``).
+#: body, joint, applied source and aero body), the air of ``aero_wrench``
+#: (``aero_air``), a kinematic body's trajectory from ``BODIES.M_DATA`` on
+#: (``trajectory``), a packed collision shape (``shape``) and the velocity
+#: correction of ``project`` (``twist``).
 BODIES = Layout('bodies')
 LOADS = Layout('loads')
 AERO_TABLE = Layout('aero_table')
@@ -118,6 +120,9 @@ ADVANCE_INFO = Layout('advance_info')
 LOCATE_INFO = Layout('locate_info')
 SAMPLE = Layout('sample')
 AERO_AIR = Layout('aero_air')
+TRAJECTORY = Layout('trajectory')
+SHAPE = Layout('shape')
+TWIST = Layout('twist')
 
 #: ``advance`` results in ``info[ADVANCE_INFO.I_RESULT]`` (LOADS_NOT_FINITE: a
 #: sample's outputs or a force-release check's joint loads are not finite while

@@ -40,7 +40,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.native import kernel
-from cfem_ros.core.native.kernel import BODIES
+from cfem_ros.core.native.kernel import BODIES, TRAJECTORY
 import numpy as np
 
 #: The columns (``kernel.BODIES``, laid out in ``cpp/layout.hpp``): those the
@@ -49,7 +49,8 @@ import numpy as np
 BODY_COLUMNS, M_KIND, M_T0, M_ACC, M_REF, M_DATA = (
     BODIES.BODY_COLUMNS, BODIES.M_KIND, BODIES.M_T0, BODIES.M_ACC, BODIES.M_REF, BODIES.M_DATA)
 KIND_NONE, KIND_CONSTANT, KIND_TABLE, KIND_ARC, SEGMENT = (
-    BODIES.KIND_NONE, BODIES.KIND_CONSTANT, BODIES.KIND_TABLE, BODIES.KIND_ARC, BODIES.SEGMENT)
+    BODIES.KIND_NONE, BODIES.KIND_CONSTANT, BODIES.KIND_TABLE, BODIES.KIND_ARC,
+    TRAJECTORY.SEGMENT)
 
 
 # ------------------------------------------------------------- Python part
