@@ -36,6 +36,9 @@ from cfem_ros.study.sweep import (
 import numpy as np
 
 METHODS = ('mc', 'subset', 'nais', 'form')
+#: Least runs of a Dask task of a study's batch (a subset step of 100 runs on 2 workers
+#: made 16 tasks of 7 runs, each parsing the base scenario and writing a part).
+LEAST_TASK_RUNS = 25
 DESIGNS = ('morris', 'sobol')
 
 
@@ -194,7 +197,8 @@ class Evaluator:
         if self.client is None:   # one part per batch
             chunks = [todo]
         else:
-            chunks = groups(todo, max(1, len(self.client.scheduler_info().get('workers', {}))))
+            chunks = groups(todo, len(self.client.scheduler_info().get('workers', {})),
+                            least=LEAST_TASK_RUNS)
         paths = [os.path.join(self.outdir, 'parts', f'part_{c[0]:07d}_{c[-1]:07d}.parquet')
                  for c in chunks]
         if self.rows is not None:

@@ -211,11 +211,19 @@ def decide(spec: SweepSpec, outdir: str, table):
     return judge(table, spec.criteria)
 
 
-def groups(runs, workers: int) -> list:
-    """Split runs into about TASKS_PER_WORKER tasks per worker, in order."""
+def groups(runs, workers: int, least: int = 1) -> list:
+    """
+    Split runs into about TASKS_PER_WORKER tasks per worker, in order.
+
+    A task holds at least ``least`` runs, if there are so many for each
+    worker: a task's own cost (Dask, the base scenario parsed, its part
+    written and read) then stays small beside its runs'.
+    """
     if not runs:
         return []
-    size = max(1, math.ceil(len(runs) / (TASKS_PER_WORKER * max(1, workers))))
+    workers = max(1, workers)
+    size = max(min(least, math.ceil(len(runs) / workers)),
+               math.ceil(len(runs) / (TASKS_PER_WORKER * workers)))
     return [runs[i:i + size] for i in range(0, len(runs), size)]
 
 
