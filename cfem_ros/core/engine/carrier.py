@@ -24,6 +24,7 @@ from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.graph import adjacency
 from cfem_ros.core.native import kernel, motion
+from cfem_ros.core.native.kernel import TWIST
 import numpy as np
 
 #: How long after its last odometry message a kinematic body is extrapolated to
@@ -272,8 +273,9 @@ class Carriers:
         # velocities: the least (mass weighted) change that makes them those the
         # joints allow, as an impulse would
         delta = self.sim.joint_projection()
-        vel += delta[:, :3]
-        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
+        vel += delta[:, TWIST.span('V_LINEAR')]
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat),
+                           delta[:, TWIST.span('V_ANGULAR')])
 
     def check(self):
         """Warn once per message when a body's odometry is older than the horizon."""

@@ -37,7 +37,7 @@ from cfem_ros.core.engine.sampling import NumericalFailure
 from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
 from cfem_ros.core.native import kernel, motion
-from cfem_ros.core.native.kernel import BODIES, LOADS
+from cfem_ros.core.native.kernel import BODIES, LOADS, TWIST
 import numpy as np
 
 LOG = logging.getLogger('cfem_ros')
@@ -162,18 +162,19 @@ class Dynamics:
         if not np.abs(delta).max() > PROJECTION_REPORT:
             return
         _, vel, quat, rates = state_views(y, self.n)
-        vel += delta[:, :3]
-        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), delta[:, 3:])
+        linear, angular = delta[:, TWIST.span('V_LINEAR')], delta[:, TWIST.span('V_ANGULAR')]
+        vel += linear
+        rates += np.einsum('nji,nj->ni', rotations.matrices(quat), angular)
         for i in np.flatnonzero(np.abs(delta).max(axis=1) > PROJECTION_REPORT):
             self.log.warning(
                 'initial velocities of body %r are inconsistent with its joints; '
                 'corrected (mass weighted) by %.3g m/s and %.3g deg/s',
-                self.model.bodies[i].name, np.linalg.norm(delta[i, :3]),
-                math.degrees(np.linalg.norm(delta[i, 3:])))
+                self.model.bodies[i].name, np.linalg.norm(linear[i]),
+                math.degrees(np.linalg.norm(angular[i])))
 
     def joint_projection(self, top, y: np.ndarray) -> np.ndarray:
-        """Return the least (mass weighted) change of y's velocities top's rows allow, (n, 6)."""
-        delta = np.zeros((self.n, 6))
+        """Return the least (mass weighted) change of y's velocities the rows allow (``TWIST``)."""
+        delta = np.zeros((self.n, TWIST.WIDTH))
         kernel.project(top.system, y, delta)
         return delta
 

@@ -3,7 +3,8 @@
 """
 Collision shapes packed for the compiled distance (``cpp/distance.hpp``), and distances.
 
-A packed shape is ``SHAPE_HEADER`` numbers (kind, size (3), the shape's
+A packed shape (laid out in ``cpp/layout.hpp``, read here from the
+extension: ``kernel.SHAPE``) is ``SHAPE_HEADER`` numbers (kind, size (3), the shape's
 axes in its body's (row-major 3x3), its centre from the CG (body axes, m),
 the hull's vertex count) and then the hull's vertices (shape axes, m).
 ``surface_distance`` is a point's distance to a compound shape's surface (a
@@ -18,19 +19,21 @@ from __future__ import annotations
 from cfem_ros.core import rotations
 from cfem_ros.core.model.shapes import Shape
 from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import SHAPE
 import numpy as np
 
-#: Kind codes (``cfem::shapes::kSphere`` ..).
-KIND_CODES = {'sphere': 0, 'capsule': 1, 'box': 2, 'cylinder': 3, 'mesh': 4}
-COMPOUND = 5
-SHAPE_HEADER = 17
+#: Kind codes (``kernel.SHAPE``, laid out in ``cpp/layout.hpp``).
+KIND_CODES = {'sphere': SHAPE.KIND_SPHERE, 'capsule': SHAPE.KIND_CAPSULE, 'box': SHAPE.KIND_BOX,
+              'cylinder': SHAPE.KIND_CYLINDER, 'mesh': SHAPE.KIND_HULL}
+COMPOUND = SHAPE.KIND_COMPOUND
+SHAPE_HEADER = SHAPE.HEADER
 
 
 def pack_shape(shape: Shape) -> np.ndarray:
     """Return a body's collision shape packed (a mesh by its hull's vertices)."""
     if shape.kind == 'compound':
         out = [np.zeros(SHAPE_HEADER)]
-        out[0][0], out[0][1] = COMPOUND, len(shape.parts)
+        out[0][SHAPE.SH_KIND], out[0][SHAPE.SH_PARTS] = COMPOUND, len(shape.parts)
         for part in shape.parts:
             packed = _pack_convex(part)
             out += [np.array([kernel.shape_reach(packed)]), packed]
@@ -43,24 +46,24 @@ def _pack_convex(shape: Shape) -> np.ndarray:
     if shape.kind == 'mesh' and not len(hull):
         raise ValueError(f'the mesh {shape.mesh} has no hull (not a local file)')
     out = np.zeros(SHAPE_HEADER + 3 * len(hull))
-    out[0] = KIND_CODES[shape.kind]
+    out[SHAPE.SH_KIND] = KIND_CODES[shape.kind]
     size = shape.size if shape.kind != 'mesh' else ()
-    out[1:1 + len(size)] = size
+    out[SHAPE.SH_SIZE:SHAPE.SH_SIZE + len(size)] = size
     axes = rotations.matrices(np.asarray(shape.orientation_xyzw, dtype=float)[None])[0]
-    out[4:13] = axes.ravel()
-    out[13:16] = shape.offset
-    out[16] = len(hull)
+    out[SHAPE.span('SH_AXES')] = axes.ravel()
+    out[SHAPE.span('SH_CENTRE')] = shape.offset
+    out[SHAPE.SH_VERTICES] = len(hull)
     out[SHAPE_HEADER:] = np.ravel(hull)
     return out
 
 
 def packed_length(flat: np.ndarray) -> int:
     """Return how many numbers the packed shape at the start of flat takes."""
-    if int(flat[0]) != COMPOUND:
-        return SHAPE_HEADER + 3 * int(flat[SHAPE_HEADER - 1])
+    if int(flat[SHAPE.SH_KIND]) != COMPOUND:
+        return SHAPE_HEADER + 3 * int(flat[SHAPE.SH_VERTICES])
     at = SHAPE_HEADER
-    for _ in range(int(flat[1])):
-        at += 1 + SHAPE_HEADER + 3 * int(flat[at + SHAPE_HEADER])
+    for _ in range(int(flat[SHAPE.SH_PARTS])):
+        at += 1 + SHAPE_HEADER + 3 * int(flat[at + 1 + SHAPE.SH_VERTICES])
     return at
 
 

@@ -77,18 +77,46 @@ def columns(model) -> np.ndarray:
             data = _table_data(motion)
         elif getattr(motion, 'velocity_body', None) is not None:
             head[M_KIND - BODY_COLUMNS] = KIND_ARC
-            data = np.concatenate([body.position, motion.velocity_body, body.orientation_xyzw,
-                                   motion.rates])
+            data = _constant(body.position, motion.velocity_body, body.orientation_xyzw,
+                             motion.rates)
         else:
             head[M_KIND - BODY_COLUMNS] = KIND_CONSTANT
-            data = np.concatenate([body.position, motion.velocity, body.orientation_xyzw,
-                                   motion.rates])
+            data = _constant(body.position, motion.velocity, body.orientation_xyzw,
+                             motion.rates)
         packed.append(np.concatenate([head, data]))
     width = max(len(p) for p in packed)
     packed = packed[1:]
     out = np.zeros((len(packed), width))
     for i, p in enumerate(packed):
         out[i, :len(p)] = p
+    return out
+
+
+def _constant(position, velocity, quaternion, rates) -> np.ndarray:
+    """Pack constant motion or a steady manoeuvre (``TRAJECTORY``'s constant columns)."""
+    out = np.empty(TRAJECTORY.CONSTANT)
+    out[TRAJECTORY.span('D_POSITION')] = position
+    out[TRAJECTORY.span('D_VELOCITY')] = velocity
+    out[TRAJECTORY.span('D_QUATERNION')] = quaternion
+    out[TRAJECTORY.span('D_RATES')] = rates
+    return out
+
+
+def _table(times, segments) -> np.ndarray:
+    """Pack a table: its segment count, breakpoints and segments (``TRAJECTORY``)."""
+    out = np.empty(TRAJECTORY.D_TIMES + len(times) + segments.size)
+    out[TRAJECTORY.D_COUNT] = len(segments)
+    out[TRAJECTORY.D_TIMES:TRAJECTORY.D_TIMES + len(times)] = times
+    out[TRAJECTORY.D_TIMES + len(times):] = segments.reshape(-1)
+    return out
+
+
+def _segment(position, key, rotation) -> np.ndarray:
+    """Pack a segment: the position's and the rotation vector's cubics (3 x 4), the key."""
+    out = np.empty(SEGMENT)
+    out[TRAJECTORY.span('G_POSITION')] = np.ravel(position)
+    out[TRAJECTORY.span('G_KEY')] = key
+    out[TRAJECTORY.span('G_ROTATION')] = np.ravel(rotation)
     return out
 
 
@@ -103,16 +131,13 @@ def _table_data(motion) -> np.ndarray:
     attitude = RotationSpline(times, rotations)
     count = len(times) - 1
     keys = rotations.as_quat()
-    segments = np.empty((count, SEGMENT))
-    for k in range(count):
-        segments[k, :12] = position.c[:, k, :].T.reshape(12)
-        segments[k, 12:16] = keys[k]
-        segments[k, 16:] = attitude.interpolator.c[:, k, :].T.reshape(12)
-    return np.concatenate([[count], times, segments.reshape(-1)])
+    segments = np.array([_segment(position.c[:, k, :].T, keys[k],
+                                  attitude.interpolator.c[:, k, :].T) for k in range(count)])
+    return _table(times, segments)
 
 
 #: Width of the columns of a body driven by odometry (two segments: see ``odometry``).
-ODOMETRY_WIDTH = M_DATA + 1 + 3 + 2 * SEGMENT - BODY_COLUMNS
+ODOMETRY_WIDTH = M_DATA + TRAJECTORY.D_TIMES + 3 + 2 * SEGMENT - BODY_COLUMNS
 
 
 def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acceleration,
@@ -128,22 +153,19 @@ def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acc
     w s + alpha s^2 / 2, whose rates at s = 0 are w.
     """
     def segment(p, v, a, q, w, alpha, j=(0.0, 0.0, 0.0)):
-        out = np.zeros(SEGMENT)
-        for k in range(3):
-            out[4 * k:4 * k + 4] = (j[k] / 6.0, 0.5 * a[k], v[k], p[k])
-            out[16 + 4 * k:16 + 4 * k + 4] = (0.0, 0.5 * alpha[k], w[k], 0.0)
-        out[12:16] = q
-        return out
+        return _segment([(j[k] / 6.0, 0.5 * a[k], v[k], p[k]) for k in range(3)], q,
+                        [(0.0, 0.5 * alpha[k], w[k], 0.0) for k in range(3)])
 
     first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration,
                     jerk)
-    probe = np.zeros((1, M_DATA + 1 + 2 + SEGMENT))
+    table = _table([t, t + horizon], first[None])
+    probe = np.zeros((1, M_DATA + len(table)))
     probe[0, M_KIND] = KIND_TABLE
-    probe[0, M_DATA:] = np.concatenate([[1, t, t + horizon], first])
+    probe[0, M_DATA:] = table
     y = np.zeros(13)
     kernel.motion_place(y, probe, t + horizon)   # M_T0 = 0: the table at t + horizon
-    second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))
-    return np.concatenate([[2, t, t + horizon, t + horizon + 1.0], first, second])
+    second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))   # n = 1
+    return _table([t, t + horizon, t + horizon + 1.0], np.array([first, second]))
 
 
 def hermite(t0: float, start, t1: float, end) -> np.ndarray:
@@ -171,12 +193,9 @@ def hermite(t0: float, start, t1: float, end) -> np.ndarray:
     angle = 2.0 * math.atan2(sine, rel[3])
     r1 = rel[:3] * (angle / sine if sine > 0.0 else 2.0)
     r1_rate = np.linalg.solve(_rate_matrix(r1), w1)
-    out = np.zeros(SEGMENT)
-    for k in range(3):
-        out[4 * k:4 * k + 4] = _hermite_cubic(p0[k], v0[k], p1[k], v1[k], h)
-        out[16 + 4 * k:16 + 4 * k + 4] = _hermite_cubic(0.0, w0[k], r1[k], r1_rate[k], h)
-    out[12:16] = q0
-    return np.concatenate([[1, t0, t1], out])
+    out = _segment([_hermite_cubic(p0[k], v0[k], p1[k], v1[k], h) for k in range(3)], q0,
+                   [_hermite_cubic(0.0, w0[k], r1[k], r1_rate[k], h) for k in range(3)])
+    return _table([t0, t1], out[None])
 
 
 def _hermite_cubic(f0, d0, f1, d1, h):
