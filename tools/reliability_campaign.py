@@ -582,7 +582,8 @@ def main() -> int:
         }
         from campaign_families import FAMILIES   # issue 41's kinds
         from campaign_round5 import FAMILIES as ROUND5   # issues 45 and 48 to 52
-        for name, family in {**FAMILIES, **ROUND5}.items():
+        from campaign_round6 import FAMILIES as ROUND6   # issues 45, 46, 48 and 49
+        for name, family in {**FAMILIES, **ROUND5, **ROUND6}.items():
             families[name] = (lambda family=family, name=name: family(
                 _subfolder(folder, name), call, defect, rng, n))
         for name, run in families.items():
