@@ -159,7 +159,7 @@ def csv_units(folder, call, defect, rng, count):
                'measured': {'file': str(path), 'body': 'store', 'relative_to': 'aircraft',
                             'window': {'from': 0.05, 'to': 0.45},
                             'sigma': {'position': 0.005, 'attitude_deg': 0.3}},
-               'parameters': {"wrenches[0].force[2]": {'start': 10000,
+               'parameters': {'wrenches[0].force[2]': {'start': 10000,
                                                        'bounds': [2000, 30000]}}}
         fit_path = folder / f'fit_{k}.yaml'
         fit_path.write_text(yaml.safe_dump(fit, sort_keys=False))
