@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 
 from cfem_ros.core.engine.events import describe_event, Event
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.core.run.session import Sink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.samplelayout import InBodyAxes
@@ -35,6 +36,28 @@ def _vector3(msg, v):
 
 def _time_msg(msg, stamp_ns: int):
     msg.sec, msg.nanosec = divmod(int(stamp_ns), 1_000_000_000)
+
+
+#: A pose's numbers in a sample (CG position, quaternion; ``kernel.SAMPLE``).
+POSE = SAMPLE.width('O_POSITION') + SAMPLE.width('O_QUATERNION')
+
+
+def _fill_state(state: np.ndarray, pose, twist, stamp_ns: int):
+    """Fill a PoseStamped and a TwistStamped from a sample's body numbers (``SAMPLE``)."""
+    _time_msg(pose.header.stamp, stamp_ns)
+    _vector3(pose.pose.position, state[SAMPLE.span('O_POSITION')])
+    q = pose.pose.orientation
+    q.x, q.y, q.z, q.w = (float(c) for c in state[SAMPLE.span('O_QUATERNION')])
+    _time_msg(twist.header.stamp, stamp_ns)
+    _vector3(twist.twist.linear, state[SAMPLE.span('O_VELOCITY')])
+    _vector3(twist.twist.angular, state[SAMPLE.span('O_RATES')])
+
+
+def _fill_wrench(wrench, values: np.ndarray, stamp_ns: int):
+    """Fill a WrenchStamped from a sample's force and moment (``SAMPLE.O_FORCE`` ...)."""
+    _time_msg(wrench.header.stamp, stamp_ns)
+    _vector3(wrench.wrench.force, values[SAMPLE.span('O_FORCE')])
+    _vector3(wrench.wrench.torque, values[SAMPLE.span('O_MOMENT')])
 
 
 def _fill(msg, values: dict):
@@ -200,7 +223,7 @@ class Publishers(Sink):
         block = row[None, :]
         if self.tf is not None:
             publisher, message, moving = self.tf
-            poses = [row[13 * i:13 * i + 7] for i in moving]
+            poses = [row[SAMPLE.BODY * i + SAMPLE.O_POSITION:][:POSE] for i in moving]
             if self.views is not None:
                 poses += list(self.views.numbers(block).reshape(-1, 7))
             for transform, values in zip(message.transforms, poses):
@@ -209,53 +232,36 @@ class Publishers(Sink):
                 r = transform.transform.rotation
                 r.x, r.y, r.z, r.w = (float(c) for c in values[3:7])
             publisher.publish(message)
+        states = row[:SAMPLE.BODY * n].reshape(n, SAMPLE.BODY)
         for i in range(n):
-            state = row[13 * i:13 * i + 13]
-            publisher, pose = self.poses[i]
-            _time_msg(pose.header.stamp, stamp_ns)
-            _vector3(pose.pose.position, state[:3])
-            q = pose.pose.orientation
-            q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+            (publisher, pose), (twist_publisher, twist) = self.poses[i], self.twists[i]
+            _fill_state(states[i], pose, twist, stamp_ns)
             publisher.publish(pose)
-            publisher, twist = self.twists[i]
-            _time_msg(twist.header.stamp, stamp_ns)
-            _vector3(twist.twist.linear, state[7:10])
-            _vector3(twist.twist.angular, state[10:13])
-            publisher.publish(twist)
+            twist_publisher.publish(twist)
         if self.arrow_publisher is not None:
             self._arrows(stamp_ns, row, active, sim.held_wrenches())
-        column = 13 * n
+        column = SAMPLE.BODY * n
         for k in active:   # world axes, and the child's axes as the recorder turns them
-            world = row[column:column + 6]
+            world = row[column:column + SAMPLE.JOINT]
             if k in self.wrenches:
-                local = InBodyAxes(column, 13 * self.children[k] + 3).numbers(block)[0]
+                local = InBodyAxes(column, SAMPLE.BODY * self.children[k]
+                                   + SAMPLE.O_QUATERNION).numbers(block)[0]
                 for (publisher, wrench), values in zip(self.wrenches[k], (local, world)):
-                    _time_msg(wrench.header.stamp, stamp_ns)
-                    _vector3(wrench.wrench.force, values[:3])
-                    _vector3(wrench.wrench.torque, values[3:])
+                    _fill_wrench(wrench, values, stamp_ns)
                     publisher.publish(wrench)
-            column += 6
+            column += SAMPLE.JOINT
         for local_pub, world_pub, body in self.applied:
-            local = InBodyAxes(column, 13 * body + 3).numbers(block)[0]
+            local = InBodyAxes(column, SAMPLE.BODY * body + SAMPLE.O_QUATERNION).numbers(block)[0]
             for (publisher, wrench), values in ((local_pub, local),
-                                                (world_pub, row[column:column + 6])):
-                _time_msg(wrench.header.stamp, stamp_ns)
-                _vector3(wrench.wrench.force, values[:3])
-                _vector3(wrench.wrench.torque, values[3:])
+                                                (world_pub, row[column:column + SAMPLE.WRENCH])):
+                _fill_wrench(wrench, values, stamp_ns)
                 publisher.publish(wrench)
-            column += 6
+            column += SAMPLE.WRENCH
         self.air.publish(stamp_ns, sim.air(outputs=row))
-        relative = row[len(row) - 13 * len(self.relative):]
+        relative = row[len(row) - SAMPLE.BODY * len(self.relative):].reshape(-1, SAMPLE.BODY)
         for k, (pose_pub, pose, twist_pub, twist) in enumerate(self.relative):
-            state = relative[13 * k:13 * k + 13]
-            _time_msg(pose.header.stamp, stamp_ns)
-            _vector3(pose.pose.position, state[:3])
-            q = pose.pose.orientation
-            q.x, q.y, q.z, q.w = (float(c) for c in state[3:7])
+            _fill_state(relative[k], pose, twist, stamp_ns)
             pose_pub.publish(pose)
-            _time_msg(twist.header.stamp, stamp_ns)
-            _vector3(twist.twist.linear, state[7:10])
-            _vector3(twist.twist.angular, state[10:])
             twist_pub.publish(twist)
 
     def prepare(self):
