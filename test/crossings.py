@@ -20,6 +20,7 @@ from cfem_ros.core.engine import kernelcalls
 
 from cfem_ros.core.engine.releases import TRIGGER_CAUSES
 from cfem_ros.core.engine.simulator import Simulator
+from cfem_ros.core.engine.stepping import Stepper
 from cfem_ros.core.engine.strokes import stroke_end_event
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import LOADS
@@ -36,7 +37,7 @@ def rk4(sim, y, h):
     out = np.empty_like(y)
     worst = testing.rk4_step(sim._topology.system, y, h, out)
     assert worst >= 0.0, 'singular solve'
-    sim._stage_violation = max(sim._stage_violation, worst)
+    sim.stepper.stage_violation = max(sim.stepper.stage_violation, worst)
     return out
 
 
@@ -49,9 +50,9 @@ def step_with_condition(sim, t_end):
     """
     Take the kernel's steps up to the first in which a condition is reached; return its h.
 
-    The step is then the one ``Simulator._step`` takes next, its loads set to its start.
+    The step is then the one ``Stepper._step`` takes next, its loads set to its start.
     """
-    assert sim._advance(t_end, math.inf, math.inf, None) == kernel.CONDITION
+    assert sim.stepper.advance(t_end, math.inf, math.inf, None) == kernel.CONDITION
     sim._scheduled.set_time(sim.t)
     return min(sim.dt, t_end - sim.t)
 
@@ -124,12 +125,12 @@ def stroke_crossing(sim, y0, y1, h):
 
 def reference_locate(sim, h):
     """Return (y1, crossing, stroke, largest stage violation) found by the reference search."""
-    sim._stage_violation = 0.0
+    sim.stepper.stage_violation = 0.0
     y0 = sim.y
     y1 = rk4(sim, y0, h)
     crossing = release_crossing(sim, y0, y1, h)
     stroke = stroke_crossing(sim, y0, y1, h) if sim._scheduled.count else None
-    return y1, crossing, stroke, sim._stage_violation
+    return y1, crossing, stroke, sim.stepper.stage_violation
 
 
 def assert_same_location(sim, h):
@@ -137,7 +138,7 @@ def assert_same_location(sim, h):
     y1, crossing, stroke, _ = reference_locate(sim, h)
     cut = min([c[0] for c in (crossing, stroke) if c is not None] + [h])
     ys = rk4(sim, sim.y, cut) if cut < h else None   # the state the step is cut at
-    worst = sim._stage_violation
+    worst = sim.stepper.stage_violation
     y1_k, ys_k, crossing_k, stroke_k, worst_k = kernelcalls.locate(sim._topology.system, sim.y,
                                                                    h, 0.0)
     assert crossing_k == crossing
@@ -149,36 +150,45 @@ def assert_same_location(sim, h):
     return crossing_k, stroke_k
 
 
-class PythonSteps(Simulator):
-    """The engine with a step cut by the reference search (``reference_locate``)."""
+class PythonStepper(Stepper):
+    """The step loop with a step cut by the reference search (``reference_locate``)."""
 
     def _step(self, h, t_end):
-        self._stage_violation = 0.0
-        y0 = self.y
-        self._scheduled.set_time(self.t)
-        if self.kinematic:
-            kernel.motion_set_time(self._bodies, self.t)
-        y1 = rk4(self, y0, h)
-        crossing = release_crossing(self, y0, y1, h)
-        if self._scheduled.count:
-            stroke = stroke_crossing(self, y0, y1, h)
+        sim = self.sim
+        self.stage_violation = 0.0
+        y0 = sim.y
+        sim._scheduled.set_time(sim.t)
+        if sim.kinematic:
+            kernel.motion_set_time(sim._bodies, sim.t)
+        y1 = rk4(sim, y0, h)
+        crossing = release_crossing(sim, y0, y1, h)
+        if sim._scheduled.count:
+            stroke = stroke_crossing(sim, y0, y1, h)
             if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
                 s, wrenches = stroke
-                self._commit(rk4(self, y0, s) if s < h else y1, self.t + s if s < h else t_end)
-                self._scheduled.end_strokes(wrenches)
-                self.events.extend(stroke_end_event(self, k) for k in wrenches)
+                self._commit(rk4(sim, y0, s) if s < h else y1, sim.t + s if s < h else t_end)
+                sim._scheduled.end_strokes(wrenches)
+                sim.events.extend(stroke_end_event(sim, k) for k in wrenches)
                 if crossing is not None and crossing[0] <= s:
                     for k, cause in zip(crossing[1], crossing[2]):
-                        self._release([k], cause)
-                self._fire_time_triggers()
+                        sim.release_indices([k], cause)
+                self.fire_time_triggers()
                 return
         if crossing is None:
             self._commit(y1, t_end)
         else:
             s, joints, causes = crossing
-            self._commit(rk4(self, y0, s) if s < h else y1, self.t + s if s < h else t_end)
+            self._commit(rk4(sim, y0, s) if s < h else y1, sim.t + s if s < h else t_end)
             for k, cause in zip(joints, causes):
-                self._release([k], cause)
+                sim.release_indices([k], cause)
+
+
+class PythonSteps(Simulator):
+    """The engine whose step loop is ``PythonStepper``."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.stepper = PythonStepper(self, self.dynamics)
 
 
 def assert_same_runs(model, times):

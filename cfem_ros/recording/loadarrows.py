@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core import rotations
-from cfem_ros.core.engine import simulator
+from cfem_ros.core.engine.events import LOAD_EVENTS   # the events that start or end a load
 from cfem_ros.core.native.kernel import LOADS, SAMPLE
 from cfem_ros.recording import visuals
 import numpy as np
@@ -58,8 +58,6 @@ COLORS = {
 SHAFT, HEAD, HEAD_LENGTH = 0.02, 0.045, 0.07
 #: Forces smaller than this fraction of the largest drawn are not drawn (rounding).
 SMALLEST = 1e-9
-#: The events that start or end a load: the arrows are drawn at each (SPEC section 4).
-LOAD_EVENTS = simulator.LOAD_EVENTS
 
 
 def event_states(sim, new_events) -> list:

@@ -3,7 +3,8 @@
 """
 The engine: a model in time, in RK4 steps of the compiled core, with its releases.
 
-Modules: ``simulator`` (``Simulator``: time and the step loop),
+Modules: ``simulator`` (``Simulator``: a run's time and status),
+``stepping`` (``Stepper``: the simulator's step loop),
 ``kernelcalls`` (the simulator's two calls of the compiled core, whose face
 is ``cfem_ros.core.native.kernel``), ``bodies`` (the initial state and the
 mass table), ``topology`` (the rows of the active joints and their solve

@@ -9,9 +9,10 @@ body to world) and angular velocities (body axes, rad/s). Ground (fixed)
 bodies are carried with zero inverse mass and inertia, so every formula is the
 same for all bodies.
 
-``Simulator`` owns the run's time, its status and the step loop: it steps in
-the compiled kernel and cuts steps at release times, release conditions,
-strokes' ends and contacts. It holds its parts rather than inheriting them:
+``Simulator`` owns the run's time and its status; its step loop is held
+(``stepping.Stepper``: the compiled kernel's steps, cut at release times,
+release conditions, strokes' ends and contacts). It holds its parts rather
+than inheriting them:
 the equations of motion (``dynamics.Dynamics``: bodies and applied loads),
 the joints (``jointset.JointSet``: rows, releases, the active ``Topology``),
 the kinematic bodies (``Carriers``), the braces, contact pairs and aero
@@ -21,21 +22,18 @@ tables watched (``watch.Watch``) and what a sample shows (``Sampling``).
 from __future__ import annotations
 
 import logging
-import math
 from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.carrier import Carriers
 from cfem_ros.core.engine.dynamics import Dynamics
-from cfem_ros.core.engine.events import AERO_EVENTS, Failure, LOAD_EVENTS, Status
+from cfem_ros.core.engine.events import AERO_EVENTS, Failure, Status
 from cfem_ros.core.engine.jointset import JointSet
-from cfem_ros.core.engine.kernelcalls import (advance, diverged, DIVERGENCE_VIOLATION, locate,
-                                              NOT_FINITE)
 from cfem_ros.core.engine.sampling import (LOADS_NOT_FINITE, NumericalFailure, SampleGrid,
                                            Sampling, SINGULAR)
 from cfem_ros.core.engine.startcheck import start_refusal
-from cfem_ros.core.engine.strokes import stroke_end_event
+from cfem_ros.core.engine.stepping import Stepper
 from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
@@ -111,7 +109,6 @@ class Simulator:
         self._bodies, self._scheduled = dynamics.bodies, dynamics.scheduled
         self._loads = dynamics.loads
         self.y = dynamics.y0
-        self._stage_violation = 0.0   # the largest violation within the step being taken
         self.dt = float(model.dt)
         self.t = 0.0
         self.status = Status.RUNNING
@@ -120,7 +117,6 @@ class Simulator:
         self.reason = ''
         self.steps = 0
         self.max_violation = 0.0
-        self._info = np.zeros(kernel.ADVANCE_INFO.WIDTH)   # advance's, reused
         self.load_states = None
         self.carriers = Carriers(self, self._bodies)   # kinematic bodies, their odometry
         if self.kinematic:
@@ -133,10 +129,11 @@ class Simulator:
         self.releases = self.joint_set.releases
         self.sampling = Sampling(model, self.joints, self._scheduled)
         self._set_topology()
-        self._fire_time_triggers()
+        self.stepper = Stepper(self, dynamics)   # the step loop (stepping.py)
+        self.stepper.fire_time_triggers()
         dynamics.project_velocities(self._topology, self.y)
         self.watch = Watch(model, self._scheduled, self.n)   # pads, pairs and aero tables
-        self._watched(*self.watch.arm(self.y, self.t))   # an axis outside at t = 0 is told
+        self.record_watch(*self.watch.arm(self.y, self.t))   # an axis outside at t = 0 is told
 
     def set_state(self, y, *, start: bool = False):
         """
@@ -174,7 +171,7 @@ class Simulator:
         self._scheduled.reanchor(self.y)   # strokes measured from here
         if start:   # the scenario's initial state is not this run's: what it told goes
             self.events[:] = [e for e in self.events if e['event'] not in AERO_EVENTS]
-        self._watched(*self.watch.arm(self.y, self.t))   # pads, pairs and tables from here
+        self.record_watch(*self.watch.arm(self.y, self.t))   # pads, pairs and tables from here
 
     def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
         """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
@@ -280,6 +277,11 @@ class Simulator:
 
     # -------------------------------------------------------------- releases
 
+    @property
+    def topology(self):
+        """Return the active joints' rows and solve plan (``Topology``; changes at releases)."""
+        return self._topology
+
     def _set_topology(self):
         """Rebuild the active joints' rows (``JointSet.rebuild``)."""
         self._topology = self.joint_set.rebuild(self.dynamics, self.sampling, self.y)
@@ -299,9 +301,10 @@ class Simulator:
 
     def release_all(self, names, cause: str = 'command') -> list:
         """Release as ``release`` does; return every event."""
-        return self._release(self.joint_set.commanded(names, self.joint_index), cause)
+        return self.release_indices(self.joint_set.commanded(names, self.joint_index), cause)
 
-    def _release(self, joints, cause):
+    def release_indices(self, joints, cause: str) -> list:
+        """Release the active joints of these model indices now; return the events."""
         released, events = self.joint_set.release(joints, self.t, cause)
         self._set_topology()
         # wrenches tied to these releases: on (or off) now, or at a time to cut a step at
@@ -346,83 +349,12 @@ class Simulator:
 
         Raises
         ------
-        ValueError
-            If t_target is not finite or before the current time, or limit is NaN.
+        ArgumentError
+            If t_target is not finite or before the current time, limit is
+            NaN, or the sample rows are not as wide as the outputs.
 
         """
-        t_target = float(t_target)
-        if not math.isfinite(t_target):
-            raise ArgumentError(f't_target is {t_target!r}; expected a finite time in s')
-        if t_target < self.t:
-            raise ArgumentError(f't_target is {t_target:.9g} s, before the current time '
-                                f'{self.t:.9g} s; time only moves forward')
-        limit = math.inf if limit is None else float(limit)
-        if math.isnan(limit):
-            raise ArgumentError('limit is nan; expected a time in s (inf for none)')
-        if self.status is not Status.RUNNING:
-            return False
-        if samples is not None and samples.rows.shape[1] not in (
-                0, self.sampling.outputs_size()):
-            raise ArgumentError(f'sample rows have {samples.rows.shape[1]} columns; the outputs '
-                                f'of this state have {self.sampling.outputs_size()}')
-        steps = self.steps
-
-        def release_now():
-            # a release at t acts after the samples at t and at the end of a call
-            # that stops at t, as inputs do (the caller takes the sample first)
-            return samples is None or samples.next_time > self.t
-
-        try:
-            if release_now():
-                self._fire_time_triggers()   # left by a call that stopped at its time
-            while self.t < t_target or (samples is not None and self.t >= samples.next_time):
-                due = self._next_time_trigger()
-                due = math.inf if due is None else due
-                result = self._advance(t_target, due, limit, samples)
-                if result == kernel.CONDITION:
-                    # a release condition is reached within the next step: locate it
-                    goal = t_target if samples is None else min(t_target, samples.next_time)
-                    remaining = goal - self.t
-                    if remaining <= self.dt * (1.0 + 1e-9):
-                        h, t_end = remaining, goal
-                    else:
-                        h, t_end = self.dt, self.t + self.dt
-                    if due < t_end:
-                        h, t_end = due - self.t, due
-                    self._step(h, t_end)
-                    if self.status is not Status.RUNNING:
-                        return False   # shapes touched: the run stops here (CONTACT)
-                if (self.t < t_target or release_at_end) and release_now():
-                    self._fire_time_triggers()
-                if samples is not None:
-                    break   # back to the caller: rows to take, or a release's events
-                if result != kernel.CONDITION and self.t < t_target and self.t < due:
-                    break   # the next step would end after limit
-            if self.t >= t_target and self.steps > steps:
-                self._check_violation()   # the kernel checks each step's start, not the end
-            self.carriers.check()
-            self.events.extend(self.watch.aero.atmosphere(self.y, self.t))
-        except NumericalFailure as err:
-            self.fail(str(err), err.failure)
-            return False
-        return True
-
-    def _advance(self, t_target, due, limit, samples) -> int:
-        """Take the kernel's steps toward t_target (``kernelcalls.advance``); its result."""
-        done = advance(self._topology.system, self.y, self._info, self.t, self.max_violation,
-                       t_target, due, limit, self.dt, samples)
-        self.t = done.t
-        self.steps += done.steps
-        self.max_violation = done.violation
-        if done.error is not None:
-            raise done.error
-        return done.result
-
-    def _check_violation(self):
-        """Fail if the joints are violated beyond ``DIVERGENCE_VIOLATION`` now."""
-        violation = self.constraint_violation()
-        if violation > DIVERGENCE_VIOLATION:
-            raise diverged(violation)
+        return self.stepper.run_to(t_target, limit, samples, release_at_end)
 
     def fail(self, reason: str, failure: Failure = Failure.OTHER):
         """Stop the run as failed now (``status``, ``failure``, ``message`` with the time)."""
@@ -441,59 +373,10 @@ class Simulator:
         cause); a caller that samples calls this after its sample.
         """
         before = len(self.events)
-        self._fire_time_triggers()
+        self.stepper.fire_time_triggers()
         return self.events[before:]
 
-    def _next_time_trigger(self) -> Optional[float]:
-        due = self.releases.due   # changes with the topology
-        switch = self._scheduled.due(self.t)   # scheduled wrenches' start and end (loads.py)
-        return due if switch is None else switch if due is None else min(due, switch)
-
-    def _fire_time_triggers(self):
-        self._scheduled.switch(self.t, self.y)   # scheduled wrenches (loads.py)
-        due = self.releases.timed_out(self.active, self.t)
-        if due.size:
-            self._release(due, 'time')
-
-    def _step(self, h, t_end):
-        """Advance one step of length h to t_end, locating condition releases and stroke ends."""
-        events = len(self.events)
-        self._locate_step(h, t_end)
-        if self.load_states is not None and any(
-                e.get('event') in LOAD_EVENTS for e in self.events[events:]):
-            self.load_states[self.t] = (self.outputs(), self.active_joints,
-                                        self.held_wrenches())
-
-    def _locate_step(self, h, t_end):
-        """Take the step of ``_step``: its events, and the state at the first of them."""
-        self._stage_violation = 0.0
-        y0 = self.y
-        self._scheduled.set_time(self.t)
-        if self.kinematic:
-            kernel.motion_set_time(self._bodies, self.t)   # motion.py
-        y1, ys, crossing, stroke, self._stage_violation = locate(
-            self._topology.system, y0, h, self._stage_violation)
-        if stroke is not None and (crossing is None or crossing[0] >= stroke[0]):
-            # an ejector's stroke ends first (or with a release), or shapes touch
-            s, rows = stroke
-            wrenches = [k for k in rows if k < self._scheduled.count]
-            self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
-            self._scheduled.end_strokes(wrenches)   # an event for each (strokes.py)
-            self.events.extend(stroke_end_event(self, k) for k in wrenches)
-            self._watched(*self.watch.located(rows, self.y, y1, self.t))   # pads, pairs, air
-            if crossing is not None and crossing[0] <= s:
-                for k, cause in zip(crossing[1], crossing[2]):
-                    self._release([k], cause)
-            self._fire_time_triggers()
-        elif crossing is None:
-            self._commit(y1, t_end)
-        else:
-            s, joints, causes = crossing
-            self._commit(ys if s < h else y1, self.t + s if s < h else t_end)
-            for k, cause in zip(joints, causes):
-                self._release([k], cause)
-
-    def _watched(self, events: list, stops: list):
+    def record_watch(self, events: list, stops: list):
         """Record the watch's events; stop the run as the first stop says (``Watch``)."""
         self.events.extend(events)
         if stops and self.status is Status.RUNNING:
@@ -506,16 +389,3 @@ class Simulator:
         if self.check_start:
             self.refusal = start_refusal(self)   # '' at once unless it ended in its first step
             self.message = self.refusal or self.message
-
-    def _commit(self, y1, t1):
-        if not np.isfinite(y1).all():
-            raise NumericalFailure(NOT_FINITE, Failure.NOT_FINITE)
-        if self._stage_violation > DIVERGENCE_VIOLATION:
-            raise diverged(self._stage_violation)
-        self.max_violation = max(self.max_violation, self._stage_violation)
-        self.y = y1
-        self.t = t1
-        self._scheduled.set_time(t1)
-        if self.kinematic:
-            self.carriers.place(t1)   # the state, and accelerations, at t1 (motion.py)
-        self.steps += 1
