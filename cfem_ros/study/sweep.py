@@ -24,6 +24,7 @@ import time
 from typing import Callable, Optional
 
 from cfem_ros.core.engine.events import Status
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.recording.export import write_frame
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.folder import read_manifest, read_table
@@ -180,7 +181,7 @@ def assemble(spec: SweepSpec, outdir: str, csv: bool = False):
     table = table.reset_index(drop=True)[columns(spec)]
     missing = sorted(set(range(spec.total)) - set(table['run'].tolist()))
     if missing:
-        raise RuntimeError(f'{outdir}: runs {missing[:10]} are missing from the parts')
+        raise ResourceFailure(f'{outdir}: runs {missing[:10]} are missing from the parts')
     table = decide(spec, outdir, table)
     write_atomic(table, os.path.join(outdir, RESULTS), spec.document)
     if csv:
@@ -324,7 +325,7 @@ class Sweep:
 
         """
         if record not in RECORD:
-            raise ValueError(f'record is {record!r}; expected one of {", ".join(RECORD)}')
+            raise ArgumentError(f'record is {record!r}; expected one of {", ".join(RECORD)}')
         if outdir is None:
             with tempfile.TemporaryDirectory(prefix='cfem-sweep-') as tmp:
                 return self.run(client, tmp, record=record, csv=csv, progress=progress,
