@@ -21,6 +21,7 @@ from typing import Optional
 
 from cfem_ros.core import rotations
 from cfem_ros.core.native import contacts
+from cfem_ros.core.native.kernel import CLOSEST
 from cfem_ros.study import between
 import numpy as np
 
@@ -230,8 +231,8 @@ def compute_distance(entry: Distance, samples) -> dict:
                                                entry.shape_b, poses_b[1], poses_b[0])
             rot_a = rotations.matrices(poses_a[1])[0]
             rot_b = rotations.matrices(poses_b[1])[0]
-            point_a = rot_a.T @ (points[0, :3] - poses_a[0][0])
-            point_b = rot_b.T @ (points[0, 3:] - poses_b[0][0])
+            point_a = rot_a.T @ (points[0, CLOSEST.span('P_A')] - poses_a[0][0])
+            point_b = rot_b.T @ (points[0, CLOSEST.span('P_B')] - poses_b[0][0])
             values = [float(found[0]), when] + [float(v) for v in point_a] \
                 + [float(v) for v in point_b]
             out.update(zip((f'{entry.prefix}_{s}' for s in DISTANCE_SUFFIXES), values))

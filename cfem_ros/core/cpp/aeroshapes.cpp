@@ -142,7 +142,7 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
   need_rows(position_b, "position_b", 3, n);
   need_rows(rot_a, "rot_a", 9, n);
   need_rows(rot_b, "rot_b", 9, n);
-  Array out(n), points({n, py::ssize_t(6)});
+  Array out(n), points({n, py::ssize_t(cfem::closest::WIDTH)});
   py::array_t<std::int64_t> parts({n, py::ssize_t(2)});
   double* o = out.mutable_data();
   double* p = points.mutable_data();
@@ -154,7 +154,9 @@ py::tuple py_distance(Array shape_a, Array rot_a, Array position_a, Array shape_
       o[k] = cfem::shapes::any_distance(cfem::Flat{shape_a.data()}, rot_a.data() + 9 * k,
                                         position_a.data() + 3 * k, cfem::Flat{shape_b.data()},
                                         rot_b.data() + 9 * k, position_b.data() + 3 * k,
-                                        p + 6 * k, p + 6 * k + 3, nullptr, found);
+                                        p + cfem::closest::WIDTH * k + cfem::closest::P_A,
+                                        p + cfem::closest::WIDTH * k + cfem::closest::P_B,
+                                        nullptr, found);
       which[2 * k] = found[0];
       which[2 * k + 1] = found[1];
     }

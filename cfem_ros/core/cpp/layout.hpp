@@ -271,6 +271,14 @@
   COLUMN(body, V_ANGULAR, 3, 3)                                                            \
   NUMBER(int, WIDTH, 6)
 
+// ``points`` of the shape distance (aeroshapes.cpp's distance, (k, WIDTH); loads.cpp's
+// contact_gap): the closest (or, overlapping, deepest) point on shape a, then on b (world,
+// m).
+#define CFEM_CLOSEST_LAYOUT(COLUMN, NUMBER)                                                \
+  COLUMN(pair, P_A, 0, 3)                                                                  \
+  COLUMN(pair, P_B, 3, 3)                                                                  \
+  NUMBER(int, WIDTH, 6)
+
 // A sample's outputs (sampling.cpp's sample_outputs; size: sample_size): per body BODY
 // numbers: its CG position (world, m), quaternion (x y z w, body to world), CG velocity
 // and angular velocity (body axes, m/s and rad/s); then per joint sampled JOINT numbers:
@@ -370,6 +378,9 @@ CFEM_SHAPE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace twist {
 CFEM_TWIST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace twist
+namespace closest {
+CFEM_CLOSEST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace closest
 }  // namespace cfem
 
 #undef CFEM_LAYOUT_COLUMN

@@ -291,7 +291,7 @@ bool stroke_reached(const double* y, const Mat& loads, idx n) {
 double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points,
                    int* parts) {
   idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
-  double rot_a[9], rot_b[9], scratch[6];
+  double rot_a[9], rot_b[9], scratch[closest::WIDTH];
   const double* qa = y + 6 * n + 4 * a;
   const double* qb = y + 6 * n + 4 * b;
   quat_matrix(qa[0], qa[1], qa[2], qa[3], rot_a);
@@ -300,7 +300,8 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
   return shapes::any_distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
                               y + 3 * a,
                               Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))}, rot_b,
-                              y + 3 * b, p, p + 3, loads.row(row) + C_GUESS, parts);
+                              y + 3 * b, p + closest::P_A, p + closest::P_B,
+                              loads.row(row) + C_GUESS, parts);
 }
 
 void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double* out,

@@ -68,8 +68,8 @@ void strokes(const double* y, const Mat& loads, idx n, double* out);
 bool stroke_reached(const double* y, const Mat& loads, idx n);
 
 // The distance between the shapes of contact row `row` at y, m (distance.hpp); the
-// closest points (world) into points[0:6] if points is not null, and the closest parts
-// of compound shapes into parts[0:2] if parts is not null.
+// closest points (world) into points (closest::WIDTH numbers, layout.hpp) if points is
+// not null, and the closest parts of compound shapes into parts[0:2] if parts is not null.
 double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* points,
                    int* parts = nullptr);
 

@@ -215,7 +215,7 @@ class Dynamics:
         """
         rows = self.loads[:self.n]
         return np.hstack([rows[:, LOADS.span('H_FORCE')], rows[:, LOADS.span('H_TORQUE')],
-                          rows[:, LOADS.H_AXES:LOADS.H_AXES + 1], rows[:, LOADS.span('H_POINT')]])
+                          rows[:, LOADS.span('H_AXES')], rows[:, LOADS.span('H_POINT')]])
 
     def body_index(self, body) -> int:
         """Return the index of a body given by name or index."""

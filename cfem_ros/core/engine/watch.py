@@ -16,6 +16,7 @@ from __future__ import annotations
 from cfem_ros.core.engine import braces
 from cfem_ros.core.engine.aero import AeroWatch
 from cfem_ros.core.engine.events import Event, Status
+from cfem_ros.core.native.kernel import CLOSEST
 import numpy as np
 
 
@@ -92,7 +93,8 @@ class Watch:
         pair = self.model.contacts[k]
         names = [self.model.bodies[b].name for b in pair.bodies]
         _, points, parts = self.scheduled.gap(k, y)
-        point = [float(v) for v in 0.5 * (points[:3] + points[3:])]
+        point = [float(v) for v in 0.5 * (points[CLOSEST.span('P_A')]
+                                          + points[CLOSEST.span('P_B')])]
         event = {'event': Event.CONTACT, 'bodies': names, 'time': t, 'point': point,
                  'parts': parts}
         self.scheduled.touched(k)   # watched again once the shapes part

@@ -107,7 +107,8 @@ class Layout:
 #: body, joint, applied source and aero body), the air of ``aero_wrench``
 #: (``aero_air``), a kinematic body's trajectory from ``BODIES.M_DATA`` on
 #: (``trajectory``), a packed collision shape (``shape``) and the velocity
-#: correction of ``project`` (``twist``).
+#: correction of ``project`` (``twist``) and the closest points of ``distance``
+#: (``closest``).
 BODIES = Layout('bodies')
 LOADS = Layout('loads')
 AERO_TABLE = Layout('aero_table')
@@ -123,6 +124,7 @@ AERO_AIR = Layout('aero_air')
 TRAJECTORY = Layout('trajectory')
 SHAPE = Layout('shape')
 TWIST = Layout('twist')
+CLOSEST = Layout('closest')
 
 #: ``advance`` results in ``info[ADVANCE_INFO.I_RESULT]`` (LOADS_NOT_FINITE: a
 #: sample's outputs or a force-release check's joint loads are not finite while
@@ -214,7 +216,9 @@ def aero_wrench(packed, position, velocity, rot, rates, carrier_position, carrie
 
 def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
     """
-    Return the shapes' distances at k pose pairs, (k,) m, closest points, (k, 6), and parts.
+    Return the shapes' distances at k pose pairs, (k,) m, closest points and parts.
+
+    The closest points, (k, ``CLOSEST.WIDTH``): on a, then on b (world, m).
 
     The parts, (k, 2): the closest parts of compound shapes (0 for a convex one).
     """
