@@ -150,9 +150,9 @@ def _from_csv(path: str, spec: Flight) -> Measured:
     expected = {'time': 's', **{f'{spec.body}_{q}': BODY[q] for q in CSV_QUANTITIES}}
     try:   # a header 'store_x [m]' (as export writes it) or 'store_x'
         table.columns = bare_columns(spec.measured_file, table.columns, expected)
-    except RecordingError as err:
-        raise FitError(path, f'{spec.key}.file', str(err), 'the units of cfem-sim export '
-                       '(m, deg, s)') from err
+    except RecordingError as err:   # '<file>: column ... is in mm; expected m (...)'
+        problem, _, expected = str(err).partition('; expected ')
+        raise FitError(path, f'{spec.key}.file', problem, expected) from err
     missing = [n for n in names if n not in table.columns]
     if missing:
         raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} has no column '
