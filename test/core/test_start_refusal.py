@@ -142,3 +142,18 @@ def test_the_apis_refusals_are_cfem_errors():
     sim.advance_to(0.01)
     with pytest.raises(CfemError, match='start: the run has taken'):
         sim.set_state(sim.y, start=True)
+
+
+def test_a_run_a_table_stops_as_it_starts_says_checks_words(tmp_path, capsys):
+    # Mach 0.45 against a table from Mach 0.8 with outside: stop: the run ends at t = 0
+    document = yaml.safe_load((CONFIG / 'store_clearance_aero.yaml').read_text())
+    document['aero']['store'].update(freestream=[-153, 0, 0], outside='stop')
+    path = write(tmp_path / 'start.yaml', document)
+    assert cli.main(['check', path]) == 2
+    line = capsys.readouterr().err.rstrip('\n').splitlines()[-1]
+    assert line.startswith(f'ERROR: {path}: cannot start: the run would end as it starts')
+    words = line.removeprefix(f'ERROR: {path}: ')
+    sim = Simulator(load_scenario(path))
+    assert sim.status is Status.AERO_OUTSIDE and sim.t == 0.0
+    assert sim.message == sim.refusal == f"scenario {document['name']!r}: {words}"
+    assert not sim.advance_to(0.01) and sim.t == 0.0

@@ -27,6 +27,7 @@ import math
 from cfem_ros.core.engine.events import Failure, Status
 from cfem_ros.core.engine.sampling import NumericalFailure, SINGULAR
 from cfem_ros.core.errors import CfemError
+from cfem_ros.core.native import kernel
 import numpy as np
 
 __all__ = ['cannot_analyse', 'cannot_start', 'CannotStart', 'ended_at_start', 'refuse_start',
@@ -102,7 +103,7 @@ def _aero_products(model) -> tuple:
             force_max = float(table[..., :3].max(initial=0.0))
 
             def loads(v, rates):
-                pressure = 0.5 * aero.density * v * v * aero.area
+                pressure = float(kernel.dynamic_pressure(aero.density, v)) * aero.area
                 force = pressure * force_max
                 per_rate = pressure * aero.length * aero.length / (2.0 * v) if v > 0 else 0.0
                 moment = pressure * aero.length * moment_max + per_rate * damping * rates
@@ -166,7 +167,7 @@ def start_problems(sim) -> tuple:
     errors, warnings = _aero_products(model)
     warnings += _spin_warnings(model)
     if sim.status is Status.AERO_OUTSIDE:   # outside: stop, and outside from t = 0
-        return errors + [_stops_at_start(sim.message)], warnings
+        return errors + [_stops_at_start(sim.reason)], warnings   # the stop, not check's line
     try:
         with np.errstate(all='ignore'):
             derivative = sim.derivative(sim.y)
