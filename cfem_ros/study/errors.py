@@ -1,6 +1,6 @@
 # Copyright 2026 the cfem_ros authors
 # SPDX-License-Identifier: Apache-2.0
-"""The sweep file's error, and the small checks and renderings its messages are built with."""
+"""The sweep file's error, and the small checks its parsers share."""
 
 from __future__ import annotations
 
@@ -12,12 +12,6 @@ from cfem_ros.core.fileio.messages import show
 
 class SweepError(ScenarioError):
     """A sweep file that cannot be run (file, key path, problem, expected)."""
-
-
-def one_line(text, limit: int) -> str:
-    """Return text on one line and at most limit characters (a key path may be long)."""
-    text = ' '.join(str(text).split())
-    return text if len(text) <= limit else text[:limit - 3] + '...'
 
 
 def number_list(fail, key, value, length=None):

@@ -25,10 +25,11 @@ from cfem_ros.core.errors import ScenarioError
 from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
+from cfem_ros.core.scenario.checker import Checker
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.draws import (
     check_draws, draw, MAX_RUNS, parse_correlate, parse_vary, RANDOM_NUMBERS)
-from cfem_ros.study.errors import one_line, SweepError
+from cfem_ros.study.errors import SweepError
 from cfem_ros.study.keypaths import apply_values, format_key_path, resolve
 from cfem_ros.study.metricspec import check_unique_at, Metrics, parse_metrics
 from cfem_ros.study.shape_metrics import Window
@@ -149,8 +150,7 @@ def load_sweep(path: str, runs: Optional[int] = None) -> SweepSpec:
     """
     document = _load_yaml(path, 'sweep file as in SPEC section 6')
 
-    def fail(key, problem, expected=''):
-        raise SweepError(path, one_line(key, 120), one_line(problem, 240), one_line(expected, 240))
+    fail = Checker(path, SweepError).fail   # the scenario's idiom: file, key path, value
 
     if not isinstance(document, dict):
         fail('', f'is {show(document)}', 'a mapping with scenario, runs, seed, vary, metrics')

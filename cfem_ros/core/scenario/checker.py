@@ -59,14 +59,18 @@ def one_of(names) -> str:
 
 
 class Checker:
-    """Typed accessors that raise ScenarioError with the key path."""
+    """
+    Typed accessors that raise ScenarioError with the key path.
 
-    def __init__(self, source: str):
+    error: the ``ScenarioError`` kind raised (a sweep file's ``SweepError``).
+    """
+
+    def __init__(self, source: str, error: type = ScenarioError):
         self.source = source
+        self.error = error
 
     def fail(self, key: str, problem: str, expected: str = ''):
-        raise ScenarioError(self.source, clip(key, 120), clip(problem, 240),
-                            clip(expected, 240))
+        raise self.error(self.source, clip(key, 120), clip(problem, 240), clip(expected, 240))
 
     def mapping(self, value, key: str, allowed, required=()) -> dict:
         if not isinstance(value, dict):
