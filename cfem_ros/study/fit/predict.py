@@ -262,6 +262,8 @@ class Prediction:
         except Exception as err:   # noqa: B902 (as a sweep's run: the draw failed, said)
             row.update(status=Status.FAILED, message=f'{type(err).__name__}: {err}',
                        **empty(self.next.metrics))
+            if sim.refusal:   # cfem-sim check refuses the draw: invalid, in its words
+                row.update(status=INVALID, message=sim.refusal)
             return row, None, None, {}
         if sim.refusal:   # cfem-sim check refuses the draw (asked as its run ended at its start)
             row.update(status=INVALID, message=sim.refusal, **empty(self.next.metrics))
