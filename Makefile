@@ -56,16 +56,30 @@ demo: $(STAMP)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
+# ccache for the suite's build of the core from a clean copy (test/test_colcon.py): a
+# second session's compile of the same sources is a cache hit. Installed with apt-get when
+# missing, as python3-venv; without it the suite compiles the core each time (minutes).
+define get-ccache
+	@command -v ccache >/dev/null || ! command -v apt-get >/dev/null || { \
+	  echo "installing ccache with apt-get (the test suite's compile of the core is cached)"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
+	  $$SUDO apt-get install -y -q ccache || { $$SUDO apt-get update -q && \
+	    $$SUDO apt-get install -y -q ccache; } || \
+	  echo "ccache not installed: the test suite compiles the core each time"; }
+endef
+
 # two test processes (pytest-xdist), a test file's tests in one of them, the long files
 # first (test/conftest.py)
 test: $(TOOLS) $(IFACES)
+	$(get-ccache)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder test
 
-# MuJoCo (the bench extra) is installed once; figures go under runs/bench, no tracked file
-# changes
+# MuJoCo and Pinocchio (the bench extra) are installed once; figures go under runs/bench, no
+# tracked file changes
 bench: $(TOOLS)
-	@$(BIN)/python -c 'import mujoco' 2>/dev/null || $(BIN)/pip install -q -e '.[bench]'
+	@$(BIN)/python -c 'import mujoco, pinocchio' 2>/dev/null || $(BIN)/pip install -q -e '.[bench]'
 	$(BIN)/python benchmarks/suite.py
+	$(BIN)/python benchmarks/bench_pinocchio.py
 	$(BIN)/python benchmarks/bench_engine.py
 	$(BIN)/python benchmarks/bench_node.py
 	$(BIN)/python benchmarks/bench_startup.py

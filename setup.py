@@ -103,8 +103,9 @@ setup(
             'ros-kilted-nav-msgs',
             'ros-kilted-rmw-fastrtps-cpp',
         ],
-        # the benchmark peer (benchmarks/suite.py); never needed to run cfem_ros
-        'bench': ['mujoco'],
+        # the benchmark peers (benchmarks/suite.py: MuJoCo; benchmarks/bench_pinocchio.py:
+        # Pinocchio's aba); never needed to run cfem_ros
+        'bench': ['mujoco', 'pin'],
         # separation studies (cfem-sim sweep / summarize / report, cfem_ros.study):
         # rare events with OpenTURNS, sensitivities with SALib
         'study': ['dask[distributed]>=2024.1', 'pandas>=2.0', 'pyarrow>=14',
