@@ -92,6 +92,12 @@ def columns(model) -> np.ndarray:
     return out
 
 
+#: A table's and a segment's columns (``TRAJECTORY``), read once.
+_COUNT, _TIMES = TRAJECTORY.D_COUNT, TRAJECTORY.D_TIMES
+_POSITION, _KEY, _ROTATION = (TRAJECTORY.span(name)
+                               for name in ('G_POSITION', 'G_KEY', 'G_ROTATION'))
+
+
 def _constant(position, velocity, quaternion, rates) -> np.ndarray:
     """Pack constant motion or a steady manoeuvre (``TRAJECTORY``'s constant columns)."""
     out = np.empty(TRAJECTORY.CONSTANT)
@@ -104,20 +110,20 @@ def _constant(position, velocity, quaternion, rates) -> np.ndarray:
 
 def _table(times, segments) -> np.ndarray:
     """Pack a table: its segment count, breakpoints and segments (``TRAJECTORY``)."""
-    out = np.empty(TRAJECTORY.D_TIMES + len(times) + segments.size)
-    out[TRAJECTORY.D_COUNT] = len(segments)
-    out[TRAJECTORY.D_TIMES:TRAJECTORY.D_TIMES + len(times)] = times
-    out[TRAJECTORY.D_TIMES + len(times):] = segments.reshape(-1)
+    first = _TIMES + len(times)
+    out = np.empty(first + SEGMENT * len(segments))
+    out[_COUNT] = len(segments)
+    out[_TIMES:first] = times
+    for k, segment in enumerate(segments):
+        out[first + SEGMENT * k:first + SEGMENT * (k + 1)] = segment
     return out
 
 
-def _segment(position, key, rotation) -> np.ndarray:
-    """Pack a segment: the position's and the rotation vector's cubics (3 x 4), the key."""
-    out = np.empty(SEGMENT)
-    out[TRAJECTORY.span('G_POSITION')] = np.ravel(position)
-    out[TRAJECTORY.span('G_KEY')] = key
-    out[TRAJECTORY.span('G_ROTATION')] = np.ravel(rotation)
-    return out
+def _segment(key) -> tuple:
+    """Return a segment holding the key attitude, and its cubics' views (3 axes x 4 each)."""
+    out = np.zeros(SEGMENT)
+    out[_KEY] = key
+    return out, out[_POSITION].reshape(3, 4), out[_ROTATION].reshape(3, 4)
 
 
 def _table_data(motion) -> np.ndarray:
@@ -131,8 +137,12 @@ def _table_data(motion) -> np.ndarray:
     attitude = RotationSpline(times, rotations)
     count = len(times) - 1
     keys = rotations.as_quat()
-    segments = np.array([_segment(position.c[:, k, :].T, keys[k],
-                                  attitude.interpolator.c[:, k, :].T) for k in range(count)])
+    segments = []
+    for k in range(count):
+        out, cubic, turn = _segment(keys[k])
+        cubic[:] = position.c[:, k, :].T
+        turn[:] = attitude.interpolator.c[:, k, :].T
+        segments.append(out)
     return _table(times, segments)
 
 
@@ -153,19 +163,22 @@ def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acc
     w s + alpha s^2 / 2, whose rates at s = 0 are w.
     """
     def segment(p, v, a, q, w, alpha, j=(0.0, 0.0, 0.0)):
-        return _segment([(j[k] / 6.0, 0.5 * a[k], v[k], p[k]) for k in range(3)], q,
-                        [(0.0, 0.5 * alpha[k], w[k], 0.0) for k in range(3)])
+        out, cubic, turn = _segment(q)
+        for k in range(3):   # per axis, highest power first
+            cubic[k] = (j[k] / 6.0, 0.5 * a[k], v[k], p[k])
+            turn[k] = (0.0, 0.5 * alpha[k], w[k], 0.0)
+        return out
 
     first = segment(position, velocity, acceleration, quaternion, rates, angular_acceleration,
                     jerk)
-    table = _table([t, t + horizon], first[None])
+    table = _table([t, t + horizon], [first])
     probe = np.zeros((1, M_DATA + len(table)))
     probe[0, M_KIND] = KIND_TABLE
     probe[0, M_DATA:] = table
     y = np.zeros(13)
     kernel.motion_place(y, probe, t + horizon)   # M_T0 = 0: the table at t + horizon
     second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))   # n = 1
-    return _table([t, t + horizon, t + horizon + 1.0], np.array([first, second]))
+    return _table([t, t + horizon, t + horizon + 1.0], [first, second])
 
 
 def hermite(t0: float, start, t1: float, end) -> np.ndarray:
@@ -193,9 +206,11 @@ def hermite(t0: float, start, t1: float, end) -> np.ndarray:
     angle = 2.0 * math.atan2(sine, rel[3])
     r1 = rel[:3] * (angle / sine if sine > 0.0 else 2.0)
     r1_rate = np.linalg.solve(_rate_matrix(r1), w1)
-    out = _segment([_hermite_cubic(p0[k], v0[k], p1[k], v1[k], h) for k in range(3)], q0,
-                   [_hermite_cubic(0.0, w0[k], r1[k], r1_rate[k], h) for k in range(3)])
-    return _table([t0, t1], out[None])
+    out, cubic, turn = _segment(q0)
+    for k in range(3):
+        cubic[k] = _hermite_cubic(p0[k], v0[k], p1[k], v1[k], h)
+        turn[k] = _hermite_cubic(0.0, w0[k], r1[k], r1_rate[k], h)
+    return _table([t0, t1], [out])
 
 
 def _hermite_cubic(f0, d0, f1, d1, h):
