@@ -94,8 +94,8 @@ def columns(model) -> np.ndarray:
 
 #: A table's and a segment's columns (``TRAJECTORY``), read once.
 _COUNT, _TIMES = TRAJECTORY.D_COUNT, TRAJECTORY.D_TIMES
-_POSITION, _KEY, _ROTATION = (TRAJECTORY.span(name)
-                               for name in ('G_POSITION', 'G_KEY', 'G_ROTATION'))
+_POSITION = TRAJECTORY.span('G_POSITION')
+_KEY, _ROTATION = TRAJECTORY.span('G_KEY'), TRAJECTORY.span('G_ROTATION')
 
 
 def _constant(position, velocity, quaternion, rates) -> np.ndarray:
