@@ -21,6 +21,16 @@ Where a near-pylon run's time goes, against the paper's case (issue 49.4).
    whose twists were not recorded): what the search costs, and what it
    changes.
 
+The sweep file's ``dt`` grid of two steps runs every draw twice: ``--runs
+10000`` is 20,000 runs (not a tail check); 60 s for them on 2 cores is 6 ms of
+CPU a run. Measured 2026-12-02 (helper B, load average 4 to 11, CPU time; the
+before and after in alternating processes): a sweep run 16.1 -> 13.0 ms (load
+5) and 17.3 -> 15.2 ms (load 8), the model from the draw 3.2 -> 0.35 ms (aero
+scales set on the tables read once, ``aeroscale``), a run's metrics 7.6 ->
+7.1 ms (a body's Motion made once); left: metrics (searches between samples)
+about 6.5 ms, the kernel 2.7 to 4 ms, Session.run's Python 2 ms, the Simulator
+1.4 ms. So some 130 s for the 20,000 runs on 2 idle cores, not 60 s.
+
 CPU time, not wall time: on a shared machine another process's turn on the
 core would count. cProfile slows the Python side (each call is counted),
 not the compiled kernel: the shares of part 2 overstate Python somewhat.
@@ -187,14 +197,19 @@ def run_costs(runs: int, turns: int):
                 costs[name].append((time.process_time() - start) / runs * 1e3)
             finally:
                 between.least, between.DISTANCE_TOLERANCE = searched, tolerance
-    print(f'\n3. CPU time of a sweep run (run_rows, {runs} runs, median of {turns} turns; '
-          '10,000 runs in 60 s on 2 cores is 12 ms a run), and the largest change of a '
-          'least distance from the runs as shipped')
+    print(f'\n3. CPU time of a sweep run (run_rows, {runs} runs, median of {turns} turns), '
+          'and the largest change of a least distance from the runs as shipped')
     shipped = rows['as shipped']
     for name, cost in costs.items():
         change = max((abs(a[c] - b[c]) for a, b in zip(shipped, rows[name]) for c in a
                       if c.endswith('_min') and isinstance(a[c], float)), default=0.0)
         print(f'   {name:48s} {statistics.median(cost):8.1f} ms a run   {change:.2g} m')
+    # the sweep file's dt grid (0.001, 0.0005 s) runs every draw at both steps: --runs
+    # 10000 is 20,000 runs (no tail check: that is a study's, not a sweep's)
+    shipped = statistics.median(costs['as shipped'])
+    print(f'   --runs 10000 is {2 * 10000:,} runs (the dt grid of 2 steps); on 2 idle cores '
+          f'at this CPU time, {2 * 10000 * shipped / 2e3:.0f} s of runs (60 s needs '
+          f'{60 * 2e3 / 20000:.0f} ms a run; 10,000 runs alone, {60 * 2e3 / 10000:.0f} ms)')
 
 
 def main():
