@@ -23,7 +23,7 @@ from cfem_ros.recording.errors import RecordingError
 import numpy as np
 
 __all__ = ['RelativeTrack', 'relative_pose', 'relative_track', 'relative_velocity',
-           'release_time']
+           'release_time', 'velocity_seen']
 
 
 def relative_pose(position, quaternion, ref_position, ref_quaternion) -> tuple:
@@ -78,16 +78,28 @@ def relative_velocity(body, ref, mine=None, theirs=None) -> np.ndarray:
         Their samples to take, matched (all, if not given).
 
     """
-    from cfem_ros.core.native import kernel
     mine = slice(None) if mine is None else mine
     theirs = slice(None) if theirs is None else theirs
-    position = body.position[mine]
+    return velocity_seen(body.position[mine], body.velocity_world[mine], body.quaternion[mine],
+                         body.rates[mine], ref.position[theirs], ref.velocity_world[theirs],
+                         ref.quaternion[theirs], ref.rates[theirs])
+
+
+def velocity_seen(position, velocity, quaternion, rates, ref_position, ref_velocity,
+                  ref_quaternion, ref_rates) -> np.ndarray:
+    """
+    Return ``relative_velocity`` of stacks of states, (n, 3) m/s in the reference's axes.
+
+    CG positions and velocities in the world (m, m/s), attitudes x y z w
+    (body to world), rates in body axes (rad/s), each (n, 3) or (n, 4).
+    """
+    from cfem_ros.core.native import kernel
+    position = np.asarray(position, dtype=float).reshape(-1, 3)
     if not len(position):
         return np.zeros((0, 3))
-    out = kernel.relative_states(position, body.velocity_world[mine], body.quaternion[mine],
-                                 body.rates[mine], ref.position[theirs],
-                                 ref.velocity_world[theirs], ref.quaternion[theirs],
-                                 ref.rates[theirs])
+    shaped = [np.asarray(a, dtype=float).reshape(len(position), -1) for a in (
+        velocity, quaternion, rates, ref_position, ref_velocity, ref_quaternion, ref_rates)]
+    out = kernel.relative_states(position, *shaped)
     first = kernel.SAMPLE.O_VELOCITY
     return out[:, first:first + 3]
 

@@ -187,12 +187,13 @@ def label(column: str, document: Optional[dict] = None) -> str:
         words, unit_text = STROKE[match.group(2)]
         return _with(f'{match.group(1)} {words}', unit_text)
     quantity = '|'.join(output_units.BODY)
-    match = re.fullmatch(rf'(.+)_at_([0-9.eE+-]+)(r?)_({quantity})', column)
+    at_units = {**output_units.BODY, **output_units.RELATIVE}
+    match = re.fullmatch(rf'(.+)_at_([0-9.eE+-]+)(r?)_({"|".join(at_units)})', column)
     if match:
         body, time, after, what = match.groups()
         since = ' after its release' if after else ''
         return f'{body} {what.replace("_deg", "")} at {time} s{since} ' \
-               f'[{output_units.BODY[what]}]'
+               f'[{at_units[what]}]'
     match = re.fullmatch(r'aero_outside_(.+)', column)
     if match:
         return f'time {match.group(1)} spends outside its aero tables [s]'

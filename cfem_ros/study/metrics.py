@@ -19,10 +19,11 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Event
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording.carriage import carriage_point, joint_anchors
+from cfem_ros.recording.relative import velocity_seen
 from cfem_ros.study import between
 from cfem_ros.study.metricspec import STROKE_COLUMNS
 from cfem_ros.study.shape_metrics import compute_distance
-from cfem_ros.study.windowed import at_after, compute_extremes
+from cfem_ros.study.windowed import at_after, compute_extremes, release_edge_time
 import numpy as np
 
 NAN = float('nan')
@@ -214,6 +215,42 @@ class Collector(RowSink):
                        rates=rates, velocities=velocities, anchors=joint_anchors(model))
 
 
+def _velocity_at(entry, samples) -> list:
+    """
+    Return an ``at`` entry's u_rel, v_rel, w_rel: the CG's velocity seen from its carrier.
+
+    In the carrier's axes, m/s (``relative.velocity_seen``), at the sample
+    (NaN if the run has none there); after a release between two samples,
+    interpolated linearly between theirs as the position is (``at_after``).
+    """
+    t = np.asarray(samples.bodies[entry.body][0])
+    if entry.after is None:
+        when = entry.time
+    else:
+        when = release_edge_time(entry.after, entry.time, samples.releases, entry.groups)
+    if math.isnan(when) or not len(t) or not t[0] - 0.5e-9 <= when <= t[-1] + 0.5e-9:
+        return [NAN] * 3
+    k = int(np.searchsorted(t, when - 0.5e-9))
+    if abs(t[min(k, len(t) - 1)] - when) <= 0.5e-9:
+        rows, fraction = [min(k, len(t) - 1)] * 2, 0.0
+    elif entry.after is None:   # not a sample time: no number, as the pose
+        return [NAN] * 3
+    else:
+        rows, fraction = [k - 1, k], (when - t[k - 1]) / (t[k] - t[k - 1])
+    states = []
+    for name in (entry.body, entry.relative_to):
+        _, position, quaternion = samples.bodies[name]
+        quaternion = np.asarray(quaternion, dtype=float)[rows]
+        velocity = samples.velocities.get(name, np.full((len(t), 3), NAN))
+        world = np.einsum('nij,nj->ni', rotations.matrices(
+            quaternion / np.linalg.norm(quaternion, axis=1)[:, None]),
+            np.asarray(velocity, dtype=float)[rows])   # body axes -> world
+        rates = np.asarray(samples.rates.get(name, np.full((len(t), 3), NAN)))[rows]
+        states += [np.asarray(position, dtype=float)[rows], world, quaternion, rates]
+    seen = velocity_seen(*states)
+    return [float(v) for v in seen[0] + fraction * (seen[1] - seen[0])]
+
+
 def _from_point(entry, samples, values: list) -> list:
     """Return an ``at`` entry's values with x, y, z from its ``point`` of the carrier."""
     if entry.point is None:
@@ -341,12 +378,13 @@ def compute(samples: Samples, metrics) -> dict:
         out[f'peak_force_{joint}'] = force
         out[f'peak_moment_{joint}'] = moment
     for entry in metrics.at:
-        names = [entry.prefix + s for s in ('x', 'y', 'z', 'roll_deg', 'pitch_deg',
-                                            'yaw_deg')]
+        names = entry.columns()
         values = [NAN] * 6
         for name in (entry.body, entry.relative_to):
             if name is not None and name not in samples.bodies:
                 raise KeyError(f'no body {name!r} in the run')
+        if entry.relative_to is not None:   # the velocity seen from the carrier (SPEC 15)
+            out.update(zip(names[6:], _velocity_at(entry, samples)))
         if entry.after is not None:   # s after a release (SPEC section 12)
             out.update(zip(names, _from_point(entry, samples, at_after(entry, samples))))
             continue

@@ -21,6 +21,10 @@ CLEARANCE_KEYS = ('bodies', 'points_a', 'points_b', 'from', 'to', 'name')
 AT_KEYS = ('time', 'body', 'relative_to', 'after', 'point')
 #: A sample time within this many samples of the grid is on it.
 ON_GRID = 1e-9
+#: An ``at`` entry's columns after its prefix; with ``relative_to`` also the CG's velocity
+#: seen from the carrier, in its axes (SPEC section 15, m/s).
+AT_QUANTITIES = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg')
+AT_RELATIVE = ('u_rel', 'v_rel', 'w_rel')
 #: Sweep columns of a stroke end, after ``stroke_<wrench>_`` (SPEC section 7).
 STROKE_COLUMNS = ('time', 'u', 'v', 'w', 'p', 'q', 'r')
 
@@ -67,6 +71,11 @@ class At:
         """Return the column prefix, ``<body>_at_<time>_`` (``<time>r_`` after a release)."""
         return f'{self.body}_at_{self.time:g}{"r" if self.after else ""}_'
 
+    def columns(self) -> list:
+        """Return the entry's columns: the pose, and with relative_to ``u_rel, v_rel, w_rel``."""
+        quantities = AT_QUANTITIES + (AT_RELATIVE if self.relative_to is not None else ())
+        return [self.prefix + q for q in quantities]
+
 
 @dataclass
 class Metrics:
@@ -93,8 +102,7 @@ class Metrics:
         for joint in self.joints:
             names += [f'peak_force_{joint}', f'peak_moment_{joint}']
         for entry in self.at:
-            names += [entry.prefix + s for s in ('x', 'y', 'z', 'roll_deg', 'pitch_deg',
-                                                 'yaw_deg')]
+            names += entry.columns()
         for wrench in self.strokes:
             names += [f'stroke_{wrench}_{s}' for s in STROKE_COLUMNS]
         names += [f'aero_outside_{body}' for body in self.aero]

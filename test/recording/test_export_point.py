@@ -123,13 +123,15 @@ def test_a_bad_point_is_refused_saying_what_a_point_is(pullup, capsys, point, sa
 
 def test_at_metrics_take_the_point_as_export_does(pullup, capsys):
     # a sweep's run (the samples kept in memory) and summarize (the recording) give the
-    # export's numbers at 0.7 s and 0.15 s after the release
+    # export's numbers at 0.7 s and 0.15 s after the release, _u_rel .. _w_rel too
     folder, recording, _ = pullup
     table = _export(folder, recording, 'at.parquet', '--point', 'carriage')
     at = [{'time': 0.7, 'body': 'store', 'relative_to': 'aircraft', 'point': 'carriage'},
           {'time': 0.15, 'after': 'hook', 'body': 'store', 'relative_to': 'aircraft',
            'point': [0, 0, 1.25]},
-          {'time': 0.2, 'body': 'store', 'relative_to': 'aircraft'}]
+          {'time': 0.2, 'body': 'store', 'relative_to': 'aircraft'},
+          {'time': 0.1505, 'after': 'hook', 'body': 'store', 'relative_to': 'aircraft',
+           'point': 'carriage'}]
     # free fall without air: the relative motion does not depend on the mass varied
     sweep = {'scenario': 'pullup.yaml', 'runs': 1, 'seed': 1, 'rate_hz': RATE,
              'vary': {'bodies.store.mass': {'uniform': [900.0, 910.0]}},
@@ -139,14 +141,25 @@ def test_at_metrics_take_the_point_as_export_does(pullup, capsys):
     assert cli.main(['summarize', recording, '--metrics', str(folder / 'sweep.yaml'), '-o',
                      str(folder / 'summary.parquet')]) == 0
     capsys.readouterr()
-    xyz = ['x', 'y', 'z']
+    xyz = ['x', 'y', 'z', 'u_rel', 'v_rel', 'w_rel']   # and the velocity seen from it
     for path in (folder / 'swept' / 'results.parquet', folder / 'summary.parquet'):
         row = pd.read_parquet(path).iloc[0]
-        for when, prefix in ((0.7, 'store_at_0.7_'), (0.65, 'store_at_0.15r_')):
+        for when, prefix in ((0.7, 'store_at_0.7_'), (0.65, 'store_at_0.15r_'),
+                             (0.2, 'store_at_0.2_')):
             k = int(np.argmin(np.abs(table['time'] - when)))
             assert abs(table['time'][k] - when) < 1e-9
+            np.testing.assert_allclose([row[prefix + c] for c in xyz[3:]],
+                                       [table[f'store_{c}'][k] for c in xyz[3:]], atol=1e-9)
+            if when == 0.2:
+                continue
             np.testing.assert_allclose([row[prefix + c] for c in xyz],
                                        [table[f'store_{c}'][k] for c in xyz], atol=1e-9)
+        assert row['store_at_0.7_w_rel'] > 1.0   # falling away, not a zero
+        # between two samples (0.6505 s): halfway between theirs, as the position
+        k = int(np.argmin(np.abs(table['time'] - 0.65)))
+        for c in xyz:
+            middle = 0.5 * (table[f'store_{c}'][k] + table[f'store_{c}'][k + 1])
+            assert row[f'store_at_0.1505r_{c}'] == pytest.approx(middle, abs=1e-9), c
         k = int(np.argmin(np.abs(table['time'] - 0.2)))   # no point: from the CG
         assert row['store_at_0.2_z'] == pytest.approx(table['store_z'][k] + 1.25, abs=1e-9)
 
