@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.recording import visuals
 import numpy as np
 
@@ -99,10 +100,10 @@ class ViewFrames:
     A sample's z-up frames, computed from the bodies' poses in the sample.
 
     ``numbers(block)`` turns samples (rows in ``Simulator.outputs`` order:
-    13 numbers per body, the pose first) into 7 numbers per frame
+    ``kernel.SAMPLE.BODY`` numbers per body) into 7 numbers per frame
     (translation, rotation x y z w from ``root`` to each of ``names``): the
-    carriers' view frames (their poses at ``pose_columns``), then the free
-    bodies' chase frames (at ``chase_columns``).
+    carriers' view frames (their numbers from ``pose_columns``), then the free
+    bodies' chase frames (from ``chase_columns``).
     """
 
     root: str
@@ -118,14 +119,19 @@ class ViewFrames:
 
     def numbers(self, block: np.ndarray) -> np.ndarray:
         """Return the frames of samples (k, columns) as (k, 7 per frame)."""
-        views = [view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
-                 for c in self.pose_columns]
+        views = [view_poses(self.up_xyzw, *_pose(block, c)) for c in self.pose_columns]
         chases = []
         for c in self.chase_columns:   # at the CG, turned as the first carrier's view
-            chase = view_poses(self.up_xyzw, block[:, c:c + 3], block[:, c + 3:c + 7])
+            chase = view_poses(self.up_xyzw, *_pose(block, c))
             chase[:, 3:] = views[0][:, 3:] if views else (0.0, 0.0, 0.0, 1.0)
             chases.append(chase)
         return np.hstack(views + chases)
+
+
+def _pose(block: np.ndarray, first: int) -> tuple:
+    """Return the CG positions and attitudes of samples (k, columns), a body's from first."""
+    return (block[:, first + SAMPLE.O_POSITION:][:, :SAMPLE.width('O_POSITION')],
+            block[:, first + SAMPLE.O_QUATERNION:][:, :SAMPLE.width('O_QUATERNION')])
 
 
 def of_model(model) -> Optional[ViewFrames]:
@@ -135,8 +141,8 @@ def of_model(model) -> Optional[ViewFrames]:
         return None
     names = tuple(frame_name(model, model.bodies[i].name) for i in bodies) + tuple(
         chase_name(model, model.bodies[i].name) for i in free)
-    return ViewFrames(visuals.root_frame(model), names, tuple(13 * i for i in bodies),
-                      visuals.up_rotation(model.gravity), tuple(13 * i for i in free))
+    return ViewFrames(visuals.root_frame(model), names, tuple(SAMPLE.BODY * i for i in bodies),
+                      visuals.up_rotation(model.gravity), tuple(SAMPLE.BODY * i for i in free))
 
 
 def state_poses(model, position: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
@@ -148,9 +154,10 @@ def state_poses(model, position: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarra
     frames = of_model(model)
     if frames is None:
         return np.zeros((0, 7))
-    state = np.zeros((1, 13 * len(model.bodies)))
-    rows = state.reshape(len(model.bodies), 13)
-    rows[:, :3], rows[:, 3:7] = position, quat_xyzw
+    state = np.zeros((1, SAMPLE.BODY * len(model.bodies)))
+    rows = state.reshape(len(model.bodies), SAMPLE.BODY)
+    rows[:, SAMPLE.span('O_POSITION')] = position
+    rows[:, SAMPLE.span('O_QUATERNION')] = quat_xyzw
     return frames.numbers(state).reshape(-1, 7)
 
 
