@@ -9,6 +9,7 @@ import math
 from typing import Callable, Optional
 
 from cfem_ros.core.engine.events import Status
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.core.run.session import Session
 from cfem_ros.recording import loadarrows, schema, viewframes
 from cfem_ros.recording.container import encoder
@@ -90,7 +91,7 @@ def estimate_bytes(model, samples: int) -> float:
     frame names) per moving body and per view or chase frame
     (``viewframes``); and the load arrows (``arrows_bytes``).
     """
-    doubles = 13 * len(model.bodies) + 12 * len(model.joints)
+    doubles = SAMPLE.BODY * len(model.bodies) + 2 * SAMPLE.JOINT * len(model.joints)
     messages = 2 * len(model.bodies) + 2 * len(model.joints)
     moving = sum(not body.fixed for body in model.bodies)
     views = viewframes.of_model(model)
