@@ -17,6 +17,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Event
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording.carriage import carriage_point, joint_anchors
 from cfem_ros.recording.relative import velocity_seen
@@ -184,28 +185,30 @@ class Collector(RowSink):
         n = len(model.bodies)
         times = (np.concatenate([b[1] for b in self._blocks]) if self._blocks
                  else np.empty(0))
-        rows = [b[2][:, :13 * n] for b in self._blocks]
-        bodies_rows = np.concatenate(rows) if rows else np.empty((0, 13 * n))
-        bodies = {b.name: (times, bodies_rows[:, 13 * i:13 * i + 3],
-                           bodies_rows[:, 13 * i + 3:13 * i + 7])
+        rows = [b[2][:, :SAMPLE.BODY * n] for b in self._blocks]
+        state = (np.concatenate(rows) if rows else np.empty((0, SAMPLE.BODY * n))).reshape(
+            len(times), n, SAMPLE.BODY)   # (samples, bodies, a sample's body numbers)
+        bodies = {b.name: (times, state[:, i, SAMPLE.span('O_POSITION')],
+                           state[:, i, SAMPLE.span('O_QUATERNION')])
                   for i, b in enumerate(model.bodies)}
         joints = {}
         for j, joint in enumerate(model.joints):
-            parts = [(t, rows[:, 13 * n + 6 * active.index(j):13 * n + 6 * active.index(j) + 6])
+            parts = [(t, _joint_numbers(rows, n, active.index(j)))
                      for active, t, rows in self._blocks if j in active]
             if parts:
                 loads = np.concatenate([p[1] for p in parts])
                 joints[joint.name] = (np.concatenate([p[0] for p in parts]),
-                                      loads[:, :3], loads[:, 3:])
+                                      loads[:, SAMPLE.span('O_FORCE')],
+                                      loads[:, SAMPLE.span('O_MOMENT')])
         releases = sorted((e['time'], e.get('joint', '?'), e.get('cause', '?'))
                           for e in self.sim.events if e.get('event') == Event.RELEASE)
         strokes = {}
         for e in self.sim.events:
             if e.get('event') == Event.STROKE_END:
                 strokes.setdefault(e['wrench'], (e['time'], e['velocity'], e['rates']))
-        rates = {b.name: bodies_rows[:, 13 * i + 10:13 * i + 13]
+        rates = {b.name: state[:, i, SAMPLE.span('O_RATES')]
                  for i, b in enumerate(model.bodies)}
-        velocities = {b.name: bodies_rows[:, 13 * i + 7:13 * i + 10]
+        velocities = {b.name: state[:, i, SAMPLE.span('O_VELOCITY')]
                       for i, b in enumerate(model.bodies)}
         return Samples(bodies=bodies, joints=joints, releases=releases, strokes=strokes,
                        contacts=_contacts(self.sim.events),
@@ -423,3 +426,9 @@ def empty(metrics) -> dict:
         else:
             out[name] = NAN
     return out
+
+
+def _joint_numbers(rows: np.ndarray, n: int, k: int) -> np.ndarray:
+    """Return the k-th sampled joint's numbers (``SAMPLE.JOINT``) of sample rows of n bodies."""
+    first = SAMPLE.BODY * n + SAMPLE.JOINT * k
+    return rows[:, first:first + SAMPLE.JOINT]
