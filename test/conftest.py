@@ -20,10 +20,13 @@ os.environ['ROS_DOMAIN_ID'] = str(int(os.environ['CFEM_TEST_DOMAIN'])
                                   + DOMAINS_EACH * int(_WORKER.removeprefix('gw') or 0))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 
-#: Test files that take tens of seconds, started first so that the two test processes
-#: (make test: pytest-xdist, a file's tests in one process) end together.
-LONG_FILES = ('test_doc_commands.py', 'test_colcon.py', 'test_node_kills.py', 'test_flake8.py',
-              'test_node_flood.py')
+#: Test files that take tens of seconds, longest first (--durations), started first so
+#: that the two test processes (make test: pytest-xdist, a file's tests in one process)
+#: end together: the first two run side by side (test_colcon.py compiles the core, minutes,
+#: when ccache has not seen its sources).
+LONG_FILES = ('test_doc_commands.py', 'test_colcon.py', 'test_fit_uncertainty.py',
+              'test_flake8.py', 'test_player.py', 'test_node.py', 'test_fit.py',
+              'test_robust_files.py', 'test_node_kills.py', 'test_analysis.py')
 
 
 def pytest_collection_modifyitems(config, items):
