@@ -58,6 +58,14 @@ COLORS = {
 SHAFT, HEAD, HEAD_LENGTH = 0.02, 0.045, 0.07
 #: Forces smaller than this fraction of the largest drawn are not drawn (rounding).
 SMALLEST = 1e-9
+#: The columns the arrows read, once: a body's CG and attitude, a joint's force, an
+#: applied source's force and moment as a (2, 3) index (``kernel.SAMPLE``), a held load's
+#: force and point (``kernel.LOADS``).
+_POSITION, _QUATERNION = SAMPLE.span('O_POSITION'), SAMPLE.span('O_QUATERNION')
+_JOINT_FORCE = SAMPLE.span('O_FORCE')
+_WRENCH = np.array([np.arange(SAMPLE.width(name)) + getattr(SAMPLE, name)
+                    for name in ('O_WRENCH_FORCE', 'O_WRENCH_MOMENT')])
+_HELD_FORCE, _HELD_POINT = LOADS.span('H_FORCE'), LOADS.span('H_POINT')
 
 
 def event_states(sim, new_events) -> list:
@@ -203,26 +211,25 @@ class LoadArrows:
         model = self.model
         n = len(model.bodies)
         state = row[:SAMPLE.BODY * n].reshape(n, SAMPLE.BODY)
-        turns = rotations.matrices(state[:, SAMPLE.span('O_QUATERNION')])   # body to world
+        turns = rotations.matrices(state[:, _QUATERNION])   # body to world
         out = []
         first = SAMPLE.BODY * n
         joints = row[first:first + SAMPLE.JOINT * len(active)].reshape(-1, SAMPLE.JOINT)
         for i, k in enumerate(active):
             joint = model.joints[k]
-            force = joints[i, SAMPLE.span('O_FORCE')] @ turns[joint.child]
+            force = joints[i, _JOINT_FORCE] @ turns[joint.child]
             out.append(('joint_loads', k, joint.name, 'joint', joint.name, np.zeros(3), force))
         first += SAMPLE.JOINT * len(active)
         applied = row[first:first + SAMPLE.WRENCH * len(self.sources)].reshape(-1, SAMPLE.WRENCH)
         for j, ((body, source), (kind, place)) in enumerate(zip(self.sources, self.kinds)):
-            force, moment = np.stack([applied[j, SAMPLE.span('O_WRENCH_FORCE')],   # body axes
-                                      applied[j, SAMPLE.span('O_WRENCH_MOMENT')]]) @ turns[body]
+            force, moment = applied[j][_WRENCH] @ turns[body]   # in body axes
             start = self._start(j, body, place, state, turns, force, moment)
             out.append(('applied_loads', j, model.bodies[body].name, kind, source, start, force))
-        forces = held[:, LOADS.span('H_FORCE')]
+        forces = held[:, _HELD_FORCE]
         for body in np.flatnonzero(np.abs(forces).sum(axis=1) > 0.0):
             force = forces[body] if held[body, LOADS.H_AXES] else forces[body] @ turns[body]
             out.append(('held_loads', int(body), model.bodies[body].name, 'input',
-                        model.bodies[body].name, held[body, LOADS.span('H_POINT')], force))
+                        model.bodies[body].name, held[body, _HELD_POINT], force))
         largest = max((float(np.linalg.norm(a[6])) for a in out), default=0.0)
         return [a for a in out if np.linalg.norm(a[6]) > SMALLEST * largest]
 
@@ -297,7 +304,7 @@ class LoadArrows:
 def _in_axes(state: np.ndarray, turns: np.ndarray, axes: int, body: int,
              point: np.ndarray) -> np.ndarray:
     """Return a point fixed on body (its axes, m) in the axes of body ``axes``, from its CG."""
-    cg = state[:, SAMPLE.span('O_POSITION')]
+    cg = state[:, _POSITION]
     world = cg[body] + turns[body] @ point
     return (world - cg[axes]) @ turns[axes]
 
