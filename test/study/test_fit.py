@@ -183,6 +183,29 @@ def test_standard_errors_are_the_scatter_of_the_estimates_over_20_seeds(flight, 
                   < 3 * errors.mean(axis=0) / np.sqrt(20))
 
 
+def test_the_last_jacobian_is_kept_and_the_fit_is_the_same_to_the_bit(flight, tmp_path):
+    # the solver's last Jacobian is at its solution, where the uncertainty asks for it
+    # again: kept, it saves 2 runs per parameter and changes no number
+    folder, scenario, _ = flight
+    measured = _csv(tmp_path / 'measured.csv', *_noisy(flight, 3))
+    spec = load_fit(_fit_file(tmp_path, scenario, measured, dict(FORCES),
+                              window={'from': 0.0, 'to': 0.25}))
+
+    class Again(Fit):
+        def jacobian(self, *args, **kwargs):
+            self._last_jacobian = (None, None)   # nothing kept: every Jacobian run
+            return super().jacobian(*args, **kwargs)
+    found = {}
+    for kind in (Fit, Again):
+        fit = kind(spec, Measured(*_noisy(flight, 3)), threads=2, log=lambda line: None)
+        found[kind] = (fit.solve(), fit.runs)
+    (kept, runs_kept), (again, runs_again) = found[Fit], found[Again]
+    assert runs_again - runs_kept == 2 * len(FORCES) and kept.runs == runs_kept
+    assert kept.values.tobytes() == again.values.tobytes()
+    assert kept.uncertainty.covariance.tobytes() == again.uncertainty.covariance.tobytes()
+    assert kept.uncertainty.chi2 == again.uncertainty.chi2 and kept.status == again.status
+
+
 def test_a_bound_the_fit_ends_at_is_said(flight, tmp_path, capsys):
     folder, scenario, truth = flight
     measured = _csv(tmp_path / 'measured.csv', *truth)

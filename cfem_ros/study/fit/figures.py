@@ -20,10 +20,14 @@ QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'de
               ('yaw', 'deg'))
 
 
-def relative_histories(fit, values, times) -> np.ndarray:
-    """Return the six quantities (m, deg, Z-Y-X) of a flight's run at values, at times."""
-    position, attitude = fit.trajectories.run(values).poses(times)
-    return np.hstack([position, attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
+def relative_histories(fit, values, *times) -> list:
+    """Return the six quantities (m, deg, Z-Y-X) of a flight's run at values, at each times."""
+    run = fit.trajectories.run(values)   # one run for every set of times
+    out = []
+    for at in times:
+        position, attitude = run.poses(at)
+        out.append(np.hstack([position, attitude.as_euler('ZYX', degrees=True)[:, ::-1]]))
+    return out
 
 
 def _axes_time(window) -> tuple:
@@ -44,9 +48,8 @@ def draw(fit, values, trajectory_path: str, residuals_path: str):
     zero, label = _axes_time(fit.window)
     start, end = fit.window[0], min(fit.window[1], fit.last)   # the runs end there
     dense = np.linspace(start, end, 400)
-    fitted_dense = relative_histories(fit, values, dense)
-    before = relative_histories(fit, fit.spec.x0, dense)
-    fitted = relative_histories(fit, values, data.time)
+    fitted_dense, fitted = relative_histories(fit, values, dense, data.time)
+    (before,) = relative_histories(fit, fit.spec.x0, dense)
     title = f'{flight.body} relative to {flight.relative_to} ({flight.relative_to} axes)'
     if len(fit.spec.flights) > 1:
         title += f', {flight.key}'

@@ -102,6 +102,7 @@ class Fit:
         self.flights = [FlightFit(spec, flight, o.measured, o.inputs, o.interpolate_odometry)
                         for flight, o in zip(spec.flights, observed)]
         self._last = (None, None)
+        self._last_jacobian = (None, None)
         self.evaluations = 0
 
     @property
@@ -124,10 +125,18 @@ class Fit:
 
     def jacobian(self, values, columns=None, threads: Optional[int] = None,
                  base: Optional[np.ndarray] = None) -> np.ndarray:
-        """Return the residuals' Jacobian (in columns) by central differences, in parallel."""
+        """
+        Return the residuals' Jacobian (in columns) by central differences, in parallel.
+
+        The last one is kept: the solver's last Jacobian is at its solution, where
+        ``solve`` asks for it again (the same runs: the same numbers, not run twice).
+        """
         values = np.asarray(values, dtype=float)
         columns = range(len(values)) if columns is None else columns
-        base = self.residuals(values) if base is None else base
+        key = (values.tobytes(), tuple(int(j) for j in columns))
+        if base is None and self._last_jacobian[0] == key:
+            return self._last_jacobian[1].copy()
+        kept, base = base is None, self.residuals(values) if base is None else base
         cases, points = [], []
         for j in columns:
             parameter = self.spec.parameters[j]
@@ -151,7 +160,10 @@ class Fit:
         for plus, minus in cases:
             high, low = side(plus), side(minus)
             out.append((high - low) / (plus - minus))
-        return np.column_stack(out) if out else np.zeros((base.size, 0))
+        jacobian = np.column_stack(out) if out else np.zeros((base.size, 0))
+        if kept:
+            self._last_jacobian = (key, jacobian.copy())
+        return jacobian
 
     def _least_squares(self, x0, free, nfev):
         """Fit the free parameters from x0 (the others held); return (values, solution)."""
