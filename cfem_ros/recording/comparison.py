@@ -12,6 +12,8 @@ from dataclasses import dataclass
 from typing import Optional
 
 from cfem_ros.core import rotations
+from cfem_ros.core.native import kernel
+from cfem_ros.core.native.kernel import SAMPLE
 from cfem_ros.recording.tracks import BodyTrack, Run
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -103,8 +105,10 @@ def relative_pose(body: BodyTrack, carrier: BodyTrack):
             np.clip(t, carrier.time[0], carrier.time[-1]))
     else:
         turn = Rotation.from_quat(np.repeat(carrier.quaternion[:1], len(t), axis=0))
-    attitude = (turn.inv() * Rotation.from_quat(body.quaternion[inside])).as_quat()
-    return t, turn.inv().apply(body.position[inside] - origin), attitude
+    still = np.zeros((len(t), 3))   # the pose only: the kernel's relative state
+    out = kernel.relative_states(body.position[inside], still, body.quaternion[inside], still,
+                                 origin, still, turn.as_quat().reshape(-1, 4), still)
+    return t, out[:, SAMPLE.span('O_POSITION')], out[:, SAMPLE.span('O_QUATERNION')]
 
 
 def pose_in(run: Run, name: str, reference: str):

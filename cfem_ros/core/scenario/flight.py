@@ -31,6 +31,7 @@ from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.model import shapes
 from cfem_ros.core.model.bodies import Body, Motion
 from cfem_ros.core.model.model import STANDARD_GRAVITY
+from cfem_ros.core.native import kernel
 from cfem_ros.core.native.atmosphere import ALTITUDE_RANGE, isa, OFFSET_RANGE
 from cfem_ros.core.scenario.bodies import shape_dir
 from cfem_ros.core.scenario.checker import Checker, key_path
@@ -251,4 +252,4 @@ def describe(flight: Flight) -> str:
             f'true), {flight.altitude:g} m, ISA {flight.temperature_offset:+g} K, flight path '
             f'{math.degrees(flight.flight_path):g} deg, n = {flight.load_factor:g}: pitch rate '
             f'{math.degrees(flight.pitch_rate):.5g} deg/s, dynamic pressure '
-            f'{0.5 * density * flight.airspeed ** 2:.6g} Pa')
+            f'{float(kernel.dynamic_pressure(density, flight.airspeed)):.6g} Pa')
