@@ -37,7 +37,8 @@ import yaml
 HEAVY, HELD_OUT = {'bodies.store.mass': 1200.0}, {'bodies.store.mass': 1400.0}
 DRAWS = 300
 #: Noise seeds of the band's rate test, and the probability of a false alarm of each of
-#: its checks (the whole test: under 0.2 %).
+#: its checks of a right band (under 0.2 % together; the check that a band half as wide
+#: is refused misses with a probability of its own, stated there).
 SEEDS, FALSE_ALARM = 40, 0.0005
 
 
