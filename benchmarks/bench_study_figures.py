@@ -1,0 +1,85 @@
+# Copyright 2026 the cfem_ros authors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The envelope figures and the report of a 1,000-run study, timed (issue 49.4 d).
+
+The study: config/sweeps/store_release_near_pylon_envelope.yaml at --runs
+(default 1000), every run recorded (``--record all``, 2 workers; not timed
+here, only made). Then, each as a whole process, in turns over --repeats:
+``cfem-sim plot DIR --relative-to pylon`` (the sweep's scatter figures and
+the separation envelope over its recordings: trajectory sheet and outline
+snapshots in the pylon's axes) and ``cfem-sim report DIR`` (the HTML page
+with its figures). Wall time with the load average, and CPU time of the
+process (``RUSAGE_CHILDREN``); medians. The target of issue 49.4 d: under
+10 s each.
+
+Measured 2026-12-02 (helper B, one turn, the machine shared at load average 8
+to 20, so the wall times are no guide; CPU from the benchmark's own children's
+times): the study 1,000 runs (826 recorded, 418 MB of MCAP; the others drew an
+Iyy the scenario refuses), 85 s CPU; ``plot --relative-to pylon`` about 112 s
+CPU and ``report`` about 102 s CPU, both reading every recording whole: not
+under 10 s (issue 49.4 d does not hold for the figures over the recordings).
+
+Usage: .venv/bin/python benchmarks/bench_study_figures.py [--runs 1000] [--repeats 3]
+"""
+
+import argparse
+import os
+import pathlib
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+CLI = str(ROOT / '.venv' / 'bin' / 'cfem-sim')
+SWEEP = ROOT / 'config' / 'sweeps' / 'store_release_near_pylon_envelope.yaml'
+
+
+def timed(command) -> tuple:
+    """Run a command; return (wall s, CPU s of it, load average before)."""
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        sys.exit(f'{" ".join(command)} exited {done.returncode}: {done.stderr[-2000:]}')
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), load
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
+    parser.add_argument('--runs', type=int, default=1000)
+    parser.add_argument('--repeats', type=int, default=3)
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix='cfem-bench-figures-') as folder:
+        study = os.path.join(folder, 'study')
+        made = timed([CLI, 'sweep', str(SWEEP), '-o', study, '--runs', str(args.runs),
+                      '--record', 'all', '--workers', '2'])
+        print(f'the study: {args.runs} runs recorded, {made[0]:.1f} s wall, '
+              f'{made[1]:.1f} s CPU (load average {made[2]:.1f})')
+        found = {'plot --relative-to pylon': [], 'report': []}
+        for turn in range(args.repeats):
+            names = list(found) if turn % 2 == 0 else list(found)[::-1]
+            for name in names:
+                out = os.path.join(folder, f'{name.split()[0]}_{turn}')
+                command = ([CLI, 'plot', study, '-o', out, '--relative-to', 'pylon']
+                           if name.startswith('plot') else
+                           [CLI, 'report', study, '-o', out + '.html'])
+                found[name].append(timed(command))
+                shutil.rmtree(out, ignore_errors=True)
+        for name, times in found.items():
+            print(f'cfem-sim {name:<26} {statistics.median(t[0] for t in times):6.2f} s wall '
+                  f'{statistics.median(t[1] for t in times):6.2f} s CPU (medians of '
+                  f'{len(times)}; load average {min(t[2] for t in times):.1f} to '
+                  f'{max(t[2] for t in times):.1f})')
+    print('target of issue 49.4 d: under 10 s each')
+
+
+if __name__ == '__main__':
+    main()
