@@ -156,8 +156,10 @@ def aero_blocks(run, stamps: np.ndarray, model) -> dict:
             np.ascontiguousarray(track.velocity_world[mine]), np.ascontiguousarray(rot),
             np.ascontiguousarray(track.rates[mine]), np.ascontiguousarray(carrier_position),
             np.ascontiguousarray(carrier_rot))
-        values = np.column_stack([np.degrees(air[:, 0]), np.degrees(air[:, 1]), air[:, 2],
-                                  0.5 * air[:, 4] * air[:, 3] ** 2])
+        columns = kernel.AERO_AIR   # the kernel's own dynamic pressure, not a copy of it
+        values = np.column_stack([np.degrees(air[:, columns.W_ALPHA]),
+                                  np.degrees(air[:, columns.W_BETA]), air[:, columns.W_MACH],
+                                  air[:, columns.W_PRESSURE]])
         out[name] = _fill(len(stamps), 4, rows, values)
     return out
 

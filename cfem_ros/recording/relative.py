@@ -47,17 +47,16 @@ def relative_pose(position, quaternion, ref_position, ref_quaternion) -> tuple:
         the reference.
 
     """
+    from cfem_ros.core.native import kernel
     position = np.asarray(position, dtype=float).reshape(-1, 3)
-    quaternion = np.asarray(quaternion, dtype=float).reshape(-1, 4)
-    ref_position = np.asarray(ref_position, dtype=float).reshape(-1, 3)
-    ref_quaternion = np.asarray(ref_quaternion, dtype=float).reshape(-1, 4)
     if not len(position):
         return np.zeros((0, 3)), np.zeros((0, 4))
-    turn = rotations.matrices(ref_quaternion)
-    moved = np.einsum('nji,nj->ni', turn, position - ref_position)
-    unit = quaternion / np.linalg.norm(quaternion, axis=1)[:, None]
-    ref_unit = ref_quaternion / np.linalg.norm(ref_quaternion, axis=1)[:, None]
-    return moved, rotations.multiply(rotations.conjugate(ref_unit), unit)
+    still = np.zeros((len(position), 3))   # the pose only: the kernel's relative state
+    out = kernel.relative_states(
+        position, still, np.asarray(quaternion, dtype=float).reshape(-1, 4), still,
+        np.asarray(ref_position, dtype=float).reshape(-1, 3), still,
+        np.asarray(ref_quaternion, dtype=float).reshape(-1, 4), still)
+    return out[:, kernel.SAMPLE.span('O_POSITION')], out[:, kernel.SAMPLE.span('O_QUATERNION')]
 
 
 def relative_velocity(body, ref, mine=None, theirs=None) -> np.ndarray:
@@ -100,8 +99,7 @@ def velocity_seen(position, velocity, quaternion, rates, ref_position, ref_veloc
     shaped = [np.asarray(a, dtype=float).reshape(len(position), -1) for a in (
         velocity, quaternion, rates, ref_position, ref_velocity, ref_quaternion, ref_rates)]
     out = kernel.relative_states(position, *shaped)
-    first = kernel.SAMPLE.O_VELOCITY
-    return out[:, first:first + 3]
+    return out[:, kernel.SAMPLE.span('O_VELOCITY')]
 
 
 @dataclass

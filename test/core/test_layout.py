@@ -7,16 +7,20 @@ The layout the kernel and Python share is the extension's, whole and in one plac
 Python reads each column, width and workspace part from the extension
 (``kernel.LOADS``, ``kernel.views`` ...). These tests walk the exported tables
 (a column that overlaps another, a part that does not add up) and the Python
-sources (a column index written as a number of Python's own, which could drift).
+sources (a column index written as a number of Python's own, which could drift):
+a name given a number, and a literal index or slice into a kernel array
+(``kernel_arrays``' scan, below).
 """
 
+import ast
 import math
 import pathlib
 import re
+import textwrap
 
 from cfem_ros.core import _kernel
 from cfem_ros.core.engine import loads
-from cfem_ros.core.native import kernel, motion
+from cfem_ros.core.native import contacts, kernel, motion
 import numpy as np
 import pytest
 
@@ -96,7 +100,194 @@ def test_python_writes_no_column_of_its_own():
             found.append(f'{path.relative_to(ROOT)}: {match.group(0).strip()}')
     assert not found, found
     # the names Python modules keep for the columns are the extension's
-    for module, layout in ((loads, kernel.LOADS), (motion, kernel.BODIES)):
+    for module, layout in ((loads, kernel.LOADS), (motion, kernel.BODIES),
+                           (motion, kernel.TRAJECTORY)):
         for name, value in vars(module).items():
             if name in layout.columns or name in layout.numbers:
                 assert value == getattr(layout, name), (module.__name__, name)
+    assert contacts.SHAPE_HEADER == kernel.SHAPE.HEADER
+    assert contacts.COMPOUND == kernel.SHAPE.KIND_COMPOUND
+
+
+def test_a_sample_is_laid_out_as_the_kernel_writes_it():
+    from cfem_ros import load_scenario, Simulator
+    sample = kernel.SAMPLE
+    # a joint's load, an applied source's wrench and InBodyAxes' six numbers: force, moment
+    assert (sample.span('O_FORCE'), sample.span('O_MOMENT')) == (
+        sample.span('O_WRENCH_FORCE'), sample.span('O_WRENCH_MOMENT')) == (
+        slice(0, 3), slice(3, 6))
+    # a pose message is the position and quaternion, a twist the velocity and rates, in turn
+    assert sample.O_QUATERNION == sample.O_POSITION + 3
+    assert sample.O_RATES == sample.O_VELOCITY + 3
+    sim = Simulator(load_scenario(str(ROOT / 'config' / 'store_separation_aero.yaml')))
+    assert sim.advance_to(0.05)
+    out = sim.outputs()
+    n, joints = sim.n, len(sim.active_joints)
+    assert len(out) == (sample.BODY * n + sample.JOINT * joints
+                        + sample.WRENCH * len(sim.applied_sources)
+                        + sample.AIR * len(sim.model.aero) + sample.BODY * len(
+                            sim.model.references))
+    bodies = out[:sample.BODY * n].reshape(n, sample.BODY)
+    np.testing.assert_array_equal(bodies[:, sample.span('O_POSITION')], sim.position)
+    np.testing.assert_array_equal(bodies[:, sample.span('O_QUATERNION')], sim.orientation)
+    air = sim.air()
+    assert air.shape == (len(sim.model.aero), sample.AIR)
+    # the dynamic pressure the sample holds is the air's density and speed, the kernel's way
+    np.testing.assert_array_equal(air[:, sample.O_PRESSURE], kernel.dynamic_pressure(
+        air[:, sample.O_DENSITY], air[:, sample.O_SPEED]))
+    assert abs(air[0, sample.O_PRESSURE]
+               - 0.5 * air[0, sample.O_DENSITY] * air[0, sample.O_SPEED] ** 2) <= 1e-12 * abs(
+                   air[0, sample.O_PRESSURE])
+
+
+# --------------------------------------------- no literal column into a kernel array
+#
+# kernel_arrays scans Python source (ast) for an integer written as an index or a slice
+# bound of a column of an array the kernel shares. What counts as such an array: the
+# result of a call into the extension (``kernel.*``, ``_kernel.*``) or of a method that
+# returns one (KERNEL_METHODS: ``Simulator.outputs``, ``held_wrenches``, ``air`` ...);
+# the attributes that hold one (KERNEL_ATTRIBUTES: ``loads``, ``plan``, ``rows_f`` ...;
+# TABLE_ATTRIBUTES when indexed by row and column: ``bodies`` is also a model's list of
+# bodies); a name bound from any of these in the same function (through indexing,
+# ``reshape``, ``copy``); and a sample row: a method's result that is one row
+# (ROW_METHODS) or a parameter named ``outputs`` or ``row``. For a 2-d index the columns
+# are the entries after the first (a row offset such as ``rows_f[1:, ...]`` is no column);
+# a sample row is flagged for any literal index. It does not follow arrays across
+# functions or through containers, nor arithmetic such as ``13 * i``: a name it does
+# not know is not checked (the scan says where literal columns are, not that there are
+# none anywhere).
+
+KERNEL_MODULES = {'kernel', '_kernel'}
+KERNEL_METHODS = {'outputs', 'held_wrenches', 'relative_states', 'air', 'applied_loads',
+                  'sample_rows', 'joint_projection', 'mass_table', 'views', 'next_row',
+                  'joint_wrenches', 'aero_wrench', 'distance', 'distances'}
+ROW_METHODS = {'outputs', 'next_row'}
+ROW_PARAMETERS = {'outputs', 'row'}
+KERNEL_ATTRIBUTES = {'loads', 'plan', 'rows_i', 'rows_f', 'joints_i', 'joints_f', 'work'}
+TABLE_ATTRIBUTES = {'bodies', 'outputs', 'values'}
+
+
+def _callee(node):
+    """Return 'kernel' for a call into the extension, the method or function name, or None."""
+    if not isinstance(node, ast.Call):
+        return None
+    func = node.func
+    if isinstance(func, ast.Attribute):
+        if isinstance(func.value, ast.Name) and func.value.id in KERNEL_MODULES:
+            return 'kernel'
+        return func.attr
+    return func.id if isinstance(func, ast.Name) else None
+
+
+def _number(node) -> bool:
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        node = node.operand
+    return isinstance(node, ast.Constant) and type(node.value) is int
+
+
+def _literal(node) -> bool:
+    """Return whether an index or a slice's bounds hold an integer written out (13 * i too)."""
+    if isinstance(node, ast.Slice):
+        return any(b is not None and _literal(b) for b in (node.lower, node.upper))
+    if isinstance(node, ast.BinOp):
+        return _literal(node.left) or _literal(node.right)
+    return _number(node)
+
+
+class _Scan(ast.NodeVisitor):
+    """Collect the subscripts of a module that index a kernel array by a literal column."""
+
+    def __init__(self):
+        self.found = []
+        self.arrays, self.rows = [set()], [set()]
+
+    def visit_FunctionDef(self, node):
+        self.arrays.append(set())
+        self.rows.append({a.arg for a in node.args.args if a.arg in ROW_PARAMETERS})
+        self.generic_visit(node)
+        self.arrays.pop()
+        self.rows.pop()
+
+    visit_AsyncFunctionDef = visit_FunctionDef
+
+    def kind(self, node):
+        """Return 'row', 'array' or None: what node is, through indexing and reshapes."""
+        while True:
+            callee = _callee(node)
+            if callee in ('reshape', 'copy', 'ravel', 'view'):
+                node = node.func.value
+            elif callee is not None:
+                return ('row' if callee in ROW_METHODS else
+                        'array' if callee == 'kernel' or callee in KERNEL_METHODS else None)
+            elif isinstance(node, ast.Subscript):
+                node = node.value
+            elif isinstance(node, ast.Name):
+                return ('row' if node.id in self.rows[-1] else
+                        'array' if node.id in self.arrays[-1] else None)
+            else:
+                return ('array' if isinstance(node, ast.Attribute)
+                        and node.attr in KERNEL_ATTRIBUTES else None)
+
+    def visit_Assign(self, node):
+        self.generic_visit(node)
+        kind = self.kind(node.value)
+        for target in node.targets if kind else ():
+            for name in target.elts if isinstance(target, ast.Tuple) else [target]:
+                if isinstance(name, ast.Name):
+                    (self.rows if kind == 'row' else self.arrays)[-1].add(name.id)
+
+    def visit_Subscript(self, node):
+        kind, index = self.kind(node.value), node.slice
+        if isinstance(index, ast.Tuple):
+            table = isinstance(node.value, ast.Attribute) and node.value.attr in TABLE_ATTRIBUTES
+            hit = (kind is not None or table) and any(_literal(e) for e in index.elts[1:])
+        else:
+            hit = kind == 'row' and _literal(index)
+        if hit:
+            self.found.append((node.lineno, ast.unparse(node)))
+        self.generic_visit(node)
+
+
+def kernel_arrays(source: str) -> list:
+    """Return (line, text) of each literal column index or slice into a kernel array."""
+    scan = _Scan()
+    scan.visit(ast.parse(source))
+    return scan.found
+
+
+def test_python_indexes_no_kernel_array_by_a_literal_column():
+    found = [f'{path.relative_to(ROOT)}:{line}: {text}'
+             for path in sorted((ROOT / 'cfem_ros').rglob('*.py'))
+             for line, text in kernel_arrays(path.read_text(encoding='utf-8'))]
+    assert not found, found
+
+
+@pytest.mark.parametrize('source', [
+    'sim.outputs()[13:20]',
+    'outputs = sim.outputs()\noutputs[13 * i + 3:13 * i + 7]',
+    'row = sim.outputs()\nrow[3:7]',
+    'def f(outputs):\n    return outputs[0]',
+    'def arrows(self, row):\n    state = row[:13 * n].reshape(n, 13)\n    return state[:, 3:7]',
+    '_, air = kernel.aero_wrench(*args)\nair[:, 4]',
+    'self.loads[k, 7]',
+    'free, table = mass_table(model)\ntable[:, 2:11]',
+    'self.bodies[:, 0]',
+    'delta = self.joint_projection(top, y)\ndelta[:, 3:]',
+    'held = sim.held_wrenches()\nheld[body, 7:10]',
+])
+def test_the_scan_finds_a_literal_column(source):
+    assert kernel_arrays(textwrap.dedent(source)), source
+
+
+@pytest.mark.parametrize('source', [
+    'sim.outputs()[SAMPLE.span("O_POSITION")]',
+    'model.bodies[0]',
+    'top.plan[:, PLAN.P_JOINT]',
+    'self.rows_f[1:, points]',
+    'kind = self.rows_i[:, ROWS_I.R_KIND]',
+    'found = kernel.distance(*args)\nfound[:2]',
+    'y = np.zeros(13)\ny[0:3]',
+    'def f(values):\n    return values[3:]',
+])
+def test_the_scan_leaves_layout_reads_and_other_arrays(source):
+    assert not kernel_arrays(textwrap.dedent(source)), source
