@@ -50,7 +50,7 @@ def _numeric_headers_without_unit(path):
 
 
 def export_point(folder, call, defect, rng, count):
-    """export --relative-to B --point P as CSV and Parquet: one table, every column's unit."""
+    """Export relative to a body from a point, as CSV and Parquet: one table, every unit."""
     import numpy as np
     from cfem_ros.recording.units import read_csv, read_units
     import pandas as pd

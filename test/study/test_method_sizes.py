@@ -10,7 +10,8 @@ from cfem_ros.study.errors import SweepError
 from cfem_ros.study.methods import MINIMUM_RUNS, run_study
 from cfem_ros.study.resources import MethodFailed
 import pytest
-from test_rare_events import _linear_rows, _linear_sweep
+from scipy.stats import norm
+from sweeps import linear_rows, linear_sweep
 
 
 @pytest.mark.parametrize('name, runs', [('subset', 10), ('subset', 11), ('subset', 5),
@@ -19,12 +20,12 @@ from test_rare_events import _linear_rows, _linear_sweep
 def test_a_method_with_too_few_runs_is_refused_before_any_run(tmp_path, name, runs):
     # issue 41.5: subset at 10 runs answered P = 0.01 with no failure, 11 and 5 runs and
     # nais at 1 ended in OpenTURNS' TypeErrors, morris at 1 in sigma NaN
-    spec = _linear_sweep(tmp_path, 1e-2, runs)
+    spec = linear_sweep(tmp_path, norm.isf(1e-2), runs)
     asked = []
 
     def rows(part, chunk):
         asked.append(chunk)
-        return _linear_rows(part, chunk)
+        return linear_rows(part, chunk)
 
     design = name if name in ('morris', 'sobol') else None
     least, multiple = MINIMUM_RUNS[name]
@@ -37,9 +38,9 @@ def test_a_method_with_too_few_runs_is_refused_before_any_run(tmp_path, name, ru
 
 def test_an_estimate_without_any_failed_run_says_so(tmp_path):
     # a failure 9 standard deviations out: none of the 100 runs fails
-    spec = _linear_sweep(tmp_path, 1e-19, 100)
+    spec = linear_sweep(tmp_path, norm.isf(1e-19), 100)
     out = str(tmp_path / 'mc')
-    found = run_study(spec, out, method='mc', rows=_linear_rows, log=lambda line: None)
+    found = run_study(spec, out, method='mc', rows=linear_rows, log=lambda line: None)
     estimate = found['estimate']
     assert estimate.failed_runs == 0 and found['table']['pass'].all()
     assert estimate.probability == 0.0
@@ -52,8 +53,8 @@ def test_an_estimate_without_any_failed_run_says_so(tmp_path):
 
 
 def test_subset_at_its_smallest_size_finds_a_one_in_a_hundred_failure(tmp_path):
-    spec = _linear_sweep(tmp_path, 1e-2, 100)
-    found = run_study(spec, str(tmp_path / 'subset'), method='subset', rows=_linear_rows,
+    spec = linear_sweep(tmp_path, norm.isf(1e-2), 100)
+    found = run_study(spec, str(tmp_path / 'subset'), method='subset', rows=linear_rows,
                       log=lambda line: None)
     estimate = found['estimate']
     assert estimate.failed_runs > 0 and 'no run failed' not in estimate.sentence()
@@ -63,10 +64,10 @@ def test_subset_at_its_smallest_size_finds_a_one_in_a_hundred_failure(tmp_path):
 def test_a_method_that_ran_and_found_nothing_is_a_failure_not_bad_input(tmp_path):
     # a criterion no value of the inputs fails: FORM stops on a zero gradient after its runs
     # (exit 1 on the command line, the runs saved), not a refusal of the input (exit 2)
-    spec = _linear_sweep(tmp_path, 1e-2, 10)
+    spec = linear_sweep(tmp_path, norm.isf(1e-2), 10)
 
     def never_failing(part, chunk):
-        rows = _linear_rows(part, chunk)
+        rows = linear_rows(part, chunk)
         for row in rows:
             row['clearance_store_pylon_min'] = 1.0
         return rows
