@@ -112,18 +112,36 @@ def task_done(done: tuple, progress=None, failures=None):
         failures.append(done[2])
 
 
-def _done_runs(outdir: str) -> set:
-    """Return the runs the finished parts hold (removing leftovers of killed tasks)."""
+def _done_runs(outdir: str, names: list) -> set:
+    """
+    Return the runs the finished parts hold (removing leftovers of killed tasks).
+
+    names: the table's columns; a part with other columns (written by another
+    version of cfem_ros, which made other metrics of the same sweep) is refused
+    rather than resumed into a table whose rows would not agree.
+    """
     import pyarrow.parquet as pq
     done = set()
     for path in glob.glob(os.path.join(outdir, 'parts', '*.tmp-*')):
         os.remove(path)
     for path in sorted(glob.glob(os.path.join(outdir, 'parts', '*.parquet'))):
         try:
+            held = pq.read_schema(path).names
             done.update(pq.read_table(path, columns=['run']).column('run').to_pylist())
         except Exception:  # noqa: B902 - a damaged part: said by the reader, in one line
             read_table(path, 'part')
             raise
+        if held != names:
+            missing = [n for n in names if n not in held]
+            other = [n for n in held if n not in names]
+            said = '; '.join(part for part in (
+                f'it lacks {", ".join(missing[:4])}{" ..." if len(missing) > 4 else ""}'
+                if missing else '',
+                f'it has {", ".join(other[:4])}{" ..." if len(other) > 4 else ""}'
+                if other else '') if part) or 'its columns are in another order'
+            raise SweepError(outdir, '', f'{os.path.relpath(path, outdir)} was written by '
+                             f'another version of cfem_ros ({said})', 'a new folder: its '
+                             'runs cannot be resumed into this version\'s table')
     return done
 
 
@@ -164,7 +182,7 @@ def prepare(spec: SweepSpec, outdir: str, record: str = 'none') -> list:
                            'total': spec.total, 'resolved': json.loads(spec.describe())},
                           stream, indent=1)
             os.replace(tmp, manifest)
-        done = _done_runs(outdir)
+        done = _done_runs(outdir, columns(spec))
     except OSError as err:
         raise SweepError(outdir, '', f'cannot write ({err.strerror})',
                          'a folder this user can write') from err

@@ -251,3 +251,24 @@ def test_a_dated_scenario_gives_dated_sweep_recordings(tmp_path):
     assert ours.start_ns == theirs.start_ns == instant_ns(start) > 0
     for name, body in ours.bodies.items():
         np.testing.assert_array_equal(body.stamp_ns, theirs.bodies[name].stamp_ns)
+
+
+def test_a_folder_whose_parts_have_other_columns_is_refused_not_resumed(tmp_path):
+    # a part written by another version (here: without a metric's column) holds rows that
+    # would not agree with this version's: resuming is refused, naming the part and column
+    import pyarrow.parquet as pq
+    from cfem_ros.study.errors import SweepError
+    sweep = Sweep.from_file(write_sweep(tmp_path, runs=1))
+    outdir = str(tmp_path / 'sweep')
+    sweep.run(None, outdir)
+    parts = sorted((tmp_path / 'sweep' / 'parts').glob('*.parquet'))
+    assert parts
+    dropped = metric_columns(sweep)[-1]
+    table = pq.read_table(str(parts[0]))
+    pq.write_table(table.drop([dropped]), str(parts[0]))
+    os.remove(os.path.join(outdir, 'results.parquet'))
+    with pytest.raises(SweepError) as refused:
+        Sweep.from_file(write_sweep(tmp_path, runs=1)).run(None, outdir)
+    said = str(refused.value)
+    assert f'{parts[0].name} was written by another version of cfem_ros' in said
+    assert f'it lacks {dropped}' in said and 'a new folder' in said
