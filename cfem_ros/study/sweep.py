@@ -141,7 +141,7 @@ def _done_runs(outdir: str, names: list) -> set:
                 if other else '') if part) or 'its columns are in another order'
             raise SweepError(outdir, '', f'{os.path.relpath(path, outdir)} was written by '
                              f'another version of cfem_ros ({said})', 'a new folder: its '
-                             'runs cannot be resumed into this version\'s table')
+                             "runs cannot be resumed into this version's table")
     return done
 
 
