@@ -69,13 +69,15 @@ def export(recording: str, output: str, relative_to=None, rate=None,
         raise RecordingError(f'-o {output}: expected FILE.csv or FILE.parquet (the format is '
                              'told by the extension)')
     run = open_run(recording)
-    table = export_table(run, relative_to, rate,
-                         warn=lambda line: print(f'WARNING: {line}', file=sys.stderr),
-                         point=point)
+    warnings = []   # said once the table is written: a refusal says its ERROR line alone
+    table = export_table(run, relative_to, rate, warn=warnings.append, point=point)
     try:
-        return write_table(table, output)
+        path = write_table(table, output)
     except OSError as err:
         raise RecordingError(f'{output}: cannot write ({err.strerror or err})') from err
+    for line in warnings:
+        print(f'WARNING: {line}', file=sys.stderr)
+    return path
 
 
 def snapshot_times(text: str) -> tuple:

@@ -182,3 +182,25 @@ def test_a_bad_metric_point_is_refused_with_its_key(pullup, capsys, entry, said)
     assert ("carriage' (the mean of the released joints' anchors) or [x, y, z]" in err
             or 'relative_to: the carrier the point is on' in err), err
     assert not out.exists()
+
+
+def test_a_refused_export_says_its_error_alone(tmp_path, capsys):
+    # relative to the store, the aircraft has no joint to it: its positions from the carriage
+    # are NaN and a warning says so, but only for a table that is written; a refusal found
+    # later (a rate above the recording's) is one ERROR line with no warning before it
+    # (found by the campaign's sixth round)
+    recording = str(tmp_path / 'two_hooks.mcap')
+    assert cli.main(['run', os.path.join(ROOT, 'config', 'store_release_two_hooks.yaml'),
+                     '-o', recording, '--duration', '0.02']) == 0
+    capsys.readouterr()
+    out = tmp_path / 'carriage.csv'
+    argv = ['export', recording, '-o', str(out), '--relative-to', 'store', '--point',
+            'carriage']
+    assert cli.main(argv + ['--rate', '1e9']) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('ERROR: ') and err.count('\n') == 1 and 'WARNING' not in err, err
+    assert not out.exists()
+    assert cli.main(argv) == 0
+    err = capsys.readouterr().err
+    assert err.startswith('WARNING: ') and 'aircraft has no joint to store' in err, err
+    assert out.exists()
