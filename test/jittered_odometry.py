@@ -58,7 +58,7 @@ def main(namespace: str, body: str, count: int, seed: int) -> int:
     rng = np.random.default_rng(seed)
     clock = node.get_clock()
     first = clock.now().nanoseconds
-    sent = 0
+    sent, lag = 0, 0
     for k in range(count):
         stamp = first + k * PERIOD_NS
         # arrival: 0-30 ms after the measurement, never before the message before it
@@ -67,6 +67,9 @@ def main(namespace: str, body: str, count: int, seed: int) -> int:
             time.sleep(0.0005)
         publisher.publish(odometry(k * PERIOD_NS / 1e9, stamp, body))
         sent = clock.now().nanoseconds
+        lag = max(lag, sent - stamp)
+    print(f'largest send lag {lag / 1e9:.6f} s')   # beyond 30 ms: this process was held up
+    print(f'last stamp {stamp}')
     time.sleep(0.5)   # reliable: delivered before this writer goes
     node.destroy_node()
     rclpy.shutdown()

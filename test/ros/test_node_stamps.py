@@ -9,6 +9,7 @@ exactly as ``cfem-sim run --inputs`` does from its recording, to the bit. The
 rules themselves (``ros.stamps``) are checked one by one without ROS.
 """
 
+import os
 import pathlib
 import re
 import signal
@@ -23,7 +24,7 @@ from cfem_ros.ros.stamps import (ClockLog, CURE_CLOCK, divergence_advice, InputT
 import numpy as np
 import pytest
 from recordings import read_checked
-from rosharness import NodeProcess
+from rosharness import NodeProcess, Peer, stamp_ns
 from scipy.spatial.transform import Rotation
 from test_node import assert_replay_matches
 import yaml
@@ -138,12 +139,20 @@ def test_live_odometry_with_jittered_arrival_runs_as_its_replay(tmp_path):
                             'anchor': [0.5, 0, -0.6], 'axis': [0, 1, 0]}}}))
     recording = tmp_path / 'live.mcap'
     node = NodeProcess(tmp_path, scenario, record=recording, duration=0.0)
+    peer = Peer(['store'], [])
     try:
         publisher = subprocess.run(
             [sys.executable, str(HERE.parent / 'jittered_odometry.py'), '/cfem', 'aircraft',
              '40', '2026'], capture_output=True, text=True, timeout=180)
         assert publisher.returncode == 0, publisher.stderr
+        # on a busy machine the node may run behind the wall clock: stop it once its
+        # samples have passed the last message's stamp, not before
+        last = int(re.search(r'last stamp (\d+)', publisher.stdout).group(1))
+        poses = peer.received['bodies/store/pose']
+        peer.spin_until(lambda: poses and stamp_ns(poses[-1].header) > last, timeout=180.0,
+                        what="the node's samples past the last odometry stamp")
     finally:
+        peer.close()
         status = node.stop(signal.SIGINT)
     assert status == 0, node.output
     late = int(re.search(r'diagnostics: late_inputs (\d+)', node.output).group(1))
@@ -153,7 +162,13 @@ def test_live_odometry_with_jittered_arrival_runs_as_its_replay(tmp_path):
     on_stamp = sum(log == m.header.stamp.sec * 10 ** 9 + m.header.stamp.nanosec
                    for log, m in odometry)
     assert on_stamp + late == 40   # each took effect at its stamp, or was counted late
-    assert on_stamp >= 20, node.output   # most waited for: the run waits for odometry
-    # to the bit: the replay's samples are the node's
+    # to the bit: the replay's samples are the node's, whatever the machine was doing
     assert assert_replay_matches(tmp_path, scenario, recording, tolerance=0.0) == 0.0
+    # most waited for (the run waits up to 0.1 s for odometry), when the publisher sent
+    # each message within 60 ms of its stamp and the machine was not busy beyond the test
+    # run's own processes (load above the cores + 1): a node held up by other processes
+    # applies them late, counts them (above) and replays the same
+    lag = float(re.search(r'largest send lag ([0-9.]+) s', publisher.stdout).group(1))
+    busy = os.getloadavg()[0] > (os.cpu_count() or 1) + 1
+    assert on_stamp >= 20 or lag > 0.06 or busy, (lag, os.getloadavg(), node.output)
     print(f'{on_stamp} messages on their stamps, {late} late')
