@@ -67,14 +67,24 @@ def linear_sweep(folder, z_fail, runs, seed=5, **extra):
     return load_sweep(path)
 
 
-def linear_rows(spec, runs):
-    """Return the runs' rows without simulating: the clearance falls with the angle."""
+def computed_rows(spec, runs, metrics):
+    """
+    Return the runs' rows without simulating, each an ok run with its drawn values.
+
+    metrics(values, k): the row's metric values (a dict) from run k's drawn values.
+    """
     names = columns(spec)
     out = []
     for k in runs:
         values = spec.run_values(k)
         row = dict.fromkeys(names, float('nan'))
         row.update(run=k, status='ok', message='', **values)
-        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN)
+        row.update(metrics(values, k))
         out.append(row)
     return out
+
+
+def linear_rows(spec, runs):
+    """Return the runs' rows without simulating: the clearance falls with the angle."""
+    return computed_rows(spec, runs, lambda values, k: {
+        'clearance_store_pylon_min': 0.1 - 0.01 * (values[ANGLE] - MEAN)})

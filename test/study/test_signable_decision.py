@@ -21,12 +21,11 @@ from cfem_ros.study.bounds import student_bounds
 from cfem_ros.study.decision import (
     decide, decide_runs, DOES_NOT_MEET, MEETS, UNDECIDED, up, verdict)
 from cfem_ros.study.methods import run_study
-from cfem_ros.study.sweep import columns
 from cfem_ros.study.tails import DOF, mc_tail, SCALE
 import numpy as np
 import pytest
 from scipy import stats
-from sweeps import ANGLE, linear_rows, linear_sweep, MEAN, SIGMA
+from sweeps import ANGLE, computed_rows, linear_rows, linear_sweep, MEAN, SIGMA
 
 
 def _quiet(line):
@@ -234,17 +233,11 @@ KAPPA = 0.5
 
 def _curved_rows(spec, runs):
     """Return rows whose margin is 3 - z_angle + KAPPA z_mass^2 (z: standard normal)."""
-    names = columns(spec)
-    out = []
-    for k in runs:
-        values = spec.run_values(k)
-        row = dict.fromkeys(names, float('nan'))
-        row.update(run=k, status='ok', message='', **values)
+    def margin(values, k):
         z_mass = stats.norm.ppf((values['bodies.store.mass'] - 900.0) / 10.0)
-        row['clearance_store_pylon_min'] = 0.1 - 0.01 * (values[ANGLE] - MEAN) \
-            + 0.01 * KAPPA * z_mass ** 2
-        out.append(row)
-    return out
+        return {'clearance_store_pylon_min': 0.1 - 0.01 * (values[ANGLE] - MEAN)
+                + 0.01 * KAPPA * z_mass ** 2}
+    return computed_rows(spec, runs, margin)
 
 
 def test_form_and_its_importance_sampling_that_disagree_say_so(tmp_path):
