@@ -107,7 +107,10 @@ def braces(folder, call, defect, rng, count):
                     at = int(abs(store.time - float(event['time'])).argmin())
                     gap = float(math.dist(store.position[at], pylon.position[at])
                                 - math.dist(store.position[0], pylon.position[0]))
-                    if gap > 0.5:
+                    reach = next((b.get('pad_radius', 0.05) for b in doc['sway_braces']
+                                  if b.get('name') == event.get('brace')), 0.05)
+                    reach = reach if isinstance(reach, (int, float)) else 0.05
+                    if gap > 0.5 + reach:   # a pad of that radius reaches that far
                         defect('braces as hardware', f'run {path}',
                                f'brace {event.get("brace")} touches again at t = '
                                f'{event["time"]} s with the store {gap:.3g} m further away')
