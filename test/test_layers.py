@@ -211,7 +211,7 @@ def test_import_graph_sees_imports_inside_functions():
     graph = import_graph()
     assert 'cfem_ros.cli' in graph['cfem_ros.console']   # console.main imports cli lazily
     # from cfem_ros.core.native import kernel: a submodule, not the package
-    assert 'cfem_ros.core.native.kernel' in graph['cfem_ros.core.engine.simulator']
+    assert 'cfem_ros.core.native.kernel' in graph['cfem_ros.core.engine.stepping']
 
 
 @pytest.mark.parametrize('module', ['cfem_ros.core.run.session', 'cfem_ros.recording.offline',

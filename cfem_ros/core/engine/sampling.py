@@ -165,6 +165,22 @@ class Sampling:
         return (SAMPLE.BODY * self.n + SAMPLE.JOINT * len(self.active_joints)
                 + self.scheduled.outputs_size + SAMPLE.BODY * len(self.model.references))
 
+    def outputs(self, y, out: np.ndarray) -> np.ndarray:
+        """
+        Fill out with what a sample publishes at state y (``outputs_size``), in one kernel call.
+
+        Raises
+        ------
+        NumericalFailure
+            If the solve is singular or ill-conditioned, or a load is not finite.
+
+        """
+        code = kernel.sample_outputs(self.topology.system, y, out)
+        if code == kernel.SINGULAR or code == kernel.LOADS_NOT_FINITE:   # else a finite row
+            raise (NumericalFailure(SINGULAR, Failure.SINGULAR) if code == kernel.SINGULAR
+                   else NumericalFailure(LOADS_NOT_FINITE, Failure.LOADS_NOT_FINITE))
+        return out
+
     @property
     def applied_sources(self) -> list:
         """Return (body, source) of each scheduled load a sample shows (``outputs``)."""

@@ -16,7 +16,9 @@ than inheriting them:
 the equations of motion (``dynamics.Dynamics``: bodies and applied loads),
 the joints (``jointset.JointSet``: rows, releases, the active ``Topology``),
 the kinematic bodies (``Carriers``), the braces, contact pairs and aero
-tables watched (``watch.Watch``) and what a sample shows (``Sampling``).
+tables watched (``watch.Watch``), what a sample shows (``Sampling``) and how
+the run stands (``outcome.Outcome``: its status, the one place it fails or
+stops); what is a part's own it reads through ``outcome.Forward``.
 """
 
 from __future__ import annotations
@@ -28,16 +30,14 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.carrier import Carriers
 from cfem_ros.core.engine.dynamics import Dynamics
-from cfem_ros.core.engine.events import AERO_EVENTS, Failure, Status
+from cfem_ros.core.engine.events import AERO_EVENTS, Failure
 from cfem_ros.core.engine.jointset import JointSet
-from cfem_ros.core.engine.sampling import (LOADS_NOT_FINITE, NumericalFailure, SampleGrid,
-                                           Sampling, SINGULAR)
-from cfem_ros.core.engine.startcheck import start_refusal
+from cfem_ros.core.engine.outcome import Forward, Outcome
+from cfem_ros.core.engine.sampling import SampleGrid
 from cfem_ros.core.engine.stepping import Stepper
 from cfem_ros.core.engine.watch import Watch
 from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.model.model import Model
-from cfem_ros.core.native import kernel
 import numpy as np
 
 
@@ -62,29 +62,9 @@ class Simulator:
         Simulated time, s.
     y : ndarray, shape (13 n,)
         The state (module docstring).
-    status : Status
-        ``RUNNING``; ``FAILED`` (a non-finite state or joint load, a violation
-        beyond ``DIVERGENCE_VIOLATION``, a singular solve: the last good state
-        kept); ``CONTACT`` (a pair with ``on_contact: stop`` touched) or
-        ``AERO_OUTSIDE`` (a table's ``outside: stop``): stopped there.
-    message, reason : str
-        Why it failed or stopped, with the time, and without ('' while running).
-        A run that ended within its first step of a scenario ``cfem-sim
-        check`` refuses has check's line as its message (``refusal``).
-    refusal : str
-        Check's line (``startcheck.cannot_start``) if the run ended within
-        its first step and check refuses its scenario; '' otherwise.
-    failure : Failure or None
-        Which failure (``FAILED`` only): what a caller tests, not the message.
-    events : list of dict
-        Releases so far: ``{'event': Event.RELEASE, 'joint', 'time', 'cause'}``
-        (and ``'group'`` for a joint of a release group), the ends of
-        ejector strokes (``strokes.stroke_end_event``), contacts
-        (``{'event': Event.CONTACT, 'bodies', 'time', 'point', 'parts'}``) and
-        the braces' pads letting go or touching again
-        (``braces.contact_event``).
-    active : ndarray of bool, shape (n_joints,)
-        Joints not yet released.
+    status, message, reason, refusal, failure
+        How the run stands and why it ended, ``outcome``'s (``Outcome``:
+        ``RUNNING``, ``FAILED``, ``CONTACT`` or ``AERO_OUTSIDE``).
     load_states : dict or None
         None unless an output asks for it (a viewer's load arrows): then, by
         the time (s) of each event located within a step that starts or
@@ -95,11 +75,19 @@ class Simulator:
 
     """
 
+    # the parts' own, read (and set) through the simulator
+    status, message, reason = Forward('outcome'), Forward('outcome'), Forward('outcome')
+    refusal, failure = Forward('outcome'), Forward('outcome')
+    set_wrench, held_wrenches = Forward('dynamics'), Forward('dynamics')   # wrenches held
+    body_index, joint_index = Forward('dynamics'), Forward('dynamics')   # by name or index
+    set_odometry = Forward('carriers')   # a kinematic body driven by odometry
+    active_joints, applied_sources = Forward('sampling'), Forward('sampling')   # a sample's
+    active = Forward('releases')   # joints not yet released, bool, (n_joints,)
+
     def __init__(self, model: Model, logger: Optional[logging.Logger] = None, *,
                  check_start: bool = True):
         self.model = model
-        self.check_start = check_start
-        self.refusal = ''
+        self.outcome = Outcome(check_start)   # status, message, failure (outcome.py)
         self.dynamics = dynamics = Dynamics(model, logger)
         # the dynamics' tables, read through the simulator too (the same arrays)
         self.log, self.eta, self.n, self.free = dynamics.log, dynamics.eta, dynamics.n, \
@@ -111,10 +99,6 @@ class Simulator:
         self.y = dynamics.y0
         self.dt = float(model.dt)
         self.t = 0.0
-        self.status = Status.RUNNING
-        self.message = ''
-        self.failure: Optional[Failure] = None
-        self.reason = ''
         self.steps = 0
         self.max_violation = 0.0
         self.load_states = None
@@ -124,14 +108,13 @@ class Simulator:
             self.carriers.start()
 
         pos0, _, quat0, _ = state_views(self.y, self.n)
-        self.joint_set = JointSet(model, pos0, quat0)
-        self.joints, self.groups = self.joint_set.tables, self.joint_set.groups
-        self.releases = self.joint_set.releases
-        self.sampling = Sampling(model, self.joints, self._scheduled)
-        self._set_topology()
+        self.joint_set = joint_set = JointSet(model, pos0, quat0, dynamics)   # releases
+        self.joints, self.groups = joint_set.tables, joint_set.groups
+        self.releases, self.sampling = joint_set.releases, joint_set.sampling
+        joint_set.rebuild(self.y)
         self.stepper = Stepper(self, dynamics)   # the step loop (stepping.py)
         self.stepper.fire_time_triggers()
-        dynamics.project_velocities(self._topology, self.y)
+        dynamics.project_velocities(self.topology, self.y)
         self.watch = Watch(model, self._scheduled, self.n)   # pads, pairs and aero tables
         self.record_watch(*self.watch.arm(self.y, self.t))   # an axis outside at t = 0 is told
 
@@ -173,33 +156,13 @@ class Simulator:
             self.events[:] = [e for e in self.events if e['event'] not in AERO_EVENTS]
         self.record_watch(*self.watch.arm(self.y, self.t))   # pads, pairs and tables from here
 
-    def set_odometry(self, body, t: float, position, quaternion, velocity_body, rates_body):
-        """Drive a kinematic body from an odometry message now (``Carriers.set_odometry``)."""
-        self.carriers.set_odometry(body, t, position, quaternion, velocity_body, rates_body)
-
     def derivative(self, y: np.ndarray) -> np.ndarray:
         """Return dy/dt at state y (external wrenches held constant)."""
-        return self.dynamics.derivative(self._topology, y)
+        return self.dynamics.derivative(self.topology, y)
 
     def joint_projection(self) -> np.ndarray:
         """Return the least (mass weighted) change of velocities that the joints allow, (n, 6)."""
-        return self.dynamics.joint_projection(self._topology, self.y)
-
-    def set_wrench(self, body, force, torque, body_axes: bool = False, point=None):
-        """Hold an external force and moment on a body until replaced (``Dynamics.set_wrench``)."""
-        self.dynamics.set_wrench(body, force, torque, body_axes, point)
-
-    def held_wrenches(self) -> np.ndarray:
-        """Return the wrenches held on the bodies, (n, 10) (``Dynamics.held_wrenches``)."""
-        return self.dynamics.held_wrenches()
-
-    def body_index(self, body) -> int:
-        """Return the index of a body given by name or index."""
-        return self.dynamics.body_index(body)
-
-    def joint_index(self, joint) -> int:
-        """Return the index of a joint given by name or index."""
-        return self.dynamics.joint_index(joint)
+        return self.dynamics.joint_projection(self.topology, self.y)
 
     # ----------------------------------------- the state and a sample (Sampling)
 
@@ -232,24 +195,10 @@ class Simulator:
         """Return the joints' loads on their children now (``Sampling.joint_loads``)."""
         return self.sampling.joint_loads(self.y)[:2]
 
-    @property
-    def active_joints(self) -> tuple:
-        """Return the active joints (model indices, ascending)."""
-        return self.sampling.active_joints
-
     def outputs(self, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Return what a sample publishes now, in one kernel call (``Sampling.outputs_size``)."""
         out = np.empty(self.sampling.outputs_size()) if out is None else out
-        code = kernel.sample_outputs(self._topology.system, self.y, out)
-        if code == kernel.SINGULAR or code == kernel.LOADS_NOT_FINITE:   # else a finite row
-            raise (NumericalFailure(SINGULAR, Failure.SINGULAR) if code == kernel.SINGULAR
-                   else NumericalFailure(LOADS_NOT_FINITE, Failure.LOADS_NOT_FINITE))
-        return out
-
-    @property
-    def applied_sources(self) -> list:
-        """Return (body, source) of each scheduled load a sample shows (``outputs``)."""
-        return self.sampling.applied_sources
+        return self.sampling.outputs(self.y, out)
 
     def applied_loads(self) -> np.ndarray:
         """Return each applied source's force and moment about its body's CG, world, (k, 6)."""
@@ -280,12 +229,12 @@ class Simulator:
     @property
     def topology(self):
         """Return the active joints' rows and solve plan (``Topology``; changes at releases)."""
-        return self._topology
+        return self.joint_set.topology
 
-    def _set_topology(self):
-        """Rebuild the active joints' rows (``JointSet.rebuild``)."""
-        self._topology = self.joint_set.rebuild(self.dynamics, self.sampling, self.y)
-        self.dof = self.joint_set.dof
+    @property
+    def dof(self) -> int:
+        """Return the degrees of freedom the active joints leave."""
+        return self.joint_set.dof
 
     def release(self, joint, cause: str = 'command') -> dict:
         """
@@ -305,21 +254,19 @@ class Simulator:
 
     def release_indices(self, joints, cause: str) -> list:
         """Release the active joints of these model indices now; return the events."""
-        released, events = self.joint_set.release(joints, self.t, cause)
-        self._set_topology()
-        # wrenches tied to these releases: on (or off) now, or at a time to cut a step at
-        if self._scheduled.released(released, self.t):
-            self._scheduled.switch(self.t, self.y)
-        return events
-
-    @property
-    def active(self) -> np.ndarray:
-        """Return the joints not yet released, bool, (n_joints,) (``Releases.active``)."""
-        return self.releases.active
+        return self.joint_set.release(joints, self.t, self.y, cause)
 
     @property
     def events(self) -> list:
-        """Return the releases and stroke ends so far, in order (``Releases.events``)."""
+        """
+        Return what happened so far, in order (``Releases.events``), a dict each.
+
+        Releases (``{'event': Event.RELEASE, 'joint', 'time', 'cause'}``, and
+        ``'group'`` for a joint of a release group), the ends of ejector
+        strokes (``strokes.stroke_end_event``), contacts (``{'event':
+        Event.CONTACT, 'bodies', 'time', 'point', 'parts'}``), the braces'
+        pads letting go or touching again (``braces.contact_event``).
+        """
         return self.releases.events
 
     # ------------------------------------------------------------- stepping
@@ -358,10 +305,7 @@ class Simulator:
 
     def fail(self, reason: str, failure: Failure = Failure.OTHER):
         """Stop the run as failed now (``status``, ``failure``, ``message`` with the time)."""
-        if self.status is Status.RUNNING:
-            self.status, self.failure, self.reason = Status.FAILED, failure, reason
-            self.message = f'at t = {self.t:.9g} s: {reason}'
-            self._refused_at_start()
+        self.outcome.fail(self, reason, failure)
 
     def release_due(self) -> list:
         """
@@ -379,13 +323,4 @@ class Simulator:
     def record_watch(self, events: list, stops: list):
         """Record the watch's events; stop the run as the first stop says (``Watch``)."""
         self.events.extend(events)
-        if stops and self.status is Status.RUNNING:
-            self.status, self.message = stops[0]
-            self.reason = self.message
-            self._refused_at_start()
-
-    def _refused_at_start(self):
-        """Give check's line as the message of a run check refuses, ended at its start."""
-        if self.check_start:
-            self.refusal = start_refusal(self)   # '' at once unless it ended in its first step
-            self.message = self.refusal or self.message
+        self.outcome.stop(self, stops)
