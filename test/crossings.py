@@ -35,7 +35,7 @@ TOLERANCES = {'xtol': kernel.CROSSING_XTOL, 'rtol': kernel.CROSSING_RTOL,
 def rk4(sim, y, h):
     """Return the kernel's RK4 step of h from y; raise sim's largest stage violation."""
     out = np.empty_like(y)
-    worst = testing.rk4_step(sim._topology.system, y, h, out)
+    worst = testing.rk4_step(sim.topology.system, y, h, out)
     assert worst >= 0.0, 'singular solve'
     sim.stepper.stage_violation = max(sim.stepper.stage_violation, worst)
     return out
@@ -139,7 +139,7 @@ def assert_same_location(sim, h):
     cut = min([c[0] for c in (crossing, stroke) if c is not None] + [h])
     ys = rk4(sim, sim.y, cut) if cut < h else None   # the state the step is cut at
     worst = sim.stepper.stage_violation
-    y1_k, ys_k, crossing_k, stroke_k, worst_k = kernelcalls.locate(sim._topology.system, sim.y,
+    y1_k, ys_k, crossing_k, stroke_k, worst_k = kernelcalls.locate(sim.topology.system, sim.y,
                                                                    h, 0.0)
     assert crossing_k == crossing
     assert stroke_k == stroke

@@ -22,6 +22,7 @@ import re
 import time
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.ros.refusals import bounded
 from cfem_ros.ros.runcontrol import ControlError, PAUSED, PLAYING, StepRun, STOPPED
 import numpy as np
@@ -238,10 +239,9 @@ class SimulationServices:
         _vector(state.twist.linear, sim.velocity[i])
         _vector(state.twist.angular, turn @ sim.rates[i])
         try:
-            rates = sim.derivative(sim.y)
-            n = sim.n
-            _vector(state.acceleration.linear, rates[3 * n + 3 * i:3 * n + 3 * i + 3])
-            _vector(state.acceleration.angular, turn @ rates[10 * n + 3 * i:10 * n + 3 * i + 3])
+            _, acceleration, _, angular = state_views(sim.derivative(sim.y), sim.n)
+            _vector(state.acceleration.linear, acceleration[i])
+            _vector(state.acceleration.angular, turn @ angular[i])
         except Exception:  # noqa: B902 - a failed run's state: no accelerations to give
             pass
         return state

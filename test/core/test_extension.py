@@ -47,7 +47,7 @@ def test_the_kernel_is_the_extension_and_no_source_imports_a_jit():
 
 def _system_args(sim):
     """Return the arguments of sim's System, by name (``Topology.bind``)."""
-    top = sim._topology
+    top = sim.topology
     names = ('joints_i', 'joints_f', 'watch', 'limits', 'triggers', 'watch_plan')
     return dict(bodies=sim._bodies, gravity=sim.gravity, loads=sim._loads, rows_i=top.rows_i,
                 rows_f=top.rows_f, plan=top.plan, roots=top.roots, eta=sim.eta,
@@ -57,7 +57,7 @@ def _system_args(sim):
 
 def test_arrays_it_cannot_take_are_refused_by_name_never_copied():
     sim = _sim()
-    top = sim._topology
+    top = sim.topology
     args = _system_args(sim)
     y = sim.y.copy()
     dy = np.empty_like(y)
@@ -147,7 +147,7 @@ def test_the_dense_solves_give_the_tree_solve_accelerations(name):
     # and by the least-squares eigen-solve used for redundant rows (dense 2)
     sim = _sim(name)
     sim.advance_to(0.05)
-    top = sim._topology
+    top = sim.topology
     assert top.dense == 0
     found = []
     for dense in (0, 1, 2):
@@ -164,7 +164,7 @@ def test_an_exactly_singular_complement_is_reported_not_solved():
     # two bodies held by the same joint twice over: the complement is singular (LU, dense
     # 1: SINGULAR, as numpy's LinAlgError was) and solved in least squares (dense 2)
     sim = _sim('hinge')
-    top = sim._topology
+    top = sim.topology
     rows_i = np.ascontiguousarray(np.concatenate([top.rows_i, top.rows_i]))
     rows_f = np.ascontiguousarray(np.concatenate([top.rows_f, top.rows_f]))
     twice = kernel.System(**dict(_system_args(sim), rows_i=rows_i, rows_f=rows_f, dense=1))
@@ -271,7 +271,7 @@ def test_a_sample_too_short_for_its_outputs_is_refused_by_name():
     # a sample's outputs: the bodies, the sampled joints' loads, every applied load and
     # the air (sample_applied), and the states relative to a reference: System.outputs
     sim = _sim('store_release_two_hooks')
-    system = sim._topology.system
+    system = sim.topology.system
     assert system.outputs == len(sim.outputs())
     y = sim.y.copy()
     with pytest.raises(ValueError, match='out: expected at least'):

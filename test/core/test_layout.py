@@ -78,7 +78,7 @@ def test_the_workspace_parts_tile_the_workspace(n, m, nj, dense):
 def test_the_views_are_the_systems_workspace_by_name():
     from cfem_ros import load_scenario, Simulator
     sim = Simulator(load_scenario(str(ROOT / 'config' / 'double_pendulum.yaml')))
-    system = sim._topology.system
+    system = sim.topology.system
     views = kernel.views(system)
     assert views['jac'].shape == (system.m, 12) and views['rot'].shape == (sim.n, 3, 3)
     for view in views.values():
@@ -152,7 +152,9 @@ def test_a_sample_is_laid_out_as_the_kernel_writes_it():
 # ``reshape``, ``copy``); and a sample row: a method's result that is one row
 # (ROW_METHODS) or a parameter named ``outputs`` or ``row``. For a 2-d index the columns
 # are the entries after the first (a row offset such as ``rows_f[1:, ...]`` is no column);
-# a sample row is flagged for any literal index. It does not follow arrays across
+# a sample row is flagged for any literal index, and so is the integrator's state (STATE:
+# a name in STATE_NAMES, an attribute ``y``, the result of a STATE_METHODS call, whose
+# blocks start at multiples of n: ``y[6 * n:10 * n]``). It does not follow arrays across
 # functions or through containers, nor arithmetic such as ``13 * i``: a name it does
 # not know is not checked (the scan says where literal columns are, not that there are
 # none anywhere).
@@ -165,6 +167,8 @@ ROW_METHODS = {'outputs', 'next_row'}
 ROW_PARAMETERS = {'outputs', 'row'}
 KERNEL_ATTRIBUTES = {'loads', 'plan', 'rows_i', 'rows_f', 'joints_i', 'joints_f', 'work'}
 TABLE_ATTRIBUTES = {'bodies', 'outputs', 'values'}
+STATE_NAMES = {'y', 'y0', 'y1', 'dy'}
+STATE_METHODS = {'derivative', 'initial_state', 'motion_place'}
 
 
 def _callee(node):
@@ -199,13 +203,15 @@ class _Scan(ast.NodeVisitor):
 
     def __init__(self):
         self.found = []
-        self.arrays, self.rows = [set()], [set()]
+        self.arrays, self.rows, self.states = [set()], [set()], [set()]
 
     def visit_FunctionDef(self, node):
         self.arrays.append(set())
+        self.states.append(set())
         self.rows.append({a.arg for a in node.args.args if a.arg in ROW_PARAMETERS})
         self.generic_visit(node)
         self.arrays.pop()
+        self.states.pop()
         self.rows.pop()
 
     visit_AsyncFunctionDef = visit_FunctionDef
@@ -217,13 +223,16 @@ class _Scan(ast.NodeVisitor):
             if callee in ('reshape', 'copy', 'ravel', 'view'):
                 node = node.func.value
             elif callee is not None:
-                return ('row' if callee in ROW_METHODS else
+                return ('row' if callee in ROW_METHODS else 'state' if callee in STATE_METHODS else
                         'array' if callee == 'kernel' or callee in KERNEL_METHODS else None)
             elif isinstance(node, ast.Subscript):
                 node = node.value
             elif isinstance(node, ast.Name):
                 return ('row' if node.id in self.rows[-1] else
-                        'array' if node.id in self.arrays[-1] else None)
+                        'array' if node.id in self.arrays[-1] else
+                        'state' if node.id in STATE_NAMES | self.states[-1] else None)
+            elif isinstance(node, ast.Attribute) and node.attr == 'y':
+                return 'state'
             else:
                 return ('array' if isinstance(node, ast.Attribute)
                         and node.attr in KERNEL_ATTRIBUTES else None)
@@ -234,7 +243,8 @@ class _Scan(ast.NodeVisitor):
         for target in node.targets if kind else ():
             for name in target.elts if isinstance(target, ast.Tuple) else [target]:
                 if isinstance(name, ast.Name):
-                    (self.rows if kind == 'row' else self.arrays)[-1].add(name.id)
+                    {'row': self.rows, 'state': self.states}.get(kind, self.arrays)[-1].add(
+                        name.id)
 
     def visit_Subscript(self, node):
         kind, index = self.kind(node.value), node.slice
@@ -242,7 +252,7 @@ class _Scan(ast.NodeVisitor):
             table = isinstance(node.value, ast.Attribute) and node.value.attr in TABLE_ATTRIBUTES
             hit = (kind is not None or table) and any(_literal(e) for e in index.elts[1:])
         else:
-            hit = kind == 'row' and _literal(index)
+            hit = kind in ('row', 'state') and _literal(index)
         if hit:
             self.found.append((node.lineno, ast.unparse(node)))
         self.generic_visit(node)
@@ -274,6 +284,10 @@ def test_python_indexes_no_kernel_array_by_a_literal_column():
     'self.bodies[:, 0]',
     'delta = self.joint_projection(top, y)\ndelta[:, 3:]',
     'held = sim.held_wrenches()\nheld[body, 7:10]',
+    'y = np.zeros(13)\ny[0:3]',
+    'quat = y[6 * n:10 * n].reshape(n, 4)',
+    'sim.y[8:12]',
+    'rates = sim.derivative(sim.y)\nrates[3 * n + 3 * i:3 * n + 3 * i + 3]',
 ])
 def test_the_scan_finds_a_literal_column(source):
     assert kernel_arrays(textwrap.dedent(source)), source
@@ -286,7 +300,7 @@ def test_the_scan_finds_a_literal_column(source):
     'self.rows_f[1:, points]',
     'kind = self.rows_i[:, ROWS_I.R_KIND]',
     'found = kernel.distance(*args)\nfound[:2]',
-    'y = np.zeros(13)\ny[0:3]',
+    'y = np.zeros(STATE.BODY)\nstate_block(y, 1, "Y_POSITION")',
     'def f(values):\n    return values[3:]',
 ])
 def test_the_scan_leaves_layout_reads_and_other_arrays(source):

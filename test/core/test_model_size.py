@@ -29,8 +29,8 @@ def test_a_tree_s_workspace_is_linear_in_the_bodies():
     sizes = {}
     for count in (400, 800):
         sim = Simulator(parse_scenario(chain(count)))
-        assert sim._topology.dense == 0
-        sizes[count] = sim._topology.system.work.nbytes
+        assert sim.topology.dense == 0
+        sizes[count] = sim.topology.system.work.nbytes
     assert sizes[800] < 2.1 * sizes[400]
     assert sizes[800] < 3000 * 8 * 800      # a few thousand numbers a body (m x m: 36 MiB)
 
@@ -41,7 +41,7 @@ def test_a_model_too_large_for_memory_is_refused_with_its_size(monkeypatch):
                        r'\(closed loops: a dense m x m solve\) need 0\.\d+ GiB'):
         Simulator(parse_scenario(chain(400, close=True)))
     # the same bodies as a tree fit
-    assert Simulator(parse_scenario(chain(400)))._topology.dense == 0
+    assert Simulator(parse_scenario(chain(400))).topology.dense == 0
 
 
 def test_a_long_chain_on_a_moving_carrier_is_read_in_linear_time():

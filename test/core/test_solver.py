@@ -74,7 +74,7 @@ def kkt_solution(sim, y):
             external = external @ rot.T
         force[6 * i:6 * i + 3] = body.mass * sim.gravity + external[0]
         force[6 * i + 3:6 * i + 6] = external[1] - np.cross(omega, inertia @ omega)
-    top = sim._topology
+    top = sim.topology
     jac, _ = top.jacobian(y, n)
     rhs = kernel.views(top.system)['rhs'].copy()
     free = np.flatnonzero(np.repeat(sim.free, 6))
@@ -97,7 +97,7 @@ def kkt_solution(sim, y):
 def test_tree_solve_equals_the_whole_system(caplog):
     caplog.set_level(logging.ERROR)
     sim = Simulator(tree_scenario())
-    assert sim._topology.dense == 0
+    assert sim.topology.dense == 0
     sim.set_wrench('b3', [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
     sim.set_wrench('b9', [0.5, 0.0, -1.0], [0.0, 1.0, 0.0], body_axes=True)
     assert sim.advance_to(0.3), sim.message
@@ -130,7 +130,7 @@ def test_closed_loop_falls_back_to_the_whole_system(caplog):
             'j3': {'type': 'ball', 'parent': 'b', 'child': 'G', 'anchor': [1.2, 0, 0]}}}
     caplog.set_level(logging.ERROR)
     sim = Simulator(parse_scenario(loop))
-    assert sim._topology.dense > 0 and sim._topology.m == 9
+    assert sim.topology.dense > 0 and sim.topology.m == 9
     sim.set_wrench('a', [0.0, 5.0, 0.0], [0.0, 0.0, 0.0])
     assert sim.advance_to(0.5), sim.message
     on_a, on_b = sim.joint_points()

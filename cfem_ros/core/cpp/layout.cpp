@@ -40,6 +40,7 @@ void bind_layout(py::module_& m) {
   CFEM_EXPORT("shape", CFEM_SHAPE_LAYOUT)
   CFEM_EXPORT("twist", CFEM_TWIST_LAYOUT)
   CFEM_EXPORT("closest", CFEM_CLOSEST_LAYOUT)
+  CFEM_EXPORT("state", CFEM_STATE_LAYOUT)
 #undef CFEM_EXPORT
 #undef CFEM_EXPORT_NUMBER
 #undef CFEM_EXPORT_COLUMN

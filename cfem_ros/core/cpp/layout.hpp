@@ -329,6 +329,17 @@
   COLUMN(air, W_ABOUT_CG, 19, 3)                                                           \
   NUMBER(int, WIDTH, 22)
 
+// The integrator's state y of n bodies (13 n numbers), in blocks of all bodies: a block
+// starts at first * n and holds width numbers per body: CG positions (world, m), CG
+// velocities (world, m/s), quaternions (x y z w, body to world), angular velocities (body
+// axes, rad/s). Body i's numbers of a block are at first * n + width * i.
+#define CFEM_STATE_LAYOUT(COLUMN, NUMBER)                                                  \
+  COLUMN(block, Y_POSITION, 0, 3)                                                          \
+  COLUMN(block, Y_VELOCITY, 3, 3)                                                          \
+  COLUMN(block, Y_QUATERNION, 6, 4)                                                        \
+  COLUMN(block, Y_RATES, 10, 3)                                                            \
+  NUMBER(int, BODY, 13)
+
 #define CFEM_LAYOUT_COLUMN(group, name, first, width) constexpr int name = first;
 #define CFEM_LAYOUT_NUMBER(type, name, value) constexpr type name = value;
 
@@ -381,6 +392,9 @@ CFEM_TWIST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace closest {
 CFEM_CLOSEST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace closest
+namespace state {
+CFEM_STATE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace state
 }  // namespace cfem
 
 #undef CFEM_LAYOUT_COLUMN

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from cfem_ros.core.errors import ScenarioError
-from cfem_ros.core.native.kernel import BODIES
+from cfem_ros.core.native.kernel import BODIES, state_block
 import numpy as np
 
 
@@ -35,9 +35,9 @@ def initial_state(model) -> np.ndarray:
 
 
 def state_views(y: np.ndarray, n: int):
-    """Return views (position, velocity, quaternion, rates) of the state of n bodies."""
-    return (y[:3 * n].reshape(n, 3), y[3 * n:6 * n].reshape(n, 3),
-            y[6 * n:10 * n].reshape(n, 4), y[10 * n:].reshape(n, 3))
+    """Return views (position, velocity, quaternion, rates) of the state of n bodies (STATE)."""
+    return tuple(state_block(y, n, name)
+                 for name in ('Y_POSITION', 'Y_VELOCITY', 'Y_QUATERNION', 'Y_RATES'))
 
 
 def mass_table(model):

@@ -59,10 +59,10 @@ def anchor(rows: np.ndarray, first: int, braces, y: np.ndarray, n: int):
     axis (the brace's direction now) are kept in its carrier's axes.
     """
     from cfem_ros.core import rotations
+    from cfem_ros.core.engine.bodies import state_views
     from cfem_ros.core.native.kernel import LOADS
 
-    pos = y[:3 * n].reshape(n, 3)
-    quat = y[6 * n:10 * n].reshape(n, 4)
+    pos, _, quat, _ = state_views(y, n)
     rot = rotations.matrices(quat / np.linalg.norm(quat, axis=1)[:, None])
     for k, brace in enumerate(braces):
         r = rows[first + k]

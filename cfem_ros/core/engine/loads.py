@@ -39,6 +39,7 @@ branch there.
 from __future__ import annotations
 
 from cfem_ros.core.engine import aeropack, braces
+from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.ties import Ties
 from cfem_ros.core.native import contacts, kernel
 from cfem_ros.core.native.kernel import LOADS, SAMPLE
@@ -218,11 +219,12 @@ class ScheduledLoads:
         row = self.array[n + k]
         rot = np.empty((n, 3, 3))
         kernel.loads_rotations(np.ascontiguousarray(y), int(n), rot)
+        pos = state_views(y, n)[0]
         b = int(row[LOADS.S_BODY])
-        point = y[3 * b:3 * b + 3] + rot[b] @ row[LOADS.span('S_POINT')]
+        point = pos[b] + rot[b] @ row[LOADS.span('S_POINT')]
         j = int(row[LOADS.S_REACT])
         if j >= 0:
-            point = rot[j].T @ (point - y[3 * j:3 * j + 3])
+            point = rot[j].T @ (point - pos[j])
         row[LOADS.span('S_ANCHOR')] = point
 
     def arm(self, y: np.ndarray):
@@ -245,8 +247,7 @@ class ScheduledLoads:
         """
         n = self.n
         a, b = self.pairs[k].bodies
-        quat = y[6 * n:10 * n].reshape(n, 4)
-        pos = y[:3 * n].reshape(n, 3)
+        pos, _, quat, _ = state_views(y, n)
         row = self.array[n + self.contact_first + k]
         shape_a = _unpack(self.array, int(row[LOADS.C_SHAPE_A]))
         shape_b = _unpack(self.array, int(row[LOADS.C_SHAPE_B]))

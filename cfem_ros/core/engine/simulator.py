@@ -5,7 +5,8 @@ The CFEM engine: a run in time, in RK4 steps, with its releases.
 
 The state of n bodies is one flat array ``y`` of 13 n numbers, in blocks:
 CG positions (world, m), CG velocities (world, m/s), quaternions (x, y, z, w,
-body to world) and angular velocities (body axes, rad/s). Ground (fixed)
+body to world) and angular velocities (body axes, rad/s), as ``kernel.STATE``
+lays them out (``bodies.state_views``). Ground (fixed)
 bodies are carried with zero inverse mass and inertia, so every formula is the
 same for all bodies.
 

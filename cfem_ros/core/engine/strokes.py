@@ -14,6 +14,7 @@ when none), in the loaded body's axes.
 from __future__ import annotations
 
 from cfem_ros.core import rotations
+from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import Event
 import numpy as np
 
@@ -41,10 +42,7 @@ def relative_motion(y: np.ndarray, n: int, body: int, reference: int):
         in ``body``'s axes.
 
     """
-    pos = y[:3 * n].reshape(n, 3)
-    vel = y[3 * n:6 * n].reshape(n, 3)
-    quat = y[6 * n:10 * n].reshape(n, 4)
-    rates = y[10 * n:].reshape(n, 3)
+    pos, vel, quat, rates = state_views(y, n)
     turn = rotations.matrices(quat / np.linalg.norm(quat, axis=1)[:, None])
     velocity = vel[body].copy()
     omega = turn[body] @ rates[body]

@@ -125,6 +125,16 @@ TRAJECTORY = Layout('trajectory')
 SHAPE = Layout('shape')
 TWIST = Layout('twist')
 CLOSEST = Layout('closest')
+#: The integrator's state y of n bodies (``state``): blocks of all bodies, block
+#: ``Y_*`` from ``first * n`` on, ``width`` numbers per body (``state_block``).
+STATE = Layout('state')
+
+
+def state_block(y: np.ndarray, n: int, name: str) -> np.ndarray:
+    """Return the view of block ``name`` of ``STATE`` in the state y of n bodies, (n, width)."""
+    _, first, width = STATE.columns[name]
+    return y[first * n:(first + width) * n].reshape(n, width)
+
 
 #: ``advance`` results in ``info[ADVANCE_INFO.I_RESULT]`` (LOADS_NOT_FINITE: a
 #: sample's outputs or a force-release check's joint loads are not finite while

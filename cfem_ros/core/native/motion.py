@@ -40,7 +40,7 @@ import math
 
 from cfem_ros.core import rotations
 from cfem_ros.core.native import kernel
-from cfem_ros.core.native.kernel import BODIES, TRAJECTORY
+from cfem_ros.core.native.kernel import BODIES, STATE, TRAJECTORY
 import numpy as np
 
 #: The columns (``kernel.BODIES``, laid out in ``cpp/layout.hpp``): those the
@@ -175,9 +175,10 @@ def odometry(t, position, quaternion, velocity, rates, acceleration, angular_acc
     probe = np.zeros((1, M_DATA + len(table)))
     probe[0, M_KIND] = KIND_TABLE
     probe[0, M_DATA:] = table
-    y = np.zeros(13)
+    y = np.zeros(STATE.BODY)   # one body's state
     kernel.motion_place(y, probe, t + horizon)   # M_T0 = 0: the table at t + horizon
-    second = segment(y[0:3], y[3:6], np.zeros(3), y[6:10], y[10:13], np.zeros(3))   # n = 1
+    pos, vel, quat, rates = (kernel.state_block(y, 1, name)[0] for name in STATE.columns)
+    second = segment(pos, vel, np.zeros(3), quat, rates, np.zeros(3))
     return _table([t, t + horizon, t + horizon + 1.0], [first, second])
 
 
@@ -249,13 +250,12 @@ def state_at(model, t: float):
         return {}
     bodies = np.zeros((n, BODY_COLUMNS + extra.shape[1]))
     bodies[:, BODY_COLUMNS:] = extra
-    y = np.zeros(13 * n)
+    y = np.zeros(STATE.BODY * n)
     kernel.motion_place(y, bodies, float(t))
+    blocks = [kernel.state_block(y, n, name) for name in STATE.columns]
     out = {}
     for i, body in enumerate(model.bodies):
         if getattr(body, 'motion', None) is not None:
-            out[i] = (y[3 * i:3 * i + 3].copy(), y[3 * n + 3 * i:3 * n + 3 * i + 3].copy(),
-                      y[6 * n + 4 * i:6 * n + 4 * i + 4].copy(),
-                      y[10 * n + 3 * i:10 * n + 3 * i + 3].copy(),
+            out[i] = (*(block[i].copy() for block in blocks),
                       bodies[i, M_ACC:M_ACC + 3].copy(), bodies[i, M_ACC + 3:M_ACC + 6].copy())
     return out
