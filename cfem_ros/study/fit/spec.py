@@ -8,7 +8,8 @@ is a number in the scenario at its key path (named once: ``force[2]`` and
 ``force[02]`` are one key path), starts within its bounds with a
 finite-difference step that fits inside them, and each measured file
 exists (``flights``). A ``FitError`` names the file, the key path, the
-value and what would be right.
+value and what would be right: the scenario's ``Checker`` idiom, as the sweep
+file's parser has it.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from dataclasses import dataclass, field
 import math
 
 from cfem_ros.core.errors import ScenarioError
+from cfem_ros.core.fileio.messages import show
 from cfem_ros.core.fileio.textfile import read_text
 from cfem_ros.core.fileio.yamlfile import load_yaml
+from cfem_ros.core.scenario.checker import Checker
 from cfem_ros.core.scenario.parse import parse_scenario
 from cfem_ros.study.fit.flights import (finite_number, FitError, read_flights, read_scenario,
-                                        show, WindowEnd)
+                                        WindowEnd)
 from cfem_ros.study.keypaths import format_key_path, parse_key_path, resolve
 import numpy as np
 
@@ -103,8 +106,7 @@ def load_fit(path: str) -> FitSpec:
         raise FitError(path, err.key, err.problem,
                        err.expected or 'a fit file as in SPEC section 13') from err
 
-    def fail(key, problem, expected=''):
-        raise FitError(path, key, problem, expected)
+    fail = Checker(path, FitError).fail   # the scenario's idiom: file, key path, value
 
     if not isinstance(document, dict):
         fail('', f'is {show(document)}', 'a mapping with scenario, measured, parameters')
