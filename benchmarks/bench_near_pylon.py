@@ -57,7 +57,10 @@ PHASES = [
     ('Simulator set-up', 'core/engine/simulator.py', '__init__'),
     ('stepping and sampling (Session.run)', 'core/run/session.py', 'run'),
     ('metrics (metrics.compute)', 'study/metrics.py', 'compute'),
-    ('  of which the distances searched between samples', 'study/between.py', 'least'),
+    ('  of which the shape distances between samples', 'core/native/kernel.py',
+     'least_shape_distance'),
+    ('  of which the clearances between samples', 'core/native/kernel.py',
+     'least_point_distance'),
 ]
 #: Where a function's own time is counted, by its file (first match) or, for a
 #: builtin, by its name.
@@ -171,44 +174,42 @@ def profile(runs: int, top: int = 15):
 
 def run_costs(runs: int, turns: int):
     """
-    Print the CPU time of a sweep run: as shipped, searched to 1 us, the samples alone.
+    Print the CPU time of a sweep run: as shipped, and with the distances at the samples only.
 
     With each, the largest change of a ``_min`` column from the runs as shipped (m).
     """
     from cfem_ros.study import between, load_sweep
     from cfem_ros.study.runs import run_rows
     spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'))
-    searched, tolerance = between.least, between.DISTANCE_TOLERANCE
+    shipped = between.motion
 
-    def sampled_only(time, sampled, evaluate, rate, start, end, *more, **options):
-        return searched(time, sampled, None, rate, start, end)   # no interpolant: samples
+    def no_track(samples, body):
+        return None   # no interpolant: the samples alone, as for a run without twists
 
-    ways = {'as shipped': (searched, tolerance),
-            'searched between samples to 1e-6 m, not 1e-9 m': (searched, 1e-6),
-            'distances at the samples only': (sampled_only, tolerance)}
+    ways = {'as shipped': shipped, 'distances at the samples only': no_track}
     costs = {name: [] for name in ways}
     rows = {}
     for _ in range(turns):
-        for name, (least, within) in ways.items():
-            between.least, between.DISTANCE_TOLERANCE = least, within
+        for name, motion in ways.items():
+            between.motion = motion
             try:
                 start = time.process_time()
                 rows[name] = run_rows(spec, list(range(runs)))
                 costs[name].append((time.process_time() - start) / runs * 1e3)
             finally:
-                between.least, between.DISTANCE_TOLERANCE = searched, tolerance
+                between.motion = shipped
     print(f'\n3. CPU time of a sweep run (run_rows, {runs} runs, median of {turns} turns), '
           'and the largest change of a least distance from the runs as shipped')
-    shipped = rows['as shipped']
+    first = rows['as shipped']
     for name, cost in costs.items():
-        change = max((abs(a[c] - b[c]) for a, b in zip(shipped, rows[name]) for c in a
+        change = max((abs(a[c] - b[c]) for a, b in zip(first, rows[name]) for c in a
                       if c.endswith('_min') and isinstance(a[c], float)), default=0.0)
         print(f'   {name:48s} {statistics.median(cost):8.1f} ms a run   {change:.2g} m')
     # the sweep file's dt grid (0.001, 0.0005 s) runs every draw at both steps: --runs
     # 10000 is 20,000 runs (no tail check: that is a study's, not a sweep's)
-    shipped = statistics.median(costs['as shipped'])
+    cost = statistics.median(costs['as shipped'])
     print(f'   --runs 10000 is {2 * 10000:,} runs (the dt grid of 2 steps); on 2 idle cores '
-          f'at this CPU time, {2 * 10000 * shipped / 2e3:.0f} s of runs (60 s needs '
+          f'at this CPU time, {2 * 10000 * cost / 2e3:.0f} s of runs (60 s needs '
           f'{60 * 2e3 / 20000:.0f} ms a run; 10,000 runs alone, {60 * 2e3 / 10000:.0f} ms)')
 
 

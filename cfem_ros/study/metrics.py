@@ -56,9 +56,9 @@ class Samples:
         Per body its body rates at its samples, rad/s (body axes).
     velocities : dict of str to ndarray (n, 3)
         Per body its CG velocity at its samples, m/s (body axes).
-    motions : dict of str to between.Motion or None
-        Per body its interpolant between the samples, made once for all the
-        metrics that search between samples (``between.motion``).
+    motions : dict of str to ndarray (n, ``kernel.TRACK.WIDTH``) or None
+        Per body its track between the samples (``between.track``), made once
+        for all the metrics that search between samples (``between.motion``).
     anchors : list of (joint, parent, child, anchor (3,))
         The run's joints, anchors in the world at t = 0
         (``carriage.joint_anchors``): an ``at`` entry's ``point: carriage``.

@@ -20,8 +20,8 @@ import re
 from typing import Optional
 
 from cfem_ros.core import rotations
-from cfem_ros.core.native import contacts
-from cfem_ros.core.native.kernel import CLOSEST
+from cfem_ros.core.native import contacts, kernel
+from cfem_ros.core.native.kernel import CLOSEST, LEAST
 from cfem_ros.study import between
 import numpy as np
 
@@ -186,9 +186,9 @@ def compute_distance(entry: Distance, samples) -> dict:
     """
     Return a distance entry's columns for a run's samples (``metrics.Samples``).
 
-    The least distance over the window, between samples included
-    (``between.least``: the first least sample if nothing between them is
-    lower), its time, the closest points there in each body's axes (m),
+    The least distance over the window, between samples included (the
+    kernel's search, ``between``: the first least sample if nothing between
+    them is lower), its time, the closest points there in each body's axes (m),
     and the first contact of the pair in the window (NaN if none).
     """
     out = dict.fromkeys(entry.columns(), NAN)
@@ -200,33 +200,21 @@ def compute_distance(entry: Distance, samples) -> dict:
     start, end = entry.window.bounds(samples.releases)
     if len(t) and not (math.isnan(start) or math.isnan(end)):
         d, _ = contacts.distances(entry.shape_a, quat_a, pos_a, entry.shape_b, quat_b, pos_b)
-        motion_a, motion_b = between.motion(samples, entry.body_a), \
+        track_a, track_b = between.motion(samples, entry.body_a), \
             between.motion(samples, entry.body_b)
-        if motion_a is None or motion_b is None:   # no twist: the samples alone
-            evaluate = rates = one = None
-        else:
-            radius_a = contacts.bounding_radius(entry.shape_a)
-            radius_b = contacts.bounding_radius(entry.shape_b)
-
-            def evaluate(k, times):
-                (p_a, q_a), (p_b, q_b) = motion_a.at(k, times), motion_b.at(k, times)
-                return contacts.distances(entry.shape_a, q_a, p_a, entry.shape_b, q_b, p_b)[0]
-
-            def one(k, time):
-                (p_a, q_a), (p_b, q_b) = motion_a.pose(k, time), motion_b.pose(k, time)
-                return contacts.distance_at(entry.shape_a, between.rotation(q_a), p_a,
-                                            entry.shape_b, between.rotation(q_b), p_b)
-
-            rates = between.interval_rates(motion_a, motion_b, radius_a, radius_b)
-        least, when = between.least(t, d, evaluate, rates, start, end, one)
-        if not math.isnan(least):
-            k = int(np.searchsorted(t, when - 0.5e-9))
-            if k < len(t) and abs(t[k] - when) <= 0.5e-9:   # a sample
+        if track_a is None or track_b is None:   # no twist: the samples alone
+            track_a = track_b = between.NO_TRACK
+        found = kernel.least_shape_distance(t, d, track_a, track_b, entry.shape_a,
+                                            entry.shape_b, start, end)
+        when = float(found[LEAST.L_TIME])
+        if not math.isnan(found[LEAST.L_DISTANCE]):
+            k = between.at_sample(t, when)
+            if k is not None:   # a sample
                 poses_a, poses_b = (pos_a[k:k + 1], quat_a[k:k + 1]), (pos_b[k:k + 1],
                                                                        quat_b[k:k + 1])
                 when = float(t[k])
             else:
-                poses_a, poses_b = motion_a.at(k - 1, [when]), motion_b.at(k - 1, [when])
+                poses_a, poses_b = between.poses(found)
             found, points = contacts.distances(entry.shape_a, poses_a[1], poses_a[0],
                                                entry.shape_b, poses_b[1], poses_b[0])
             rot_a = rotations.matrices(poses_a[1])[0]

@@ -150,13 +150,17 @@ def test_the_search_agrees_with_a_dense_run_for_a_tumbling_release(tmp_path):
 
 
 def test_the_rate_bound_holds_on_the_interpolant_and_is_not_loose():
-    # random cubic Hermite data, jumps between the end rates included: the bound on each
-    # interval's speed against the speed of the interpolant evaluated densely
-    from cfem_ros.study.between import hermite_speeds
+    # random cubic Hermite data, jumps between the end rates included: the kernel's bound on
+    # each interval's speed (a point at the CG of a body, the other at rest at the origin)
+    # against the speed of the interpolant evaluated densely
+    from cfem_ros.core import _kernel
+    from cfem_ros.core.native.kernel import TRACK
     rng = np.random.default_rng(7)
     time = np.cumsum(rng.uniform(0.001, 0.01, 41))
     value, rate = rng.normal(size=(41, 3)), rng.normal(scale=50.0, size=(41, 3))
-    bound = hermite_speeds(value, rate, time)
+    moving, still = np.zeros((41, TRACK.WIDTH)), np.zeros((41, TRACK.WIDTH))
+    moving[:, TRACK.span('T_POSITION')], moving[:, TRACK.span('T_VELOCITY')] = value, rate
+    bound = _kernel.testing.interval_rates(time, moving, still, 0.0, 0.0)
     s = np.linspace(0.0, 1.0, 2001)[:, None, None]
     h = np.diff(time)[None, :, None]
     speed = (6 * s * s - 6 * s) * (value[:-1] - value[1:]) / h \
@@ -166,9 +170,39 @@ def test_the_rate_bound_holds_on_the_interpolant_and_is_not_loose():
     assert (most >= 0.5 * bound).all()   # within a factor of 2 of the true largest speed
 
 
+def test_the_rate_bound_holds_for_points_on_turning_bodies():
+    # two bodies moving and turning: a point at the radius on each, the speed of their
+    # distance, densely on the interpolant, within the bound
+    from cfem_ros.core import _kernel, rotations
+    from cfem_ros.study.between import track
+    rng = np.random.default_rng(11)
+    time = np.cumsum(rng.uniform(0.002, 0.005, 11))
+    tracks, radius = [], (0.7, 1.6)
+    for _ in range(2):
+        quaternion = rng.normal(size=(11, 4))
+        quaternion /= np.linalg.norm(quaternion, axis=1)[:, None]
+        rates = rng.normal(scale=4.0, size=(11, 3))
+        tracks.append(track(rng.normal(size=(11, 3)), quaternion, rng.normal(size=(11, 3)) * 9,
+                            rates))
+    bound = _kernel.testing.interval_rates(time, tracks[0], tracks[1], *radius)
+    for k in range(len(time) - 1):
+        t = np.linspace(time[k], time[k + 1], 401)
+        gaps = []
+        for direction in rng.normal(size=(4, 2, 3)):
+            ends = []
+            for side in range(2):
+                pose = np.array([_kernel.testing.track_pose(time, tracks[side], k, float(x))
+                                 for x in t])
+                point = direction[side] / np.linalg.norm(direction[side]) * radius[side]
+                ends.append(pose[:, :3] + rotations.matrices(pose[:, 3:]) @ point)
+            gaps.append(np.linalg.norm(ends[0] - ends[1], axis=1))
+        speed = np.abs(np.diff(gaps, axis=1)).max() / (t[1] - t[0])
+        assert speed <= bound[k]
+
+
 def test_a_dip_between_two_samples_far_from_the_least_sample_is_found():
     """A narrow dip the samples miss: the rate bound must leave its interval to search."""
-    from cfem_ros.study.between import least
+    from cfem_ros.core import _kernel
     from scipy.optimize import minimize_scalar
     depth, width, centre = 0.8, 0.0008, 0.5025    # between the samples at 0.500 and 0.505
 
@@ -187,12 +221,11 @@ def test_a_dip_between_two_samples_far_from_the_least_sample_is_found():
     rates = 1.0 + depth * steepest / width
     probed = set()
 
-    def evaluate(k, times):
-        probed.update(np.atleast_1d(k).tolist())
-        return distance(times)
+    def evaluate(k, t):
+        probed.add(k)
+        return float(distance(t))
 
-    value, when = least(time, sampled, evaluate, rates, 0.0, 1.0,
-                        lambda k, t: float(distance(t)))
+    value, when = _kernel.testing.least_between(time, sampled, rates, 0.0, 1.0, evaluate)
     reference = minimize_scalar(distance, bounds=(0.500, 0.505), method='bounded',
                                 options={'xatol': 1e-13})
     assert value == pytest.approx(reference.fun, abs=1e-9)
@@ -200,4 +233,4 @@ def test_a_dip_between_two_samples_far_from_the_least_sample_is_found():
     assert value < 0.71
     assert probed <= {0, 99, 100, 101}, sorted(probed)   # the rest pruned by the bound
     # a window that closes before the dip: the least sample stands
-    assert least(time, sampled, evaluate, rates, 0.0, 0.5, None) == (1.0, 0.0)
+    assert _kernel.testing.least_between(time, sampled, rates, 0.0, 0.5, evaluate) == (1.0, 0.0)

@@ -56,6 +56,7 @@ PYBIND11_MODULE(_kernel, m) {
   cfem::bind_system(m, testing);       // System and the solves that take it
   cfem::bind_aeroshapes(m, testing);   // aerodynamic tables and shape distances, vectorised
   cfem::bind_recorded(m);              // the kernel's formulas over recorded arrays
+  cfem::bind_between(m, testing);      // least distances between samples
 
   testing.def("conditions", [](const py::handle& y, const py::handle& joints_i,
                          const py::handle& joints_f, const py::handle& watch,

@@ -279,6 +279,32 @@
   COLUMN(pair, P_B, 3, 3)                                                                  \
   NUMBER(int, WIDTH, 6)
 
+// A body's track between its samples (between.hpp; study.between.motion makes it), one row
+// per sample: CG position (world, m) and quaternion (x y z w, body to world, each on the
+// side of the one before), then their rates in the same order: CG velocity (world, m/s)
+// and the quaternion's rate of change (1/s). The cubic Hermite interpolant of the VALUES
+// values from them.
+#define CFEM_TRACK_LAYOUT(COLUMN, NUMBER)                                                  \
+  COLUMN(sample, T_POSITION, 0, 3)                                                         \
+  COLUMN(sample, T_QUATERNION, 3, 4)                                                       \
+  COLUMN(sample, T_VELOCITY, 7, 3)                                                         \
+  COLUMN(sample, T_QUATERNION_RATE, 10, 4)                                                 \
+  NUMBER(int, VALUES, 7)                                                                   \
+  NUMBER(int, RATES, 7)                                                                    \
+  NUMBER(int, WIDTH, 14)
+
+// ``out`` of least_between (between.cpp): the least distance over a window (m) and its
+// time (s), both bodies' poses there (CG position, world, m; unit quaternion x y z w) and,
+// between sets of points, the pair's indices (-1 between shapes).
+#define CFEM_LEAST_LAYOUT(COLUMN, NUMBER)                                                  \
+  COLUMN(found, L_DISTANCE, 0, 1)                                                          \
+  COLUMN(found, L_TIME, 1, 1)                                                              \
+  COLUMN(found, L_POSE_A, 2, 7)                                                            \
+  COLUMN(found, L_POSE_B, 9, 7)                                                            \
+  COLUMN(found, L_POINT_A, 16, 1)                                                          \
+  COLUMN(found, L_POINT_B, 17, 1)                                                          \
+  NUMBER(int, WIDTH, 18)
+
 // A sample's outputs (sampling.cpp's sample_outputs; size: sample_size): per body BODY
 // numbers: its CG position (world, m), quaternion (x y z w, body to world), CG velocity
 // and angular velocity (body axes, m/s and rad/s); then per joint sampled JOINT numbers:
@@ -392,6 +418,12 @@ CFEM_TWIST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace closest {
 CFEM_CLOSEST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace closest
+namespace track {
+CFEM_TRACK_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace track
+namespace least {
+CFEM_LEAST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace least
 namespace state {
 CFEM_STATE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace state

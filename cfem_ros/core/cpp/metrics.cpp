@@ -8,9 +8,6 @@
 
 namespace cfem {
 
-namespace {
-
-// Body-axis points at a CG position and attitude (normalized here) in world, into out.
 void world_points(const double* position, const double* quat, const Mat& points, double* out) {
   double norm = std::sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2]
                           + quat[3] * quat[3]);
@@ -22,8 +19,6 @@ void world_points(const double* position, const double* quat, const Mat& points,
     out[3 * i + 2] = position[2] + r.z;
   }
 }
-
-}  // namespace
 
 void clearance(const Mat& pos_a, const Mat& quat_a, const Mat& points_a, const Mat& pos_b,
                const Mat& quat_b, const Mat& points_b, double* out, double* world_a,

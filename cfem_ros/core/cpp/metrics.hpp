@@ -8,6 +8,10 @@
 
 namespace cfem {
 
+// Body-axis points (p, 3) at a CG position (world, m) and attitude (x y z w, normalized
+// here) in world, into out (p, 3).
+void world_points(const double* position, const double* quat, const Mat& points, double* out);
+
 // The least distance between points on two bodies over k samples into out[0:4]: the
 // distance (m), then the sample, the point on a and the point on b where it is least
 // (the first in that order on ties); inf and -1 with no sample or no point. pos (k, 3),

@@ -19,6 +19,7 @@ namespace cfem {
 // Each file's part of the module m, and of its submodule testing (what only tests call).
 void bind_layout(pybind11::module_& m);                                 // layout.cpp
 void bind_system(pybind11::module_& m, pybind11::module_& testing);     // system.cpp
+void bind_between(pybind11::module_& m, pybind11::module_& testing);    // between.cpp
 
 namespace args {
 // Every index the System's arrays hold, in range (systemcheck.cpp); a ValueError naming

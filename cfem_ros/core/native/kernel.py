@@ -107,8 +107,9 @@ class Layout:
 #: body, joint, applied source and aero body), the air of ``aero_wrench``
 #: (``aero_air``), a kinematic body's trajectory from ``BODIES.M_DATA`` on
 #: (``trajectory``), a packed collision shape (``shape``) and the velocity
-#: correction of ``project`` (``twist``) and the closest points of ``distance``
-#: (``closest``).
+#: correction of ``project`` (``twist``), the closest points of ``distance``
+#: (``closest``), a body's track between its samples (``track``) and the least
+#: distance over a window found between samples (``least``).
 BODIES = Layout('bodies')
 LOADS = Layout('loads')
 AERO_TABLE = Layout('aero_table')
@@ -125,6 +126,8 @@ TRAJECTORY = Layout('trajectory')
 SHAPE = Layout('shape')
 TWIST = Layout('twist')
 CLOSEST = Layout('closest')
+TRACK = Layout('track')
+LEAST = Layout('least')
 #: The integrator's state y of n bodies (``state``): blocks of all bodies, block
 #: ``Y_*`` from ``first * n`` on, ``width`` numbers per body (``state_block``).
 STATE = Layout('state')
@@ -158,6 +161,13 @@ PIVOT_RTOL = _kernel.PIVOT_RTOL
 #: ``test/crossings.py``'s reference search uses them).
 CROSSING_XTOL, CROSSING_RTOL = _kernel.CROSSING_XTOL, _kernel.CROSSING_RTOL
 CROSSING_MAXITER = _kernel.CROSSING_MAXITER
+
+#: The search between samples (``cpp/between.hpp``): how close its least comes to the
+#: interpolant's (m), by how much it must fall below the least sample to replace it (m),
+#: and the points probed per sample interval.
+BETWEEN_DISTANCE_TOLERANCE = _kernel.BETWEEN_DISTANCE_TOLERANCE
+BETWEEN_GAIN = _kernel.BETWEEN_GAIN
+BETWEEN_PROBES = _kernel.BETWEEN_PROBES
 
 #: The compiled functions (their docstrings: the C++ headers in ``cpp/``).
 #: Arrays are float64 (plan, rows_i, roots, watch and the like int64) in C order,
@@ -234,6 +244,40 @@ def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
     """
     return _kernel.distance(*(_floats(a) for a in (shape_a, rot_a, position_a, shape_b, rot_b,
                                                    position_b)))
+
+
+def least_shape_distance(time, sampled, track_a, track_b, shape_a, shape_b, start: float,
+                         end: float) -> np.ndarray:
+    """
+    Return the least distance of two packed shapes over [start, end], between samples included.
+
+    ``cpp/between.hpp``'s search (``cfem_ros.study.between`` describes it):
+    time, sampled (n,) the sample times (s) and the distance there (m);
+    track_a, track_b (n, ``TRACK.WIDTH``) the bodies' tracks, or (0,
+    ``TRACK.WIDTH``) each for the samples alone. Returns (``LEAST.WIDTH``,):
+    the least (m), its time (s), the poses there (NaN at a sample).
+    """
+    out = np.empty(LEAST.WIDTH)
+    _kernel.least_shape_distance(*(_floats(a) for a in (time, sampled, track_a, track_b,
+                                                        shape_a, shape_b)),
+                                 float(start), float(end), out)
+    return out
+
+
+def least_point_distance(time, track_a, track_b, points_a, points_b, start: float,
+                         end: float) -> np.ndarray:
+    """
+    Return the least distance over pairs of body-axis points (m) in [start, end], between samples.
+
+    As ``least_shape_distance``, the distance at the samples computed here (the
+    ``clearance`` metric's); points_a (p, 3), points_b (q, 3) in body axes, m.
+    ``LEAST.L_POINT_A``, ``L_POINT_B``: the closest pair between samples.
+    """
+    out = np.empty(LEAST.WIDTH)
+    _kernel.least_point_distance(*(_floats(a) for a in (time, track_a, track_b, points_a,
+                                                        points_b)),
+                                 float(start), float(end), out)
+    return out
 
 
 def _floats(a) -> np.ndarray:
