@@ -23,6 +23,7 @@ import sys
 from cfem_ros import plots
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Status
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.recording.analysis import shared_run
 from cfem_ros.study.labels import label, unit
 from cfem_ros.study.rounding import at_rounding_level, family_scale
@@ -402,7 +403,7 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
 
     Raises
     ------
-    ValueError
+    ArgumentError
         If metric is not a metric column of the table.
     FolderError
         If every draw of the sweep is invalid (nothing was run).
@@ -426,8 +427,8 @@ def write_sweep_figures(outdir: str, directory: str, metric=None) -> list:
         if note:
             print(note, file=sys.stderr)
     elif metric not in table.columns:
-        raise ValueError(f'--metric: {metric!r} is not a column of the table; expected one of '
-                         + ', '.join(metrics))
+        raise ArgumentError(f'--metric: {metric!r} is not a column of the table; expected '
+                            'one of ' + ', '.join(metrics))
     os.makedirs(directory, exist_ok=True)
     paths = [_save(histogram_figure(table, m, criteria, document),
                    os.path.join(directory, f'hist_{m}.png')) for m in metrics]

@@ -45,7 +45,9 @@ class InputError(CfemError):
 
 class ArgumentError(CfemError, ValueError):
     """
-    An argument a call of the API refuses (a state of the wrong shape, an unknown body).
+    An argument a call refuses (a state of the wrong shape, an unknown body, an option's value).
 
-    A ``ValueError`` too, as these refusals were before they were ``CfemError``.
+    Also what a value given in a file is refused for before its key path is
+    known (a time, a mesh file: the caller names the key). A ``ValueError``
+    too, so that a caller catching ``ValueError`` catches it.
     """

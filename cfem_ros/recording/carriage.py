@@ -28,6 +28,7 @@ import os
 from typing import Optional, Union
 
 from cfem_ros.core import rotations
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 from cfem_ros.recording.errors import RecordingError
 import numpy as np
@@ -49,7 +50,7 @@ def parse_point(value) -> Union[str, np.ndarray]:
 
     Raises
     ------
-    ValueError
+    ArgumentError
         If it is neither (the message says what it is; ``EXPECTED`` what it may be).
 
     """
@@ -62,12 +63,12 @@ def parse_point(value) -> Union[str, np.ndarray]:
         try:
             value = [float(p) for p in parts.split(',')]
         except ValueError:
-            raise ValueError(f'{said} is neither {CARRIAGE} nor three numbers') from None
+            raise ArgumentError(f'{said} is neither {CARRIAGE} nor three numbers') from None
     if not isinstance(value, (list, tuple)) or len(value) != 3 or any(
             isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
-        raise ValueError(f'{said} is neither {CARRIAGE} nor three numbers')
+        raise ArgumentError(f'{said} is neither {CARRIAGE} nor three numbers')
     if not all(math.isfinite(v) and abs(v) <= MAX_MAGNITUDE for v in value):
-        raise ValueError(f'{said} is not finite within {MAX_MAGNITUDE:g} m')
+        raise ArgumentError(f'{said} is not finite within {MAX_MAGNITUDE:g} m')
     return np.array(value, dtype=float)
 
 

@@ -17,6 +17,7 @@ import importlib
 import time
 from typing import Callable, Optional
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.recording.errors import RecordingError
 from cfem_ros.recording.reader import open_mcap
 import rclpy
@@ -109,16 +110,16 @@ def topic_name_problem(name: str) -> Optional[str]:
 
 
 def parse_remaps(remaps) -> dict:
-    """Return {from: to} of ``FROM:=TO`` strings (ValueError for a malformed one)."""
+    """Return {from: to} of ``FROM:=TO`` strings; ``ArgumentError`` for a malformed one."""
     out = {}
     for item in remaps or ():
         source, sep, target = item.partition(':=')
         if not sep or not source or not target:
-            raise ValueError(f'--remap {item!r}; expected FROM:=TO (topic names)')
+            raise ArgumentError(f'--remap {item!r}; expected FROM:=TO (topic names)')
         problem = topic_name_problem(target)
         if problem:
-            raise ValueError(f'--remap {item!r}: {target!r} is not a valid ROS 2 topic name '
-                             f'({problem}); expected e.g. /flight/store/pose')
+            raise ArgumentError(f'--remap {item!r}: {target!r} is not a valid ROS 2 topic name '
+                                f'({problem}); expected e.g. /flight/store/pose')
         out[source] = target
     return out
 
@@ -198,7 +199,7 @@ def play(path: str, *, clock: bool = False, rate: float = 1.0, topics=None, rema
 
     """
     if not rate > 0.0:
-        raise ValueError(f'--rate {rate!r}; expected a speed > 0')
+        raise ArgumentError(f'--rate {rate!r}; expected a speed > 0')
     channels, messages = read_log(path, topics)
     remaps = remaps or {}
     own = node is None

@@ -30,7 +30,7 @@ from cfem_ros.core import rotations
 from cfem_ros.core.engine.bodies import state_views
 from cfem_ros.core.engine.events import describe_event, Event, TextEnum
 from cfem_ros.core.engine.sampling import NumericalFailure
-from cfem_ros.core.errors import CfemError
+from cfem_ros.core.errors import ArgumentError, CfemError
 from cfem_ros.core.scenario.checker import MAX_MAGNITUDE
 import numpy as np
 from std_msgs.msg import String
@@ -185,16 +185,16 @@ class RunControl:
         for what, unit, v in zip(('position', 'quaternion', 'velocity', 'angular velocity'),
                                  ('m', '', 'm/s', 'rad/s'), values):
             if not np.isfinite(v).all():
-                raise ValueError(f'the {what} {v.tolist()} is not finite; expected finite '
-                                 'numbers')
+                raise ArgumentError(f'the {what} {v.tolist()} is not finite; expected finite '
+                                    'numbers')
             if np.abs(v).max() > MAX_MAGNITUDE:
-                raise ValueError(f'the {what} {v.tolist()} has a component of magnitude '
-                                 f'{np.abs(v).max():g} {unit}'.rstrip() + ', beyond any '
-                                 f'physical state; expected components of magnitude at most '
-                                 f'{MAX_MAGNITUDE:g}, as in a scenario')
+                raise ArgumentError(f'the {what} {v.tolist()} has a component of magnitude '
+                                    f'{np.abs(v).max():g} {unit}'.rstrip() + ', beyond any '
+                                    f'physical state; expected components of magnitude at most '
+                                    f'{MAX_MAGNITUDE:g}, as in a scenario')
         norm = np.linalg.norm(values[1])
         if not 0.5 < norm < 1.5:
-            raise ValueError(f'the quaternion has norm {norm:.6g}; expected a unit quaternion')
+            raise ArgumentError(f'the quaternion has norm {norm:.6g}; expected a unit quaternion')
         quat = values[1] / norm
         sim = self.node.run.sim
         y = sim.y.copy()
@@ -205,12 +205,12 @@ class RunControl:
             with np.errstate(all='ignore'):
                 finite = np.isfinite(sim.derivative(y)).all()
         except NumericalFailure as err:
-            raise ValueError(f'at that state the joints cannot be solved ({err}); nothing '
-                             'changed') from None
+            raise ArgumentError(f'at that state the joints cannot be solved ({err}); nothing '
+                                'changed') from None
         if not finite:
-            raise ValueError('at that state the accelerations are not finite (loads such as '
-                             'the aerodynamic ones beyond double precision at that speed); '
-                             'expected a state the run can go on from; nothing changed')
+            raise ArgumentError('at that state the accelerations are not finite (loads such as '
+                                'the aerodynamic ones beyond double precision at that speed); '
+                                'expected a state the run can go on from; nothing changed')
         sim.set_state(y)   # strokes, contacts and aero watched from there, as a batch copy
         self.announce({'event': Event.SET_STATE, 'time': sim.t, 'body': name})
 

@@ -17,15 +17,16 @@ from dataclasses import dataclass
 from decimal import Decimal, ROUND_CEILING, ROUND_FLOOR
 import math
 
+from cfem_ros.core.errors import ArgumentError
 from scipy import stats
 
 
 def _check(failures: int, runs: int, level: float):
     if runs < 1 or not 0 <= failures <= runs:
-        raise ValueError(f'failures {failures} of runs {runs}; expected 0 <= failures <= runs, '
-                         'runs >= 1')
+        raise ArgumentError(f'failures {failures} of runs {runs}; expected 0 <= failures <= runs, '
+                            'runs >= 1')
     if not 0 < level < 1:
-        raise ValueError(f'level is {level!r}; expected a confidence 0 < level < 1 (0.95)')
+        raise ArgumentError(f'level is {level!r}; expected a confidence 0 < level < 1 (0.95)')
 
 
 def up(value: float, digits: int = 3) -> str:
@@ -86,11 +87,11 @@ def runs_needed(success: float, level: float = 0.95, failures: int = 0) -> int:
     with P(at most that many failures | P(fail) = 1 - success) <= 1 - level.
     """
     if not 0 < success < 1:
-        raise ValueError(f'success probability {success!r}; expected 0 < P < 1 (0.95)')
+        raise ArgumentError(f'success probability {success!r}; expected 0 < P < 1 (0.95)')
     if not 0 < level < 1:
-        raise ValueError(f'confidence {level!r}; expected 0 < C < 1 (0.95)')
+        raise ArgumentError(f'confidence {level!r}; expected 0 < C < 1 (0.95)')
     if failures < 0:
-        raise ValueError(f'failures {failures}; expected >= 0')
+        raise ArgumentError(f'failures {failures}; expected >= 0')
     n = max(failures + 1, math.ceil(math.log(1 - level) / math.log(success)))
     while stats.binom.cdf(failures, n, 1 - success) > 1 - level:
         n += 1

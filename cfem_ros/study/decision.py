@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import math
 from typing import Optional
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.study.confidence import down, up, upper_bound  # noqa: F401 - down, up: for callers
 
 MEETS = 'meets'
@@ -131,9 +132,9 @@ class Decision:
 
 def _check(target: float, confidence: float):
     if not (isinstance(target, (int, float)) and 0 < target < 1):
-        raise ValueError(f'target is {target!r}; expected a probability 0 < target < 1 (1e-6)')
+        raise ArgumentError(f'target is {target!r}; expected a probability 0 < target < 1 (1e-6)')
     if not (isinstance(confidence, (int, float)) and 0 < confidence < 1):
-        raise ValueError(f'confidence is {confidence!r}; expected 0 < confidence < 1 (0.95)')
+        raise ArgumentError(f'confidence is {confidence!r}; expected 0 < confidence < 1 (0.95)')
 
 
 def decide(estimate, target: float, confidence: float,

@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 from typing import Callable, Optional
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import DESIGNS, Evaluator, METHODS, write_json
 from cfem_ros.study.reliability import mc_estimate, REPEAT  # noqa: F401 - for cfem-sim sweep
@@ -86,9 +87,9 @@ def run_study(spec: SweepSpec, outdir: str, *, method: str = 'mc',
 
     """
     if design is not None and design not in DESIGNS:
-        raise ValueError(f'design is {design!r}; expected one of {", ".join(DESIGNS)}')
+        raise ArgumentError(f'design is {design!r}; expected one of {", ".join(DESIGNS)}')
     if method not in METHODS:
-        raise ValueError(f'method is {method!r}; expected one of {", ".join(METHODS)}')
+        raise ArgumentError(f'method is {method!r}; expected one of {", ".join(METHODS)}')
     name = design or method
     check_size(spec, name)
     options = {'runs': spec.runs, 'seed': spec.seed}

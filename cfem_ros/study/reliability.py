@@ -31,6 +31,7 @@ import signal
 import threading
 from typing import Optional
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.study.confidence import clopper_pearson
 from cfem_ros.study.criteria import margins
 from cfem_ros.study.decision import down, up
@@ -287,7 +288,7 @@ def _run(ot, spec, method, joint, limit_state, evaluate, target_cov, runs,
                                'region FORM can reach, or --method nais or subset') from None
 
     if method not in ('subset', 'nais', 'form'):
-        raise ValueError(f'method is {method!r}; expected one of mc, subset, nais, form')
+        raise ArgumentError(f'method is {method!r}; expected one of mc, subset, nais, form')
     bounds = lognormal_bounds if method == 'subset' else student_bounds
     found = sample(joint, spec.seed)
     b = bounds(found.replicates, level, found.failed)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 
+from cfem_ros.core.errors import ArgumentError
 from cfem_ros.study.draws import marginal
 from cfem_ros.study.errors import SweepError
 from cfem_ros.study.evaluate import random_variables
@@ -70,7 +71,7 @@ def design_points(spec: SweepSpec, design: str) -> tuple:
                             seed=spec.seed)
         probability = np.clip(unit, 1e-12, 1 - 1e-12)
     else:
-        raise ValueError(f'design is {design!r}; expected morris or sobol')
+        raise ArgumentError(f'design is {design!r}; expected morris or sobol')
     from scipy.special import ndtri
     values = np.column_stack([np.asarray(marginal(v, ndtri(probability[:, i])), dtype=float)
                               for i, v in enumerate(spec.variables)])

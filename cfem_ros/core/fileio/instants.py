@@ -19,6 +19,8 @@ from __future__ import annotations
 import datetime
 import re
 
+from cfem_ros.core.errors import ArgumentError
+
 #: The last second a ROS Time holds (2^31 - 1 s after 1970-01-01T00:00:00Z).
 MAX_SECONDS = 2 ** 31 - 1
 
@@ -46,23 +48,23 @@ def instant_ns(value) -> int:
 
     Raises
     ------
-    ValueError
+    ArgumentError
         Saying what the value is and what would do (``EXPECTED``); callers
         prefix the key path or option.
 
     """
     if isinstance(value, datetime.datetime):
         if value.tzinfo is None:
-            raise ValueError(f'is {value.isoformat()}, a time with no UTC offset; expected '
-                             f'{EXPECTED}')
+            raise ArgumentError(f'is {value.isoformat()}, a time with no UTC offset; expected '
+                                f'{EXPECTED}')
         ns = _whole_ns(value)
     elif isinstance(value, str):
         ns = _text_ns(value)
     else:
-        raise ValueError(f'is {value!r}; expected {EXPECTED}')
+        raise ArgumentError(f'is {value!r}; expected {EXPECTED}')
     if not 0 <= ns <= MAX_SECONDS * 1_000_000_000:
-        raise ValueError(f'is {value if isinstance(value, str) else value.isoformat()}, '
-                         f'outside what a ROS stamp holds; expected {EXPECTED}')
+        raise ArgumentError(f'is {value if isinstance(value, str) else value.isoformat()}, '
+                            f'outside what a ROS stamp holds; expected {EXPECTED}')
     return ns
 
 
@@ -76,14 +78,14 @@ def _text_ns(text: str) -> int:
     """Return ISO 8601 text as integer ns since the epoch, the fraction to the nanosecond."""
     found = _PATTERN.fullmatch(text.strip())
     if found is None:
-        raise ValueError(f'is {text!r}; expected {EXPECTED}')
+        raise ArgumentError(f'is {text!r}; expected {EXPECTED}')
     date, clock, fraction, zone = found.groups()
     if zone is None:
-        raise ValueError(f'is {text!r}, a time with no UTC offset (a local time would shift '
-                         f'every stamp by its zone); expected {EXPECTED}')
+        raise ArgumentError(f'is {text!r}, a time with no UTC offset (a local time would shift '
+                            f'every stamp by its zone); expected {EXPECTED}')
     zone = '+00:00' if zone in 'Zz' else zone
     try:
         whole = datetime.datetime.fromisoformat(f'{date}T{clock}{zone}')
     except ValueError as err:
-        raise ValueError(f'is {text!r} ({err}); expected {EXPECTED}') from None
+        raise ArgumentError(f'is {text!r} ({err}); expected {EXPECTED}') from None
     return _whole_ns(whole) + int((fraction or '').ljust(9, '0') or 0)

@@ -24,6 +24,7 @@ import pathlib
 from typing import Callable
 import urllib.parse
 
+from cfem_ros.core.errors import ArgumentError
 import numpy as np
 
 #: Edge of the cube drawn for a fixed body without a shape, m.
@@ -317,7 +318,7 @@ def read_mesh_vertices(path: str) -> np.ndarray:
                 if line.startswith('v ')]
         return np.array(rows, dtype=float).reshape(-1, 3)
     if not lower.endswith('.stl'):
-        raise ValueError('not an .stl or .obj file')
+        raise ArgumentError('not an .stl or .obj file')
     if len(data) >= 84:
         count = int.from_bytes(data[80:84], 'little')
         if 84 + 50 * count == len(data) and count <= MAX_MESH_VERTICES // 3:
@@ -328,5 +329,5 @@ def read_mesh_vertices(path: str) -> np.ndarray:
     text = data.decode('ascii', 'replace')
     rows = [line.split()[1:4] for line in text.splitlines() if line.strip().startswith('vertex')]
     if not rows:
-        raise ValueError('no vertices (neither binary nor ASCII STL)')
+        raise ArgumentError('no vertices (neither binary nor ASCII STL)')
     return np.array(rows, dtype=float)
