@@ -235,7 +235,10 @@ def _composed(rows: list, carrier: list) -> list:
     Return (stamp, pose) rows of poses relative to a carrier composed with its poses.
 
     Within the carrier's span only; none if the carrier has no pose or one
-    that is no rotation (its own topic is refused for it).
+    that is no rotation (its own topic is refused for it). The carrier's
+    pose between its stamps is interpolated (linear, and scipy's Slerp):
+    the kernel's ``relative_states`` is the inverse of this composition
+    (test_analysis checks the round trip), not the composition itself.
     """
     if not carrier or not rows:
         return []

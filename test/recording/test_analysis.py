@@ -362,3 +362,31 @@ def test_compare_of_runs_of_different_lengths_is_over_the_overlap_only(store, tm
     assert 'compared: t = 0 to 1 s' in out and 'velocity u, v, w: body axes' in out
     attitude = next(line for line in out.splitlines() if line.startswith('store attitude'))
     assert math.isclose(float(attitude.split()[5]), by_hand['store attitude'], rel_tol=1e-3)
+
+
+def test_a_relative_pose_composed_with_its_carrier_is_the_kernels_relative_state_inverted():
+    # _composed builds world poses of a body published relative to its carrier; the
+    # kernel's relative state of those world poses in the carrier's must give the
+    # relative poses back (the two directions of one formula), to rounding
+    from cfem_ros.core.native import kernel
+    rng = np.random.default_rng(46)
+    stamps = np.arange(5) * 10_000_000
+    quat = rng.normal(size=(5, 4))
+    carrier_poses = np.hstack([rng.normal(scale=50.0, size=(5, 3)),
+                               quat / np.linalg.norm(quat, axis=1)[:, None]])
+    quat = rng.normal(size=(5, 4))
+    relative = np.hstack([rng.normal(scale=3.0, size=(5, 3)),
+                          quat / np.linalg.norm(quat, axis=1)[:, None]])
+    composed = analysis._composed(
+        [(int(t), tuple(r)) for t, r in zip(stamps, relative)],
+        [(int(t), tuple(c)) for t, c in zip(stamps, carrier_poses)])
+    world = np.array([pose for _, pose in composed])
+    zeros = np.zeros((5, 3))
+    back = kernel.relative_states(world[:, :3], zeros, world[:, 3:], zeros,
+                                  carrier_poses[:, :3], zeros, carrier_poses[:, 3:], zeros)
+    position = back[:, kernel.SAMPLE.span('O_POSITION')]
+    attitude = back[:, kernel.SAMPLE.span('O_QUATERNION')]
+    # positions of some 50 m: rounding of a few 1e-14 m each; q and -q are one attitude
+    np.testing.assert_allclose(position, relative[:, :3], rtol=0, atol=1e-11)
+    attitude *= np.sign(np.sum(attitude * relative[:, 3:], axis=1))[:, None]
+    np.testing.assert_allclose(attitude, relative[:, 3:], rtol=0, atol=1e-13)
