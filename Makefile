@@ -34,10 +34,15 @@ $(STAMP): $(SOURCES)
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP)
 
-# the same with the test, study and guide tools, for make test only (one build of the core)
+# the same with the test, study and guide tools, for make test only (one build of the core,
+# through ccache: see CCACHED)
 $(TOOLS): $(SOURCES)
 	$(make-venv)
-	$(BIN)/python -m pip install -q -e '.[ros,test,study,docs]'
+	$(get-ccache)
+	$(BIN)/python -m pip install -q --upgrade $$($(BIN)/python -c "from pip._vendor import \
+	  tomli; print(*tomli.load(open('pyproject.toml', 'rb'))['build-system']['requires'])")
+	$(ccache-links)
+	$(CCACHED) $(BIN)/python -m pip install -q --no-build-isolation -e '.[ros,test,study,docs]'
 	$(BIN)/python -m compileall -q cfem_ros
 	@touch $(STAMP) $(TOOLS)
 
@@ -56,9 +61,10 @@ demo: $(STAMP)
 	@mkdir -p runs
 	$(BIN)/cfem-sim run config/store_separation.yaml -o runs/store_separation.mcap --overwrite
 
-# ccache for the suite's build of the core from a clean copy (test/test_colcon.py): a
-# second session's compile of the same sources is a cache hit. Installed with apt-get when
-# missing, as python3-venv; without it the suite compiles the core each time (minutes).
+# ccache for make test's build of the core and the suite's build of it from a clean copy
+# (test/test_colcon.py): the second compile of the same sources is a cache hit. Installed
+# with apt-get when missing, as python3-venv; without it the suite compiles the core each
+# time (minutes of CPU).
 define get-ccache
 	@command -v ccache >/dev/null || ! command -v apt-get >/dev/null || { \
 	  echo "installing ccache with apt-get (the test suite's compile of the core is cached)"; \
@@ -66,6 +72,21 @@ define get-ccache
 	  $$SUDO apt-get install -y -q ccache || { $$SUDO apt-get update -q && \
 	    $$SUDO apt-get install -y -q ccache; } || \
 	  echo "ccache not installed: the test suite compiles the core each time"; }
+endef
+
+# The compiler through ccache (nothing without it): links named as the compilers first on
+# PATH (ccache's masquerade), paths under the checkout hashed relative to it, with the build
+# requirements in .venv (no isolated build environment elsewhere). test/test_colcon.py builds
+# the same sources from a copy in the same layout (its build venv is .venv in the copy), so
+# its compile is a cache hit of this one.
+CCACHE_LINKS := $(CURDIR)/$(VENV)/ccache-bin
+CCACHED := PATH="$(CCACHE_LINKS):$$PATH" CCACHE_BASEDIR="$(CURDIR)" CCACHE_NOHASHDIR=1
+define ccache-links
+	@rm -rf $(CCACHE_LINKS); ! command -v ccache >/dev/null || { mkdir -p $(CCACHE_LINKS) && \
+	  for n in cc c++ gcc g++ $$($(BIN)/python -c "import sysconfig; print(*{(sysconfig. \
+	    get_config_var(v) or 'cc').split()[0] for v in ('CC', 'CXX')})"); do \
+	    case $$n in */*) ;; *) ln -sf "$$(command -v ccache)" $(CCACHE_LINKS)/$$n;; esac; \
+	  done; }
 endef
 
 # two test processes (pytest-xdist), a test file's tests in one of them, the long files

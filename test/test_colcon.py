@@ -11,10 +11,12 @@ runs everything else without compiling the core again (issue 47.5). Either
 way a scenario runs right after, with nothing compiled at run time.
 
 With ccache on PATH (``make test`` installs it) the compiler runs through
-it, in a layout that is the same from one session to the next (the copy
-and the build venv side by side in one folder, ccache's base_dir): a
-second session's compile of unchanged sources is a cache hit, the object
-files the compiler made for the same preprocessed sources and flags.
+it, in the layout of ``make test``'s own build of the core in the checkout
+(the build requirements in ``.venv`` inside the source folder, paths hashed
+relative to it, ccache's base_dir): the compile of sources that ``make
+test`` has just built, or that an earlier session built, is a cache hit,
+the object files the compiler made for the same preprocessed sources and
+flags.
 """
 
 import os
@@ -84,13 +86,14 @@ def built(tmp_path_factory):
     pip builds it as a user's ``pip install`` does in an isolated build
     environment: in a venv of its own that holds nothing but the build
     requirements pyproject.toml names (setuptools, pybind11, from the
-    index), compiling the core with the system compiler. That venv sits at
-    the same place beside the copy in every session (``ccache``).
+    index), compiling the core with the system compiler. That venv is
+    ``.venv`` in the copy, as ``make test`` builds in the checkout
+    (``ccache``).
     """
     folder = tmp_path_factory.mktemp('built')
     source = folder / 'cfem_ros'
     shutil.copytree(ROOT, source, ignore=IGNORE)
-    venv, tools = folder / 'venv', folder / 'buildenv'
+    venv, tools = folder / 'venv', source / '.venv'
     for where in (venv, tools):
         subprocess.run([sys.executable, '-m', 'venv', str(where)], check=True, timeout=120)
     python = venv / 'bin' / 'python'
