@@ -18,24 +18,30 @@
 #include "distance.hpp"
 #include "isa.hpp"
 #include "multilinear.hpp"
+#include "pyargs.hpp"
 
 namespace py = pybind11;
 // Arguments are taken as they are, never converted (a copy): float64 in C order, or the
 // call is refused (each argument is noconvert; cfem_ros.core.native.kernel's wrappers convert
 // in the open, where a caller's array may need it).
-using Array = py::array_t<double, py::array::c_style>;
+using cfem::args::Array;
+using cfem::args::need;
+using cfem::args::need_rows;
+using cfem::args::need_shape;
+
+namespace cfem {
+namespace args {
+
+void need_shape(const Array& s, const char* name) {
+  need(s.ndim() == 1 && cfem::shapes::checked_length(s.data(), static_cast<long>(s.shape(0)))
+                            == static_cast<long>(s.shape(0)),
+       std::string(name) + ": a shape from cfem_ros.core.native.contacts.pack_shape expected");
+}
+
+}  // namespace args
+}  // namespace cfem
 
 namespace {
-
-void need(bool ok, const std::string& message) {
-  if (!ok) throw py::value_error(message);
-}
-
-void need_rows(const Array& a, const char* name, py::ssize_t width, py::ssize_t rows) {
-  need(a.ndim() == 2 && a.shape(1) == width && a.shape(0) == rows,
-       std::string(name) + ": shape (" + std::to_string(rows) + ", " + std::to_string(width) +
-           ") expected");
-}
 
 // values at points: grids (list of 1-D), values (sizes..., width), points (n, axes)
 Array py_multilinear(py::list grids, Array values, Array points) {
@@ -123,12 +129,6 @@ py::tuple py_aero_wrench(Array packed, Array position, Array velocity, Array rot
     }
   }
   return py::make_tuple(out, air);
-}
-
-void need_shape(const Array& s, const char* name) {
-  need(s.ndim() == 1 && cfem::shapes::checked_length(s.data(), static_cast<long>(s.shape(0)))
-                            == static_cast<long>(s.shape(0)),
-       std::string(name) + ": a shape from cfem_ros.core.native.contacts.pack_shape expected");
 }
 
 // distances at n pose pairs: (n,) m, (n, 6) the closest points on a and b (world) and

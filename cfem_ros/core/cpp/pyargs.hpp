@@ -103,6 +103,25 @@ inline double* vec(const py::handle& obj, const char* name, bool write, idx size
   return ptr<double>(a);
 }
 
+// A float64 array in C order, as the vectorised bindings (aeroshapes.cpp, recorded.cpp)
+// take it: noconvert, never a copy (cfem_ros.core.native.kernel's wrappers convert).
+using Array = py::array_t<double, py::array::c_style>;
+
+// A ValueError saying message, unless ok.
+inline void need(bool ok, const std::string& message) {
+  if (!ok) throw py::value_error(message);
+}
+
+// a of shape (rows, width), or a ValueError naming it and that shape.
+inline void need_rows(const Array& a, const char* name, py::ssize_t width, py::ssize_t rows) {
+  need(a.ndim() == 2 && a.shape(1) == width && a.shape(0) == rows,
+       std::string(name) + ": shape (" + std::to_string(rows) + ", " + std::to_string(width) +
+           ") expected");
+}
+
+// s a whole packed shape (contacts.pack_shape), or a ValueError naming it (aeroshapes.cpp).
+void need_shape(const Array& s, const char* name);
+
 inline const idx* ivec(const py::handle& obj, const char* name, idx size, idx* length = nullptr) {
   py::array a = checked<idx>(obj, name, 1, false);
   idx got = static_cast<idx>(a.shape(0));

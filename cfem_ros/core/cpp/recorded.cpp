@@ -16,22 +16,16 @@
 #include "distance.hpp"
 #include "layout.hpp"
 #include "motion.hpp"
+#include "pyargs.hpp"
 #include "recorded.hpp"
 
 namespace py = pybind11;
-using Array = py::array_t<double, py::array::c_style>;
+using cfem::args::Array;
+using cfem::args::need;
+using cfem::args::need_rows;
+using cfem::args::need_shape;
 
 namespace {
-
-void need(bool ok, const std::string& message) {
-  if (!ok) throw py::value_error(message);
-}
-
-void need_rows(const Array& a, const char* name, py::ssize_t width, py::ssize_t rows) {
-  need(a.ndim() == 2 && a.shape(1) == width && a.shape(0) == rows,
-       std::string(name) + ": shape (" + std::to_string(rows) + ", " + std::to_string(width) +
-           ") expected");
-}
 
 // (k, sample::BODY): each body's pose and twist relative to its reference (motion.hpp)
 Array py_relative_states(Array position, Array velocity, Array quaternion, Array rates,
@@ -74,12 +68,6 @@ Array py_dynamic_pressure(Array density, Array speed) {
       o[j] = cfem::aero::dynamic_pressure(density.data()[j], speed.data()[j]);
   }
   return out;
-}
-
-void need_shape(const Array& s, const char* name) {
-  need(s.ndim() == 1 && cfem::shapes::checked_length(s.data(), static_cast<long>(s.shape(0)))
-                            == static_cast<long>(s.shape(0)),
-       std::string(name) + ": a shape from cfem_ros.core.native.contacts.pack_shape expected");
 }
 
 }  // namespace
