@@ -14,12 +14,10 @@ Where a near-pylon run's time goes, against the paper's case (issue 49.4).
    (``run_rows``: the model made from the draw, the Simulator, the Session
    stepping to each sample, the metrics: distances between samples), their
    own time summed by where it is spent, then the functions taking most.
-3. The same runs without the profiler, CPU time a run: as shipped, with
-   the search between samples (SPEC section 15) to 1e-6 m instead of 1e-9 m
-   (``between.DISTANCE_TOLERANCE``), and with the distance metrics taken at
-   the samples only (``between.least`` given no interpolant, as for a run
-   whose twists were not recorded): what the search costs, and what it
-   changes.
+3. The same runs without the profiler, CPU time a run: as shipped, and
+   with the distance metrics taken at the samples only (no body's track
+   between samples, as for a run whose twists were not recorded): what the
+   search between samples (SPEC section 15) costs, and what it changes.
 
 The sweep file's ``dt`` grid of two steps runs every draw twice: ``--runs
 10000`` is 20,000 runs (not a tail check); 60 s for them on 2 cores is 6 ms of
@@ -27,9 +25,14 @@ CPU a run. Measured 2026-12-02 (helper B, load average 4 to 11, CPU time; the
 before and after in alternating processes): a sweep run 16.1 -> 13.0 ms (load
 5) and 17.3 -> 15.2 ms (load 8), the model from the draw 3.2 -> 0.35 ms (aero
 scales set on the tables read once, ``aeroscale``), a run's metrics 7.6 ->
-7.1 ms (a body's Motion made once); left: metrics (searches between samples)
-about 6.5 ms, the kernel 2.7 to 4 ms, Session.run's Python 2 ms, the Simulator
-1.4 ms. So some 130 s for the 20,000 runs on 2 idle cores, not 60 s.
+7.1 ms (a body's Motion made once). Then (helper A, load average 13 to 15 on
+the 2 cores, CPU time, 300 runs a process, 4 turns alternating the search in
+Python (a copy of the package before) and in the kernel (``cpp/between.hpp``)):
+a sweep run 9.6 -> 7.2 ms (medians; x1.34), its metrics 4.2 -> 1.4 ms (the
+searches themselves, two shape windows and one clearance, about 0.1 ms of
+it); left: the stepping (Session.run) 3.8 ms, of which the kernel's advance
+about 2.5 ms and the engine's Python about 1 ms, the Simulator 1.0 ms, the
+model 0.4 ms. In one process at load 8 to 12: 6.0 to 6.4 ms a run.
 
 CPU time, not wall time: on a shared machine another process's turn on the
 core would count. cProfile slows the Python side (each call is counted),

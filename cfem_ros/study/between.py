@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 
-from cfem_ros.core import rotations
 from cfem_ros.core.native import kernel
 from cfem_ros.core.native.kernel import LEAST, TRACK
 import numpy as np
@@ -86,22 +85,10 @@ def track(position, quaternion, velocity, rates) -> np.ndarray:
 
     Each quaternion is put on the side of the one before (one sign along the
     track); the velocity is turned into world axes and the rates made the
-    quaternion's rate of change.
+    quaternion's rate of change (the kernel's, ``kernel.track``).
 
     """
-    quaternion = np.array(quaternion, dtype=float)
-    turned = np.einsum('ij,ij->i', quaternion[1:], quaternion[:-1]) < 0
-    flips = np.cumsum(np.r_[False, turned]) % 2 == 1
-    quaternion[flips] *= -1.0
-    velocity = np.asarray(velocity, dtype=float)
-    out = np.empty((len(quaternion), TRACK.WIDTH))
-    out[:, TRACK.span('T_POSITION')] = position
-    out[:, TRACK.span('T_QUATERNION')] = quaternion
-    out[:, TRACK.span('T_VELOCITY')] = np.einsum('nij,nj->ni', rotations.matrices(quaternion),
-                                                 velocity)
-    out[:, TRACK.span('T_QUATERNION_RATE')] = rotations.rate_of_change(
-        quaternion, np.asarray(rates, dtype=float))
-    return out
+    return kernel.track(position, quaternion, velocity, rates)
 
 
 #: The track of a run without twists: the samples alone.

@@ -127,6 +127,39 @@ void write(const Found& found, const Track& a, const Track& b, double* out) {
   }
 }
 
+// A body's track (n, track::WIDTH) from its samples into out: each quaternion on the side of
+// the one before, the CG velocity turned from body axes into world, and the quaternion's
+// rate of change q (w, 0) / 2 from the body rates w.
+void make_track(const Mat& position, const Mat& quaternion, const Mat& velocity,
+                const Mat& rates, Mat& out) {
+  namespace T = cfem::track;
+  double sign = 1.0;
+  for (idx k = 0; k < out.rows; ++k) {
+    const double* q = quaternion.row(k);
+    if (k > 0) {
+      const double* before = quaternion.row(k - 1);
+      if (q[0] * before[0] + q[1] * before[1] + q[2] * before[2] + q[3] * before[3] < 0)
+        sign = -sign;
+    }
+    double* row = out.row(k);
+    for (int c = 0; c < 3; ++c) row[T::T_POSITION + c] = position(k, c);
+    double* turned = row + T::T_QUATERNION;
+    for (int c = 0; c < 4; ++c) turned[c] = sign * q[c];
+    const double norm = std::sqrt(turned[0] * turned[0] + turned[1] * turned[1]
+                                  + turned[2] * turned[2] + turned[3] * turned[3]);
+    cfem::Products p = cfem::products(turned[0] / norm, turned[1] / norm, turned[2] / norm,
+                                      turned[3] / norm);
+    const double* v = velocity.row(k);
+    cfem::V3 world = cfem::unit_turn(p, v[0], v[1], v[2], false);
+    row[T::T_VELOCITY] = world.x, row[T::T_VELOCITY + 1] = world.y;
+    row[T::T_VELOCITY + 2] = world.z;
+    const double* w = rates.row(k);
+    cfem::Q4 rate = cfem::qmul(turned[0], turned[1], turned[2], turned[3], w[0], w[1], w[2], 0.0);
+    double* dq = row + T::T_QUATERNION_RATE;
+    dq[0] = 0.5 * rate.x, dq[1] = 0.5 * rate.y, dq[2] = 0.5 * rate.z, dq[3] = 0.5 * rate.w;
+  }
+}
+
 }  // namespace
 
 namespace cfem {
@@ -135,6 +168,20 @@ void bind_between(py::module_& m, py::module_& testing) {
   m.attr("BETWEEN_DISTANCE_TOLERANCE") = between::DISTANCE_TOLERANCE;
   m.attr("BETWEEN_GAIN") = between::GAIN;
   m.attr("BETWEEN_PROBES") = between::PROBES;
+  m.def("track", [](const py::handle& position, const py::handle& quaternion,
+                    const py::handle& velocity, const py::handle& rates, const py::handle& out) {
+    Mat p = args::mat(position, "position", false, 3), q = args::mat(quaternion, "quaternion",
+                                                                     false, 4);
+    Mat v = args::mat(velocity, "velocity", false, 3), w = args::mat(rates, "rates", false, 3);
+    Mat o = args::mat(out, "out", true, track::WIDTH);
+    if (q.rows != p.rows || v.rows != p.rows || w.rows != p.rows || o.rows != p.rows)
+      throw py::value_error("position, quaternion, velocity, rates, out: expected the same "
+                            "samples (rows)");
+    args::ReleasedFor free(p.rows);
+    make_track(p, q, v, w, o);
+  }, py::arg("position"), py::arg("quaternion"), py::arg("velocity"), py::arg("rates"),
+     py::arg("out"));
+
   m.def("least_shape_distance", [](const py::handle& time, const py::handle& sampled,
                                    const py::handle& track_a, const py::handle& track_b,
                                    const py::handle& shape_a, const py::handle& shape_b,

@@ -246,6 +246,22 @@ def distance(shape_a, rot_a, position_a, shape_b, rot_b, position_b):
                                                    position_b)))
 
 
+def track(position, quaternion, velocity, rates) -> np.ndarray:
+    """
+    Return a body's track between its samples, (n, ``TRACK.WIDTH``) (``cpp/between.cpp``).
+
+    From its n samples' CG position (world, m), quaternion (x y z w, body to
+    world), CG velocity (body axes, m/s) and body rates (rad/s): each quaternion
+    on the side of the one before, the velocity in world axes and the
+    quaternion's rate of change.
+    """
+    position, quaternion, velocity, rates = (_floats(a) for a in (position, quaternion,
+                                                                  velocity, rates))
+    out = np.empty((len(position), TRACK.WIDTH))
+    _kernel.track(position, quaternion, velocity, rates, out)
+    return out
+
+
 def least_shape_distance(time, sampled, track_a, track_b, shape_a, shape_b, start: float,
                          end: float) -> np.ndarray:
     """
