@@ -10,7 +10,8 @@ the flights' residuals one after the other (the parameters are shared).
 ``scipy.optimize.least_squares`` (trust-region reflective, bounded) finds
 the parameters; the Jacobian is by central differences with each
 parameter's stated step (one-sided at a bound), its runs (2 per parameter
-and flight) in parallel threads (the compiled step releases the GIL).
+and flight) in parallel threads (the compiled step releases the GIL), as
+are the flights' runs at one point (the start, each of the solver's steps).
 What the data determine, and how well, is ``uncertainty.analyse``'s: a
 parameter the data do not determine keeps its start value, and the others
 are fitted again with it held there.
@@ -86,7 +87,7 @@ class Fit:
     spec : FitSpec
     observed : list of Observed (or one Measured, for a fit of one flight)
     threads : int
-        Runs of one Jacobian at once.
+        Runs at once: a Jacobian's, and the flights' at one point.
     log : callable, optional
         Called with a line of progress.
 
@@ -99,8 +100,10 @@ class Fit:
         self.spec = spec
         self.threads = max(1, threads or os.cpu_count() or 1)
         self.log = log or (lambda line: print(line, file=sys.stderr, flush=True))
-        self.flights = [FlightFit(spec, flight, o.measured, o.inputs, o.interpolate_odometry)
-                        for flight, o in zip(spec.flights, observed)]
+        self.flights = _each(lambda case: FlightFit(spec, case[0], case[1].measured,
+                                                    case[1].inputs,
+                                                    case[1].interpolate_odometry),
+                             list(zip(spec.flights, observed)), self.threads)
         self._last = (None, None)
         self._last_jacobian = (None, None)
         self.evaluations = 0
@@ -110,16 +113,17 @@ class Fit:
         """Return the runs made so far, over every flight."""
         return sum(f.trajectories.runs for f in self.flights)
 
-    def evaluate(self, values) -> np.ndarray:
-        """Return the weighted residuals at values, every flight's in turn (no cache)."""
-        return np.concatenate([f.evaluate(values) for f in self.flights])
+    def evaluate(self, values, threads: int = 1) -> np.ndarray:
+        """Return the weighted residuals at values, the flights' runs threads at once."""
+        return np.concatenate(_each(lambda flight: flight.evaluate(values), self.flights,
+                                    threads))
 
     def residuals(self, values) -> np.ndarray:
         """Return the weighted residuals at parameter values (the last one kept)."""
         key = np.asarray(values, dtype=float).tobytes()
         if self._last[0] == key:
             return self._last[1]
-        out = self.evaluate(values)
+        out = self.evaluate(values, self.threads)
         self._last = (key, out)
         return out
 
@@ -252,6 +256,14 @@ class Fit:
                          flights=flights, runs=self.runs, status=status,
                          problems=[p[1] for p in problems], evaluations=self.evaluations,
                          message=solution.message)
+
+
+def _each(function, items: list, threads: int) -> list:
+    """Return function of each item, in order, threads at once (an error: the first item's)."""
+    if threads <= 1 or len(items) <= 1:
+        return [function(item) for item in items]
+    with ThreadPoolExecutor(max_workers=min(threads, len(items))) as pool:
+        return list(pool.map(function, items))
 
 
 def _merged(first: list, second: list) -> list:
