@@ -23,7 +23,8 @@ def add_parser(sub):
     fit.add_argument('fit', metavar='FIT.yaml', help='fit file')
     fit.add_argument('-o', '--output', required=True, metavar='OUTDIR', help='folder to write')
     fit.add_argument('--threads', type=int, metavar='N',
-                     help="runs of one Jacobian at once (default: the machine's cores)")
+                     help="runs at once (a Jacobian's, the flights' at one point) and "
+                     "processes drawing the figures (default: the machine's cores)")
     fit.add_argument('--profile', action='store_true',
                      help="add profile-likelihood intervals at the fit file's confidence "
                      '(default 0.95), each point a bounded refit of the other parameters')

@@ -8,10 +8,12 @@ past the window (the fit simulated up to it), values of 1e300, 1e308 and
 NaN, a NaN or zero quaternion in a PoseStamped topic, a finite-difference
 step wider than the bounds, one key path written two ways, an output folder
 that cannot take the outputs (found only after the whole fit), and a write
-interrupted half-way. A window may name a release group (issue 48).
+interrupted half-way (the figures are drawn in forked processes). A
+window may name a release group (issue 48).
 """
 
 import copy
+import functools
 import json
 import os
 import signal
@@ -20,6 +22,7 @@ from cfem_ros import cli
 from cfem_ros.recording.container import Recorder
 from cfem_ros.recording.schema import POSE_TYPE
 from cfem_ros.study.fit import figures, outputs
+from cfem_ros.study.fit.forked import Forked
 from cfem_ros.study.fit.run import observed_flights
 from cfem_ros.study.fit.solve import Fit
 from cfem_ros.study.fit.spec import load_fit
@@ -133,6 +136,24 @@ def test_a_measured_csv_column_in_another_unit_is_refused(
              f"'{header}' is in {found}; expected {want} ('{name} [{want}]' or '{name}')")
 
 
+def test_forked_jobs_run_once_each_in_other_processes_and_the_first_error_is_raised(
+        tmp_path):
+    def job(k, fail=False):
+        (tmp_path / f'{k}.pid').write_text(str(os.getpid()))
+        if fail:
+            raise OSError(28, f'job {k} failed')
+    with Forked([functools.partial(job, k) for k in range(5)], 2):
+        pass
+    pids = [int((tmp_path / f'{k}.pid').read_text()) for k in range(5)]
+    assert os.getpid() not in pids and len(set(pids)) <= 2
+    with pytest.raises(OSError, match='job 1 failed'):   # job 3 fails too: the first said
+        with Forked([functools.partial(job, k, k in (1, 3)) for k in range(4)], 2):
+            pass
+    with Forked([functools.partial(job, 9)], 2):   # one job: in the parent, at the end
+        assert not (tmp_path / '9.pid').exists()
+    assert int((tmp_path / '9.pid').read_text()) == os.getpid()
+
+
 def _pose_log(path, poses, bad_row, position=None, quaternion=None):
     time, xyz, attitude = poses
     quaternions = attitude.as_quat()
@@ -228,9 +249,9 @@ def test_a_write_that_fails_half_way_leaves_the_folder_as_it_was(
     for name, text in former.items():
         (out / name).write_text(text)
 
-    def draw(*args):   # fit.json, fitted.yaml and fitted.mcap are written by now
+    def draw(*args):   # in a forked process, fitted.mcap recorded meanwhile
         failure()
-    monkeypatch.setattr(figures, 'draw', draw)
+    monkeypatch.setattr(figures, 'draw_residuals', draw)
     assert cli.main(['fit', fit, '-o', str(out), '--overwrite', '--threads', '2']) == status
     capsys.readouterr()
     assert sorted(os.listdir(out)) == sorted(former)   # no staging folder left either

@@ -37,54 +37,70 @@ def _axes_time(window) -> tuple:
     return release, 'time from release (s)'
 
 
-def draw(fit, values, trajectory_path: str, residuals_path: str):
-    """Write a flight's (``FlightFit``) trajectory and residual figures."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    data, flight = fit.data, fit.flight
-    measured = np.hstack([data.position,
-                          data.attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
-    zero, label = _axes_time(fit.window)
-    start, end = fit.window[0], min(fit.window[1], fit.last)   # the runs end there
-    dense = np.linspace(start, end, 400)
-    fitted_dense, fitted = relative_histories(fit, values, dense, data.time)
-    (before,) = relative_histories(fit, fit.spec.x0, dense)
+def _measured(data) -> np.ndarray:
+    return np.hstack([data.position, data.attitude.as_euler('ZYX', degrees=True)[:, ::-1]])
+
+
+def _title(fit) -> str:
+    flight = fit.flight
     title = f'{flight.body} relative to {flight.relative_to} ({flight.relative_to} axes)'
     if len(fit.spec.flights) > 1:
         title += f', {flight.key}'
+    return title
 
+
+def _panels():
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
     figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
-    for k, (name, unit) in enumerate(QUANTITIES):
-        ax = axes[k % 3, k // 3]
-        ax.plot(data.time - zero, measured[:, k], '.', ms=3, color='black', label='measured')
-        ax.plot(dense - zero, before[:, k], '--', color='tab:gray', label='start values')
-        ax.plot(dense - zero, fitted_dense[:, k], '-', color='tab:blue', label='fitted')
-        ax.set_ylabel(f'{name} ({unit})')
+    return plt, figure, [axes[k % 3, k // 3] for k in range(len(QUANTITIES))], axes[-1]
+
+
+def _save(plt, figure, axes, bottom, label: str, title: str, path: str):
+    for ax in axes:
         ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
+    for ax in bottom:
         ax.set_xlabel(label)
-    axes[0, 0].legend(loc='best', fontsize=8)
+    axes[0].legend(loc='best', fontsize=8)
     figure.suptitle(title)
     figure.subplots_adjust(**MARGINS)
-    figure.savefig(trajectory_path, dpi=110)
+    figure.savefig(path, dpi=110)
     plt.close(figure)
 
-    residual = measured - fitted
+
+def draw_trajectory(fit, values, path: str):
+    """Write a flight's (``FlightFit``) measured, start and fitted poses' figure."""
+    data = fit.data
+    zero, label = _axes_time(fit.window)
+    start, end = fit.window[0], min(fit.window[1], fit.last)   # the runs end there
+    dense = np.linspace(start, end, 400)
+    (fitted,) = relative_histories(fit, values, dense)
+    (before,) = relative_histories(fit, fit.spec.x0, dense)
+    measured = _measured(data)
+    plt, figure, axes, bottom = _panels()
+    for k, (name, unit) in enumerate(QUANTITIES):
+        ax = axes[k]
+        ax.plot(data.time - zero, measured[:, k], '.', ms=3, color='black', label='measured')
+        ax.plot(dense - zero, before[:, k], '--', color='tab:gray', label='start values')
+        ax.plot(dense - zero, fitted[:, k], '-', color='tab:blue', label='fitted')
+        ax.set_ylabel(f'{name} ({unit})')
+    _save(plt, figure, axes, bottom, label, _title(fit), path)
+
+
+def draw_residuals(fit, values, path: str):
+    """Write a flight's (``FlightFit``) residuals' figure (measured - fitted, with ±1 sigma)."""
+    data, flight = fit.data, fit.flight
+    zero, label = _axes_time(fit.window)
+    (fitted,) = relative_histories(fit, values, data.time)
+    residual = _measured(data) - fitted
     residual[:, 3:] = (residual[:, 3:] + 180.0) % 360.0 - 180.0
     sigmas = [flight.sigma_position] * 3 + [flight.sigma_attitude_deg] * 3
-    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
+    plt, figure, axes, bottom = _panels()
     for k, (name, unit) in enumerate(QUANTITIES):
-        ax = axes[k % 3, k // 3]
+        ax = axes[k]
         ax.axhspan(-sigmas[k], sigmas[k], color='tab:green', alpha=0.15, label='±1 sigma')
         ax.plot(data.time - zero, residual[:, k], '.', ms=3, color='black')
         ax.axhline(0.0, color='tab:blue', lw=0.8)
         ax.set_ylabel(f'measured - fitted {name} ({unit})')
-        ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel(label)
-    axes[0, 0].legend(loc='best', fontsize=8)
-    figure.suptitle(f'residuals: {title}')
-    figure.subplots_adjust(**MARGINS)
-    figure.savefig(residuals_path, dpi=110)
-    plt.close(figure)
+    _save(plt, figure, axes, bottom, label, f'residuals: {_title(fit)}', path)

@@ -10,7 +10,9 @@ undetermined at their start; file names in it rewritten relative to the
 folder so that it runs from there), ``fitted.mcap`` (the first flight's
 run at the fitted values, its inputs replayed) and per flight the figures
 ``fit_trajectory.png`` and ``fit_residuals.png`` (``_K`` appended,
-K = 0, 1, ... of ``measured[K]``, when there are several flights).
+K = 0, 1, ... of ``measured[K]``, when there are several flights), drawn
+in forked processes (``--threads`` of them at most) while ``fitted.mcap``
+is recorded.
 
 The folder is checked before the fit starts (``folder_problem``); the
 outputs are written into a hidden folder inside it and moved into place by
@@ -20,6 +22,7 @@ write leaves the folder as it was.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -29,6 +32,7 @@ import stat
 import tempfile
 
 from cfem_ros.core.scenario.parse import parse_scenario
+from cfem_ros.study.fit.forked import Forked
 from cfem_ros.study.fit.solve import Fit, FitResult
 import yaml
 
@@ -203,14 +207,19 @@ def write_outputs(fit: Fit, result: FitResult, outdir: str) -> dict:
             stream.write(f'# {spec.scenario} with the parameters fitted by cfem-sim fit '
                          f'({spec.path}); see fit.json\n')
             yaml.safe_dump(document, stream, sort_keys=False, default_flow_style=None)
+        from cfem_ros.study.fit import figures
+        jobs = []
+        for k, flight in enumerate(fit.flights):
+            trajectory, residuals = names[3 + 2 * k:5 + 2 * k]
+            jobs += [functools.partial(figures.draw_trajectory, flight, result.values,
+                                       local[trajectory]),
+                     functools.partial(figures.draw_residuals, flight, result.values,
+                                       local[residuals])]
         first = fit.flights[0]
         run = first.flight.document_with(spec.parameters, result.values)
-        _record(first.flight.scenario, run, local['fitted.mcap'], first.trajectories.inputs,
-                first.trajectories.interpolate)
-        from cfem_ros.study.fit.figures import draw
-        figures = names[3:]
-        for k, flight in enumerate(fit.flights):
-            draw(flight, result.values, local[figures[2 * k]], local[figures[2 * k + 1]])
+        with Forked(jobs, fit.threads):   # the figures drawn beside the recording
+            _record(first.flight.scenario, run, local['fitted.mcap'],
+                    first.trajectories.inputs, first.trajectories.interpolate)
     return write_by_renames(outdir, names, write)
 
 
