@@ -9,6 +9,7 @@ NaN, a NaN or zero quaternion in a PoseStamped topic, a finite-difference
 step wider than the bounds, one key path written two ways, an output folder
 that cannot take the outputs (found only after the whole fit), and a write
 interrupted half-way (the figures are drawn in forked processes). A
+measured CSV reads as pandas reads it, and names a line it cannot read. A
 window may name a release group (issue 48).
 """
 
@@ -134,6 +135,31 @@ def test_a_measured_csv_column_in_another_unit_is_refused(
     table.to_csv(tmp_path / 'poses.csv', index=False)
     _refused(capsys, fit, tmp_path / 'out', ': measured.file: ', 'poses.csv: column '
              f"'{header}' is in {found}; expected {want} ('{name} [{want}]' or '{name}')")
+
+
+def test_a_measured_csv_reads_as_pandas_reads_it_and_a_bad_line_is_named(
+        flight, tmp_path, capsys):
+    # the same numbers as pandas (an independent reader) to the bit, blank lines, quoted
+    # fields and a BOM as pandas takes them; a field that is no number, or a line wider
+    # than the header, refused with its line (the header is line 1)
+    lines = open(ff.csv(tmp_path / 'poses.csv', *ff.noisy(flight[2], 4))).read().splitlines()
+    odd = ['\ufeff' + lines[0]] + lines[1:5] + [''] + ['"' + lines[5].replace(',', '","') + '"']
+    (tmp_path / 'odd.csv').write_text('\n'.join(odd + lines[6:]) + '\n', encoding='utf-8')
+    fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(str(tmp_path / 'odd.csv')), AFT)
+    read = observed_flights(load_fit(fit))[0].measured
+    table = pd.read_csv(tmp_path / 'odd.csv', encoding='utf-8-sig')
+    np.testing.assert_array_equal(read.time, table['time'])
+    np.testing.assert_array_equal(read.position, table[['store_x', 'store_y', 'store_z']])
+    fields = lines[7].split(',')
+    for k, (line, problem) in enumerate((
+            (','.join(fields[:2] + ['abc'] + fields[3:]),
+             "poses.csv line 8 holds 'abc', not a number"),
+            (lines[7] + ',1', 'poses.csv line 8 has 8 fields, the header 7'))):
+        (tmp_path / 'poses.csv').write_text('\n'.join(lines[:7] + [line] + lines[8:]))
+        fit = ff.fit_file(tmp_path, flight[1], ff.measured_entry(str(tmp_path / 'poses.csv')),
+                          AFT)
+        _refused(capsys, fit, tmp_path / f'out{k}', ': measured.file: ', problem,
+                 'expected numbers, one per column of the header')
 
 
 def test_forked_jobs_run_once_each_in_other_processes_and_the_first_error_is_raised(

@@ -23,6 +23,7 @@ releases the file records. Three sources:
 
 from __future__ import annotations
 
+import csv
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -44,6 +45,10 @@ CSV_QUANTITIES = ('x', 'y', 'z', 'roll_deg', 'pitch_deg', 'yaw_deg')
 LARGEST_POSITION = 1e6
 #: A measured angle beyond this (deg, about 2,800 turns) is refused likewise.
 LARGEST_ANGLE_DEG = 1e6
+#: A CSV field that is a missing value (NaN, refused by its line): pandas' names for one.
+MISSING = frozenset(('', '#N/A', '#N/A N/A', '#NA', '-1.#IND', '-1.#QNAN', '-NaN', '-nan',
+                     '1.#IND', '1.#QNAN', '<NA>', 'N/A', 'NA', 'NULL', 'NaN', 'None', 'n/a',
+                     'nan', 'null'))
 
 
 @dataclass
@@ -140,34 +145,64 @@ def read_measured(path: str, spec: Flight, start_ns: Optional[int] = None) -> Me
 
 
 def _from_csv(path: str, spec: Flight) -> Measured:
-    import pandas as pd
     try:
-        table = pd.read_csv(spec.measured_file, encoding='utf-8-sig')
-    except (OSError, ValueError, pd.errors.ParserError) as err:
+        with open(spec.measured_file, encoding='utf-8-sig', newline='') as stream:
+            reader = csv.reader(stream)
+            lines = [(reader.line_num, row) for row in reader if row]   # blank lines skipped
+    except (OSError, ValueError, csv.Error) as err:
         raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} cannot be read '
                        f'as CSV ({err})', 'a CSV written by cfem-sim export') from err
+    if not lines:
+        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} is empty',
+                       'a CSV written by cfem-sim export')
     names = ['time'] + [f'{spec.body}_{q}' for q in CSV_QUANTITIES]
     expected = {'time': 's', **{f'{spec.body}_{q}': BODY[q] for q in CSV_QUANTITIES}}
     try:   # a header 'store_x [m]' (as export writes it) or 'store_x'
-        table.columns = bare_columns(spec.measured_file, table.columns, expected)
+        header = bare_columns(spec.measured_file, lines[0][1], expected)
     except RecordingError as err:   # '<file>: column ... is in mm; expected m (...)'
         problem, _, expected = str(err).partition('; expected ')
         raise FitError(path, f'{spec.key}.file', problem, expected) from err
-    missing = [n for n in names if n not in table.columns]
+    missing = [n for n in names if n not in header]
     if missing:
         raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} has no column '
                        + ', '.join(missing), 'the columns of cfem-sim export --relative-to '
                        f'{spec.relative_to} (time, {spec.body}_x, ..., {spec.body}_yaw_deg)')
     try:
-        values = table[names].to_numpy(dtype=float)
+        values = _numbers(lines[1:], [header.index(n) for n in names], len(header))
     except ValueError as err:
-        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file}: a column is not '
-                       f'numeric ({err})', 'numbers') from err
+        raise FitError(path, f'{spec.key}.file', f'{spec.measured_file} {err}',
+                       'numbers, one per column of the header') from err
     _refuse_rows(path, spec, values[:, 0], values[:, 1:4], values[:, 4:7], rows=2,
                  what='line')
     yaw_pitch_roll = values[:, [6, 5, 4]]
     return Measured(values[:, 0], values[:, 1:4],
                     Rotation.from_euler('ZYX', yaw_pitch_roll, degrees=True))
+
+
+def _numbers(lines: list, columns: list, width: int) -> np.ndarray:
+    """
+    Return columns of a CSV's data lines ((number, fields)) as floats (n, len(columns)).
+
+    A field that is empty or missing, or one of pandas' names for a missing
+    value (``NaN``, ``NA``, ``null``, ...), is NaN. Raises ValueError naming
+    the line of a row wider than the header or of a field that is no number.
+    """
+    out = np.empty((len(lines), len(columns)))
+    for k, (line, row) in enumerate(lines):
+        if len(row) > width:
+            raise ValueError(f'line {line} has {len(row)} fields, the header {width}')
+        for j, column in enumerate(columns):
+            field = row[column].strip() if column < len(row) else ''
+            if field in MISSING:
+                out[k, j] = np.nan
+                continue
+            try:
+                if '_' in field:   # float() takes 1_000; a CSV reader does not
+                    raise ValueError(field)
+                out[k, j] = float(field)
+            except ValueError:
+                raise ValueError(f'line {line} holds {field!r}, not a number') from None
+    return out
 
 
 def _from_recording(path: str, spec: Flight) -> Measured:
