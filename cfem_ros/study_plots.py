@@ -24,7 +24,7 @@ from cfem_ros import plots
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import ArgumentError
-from cfem_ros.recording.analysis import shared_run
+from cfem_ros.recording.poses import shared_poses
 from cfem_ros.study.labels import label, unit
 from cfem_ros.study.rounding import at_rounding_level, family_scale
 import matplotlib
@@ -310,16 +310,18 @@ def envelope_figure(recordings, parent, child: str):
     With parent None, relative to the child's own position at the first
     sample (its release point), in world axes.
 
-    Each run is a thin line in the parent's x-z plane and against time;
+    Each run is a thin line in the parent's x-z plane and against time
+    (each panel's lines one ``LineCollection``, in the order of recordings);
     the shaded band is the least and largest value over the runs at each
     sample time the runs share, its edges drawn over the runs. With gravity
     along +z (z down) the z axes point down, as in ``cfem-sim plot`` of a run.
     """
+    from matplotlib.collections import LineCollection
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     tracks = []
     z_down = False
     for path in recordings:
-        run = shared_run(path)
+        run = shared_poses(path)
         if (parent is not None and parent not in run.bodies) or child not in run.bodies:
             continue
         z_down = z_down or plots._z_down(run)
@@ -331,8 +333,13 @@ def envelope_figure(recordings, parent, child: str):
             rot = rotations.matrices(p.quaternion)
             rel = np.einsum('nji,nj->ni', rot, c.position - p.position)
         tracks.append((c.time, rel))
-        axes[0].plot(rel[:, 0], rel[:, 2], color='tab:blue', alpha=0.3, linewidth=0.8)
-        axes[1].plot(c.time, rel[:, 2], color='tab:blue', alpha=0.3, linewidth=0.8)
+    # every run a thin line, a panel's lines one collection drawn as plot() draws lines
+    for ax, lines in ((axes[0], [rel[:, [0, 2]] for _, rel in tracks]),
+                      (axes[1], [np.column_stack([t, rel[:, 2]]) for t, rel in tracks])):
+        ax.add_collection(LineCollection(
+            lines, colors='tab:blue', alpha=0.3, linewidths=0.8, zorder=2,
+            capstyle=plt.rcParams['lines.solid_capstyle'],
+            joinstyle=plt.rcParams['lines.solid_joinstyle']))
     if tracks:
         n = min(len(t) for t, _ in tracks)
         z = np.array([rel[:n, 2] for _, rel in tracks])

@@ -234,23 +234,29 @@ class Run:
         return out
 
 
+#: (roll + 180, 180 - pitch, yaw + 180) = (roll, pitch, yaw) * this + 180.
+_OTHER_TRIPLE = np.array([1.0, -1.0, 1.0])
+
+
 def euler_continuous(euler_deg: np.ndarray) -> np.ndarray:
     """
     Turn Z-Y-X angles (pitch within +-90 deg) into continuous ones.
 
     Each attitude has two Z-Y-X triples, (roll, pitch, yaw) and
     (roll + 180, 180 - pitch, yaw + 180); at each sample the one nearest the
-    previous sample is kept, and every angle is unwrapped by whole turns.
+    previous sample is kept (the first on a tie), and every angle is
+    unwrapped by whole turns. ``euler_deg`` is one history (n, 3) or a
+    stack of independent ones (..., n, 3), each turned as if alone.
     """
     out = np.array(euler_deg, dtype=float, copy=True)
-    for i in range(1, len(out)):
-        prev = out[i - 1]
-        best = None
-        roll, pitch, yaw = out[i]
-        for candidate in (out[i], np.array([roll + 180.0, 180.0 - pitch, yaw + 180.0])):
-            unwrapped = candidate + 360.0 * np.round((prev - candidate) / 360.0)
-            distance = np.abs(unwrapped - prev).sum()
-            if best is None or distance < best[0]:
-                best = (distance, unwrapped)
-        out[i] = best[1]
+    pair = np.empty(out.shape[:-2] + (2, 3))   # a sample's two triples, unwrapped
+    for i in range(1, out.shape[-2]):
+        prev = out[..., i - 1:i, :]
+        pair[..., 0, :] = out[..., i, :]
+        np.multiply(out[..., i, :], _OTHER_TRIPLE, out=pair[..., 1, :])
+        pair[..., 1, :] += 180.0
+        pair += 360.0 * np.round((prev - pair) / 360.0)
+        distance = np.abs(pair - prev).sum(axis=-1)
+        nearer = (distance[..., 1] < distance[..., 0])[..., None]
+        out[..., i, :] = np.where(nearer, pair[..., 1, :], pair[..., 0, :])
     return out

@@ -23,6 +23,7 @@ from cfem_ros.core.engine.events import Status
 from cfem_ros.core.errors import CfemError
 from cfem_ros.plots import save
 from cfem_ros.recording.analysis import euler_continuous, shared_run
+from cfem_ros.recording.poses import shared_poses
 from cfem_ros.recording.relative import relative_track, release_time
 from cfem_ros.separation.figures import LEAST_SPAN, QUANTITIES
 import matplotlib
@@ -64,33 +65,54 @@ def default_reference(manifest: dict):
 def separating_body(path: str, reference: str):
     """Return the body that moves farthest relative to reference in a recording (or None)."""
     from cfem_ros.separation.figures import free_bodies
-    tracks = free_bodies(shared_run(path), reference)
+    tracks = free_bodies(shared_poses(path), reference)
     if not tracks:
         return None
     return max(tracks, key=lambda track: np.ptp(track.position, axis=0).max()).name
 
 
+def histories(recordings: dict, body: str, reference: str) -> dict:
+    """
+    Return ``history`` of each recording, by the same keys: read once, the angles turned at once.
+
+    Each run's relative track comes from its poses (``recording.poses``);
+    the attitudes of the runs with as many samples are made continuous in
+    one call (``euler_continuous`` of a stack, each run as if alone).
+    """
+    tracks = {}
+    for key, path in recordings.items():
+        poses = shared_poses(path)
+        track = relative_track(poses, body, reference)
+        released = release_time(poses)
+        origin = 0.0 if np.isnan(released) else released
+        tracks[key] = (track.time - origin, track.position, track.euler_deg)
+    alike = {}
+    for key, (_, _, euler) in tracks.items():
+        alike.setdefault(len(euler), []).append(key)
+    out = {}
+    for count, keys in alike.items():
+        turned = euler_continuous(np.reshape([tracks[k][2] for k in keys], (len(keys), count, 3)))
+        for key, angles in zip(keys, turned):
+            out[key] = (tracks[key][0], np.column_stack([tracks[key][1], angles]))
+    return {key: out[key] for key in recordings}
+
+
 def history(path: str, body: str, reference: str):
     """Return (time from release (n,), values (n, 6): x, y, z m, roll, pitch, yaw deg) of a run."""
-    run = shared_run(path)
-    track = relative_track(run, body, reference)
-    released = release_time(run)
-    origin = 0.0 if np.isnan(released) else released
-    return track.time - origin, np.column_stack([track.position,
-                                                 euler_continuous(track.euler_deg)])
+    return histories({0: path}, body, reference)[0]
 
 
-def envelope(histories: list, step: float) -> tuple:
+def envelope(runs: list, step: float) -> tuple:
     """
     Return (grid (m,), median (m, 6), low (m, 6), high (m, 6)) of runs' histories.
 
     The grid runs from 0 (the release) by ``step`` to the end of the
     shortest history; each history is interpolated linearly onto it.
     """
-    end = min(t[-1] for t, _ in histories)
+    end = min(t[-1] for t, _ in runs)
     grid = np.arange(0.0, end + 0.5 * step, step)
     stack = np.array([[np.interp(grid, t, values[:, k]) for k in range(6)]
-                      for t, values in histories])   # (runs, 6, m)
+                      for t, values in runs])   # (runs, 6, m)
     median = np.median(stack, axis=0).T
     low, high = (np.percentile(stack, q, axis=0).T for q in BAND)
     return grid, median, low, high
@@ -125,19 +147,19 @@ def envelope_figure(outdir: str, reference: str):
     body = separating_body(next(iter(recordings.values())), reference)
     if body is None:
         raise CfemError(f'{outdir}: --relative-to {reference}: no other free body to draw')
-    histories = {k: history(path, body, reference) for k, path in recordings.items()}
+    drawn = histories(recordings, body, reference)
     rate = float(manifest.get('resolved', {}).get('rate_hz', '100') or 100)
-    grid, median, low, high = envelope(list(histories.values()), 1.0 / rate)
-    worst, criterion = worst_run(outdir, histories)
+    grid, median, low, high = envelope(list(drawn.values()), 1.0 / rate)
+    worst, criterion = worst_run(outdir, drawn)
     fig, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True, layout='constrained')
     fig.suptitle(f'{body} relative to {reference}, {reference} axes: envelope of '
-                 f'{len(histories)} runs')
+                 f'{len(drawn)} runs')
     for ax, column, (name, unit) in zip(axes.ravel(), (0, 3, 1, 4, 2, 5), QUANTITIES):
         ax.fill_between(grid, low[:, column], high[:, column], color='tab:blue', alpha=0.25,
                         label=f'{BAND[0]:g}-{BAND[1]:g} % of the runs')
         ax.plot(grid, median[:, column], color='tab:blue', label='median')
         if worst is not None:
-            t, values = histories[worst]
+            t, values = drawn[worst]
             ax.plot(t, values[:, column], color='tab:red', linewidth=1.2,
                     label=f'worst run by {criterion}: run {worst}')
         ax.axvline(0.0, color='tab:red', linestyle='--', linewidth=1.0)

@@ -11,6 +11,7 @@ from cfem_ros import cli, study_plots
 from cfem_ros.study import Sweep
 from cfem_ros.study.criteria import parse_rule
 from cfem_ros.study.labels import label
+from matplotlib.collections import LineCollection
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -123,8 +124,8 @@ def test_a_body_with_no_joint_has_an_envelope_from_its_release_point(tmp_path):
     assert study_plots.released_pair(manifest) == ('', None, 'store')
     fig = study_plots.envelope_figure(sorted(glob.glob(os.path.join(out, 'runs', '*.mcap'))),
                                       None, 'store')
-    line = fig.axes[1].lines[0]
-    t, z = line.get_xdata(), line.get_ydata()
+    (runs,) = [c for c in fig.axes[1].collections if isinstance(c, LineCollection)]
+    t, z = runs.get_segments()[0].T
     np.testing.assert_allclose(z, 0.5 * 9.80665 * t ** 2, atol=1e-9)
     assert 'release point' in fig.axes[1].get_ylabel()
     plt.close(fig)

@@ -8,10 +8,13 @@ import json
 import os
 
 from cfem_ros import cli, study_plots
+from cfem_ros.recording.analysis import open_run
 from cfem_ros.study import Sweep
+from matplotlib.collections import LineCollection
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 from sweeps import STORE, write_sweep
 
 
@@ -28,17 +31,30 @@ def test_the_envelope_draws_z_down_when_gravity_is_plus_z(tmp_path):
         fig = study_plots.envelope_figure([recording], 'pylon', 'store')
         assert [ax.yaxis_inverted() for ax in fig.axes] == [inverted, inverted]
         # the store falls along gravity: with z down it is drawn going down the page
-        line = fig.axes[1].lines[0]
-        z = line.get_ydata()
+        z = _run_lines(fig.axes[1])[0][:, 1]
         assert np.sign(z[-1] - z[0]) == np.sign(9.80665 if inverted else -9.80665)
         plt.close(fig)
-    # the envelope's edges are drawn over the runs' lines
-    fig = study_plots.envelope_figure([down, down], 'pylon', 'store')
-    runs = [line for line in fig.axes[1].lines if line.get_color() == 'tab:blue']
+    # the envelope's edges are drawn over the runs' lines, which are the whole read's
+    fig = study_plots.envelope_figure([down, up], 'pylon', 'store')
+    (runs,) = [c for c in fig.axes[1].collections if isinstance(c, LineCollection)]
     edges = [line for line in fig.axes[1].lines if line.get_color() == 'tab:orange']
-    assert len(runs) == 2 and len(edges) == 2
-    assert min(e.get_zorder() for e in edges) > max(r.get_zorder() for r in runs)
+    assert len(runs.get_segments()) == 2 and len(edges) == 2
+    assert min(e.get_zorder() for e in edges) > runs.get_zorder()
+    for panel, columns in ((fig.axes[0], (0, 2)), (fig.axes[1], (None, 2))):
+        for drawn, path in zip(_run_lines(panel), (down, up)):
+            run = open_run(path)
+            store, pylon = run.bodies['store'], run.bodies['pylon']
+            rel = Rotation.from_quat(pylon.quaternion).inv().apply(store.position
+                                                                   - pylon.position)
+            want = np.column_stack([store.time if k is None else rel[:, k] for k in columns])
+            np.testing.assert_allclose(drawn, want, rtol=0, atol=1e-12)
     plt.close(fig)
+
+
+def _run_lines(ax):
+    """Return the runs' lines of an envelope panel: its LineCollection's (n, 2) arrays."""
+    (runs,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    return runs.get_segments()
 
 
 def _hinge_table(moment):
