@@ -111,9 +111,10 @@ __attribute__((noinline)) void joint_point(const double* y, idx n, const Work& v
 
 }  // namespace
 
-void row_terms(const double* y, const System& s, const Work& v, bool dense) {
+void row_terms(const double* y, const System& s, const Work& v, bool dense, bool full) {
   const idx n = s.n(), m = s.m();
   const bool kinematic = motion::any(s.bodies);
+  full = full || dense || kinematic;
   const double eta = s.eta;
   Point point = {};
   for (idx r = 0; r < m; ++r) {
@@ -126,19 +127,22 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
     if (kind) {
       // the joint point's terms, shared by a joint's translation rows
       if (kind == 1) joint_point(y, n, v, a, b, rf, wa, point);
-      const V3& rho_b = point.rho_b;
       const V3& t1 = point.t1;
       const V3& d = point.d;
       const V3& d_dot = point.d_dot;
       const V3& centripetal = point.centripetal;
       V3 wa_e = cross(wa, e);
-      V3 t1e = cross(t1, e);
-      V3 rbe = cross(rho_b, e);
       for (int k = 0; k < 3; ++k) {
         jac[k] = -e[k];
-        jac[3 + k] = -t1e[k];
         jac[6 + k] = e[k];
-        jac[9 + k] = rbe[k];
+      }
+      if (full) {  // the rotation columns, which the tree solve does not read
+        V3 t1e = cross(t1, e);
+        V3 rbe = cross(point.rho_b, e);
+        for (int k = 0; k < 3; ++k) {
+          jac[3 + k] = -t1e[k];
+          jac[9 + k] = rbe[k];
+        }
       }
       // dot_yx: the products rounded as the earlier kernel rounded them (algebra.hpp)
       value = dot_yx(d, e);
@@ -182,7 +186,7 @@ void row_terms(const double* y, const System& s, const Work& v, bool dense) {
 
 bool solve(const double* y, const System& s, const Work& v) {
   body_terms(y, s, v, s.dense > 0);
-  row_terms(y, s, v, s.dense > 0);
+  row_terms(y, s, v, s.dense > 0, false);
   if (s.dense > 0) return dense_solve(s, v, s.dense > 1);
   for (idx i = 0; i < s.n(); ++i) {
     if (s.roots[i] == 2) {  // a free body on its own: a = M^-1 f directly

@@ -14,8 +14,11 @@ namespace cfem {
 // inverse inertia in world axes.
 void body_terms(const double* y, const System& s, const Work& v, bool need_inverse);
 
-// Per row: Jacobian blocks J (and J M^-1 if dense), value g, right-hand side.
-void row_terms(const double* y, const System& s, const Work& v, bool dense);
+// Per row: Jacobian blocks J (and J M^-1 if dense), value g, right-hand side. Not full
+// (the tree solve's own call): a translation row's rotation columns are left as they
+// were unless dense or a body is kinematic (the tree solve reads only its translation
+// columns).
+void row_terms(const double* y, const System& s, const Work& v, bool dense, bool full = true);
 
 // Accelerations (v.acc) and joint loads at y; false if singular.
 bool solve(const double* y, const System& s, const Work& v);
