@@ -16,6 +16,9 @@ import numpy as np
 #: figure's time (a fit's figures were half of a 3-parameter fit's wall time).
 MARGINS = {'left': 0.09, 'right': 0.98, 'top': 0.93, 'bottom': 0.07, 'hspace': 0.12,
            'wspace': 0.25}
+#: dots per inch, the figures' own from the start: saved at another, a figure is laid out
+#: again (a quarter of its time), to the same pixels.
+DPI = 110
 QUANTITIES = (('x', 'm'), ('y', 'm'), ('z', 'm'), ('roll', 'deg'), ('pitch', 'deg'),
               ('yaw', 'deg'))
 
@@ -53,7 +56,7 @@ def _panels():
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True)
+    figure, axes = plt.subplots(3, 2, figsize=(11, 9), sharex=True, dpi=DPI)
     return plt, figure, [axes[k % 3, k // 3] for k in range(len(QUANTITIES))], axes[-1]
 
 
@@ -65,7 +68,7 @@ def _save(plt, figure, axes, bottom, label: str, title: str, path: str):
     axes[0].legend(loc='best', fontsize=8)
     figure.suptitle(title)
     figure.subplots_adjust(**MARGINS)
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=DPI)
     plt.close(figure)
 
 
