@@ -8,7 +8,8 @@ alone (not its process group) closes the scheduler under its workers; a
 worker's heartbeat then fails and the worker logged an ERROR with its
 traceback on the command's stderr, after the interrupted line. The case here
 logs that same ERROR inside a worker, deterministically, and reads the
-stderr of the process that owns the cluster.
+stderr of the process that owns the cluster. The same cluster's workers run
+with ``cluster.QUIET``'s settings (no statistical profiler sampling the runs).
 """
 
 import pathlib
@@ -23,7 +24,12 @@ SCRIPT = """
 import logging
 import sys
 sys.path.insert(0, {root!r})
-from cfem_ros.cli.cluster import close, dask_client
+import dask
+from cfem_ros.cli.cluster import close, dask_client, QUIET
+
+
+def settings():
+    return {{key: dask.config.get(key) for key in QUIET}}
 
 
 def heartbeat_fails():
@@ -38,6 +44,9 @@ def heartbeat_fails():
 if __name__ == '__main__':
     client, cluster = dask_client(1, None)
     assert client.submit(heartbeat_fails, pure=False).result()
+    found = client.run(settings)
+    assert list(found.values()) == [QUIET], found
+    assert dask.config.get('distributed.worker.profile.enabled')   # here: as it was
     close(client, cluster)
     print('closed')
 """
