@@ -33,6 +33,14 @@ searches themselves, two shape windows and one clearance, about 0.1 ms of
 it); left: the stepping (Session.run) 3.8 ms, of which the kernel's advance
 about 2.5 ms and the engine's Python about 1 ms, the Simulator 1.0 ms, the
 model 0.4 ms. In one process at load 8 to 12: 6.0 to 6.4 ms a run.
+Part 1 (helper E, 2026-12-02, load 13 to 17, CPU, medians of 5 and 7 turns): the paper's
+case 0.45 to 0.50 us a step, near pylon as shipped 2.30 to 2.40 (4.6x to 5.4x the
+paper's; issue 49.4 asks 3x: not met), without the contacts 2.33 to 2.36, without the
+flow-field table 1.68 to 1.74, without any aero 0.86 to 1.09. Of the kernel's own time
+in near-pylon runs (perf): the aero tables about half (the two multilinear reads 26 %,
+the flow and wrench 11 %, the ISA pow 8 %, atan2 and asin 4 %), the carrier's
+prescribed motion 10 % (motion.cpp's exp map, sin and cos per stage), the body terms,
+dy/dt and RK4 sums 17 %, the scheduled loads and strokes 7 %, the contacts under 1 %.
 
 CPU time, not wall time: on a shared machine another process's turn on the
 core would count. cProfile slows the Python side (each call is counted),
