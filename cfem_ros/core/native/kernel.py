@@ -200,7 +200,9 @@ def views(system) -> dict:
     Return the parts of a System's workspace as views, by name (``cpp/workspace.hpp``).
 
     E.g. ``jac`` (m, 12), ``value`` (m,): the rows' Jacobian blocks and
-    values of the last solve.
+    values of the last solve (``jac`` whole after ``row_jacobian``; a tree
+    solve writes only the columns it reads: a translation row's rotation
+    columns are left as they were).
     """
     work = system.work
     return {name: work[start:start + size].reshape(shape)
