@@ -14,8 +14,26 @@ release. Printed per fit: the whole command's wall time and CPU time
 (medians of --repeats, a fresh process each; the CPU time, user and
 system, does not grow with the machine's load as the wall time does), the
 runs it made, and the values with
-their scaled standard errors against the truth. Usage:
-.venv/bin/python benchmarks/bench_fit.py [--repeats N] [--threads N]
+their scaled standard errors against the truth.
+
+Measured on 2026-12-02 at a load average of 13 to 15 on the 2 cores (other
+work running: the wall times are several times an idle machine's), the
+fit of 864468d and of bba888c run alternately in one script, 3 turns
+each, medians: one flight 3.17 -> 2.83 s CPU (10.6 -> 7.2 s wall),
+two flights 4.18 -> 3.81 s CPU (12.2 -> 12.4 s wall: load noise); this
+script on the new code alone: 2.90 and 3.93 s CPU (22.0 and 18.5 s wall,
+load 15 to 18). The CPU falls less than the wall an idle machine would
+show: the figures (4 for two flights, ~0.25 s CPU each) are drawn in 2
+forked processes beside the recording of fitted.mcap, each importing
+matplotlib (~0.35 s CPU) for itself. Timed by phase in one process, the
+critical path on 2 idle cores (serial CPU, plus the parallel CPU over 1.7)
+falls from 2.62 to 1.57 s (one flight) and from 3.55 to 2.20 s (two), ratios
+0.60 and 0.62: from the 3.6 s and 5.04 s measured idle on 864468d, about
+2.2 s and 3.1 s idle (an estimate, not measured: the machine was never idle).
+What is left on that path, two flights: the imports 0.5 s, the solve 0.5 s
+(86 runs of ~11 ms CPU, 2 threads), the outputs 1.1 s (the figures).
+
+Usage: .venv/bin/python benchmarks/bench_fit.py [--repeats N] [--threads N]
 """
 
 import argparse
