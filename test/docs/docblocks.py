@@ -14,7 +14,8 @@ it (the comment is invisible on GitHub and in the HTML guide)::
                                           wait for them to end, then run this block
     <!-- doc-test: wait -->               wait for the background blocks to end by
                                           themselves, then run this block
-    <!-- doc-test: interrupt-after S -->  run this block, Ctrl-C it after S seconds
+    <!-- doc-test: interrupt-after S -->  run this block, Ctrl-C it S seconds after it
+                                          has begun to write beside a file it names
                                           (it must then exit 130)
     <!-- doc-test: extends FILE -->       a YAML excerpt: merged into FILE (from the
                                           repository root) and run as a scenario

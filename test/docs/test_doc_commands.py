@@ -10,8 +10,9 @@ as ``. .venv/bin/activate`` makes it; nothing is written into the
 repository. Each command of a block runs in ``bash -e -o pipefail`` and
 fails the page when it exits non-zero. Pages share what earlier commands
 wrote (``runs/...``): a command already run as written, with success, is
-not run again while the files it names are as it left them (unless a live
-run is under way), so the first run that several pages show costs once. Two-terminal
+not run again while the files it names, and the files in the folders it
+names, are as it left them (unless a live run is under way), so the first
+run that several pages show costs once. Two-terminal
 walk-throughs run their first terminal in the background, DDS kept to this
 machine and to a domain of its own; every wait has a deadline. The comments
 that say how a block runs are described in ``docblocks.py``; a page of the
@@ -87,14 +88,31 @@ def commands(text: str) -> list:
 
 
 def files_named(command: str, work: pathlib.Path) -> tuple:
-    """Return the size and time of each file a command names (what it read or wrote)."""
+    """
+    Return the size and time of each file a command names (what it read or wrote).
+
+    A folder it names (a sweep's, a figures' folder) stands for the files
+    under it.
+    """
     state = []
     for word in command.replace('=', ' ').split():
         path = work / word.strip('\'"')
-        if word[:1] not in '-|>' and path.is_file() and not path.is_symlink():
-            info = path.stat()
-            state.append((word, info.st_size, info.st_mtime_ns))
+        if word[:1] in '-|>' or path.is_symlink() or path == work \
+                or not path.resolve().is_relative_to(work.resolve()):
+            continue
+        inside = sorted(path.rglob('*')) if path.is_dir() else [path]
+        for file in inside:
+            if file.is_file() and not file.is_symlink():
+                info = file.stat()
+                state.append((str(file.relative_to(work)), info.st_size, info.st_mtime_ns))
     return tuple(state)
+
+
+def folders_named(text: str, work: pathlib.Path) -> tuple:
+    """Return the state of the folders of the paths a block names (where it writes)."""
+    folders = {str(pathlib.PurePath(word.strip('\'"')).parent)
+               for word in text.replace('=', ' ').split() if '/' in word and word[:1] not in '-|>'}
+    return files_named(' '.join(sorted(folders)), work)
 
 
 class Shell:
@@ -193,9 +211,16 @@ def run_page(page: pathlib.Path, work: pathlib.Path, env: dict, done: set):
                     else f'printed nothing in {STARTUP_TIMEOUT:g} s')
                 continue
             if block.verb == 'interrupt-after':
+                before = folders_named(block.text, work)
                 shell = Shell(block, work, env)
                 ran += 1
                 seconds = float(block.argument)
+                # the seconds count from its first write beside a file it names (its
+                # start-up takes longer on a busy machine), at most STARTUP_TIMEOUT on
+                deadline = time.monotonic() + STARTUP_TIMEOUT
+                while (folders_named(block.text, work) == before
+                       and shell.process.poll() is None and time.monotonic() < deadline):
+                    time.sleep(0.05)
                 time.sleep(seconds)
                 assert shell.process.poll() is None, shell.report(
                     f'ended within {seconds:g} s, before the Ctrl-C it shows')
@@ -297,6 +322,28 @@ def test_skipped_blocks_say_why():
 def test_page_commands_run(page, outcomes):
     failure = outcomes[page]
     assert failure is None, failure
+
+
+def test_a_command_s_state_is_its_files_and_the_files_in_its_folders(tmp_path):
+    (tmp_path / 'config').symlink_to(ROOT / 'config')
+    (tmp_path / 'runs' / 'sweep').mkdir(parents=True)
+    table = tmp_path / 'runs' / 'sweep' / 'summary.parquet'
+    table.write_bytes(b'12')
+    command = 'cfem-sim plot runs/sweep -o runs/figures --overwrite'
+    before = files_named(command, tmp_path)
+    assert [name for name, _, _ in before] == ['runs/sweep/summary.parquet']
+    (tmp_path / 'runs' / 'figures').mkdir()
+    (tmp_path / 'runs' / 'figures' / 'a.png').write_bytes(b'png')
+    assert len(files_named(command, tmp_path)) == 2   # what it wrote counts too
+    table.write_bytes(b'123')
+    assert files_named(command, tmp_path)[0] != before[0]   # a changed input: runs again
+    # the repository's folders (links), the work folder and paths outside it are no state
+    assert files_named('cfem-sim check config/store_separation.yaml . / ..', tmp_path) == ()
+    # an interrupted run's first write is a new file beside the one it names
+    run = 'cfem-sim run config/double_pendulum.yaml -o runs/figures/stopped.mcap'
+    started = folders_named(run, tmp_path)
+    (tmp_path / 'runs' / 'figures' / '.stopped.mcap.partial-1').write_bytes(b'')
+    assert folders_named(run, tmp_path) != started
 
 
 def test_lanes_keep_every_page_once():
