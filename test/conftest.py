@@ -24,9 +24,10 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 #: that the two test processes (make test: pytest-xdist, a file's tests in one process)
 #: end together: the first two run side by side (test_colcon.py compiles the core, minutes,
 #: when ccache has not seen its sources).
-LONG_FILES = ('test_doc_commands.py', 'test_colcon.py', 'test_fit_uncertainty.py',
-              'test_flake8.py', 'test_player.py', 'test_node.py', 'test_fit.py',
-              'test_robust_files.py', 'test_node_kills.py', 'test_analysis.py')
+LONG_FILES = ('test_doc_commands.py', 'test_colcon.py', 'test_player.py', 'test_node_kills.py',
+              'test_node.py', 'test_fit_uncertainty.py', 'test_sweep_dask.py', 'test_flake8.py',
+              'test_node_flood.py', 'test_robust_files.py', 'test_fit.py', 'test_node_inputs.py',
+              'test_analysis.py')
 
 
 def pytest_collection_modifyitems(config, items):
