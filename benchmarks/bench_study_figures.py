@@ -18,22 +18,20 @@ index (``recording.poses``, the same numbers as the whole read, to the bit),
 once per process for the two envelopes, and draw the runs of a panel as one
 LineCollection; the figures are pixel-identical to those of the whole reads.
 
-Measured 2026-12-02 (helper B), the machine shared by other work, so the
-wall times are no guide; CPU of the command's process, the same study of
-1,000 runs (826 recorded, 394 MB of MCAP; the others drew an Iyy the
-scenario refuses), made once and given with ``--study``:
+Measured 2026-12-02 (helper B) on the same study of 1,000 runs (826
+recorded, 394 MB of MCAP; the others drew an Iyy the scenario refuses),
+made once and given with ``--study``; CPU of the command's process:
 
-- ``plot --relative-to pylon``: 83.1 s CPU reading every recording whole
-  (864468d, one turn, load 13) -> 7.7 s (one turn, load 12); 8.8 s, median
-  of 3 turns of this benchmark at load 18.
-- ``report``: 75.5 s CPU (864468d, one turn, load 12) -> 7.7 s (one turn,
-  load 13); 9.7 s, median of 3 at load 18.
+- reading whole (864468d) against poses by index, one turn each in turns,
+  load average 1.7 to 3.1: ``plot --relative-to pylon`` 58.9 s wall, 58.9 s
+  CPU -> 7.0 s wall, 6.2 s CPU; ``report`` 61.2 s wall, 55.6 s CPU -> 7.7 s
+  wall, 6.4 s CPU.
+- this benchmark, medians of 3, load average 2.8 to 4.1: plot 6.35 s wall
+  (6.54 s CPU), report 6.70 s wall (6.89 s CPU): under 10 s each.
 
-Each command runs serially in one process, so on 2 idle cores its wall time
-is about its CPU time: under 10 s (issue 49.4 d) is expected but was not
-measured on an idle machine. What is left is mostly matplotlib's (24 figures
-drawn and written), the imports (about 1.5 s) and the reading (about 2 ms
-of CPU a recording, 1.7 s).
+Each command runs serially in one process. What is left is mostly
+matplotlib's (24 figures drawn and written), the imports (about 1.5 s) and
+the reading (about 2 ms of CPU a recording, 1.7 s).
 
 Usage: .venv/bin/python benchmarks/bench_study_figures.py [--runs 1000] [--repeats 3]
 [--keep DIR | --study DIR]
