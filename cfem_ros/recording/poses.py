@@ -139,7 +139,7 @@ def shared_poses(path: str) -> Poses:
     return _shared_poses(os.path.abspath(path), info.st_size, info.st_mtime_ns)
 
 
-@functools.lru_cache(maxsize=4096)   # about 20 kB a run of three bodies and 100 samples
+@functools.lru_cache(maxsize=2048)   # 72 bytes a sample and body: 45 MB for 2,048 runs of 3 x 101
 def _shared_poses(path: str, size: int, mtime_ns: int) -> Poses:
     return read_poses(path)
 
