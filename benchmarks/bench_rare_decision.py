@@ -14,22 +14,46 @@ Phi(-sds): 4.75 gives about 1e-6), and ``target: 1.0e-6``.
 1. The pilot, in this process on one thread: CPU ms a run (``run_rows``).
 2. ``cfem-sim sweep --method subset --repeat 5 --runs N --workers 2``: the
    decision (5 independent repetitions of subset sampling, each N points a
-   level; the tail check reweights their runs), as a whole process with the
-   Dask cluster's start; wall time, CPU time of the process and its workers
-   (``RUSAGE_CHILDREN``), the load average before and after, and what
-   ``estimate.json`` says (P, p_upper, the decision, runs).
+   level; the tail check runs them again on the heavier-tailed inputs), as a
+   whole process with the Dask cluster's start; wall time, CPU time of the
+   process and its workers (``RUSAGE_CHILDREN``), the load average before and
+   after, and what ``estimate.json`` says (P, p_upper, the decision, runs).
 
 Usage: .venv/bin/python benchmarks/bench_rare_decision.py [--runs 1000] [--sds 4.75]
-(needs the study extra). The target of issue 49.4 c: under 5 minutes on 2 cores.
+[--repeat 5] (needs the study extra; --repeat 2 --sds 2.5 is a quicker look at
+the same steps). The target of issue 49.4 c: under 5 minutes on 2 cores.
 
 Measured 2026-12-02 (helper B, on d3dd71a: before the study's tasks of at least
 25 runs, 2e876d2; the machine shared, load average 1.6 rising to 17.6): the
 pilot 5.5 ms CPU a run; the decision 47,994 runs, P = 6.8e-6, p_upper =
 1.5e-5, does_not_meet; 800 s CPU (process and workers, 16.7 ms a run of which
-the parent's some 3.5), 2,366 s wall. On 2 idle cores that CPU is some 400 s,
-not under 300 s: the tail check runs the subset sampling again with the
-heavier tails (it cannot reweight its runs), which about doubles the runs.
-The lead re-measures on an idle machine.
+the parent's some 3.5), 2,366 s wall. The tail check runs the subset sampling
+again with the heavier tails (it cannot reweight its runs), which about
+doubles the runs.
+
+Where the study's own CPU goes (helper G, 2026-12-02, load 10-18 all along;
+the study as cfem-sim runs it, ``run_study`` on a local cluster of 2 workers,
+at 1,000 points a level, 2 repetitions, the threshold 2.5 SDs out: 10,000
+runs, batches of 100, old and new in alternating turns, medians of 2): the
+parent 1.28 -> 0.94 ms CPU a run, of which its main thread, which the
+workers wait for (OpenTURNS, the batch's parts read back, the rows judged),
+0.29 -> 0.20 ms; the workers 7.75 -> 6.75 ms, where a run costs 4.1-5.5 ms
+in one process. Most of the rest is Dask's time-driven work (heartbeats,
+event-loop ticks, the workers' profiler: 7 % of a core for an idle cluster,
+3 % now), which a loaded machine's longer wall multiplies, and a run's CPU
+inflated by the load itself. estimate.json and results.parquet identical to
+the byte. OpenTURNS' own subset sampling is 0.01 ms a run.
+
+The whole decision (this script, --runs 1000, K = 5), helper G, 2026-12-02
+18:16-18:31 with the machine nearly idle (load average 1.9-2.9), the study
+engine before (25-run tasks, Dask's defaults) and after (73601ad) on the same
+tree, alternating turns (old, new, new, old): 147.2 and 153.0 s wall, 260.8 and
+269.7 s CPU before; 132.1 and 131.1 s wall, 234.2 and 230.8 s CPU after
+(medians 150 -> 132 s wall, 265 -> 233 s CPU: 0.88x each; a first pair, new
+then old, 163.5 and 146.2 s wall, 219.8 and 258.8 s CPU). Every turn 47,994
+runs, P = 6.82e-6, p_upper = 1.487e-5, does_not_meet; the pilot 3.4-3.8 ms
+CPU a run. Under the 300 s target on 2 cores: 4.8 ms CPU a run in all, the
+study's own 2.0 -> 1.3 ms of it beside the run's 3.5 in one process.
 """
 
 import argparse
@@ -85,11 +109,11 @@ def pilot(folder: str, runs: int) -> tuple:
     return statistics.mean(values), statistics.stdev(values), 1e3 * cpu
 
 
-def decide(folder: str, path: str, runs: int, workers: int) -> dict:
+def decide(folder: str, path: str, runs: int, workers: int, repeat: int = 5) -> dict:
     """Run the decision as cfem-sim does; return its estimate and times."""
     outdir = os.path.join(folder, 'decision')
     command = [str(ROOT / '.venv' / 'bin' / 'cfem-sim'), 'sweep', path, '-o', outdir,
-               '--method', 'subset', '--repeat', '5', '--runs', str(runs),
+               '--method', 'subset', '--repeat', str(repeat), '--runs', str(runs),
                '--workers', str(workers)]
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -113,6 +137,8 @@ def main(argv=None):
                         help='the threshold, standard deviations below the pilot mean')
     parser.add_argument('--pilot', type=int, default=200)
     parser.add_argument('--workers', type=int, default=2)
+    parser.add_argument('--repeat', type=int, default=5,
+                        help='independent repetitions (5: the decision; 2 for a quick look)')
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix='cfem-bench-decision-') as folder:
         mean, sd, cpu = pilot(folder, args.pilot)
@@ -120,9 +146,9 @@ def main(argv=None):
         print(f'pilot: {args.pilot} runs, {METRIC} {mean:.4f} +- {sd:.4f} m, '
               f'{cpu:.1f} ms CPU a run (one thread); threshold {threshold:.4f} m')
         found = decide(folder, sweep_file(folder, args.runs, threshold), args.runs,
-                       args.workers)
+                       args.workers, args.repeat)
     e = found['estimate']
-    print(f'subset sampling, 5 repetitions x {args.runs} points a level, '
+    print(f'subset sampling, {args.repeat} repetitions x {args.runs} points a level, '
           f'{args.workers} workers: {found["wall"]:.1f} s wall, {found["cpu"]:.1f} s CPU '
           f'(process and workers), load average {found["load"][0]:.1f} before, '
           f'{found["load"][1]:.1f} after; exit {found["exit"]}')
