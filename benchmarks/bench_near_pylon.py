@@ -154,7 +154,8 @@ def profile(runs: int, top: int = 15):
     """Print where the time of a sweep's first runs goes, by place and by function."""
     from cfem_ros.study import load_sweep
     from cfem_ros.study.runs import run_rows
-    spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'))
+    # enough draws for the runs asked (each draw is a row per grid value)
+    spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'), runs=runs)
     run_rows(spec, [0])   # imports and first-call costs out of the figures
     profiler = cProfile.Profile(time.process_time)
     start = time.process_time()
@@ -191,7 +192,8 @@ def run_costs(runs: int, turns: int):
     """
     from cfem_ros.study import between, load_sweep
     from cfem_ros.study.runs import run_rows
-    spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'))
+    # enough draws for the runs asked (each draw is a row per grid value)
+    spec = load_sweep(str(CONFIG / 'sweeps' / 'store_release_near_pylon_sweep.yaml'), runs=runs)
     shipped = between.motion
 
     def no_track(samples, body):

@@ -149,6 +149,8 @@ def run_rows(spec: SweepSpec, runs, outdir: Optional[str] = None,
             if record == 'failed' and row['status'] == Status.FAILED:
                 run_one(spec, k, os.path.join(outdir, 'runs', f'run_{k}.mcap'), models)
         except Exception as err:   # noqa: B902 (run_one lets only a recording failure out)
+            if not recording_failure(err):
+                raise   # not the disk's: a run the spec does not have, a defect; said as it is
             unwritten[k] = str(err)
             return None
         return row

@@ -155,6 +155,13 @@ def test_invalid_values_give_the_whole_parse_message(tmp_path):
     assert 'joints.pivot.axis: has zero length' in rows[2]['message']
 
 
+def test_a_run_the_sweep_does_not_have_is_said_as_such_not_as_a_full_disk(tmp_path):
+    # only a recording that cannot be written is "could not be written ... free some space"
+    spec = Sweep.from_file(write_sweep(tmp_path, runs=1)).spec
+    with pytest.raises(IndexError):
+        run_rows(spec, [spec.total + 5])
+
+
 def test_the_table_is_the_same_on_any_number_of_threads(tmp_path):
     sweep = Sweep.from_file(write_sweep(tmp_path, runs=5))
     one = sweep.run(None, str(tmp_path / 'one'), threads=1)
