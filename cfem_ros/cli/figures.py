@@ -6,7 +6,9 @@ Figures written into a folder without replacing what is there unless told (``--o
 The figures are drawn into a hidden folder inside the target folder, then
 moved in, each by one rename. A figure whose name is taken is refused
 before any is moved: the folder is left as it was (nothing half-replaced),
-with the names that were in the way.
+with the names that were in the way. A SIGINT or SIGTERM while they are
+drawn or moved raises ``Interrupted`` (the command exits 130 or 143) once
+the hidden folder is removed: an interrupted command leaves no trace of it.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ import shutil
 import tempfile
 from typing import Callable, List
 
+from cfem_ros.cli.common import signals_to
 from cfem_ros.core.errors import InputError
+from cfem_ros.interrupts import Interrupted
 
 
 def write_figures(directory: str, overwrite: bool,
@@ -34,6 +38,16 @@ def write_figures(directory: str, overwrite: bool,
 
     """
     os.makedirs(directory, exist_ok=True)
+    with signals_to(_interrupted):
+        return _written(directory, overwrite, draw)
+
+
+def _interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def _written(directory: str, overwrite: bool, draw: Callable[[str], List[str]]) -> List[str]:
+    """Draw into a hidden folder of directory, move the figures in, remove the folder."""
     staging = tempfile.mkdtemp(prefix='.cfem-figures-', dir=directory)
     try:
         drawn = draw(staging)

@@ -250,6 +250,37 @@ def test_figures_replace_same_named_files_only_with_overwrite(store, tmp_path, c
     assert cli.main(['compare', str(store), str(store), '-o', str(out), '--overwrite']) == 0
 
 
+INTERRUPTED_DRAW = """
+import os, signal, sys, time
+from cfem_ros.cli.common import signals_to
+from cfem_ros.cli.figures import write_figures
+from cfem_ros.interrupts import exit_now, Interrupted
+
+
+def draw(folder):
+    open(os.path.join(folder, 'half.png'), 'wb').close()
+    os.kill(os.getpid(), signal.SIGINT)   # Ctrl-C while a figure is drawn
+    time.sleep(5.0)
+    return []
+
+
+with signals_to(exit_now):   # as cfem-sim's main: a stop elsewhere exits at once
+    try:
+        write_figures(sys.argv[1], False, draw)
+    except Interrupted as stop:
+        sys.exit(stop.exit_status)
+"""
+
+
+def test_an_interrupted_drawing_leaves_the_folder_as_it_was(tmp_path):
+    out = tmp_path / 'figures'
+    out.mkdir()
+    (out / 'notes.txt').write_text('kept')
+    done = subprocess.run([sys.executable, '-c', INTERRUPTED_DRAW, str(out)], timeout=60)
+    assert done.returncode == 130
+    assert [p.name for p in out.iterdir()] == ['notes.txt']   # no hidden staging folder
+
+
 def test_info_lists_topics_counts_and_events(store, capsys):
     assert cli.main(['info', str(store)]) == 0
     out = capsys.readouterr().out
