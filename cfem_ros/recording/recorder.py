@@ -20,7 +20,7 @@ import os
 from cfem_ros.core.engine.aero import AIR_TOPICS
 from cfem_ros.core.engine.events import Event
 from cfem_ros.core.native.kernel import SAMPLE
-from cfem_ros.core.run.inputs import InputKind, stamp_problem
+from cfem_ros.core.run.inputs import InputKind, odometry_parts, stamp_problem
 from cfem_ros.core.run.session import RowSink
 from cfem_ros.recording import loadarrows, schema, viewframes, visuals
 from cfem_ros.recording.container import encoder, offered_qos, Recorder
@@ -352,14 +352,14 @@ class StateRecorder(RowSink):
             header_ns = stamp_ns
         self._arrows_on = self._arrows_on or item.kind is InputKind.WRENCH
         if item.kind is InputKind.ODOM:
-            v = item.values
+            position, quaternion, velocity, rates = odometry_parts(item.values)
             self._write(schema.ODOMETRY_INPUT, {
                 'header': {'stamp': stamp(header_ns), 'frame_id': item.frame_id},
                 'child_frame_id': item.target,
-                'pose': {'pose': {'position': _vector(v[0:3]),
-                                  'orientation': dict(zip('xyzw', map(float, v[3:7])))},
+                'pose': {'pose': {'position': _vector(position),
+                                  'orientation': dict(zip('xyzw', map(float, quaternion)))},
                          'covariance': [0.0] * 36},
-                'twist': {'twist': {'linear': _vector(v[7:10]), 'angular': _vector(v[10:13])},
+                'twist': {'twist': {'linear': _vector(velocity), 'angular': _vector(rates)},
                           'covariance': [0.0] * 36},
             }, stamp_ns, body=item.target)
             return

@@ -28,7 +28,7 @@ from typing import Callable, Optional
 from cfem_ros.core import rotations
 from cfem_ros.core.engine.events import Failure
 from cfem_ros.core.engine.kernelcalls import SMALLER_DT
-from cfem_ros.core.run.inputs import Input, InputKind, stamp_problem
+from cfem_ros.core.run.inputs import Input, InputKind, odometry_parts, stamp_problem
 import numpy as np
 
 #: What a position may differ from the velocities' account of it by, beyond what the
@@ -189,16 +189,16 @@ class OdometryCheck:
         """Compare an odometry message with the topic's previous one."""
         if item.kind is not InputKind.ODOM or not item.header_ns or topic in self.warned:
             return
-        v = item.values
-        if not np.isfinite(v).all() or not 0.999 < np.linalg.norm(v[3:7]) < 1.001:
+        position, quaternion, velocity, _ = odometry_parts(item.values)
+        if not np.isfinite(item.values).all() or not 0.999 < np.linalg.norm(quaternion) < 1.001:
             return   # refused elsewhere
-        world = rotations.matrices(v[None, 3:7] / np.linalg.norm(v[3:7]))[0] @ v[7:10]
+        world = rotations.matrices(quaternion[None] / np.linalg.norm(quaternion))[0] @ velocity
         last = self._last.get(topic)
-        self._last[topic] = (item.header_ns, v[0:3].copy(), world)
+        self._last[topic] = (item.header_ns, position.copy(), world)
         if last is None or item.header_ns <= last[0]:
             return
         span = (item.header_ns - last[0]) / 1e9
-        moved = v[0:3] - last[1]
+        moved = position - last[1]
         explained = 0.5 * (world + last[2]) * span
         allowed = (0.5 * np.linalg.norm(world - last[2]) * span
                    + ODOMETRY_RELATIVE * np.linalg.norm(explained) + ODOMETRY_ABSOLUTE)

@@ -154,7 +154,9 @@ def test_a_sample_is_laid_out_as_the_kernel_writes_it():
 # are the entries after the first (a row offset such as ``rows_f[1:, ...]`` is no column);
 # a sample row is flagged for any literal index, and so is the integrator's state (STATE:
 # a name in STATE_NAMES, an attribute ``y``, the result of a STATE_METHODS call, whose
-# blocks start at multiples of n: ``y[6 * n:10 * n]``). It does not follow arrays across
+# blocks start at multiples of n: ``y[6 * n:10 * n]``), and so is an odometry input's
+# values (``kernel.ODOMETRY``: an attribute in ODOMETRY_ATTRIBUTES, ``item.values[3:7]``,
+# or a name bound from one). It does not follow arrays across
 # functions or through containers, nor arithmetic such as ``13 * i``: a name it does
 # not know is not checked (the scan says where literal columns are, not that there are
 # none anywhere).
@@ -169,6 +171,7 @@ KERNEL_ATTRIBUTES = {'loads', 'plan', 'rows_i', 'rows_f', 'joints_i', 'joints_f'
 TABLE_ATTRIBUTES = {'bodies', 'outputs', 'values'}
 STATE_NAMES = {'y', 'y0', 'y1', 'dy'}
 STATE_METHODS = {'derivative', 'initial_state', 'motion_place'}
+ODOMETRY_ATTRIBUTES = {'values'}
 
 
 def _callee(node):
@@ -203,21 +206,23 @@ class _Scan(ast.NodeVisitor):
 
     def __init__(self):
         self.found = []
-        self.arrays, self.rows, self.states = [set()], [set()], [set()]
+        self.arrays, self.rows, self.states, self.odometry = [set()], [set()], [set()], [set()]
 
     def visit_FunctionDef(self, node):
         self.arrays.append(set())
         self.states.append(set())
+        self.odometry.append(set())
         self.rows.append({a.arg for a in node.args.args if a.arg in ROW_PARAMETERS})
         self.generic_visit(node)
         self.arrays.pop()
         self.states.pop()
+        self.odometry.pop()
         self.rows.pop()
 
     visit_AsyncFunctionDef = visit_FunctionDef
 
     def kind(self, node):
-        """Return 'row', 'array' or None: what node is, through indexing and reshapes."""
+        """Return 'row', 'array', 'state', 'odometry' or None: what node is (through indexing)."""
         while True:
             callee = _callee(node)
             if callee in ('reshape', 'copy', 'ravel', 'view'):
@@ -230,9 +235,12 @@ class _Scan(ast.NodeVisitor):
             elif isinstance(node, ast.Name):
                 return ('row' if node.id in self.rows[-1] else
                         'array' if node.id in self.arrays[-1] else
+                        'odometry' if node.id in self.odometry[-1] else
                         'state' if node.id in STATE_NAMES | self.states[-1] else None)
             elif isinstance(node, ast.Attribute) and node.attr == 'y':
                 return 'state'
+            elif isinstance(node, ast.Attribute) and node.attr in ODOMETRY_ATTRIBUTES:
+                return 'odometry'
             else:
                 return ('array' if isinstance(node, ast.Attribute)
                         and node.attr in KERNEL_ATTRIBUTES else None)
@@ -243,8 +251,8 @@ class _Scan(ast.NodeVisitor):
         for target in node.targets if kind else ():
             for name in target.elts if isinstance(target, ast.Tuple) else [target]:
                 if isinstance(name, ast.Name):
-                    {'row': self.rows, 'state': self.states}.get(kind, self.arrays)[-1].add(
-                        name.id)
+                    {'row': self.rows, 'state': self.states, 'odometry': self.odometry}.get(
+                        kind, self.arrays)[-1].add(name.id)
 
     def visit_Subscript(self, node):
         kind, index = self.kind(node.value), node.slice
@@ -252,7 +260,7 @@ class _Scan(ast.NodeVisitor):
             table = isinstance(node.value, ast.Attribute) and node.value.attr in TABLE_ATTRIBUTES
             hit = (kind is not None or table) and any(_literal(e) for e in index.elts[1:])
         else:
-            hit = kind in ('row', 'state') and _literal(index)
+            hit = kind in ('row', 'state', 'odometry') and _literal(index)
         if hit:
             self.found.append((node.lineno, ast.unparse(node)))
         self.generic_visit(node)
@@ -288,6 +296,10 @@ def test_python_indexes_no_kernel_array_by_a_literal_column():
     'quat = y[6 * n:10 * n].reshape(n, 4)',
     'sim.y[8:12]',
     'rates = sim.derivative(sim.y)\nrates[3 * n + 3 * i:3 * n + 3 * i + 3]',
+    # the odometry input's values as inputs.py, stamps.py and recorder.py sliced them
+    'norm = np.linalg.norm(item.values[3:7])',
+    'v = item.values\ncarriers.set_odometry(body, at, v[0:3], v[3:7], v[7:10], v[10:13])',
+    'v = item.values\nrotations.matrices(v[None, 3:7] / np.linalg.norm(v[3:7]))[0] @ v[7:10]',
 ])
 def test_the_scan_finds_a_literal_column(source):
     assert kernel_arrays(textwrap.dedent(source)), source
@@ -302,6 +314,8 @@ def test_the_scan_finds_a_literal_column(source):
     'found = kernel.distance(*args)\nfound[:2]',
     'y = np.zeros(STATE.BODY)\nstate_block(y, 1, "Y_POSITION")',
     'def f(values):\n    return values[3:]',
+    'item.values[ODOMETRY.span("D_QUATERNION")]',
+    'position, quaternion, velocity, rates = odometry_parts(item.values)\nquaternion[None]',
 ])
 def test_the_scan_leaves_layout_reads_and_other_arrays(source):
     assert not kernel_arrays(textwrap.dedent(source)), source

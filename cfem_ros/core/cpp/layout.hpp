@@ -337,6 +337,19 @@
   COLUMN(air, O_MOMENT_COEFFICIENTS, 9, 3)                                                 \
   NUMBER(int, AIR, 12)
 
+// An odometry input (inputs.py's ``Input.values``, from a nav_msgs/Odometry message,
+// REP-105): CG position (world, m), quaternion (x y z w, body to world), CG velocity and
+// angular velocity (body axes, m/s and rad/s): a sample's body columns (O_*), in the same
+// order. The kernel reads no such vector (engine/carrier.py packs a kinematic body's
+// trajectory from its four parts); its table is here so that Python reads its columns
+// (kernel.ODOMETRY) from the one file that lays out the others.
+#define CFEM_ODOMETRY_LAYOUT(COLUMN, NUMBER)                                               \
+  COLUMN(message, D_POSITION, 0, 3)                                                        \
+  COLUMN(message, D_QUATERNION, 3, 4)                                                      \
+  COLUMN(message, D_VELOCITY, 7, 3)                                                        \
+  COLUMN(message, D_RATES, 10, 3)                                                          \
+  NUMBER(int, WIDTH, 13)
+
 // ``air`` of the vectorised aerodynamic wrench (aeroshapes.cpp's aero_wrench, (k, WIDTH)):
 // alpha, beta (rad), Mach, airspeed (m/s), density (kg/m^3), altitude (m), the
 // coefficients CX .. Cn (free stream, increments and delta; moments about the reference
@@ -403,6 +416,9 @@ CFEM_LOCATE_INFO_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 namespace sample {
 CFEM_SAMPLE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace sample
+namespace odometry {
+CFEM_ODOMETRY_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+}  // namespace odometry
 namespace aero_air {
 CFEM_AERO_AIR_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace aero_air

@@ -121,6 +121,10 @@ JOINTS_F = Layout('joints_f')
 ADVANCE_INFO = Layout('advance_info')
 LOCATE_INFO = Layout('locate_info')
 SAMPLE = Layout('sample')
+#: An odometry input's 13 numbers (``odometry``; ``run.inputs.Input.values``):
+#: position, quaternion, velocity and rates, ``D_*``. The kernel reads no such
+#: vector; its table is the extension's so that one file lays out every one.
+ODOMETRY = Layout('odometry')
 AERO_AIR = Layout('aero_air')
 TRAJECTORY = Layout('trajectory')
 SHAPE = Layout('shape')

@@ -18,6 +18,7 @@ from typing import Optional
 
 from cfem_ros.core.engine.events import TextEnum
 from cfem_ros.core.errors import ArgumentError
+from cfem_ros.core.native.kernel import ODOMETRY
 import numpy as np
 
 
@@ -53,10 +54,11 @@ class Input:
         The world frame wins if the body has the world frame's name.
     header_ns : int or None
         The message's own header stamp as received, ns (wrench and odom).
-    values : ndarray, shape (13,), or None
-        Odometry (REP-105): position (world), quaternion x y z w, CG
-        velocity and angular velocity (body axes); ``frame_id`` is the
-        message's, the body its ``child_frame_id`` names by topic.
+    values : ndarray, shape (``ODOMETRY.WIDTH``,), or None
+        Odometry (REP-105), laid out as ``ODOMETRY`` (``odometry_parts``):
+        position (world), quaternion x y z w, CG velocity and angular
+        velocity (body axes); ``frame_id`` is the message's, the body its
+        ``child_frame_id`` names by topic.
     at : float or None
         Odometry that came late (stamped before the simulated time it took
         effect at): its own time, s. The body then moves as the message,
@@ -84,12 +86,24 @@ def wrench_input(body: str, force, torque, frame_id: str, *, time: Optional[floa
                  frame_id=frame_id, header_ns=header_ns)
 
 
+#: The parts of an odometry input's values (``ODOMETRY``), in the order
+#: ``odometry_input`` and ``Carriers.set_odometry`` take them.
+ODOMETRY_PARTS = ('D_POSITION', 'D_QUATERNION', 'D_VELOCITY', 'D_RATES')
+
+
 def odometry_input(body: str, position, quaternion, velocity, rates, frame_id: str, *,
                    time: Optional[float] = None, header_ns: Optional[int] = None) -> Input:
     """Build an odometry input (nav_msgs/Odometry: twist in the body's axes)."""
+    values = np.empty(ODOMETRY.WIDTH)
+    for name, part in zip(ODOMETRY_PARTS, (position, quaternion, velocity, rates)):
+        values[ODOMETRY.span(name)] = np.asarray(part, dtype=float)
     return Input(time=time, kind=InputKind.ODOM, target=body, frame_id=frame_id,
-                 header_ns=header_ns, values=np.concatenate([np.asarray(v, dtype=float) for v in (
-                     position, quaternion, velocity, rates)]))
+                 header_ns=header_ns, values=values)
+
+
+def odometry_parts(values: np.ndarray) -> tuple:
+    """Return an odometry input's position, quaternion, velocity and rates (views of values)."""
+    return tuple(values[ODOMETRY.span(name)] for name in ODOMETRY_PARTS)
 
 
 def release_input(joint: str, *, time: Optional[float] = None) -> Input:
@@ -176,7 +190,7 @@ def validate_input(sim, item: Input):
         if item.values is None or not np.isfinite(item.values).all():
             raise ArgumentError('odometry must be finite numbers')
         _bounded(item.values, 'odometry numbers')
-        norm = np.linalg.norm(item.values[3:7])
+        norm = np.linalg.norm(item.values[ODOMETRY.span('D_QUATERNION')])
         if abs(norm - 1.0) > 1e-3:
             raise ArgumentError(f'odometry quaternion has norm {norm:.6g}; expected a unit '
                                 'quaternion (to 1e-3)')
@@ -202,9 +216,9 @@ def apply_input(sim, item: Input):
     """Apply one input now (ValueError with the reason if it cannot be)."""
     validate_input(sim, item)
     if item.kind is InputKind.ODOM:
-        v = item.values   # from now: the time it takes effect (a sample's at most)
-        at = sim.t if item.at is None else min(item.at, sim.t)   # a late one: its own time
-        sim.carriers.set_odometry(item.target, at, v[0:3], v[3:7], v[7:10], v[10:13])
+        # from now: the time it takes effect (a sample's at most); a late one: its own time
+        at = sim.t if item.at is None else min(item.at, sim.t)
+        sim.carriers.set_odometry(item.target, at, *odometry_parts(item.values))
         return
     if item.kind is InputKind.WRENCH:
         # the world frame wins: a body named as the world frame is loaded in world axes
@@ -268,6 +282,4 @@ class InputQueue:
             validate_input(self.sim, item)
         except ValueError:
             return   # refused, with a warning, when its time comes
-        v = item.values
-        self.sim.carriers.expect_odometry(item.target, item.time, v[0:3], v[3:7], v[7:10],
-                                          v[10:13])
+        self.sim.carriers.expect_odometry(item.target, item.time, *odometry_parts(item.values))
