@@ -93,7 +93,7 @@ PYBIND11_MODULE(_kernel, m) {
                                   const py::handle& out) {
     cfem::Mat l = mat(loads, "loads", false, cfem::loads::WIDTH);
     bodies_in(n, l);
-    const double* yp = vec(y, "y", false, 13 * n);
+    const double* yp = vec(y, "y", false, cfem::state::size(n));
     double* op = vec(out, "out", true, l.rows - n, false);
     ReleasedFor free(l.rows - n);
     cfem::loads::strokes(yp, l, n, op);
@@ -102,7 +102,7 @@ PYBIND11_MODULE(_kernel, m) {
   m.def("loads_aero_axes", [](const py::handle& y, const py::handle& loads, idx n, idx row,
                               const py::handle& out) {
     cfem::Mat l = mat(loads, "loads", false, cfem::loads::WIDTH);
-    const double* yp = vec(y, "y", false, 13 * n);
+    const double* yp = vec(y, "y", false, cfem::state::size(n));
     if (row < n || row >= l.rows || l(row, cfem::loads::S_KIND) != cfem::loads::KIND_AERO)
       throw py::value_error("row: an aerodynamic row of loads expected");
     py::array o = checked<double>(out, "out", 2, true);
@@ -115,7 +115,7 @@ PYBIND11_MODULE(_kernel, m) {
   }, py::arg("y"), py::arg("loads"), py::arg("n"), py::arg("row"), py::arg("out"));
 
   m.def("loads_rotations", [](const py::handle& y, idx n, const py::handle& rot) {
-    const double* yp = vec(y, "y", false, 13 * n);
+    const double* yp = vec(y, "y", false, cfem::state::size(n));
     py::array r = checked<double>(rot, "rot", 3, true);
     if (r.shape(0) != n || r.shape(1) != 3 || r.shape(2) != 3)
       throw py::value_error("rot: expected (n, 3, 3)");
@@ -126,7 +126,7 @@ PYBIND11_MODULE(_kernel, m) {
 
   m.def("motion_place", [](const py::handle& y, const py::handle& bodies, double offset) {
     cfem::Mat b = mat(bodies, "bodies", true);
-    double* yp = vec(y, "y", true, 13 * b.rows);
+    double* yp = vec(y, "y", true, cfem::state::size(b.rows));
     ReleasedFor free(b.rows);
     if (b.cols > cfem::motion::BODY_COLUMNS) cfem::motion::place(yp, b, offset);
   }, py::arg("y"), py::arg("bodies"), py::arg("offset"));

@@ -15,7 +15,7 @@ namespace {
 // Rotation matrix (row-major, body to world) of body i's quaternion in y, as the step
 // computes the bodies' (quat_matrix).
 void matrix(const double* y, idx n, idx i, double* r) {
-  const double* q = y + 6 * n + 4 * i;
+  const double* q = y + state::quaternion(n, i);
   quat_matrix(q[0], q[1], q[2], q[3], r);
 }
 
@@ -45,15 +45,16 @@ double push(const double* y, const double* rot, const Mat& loads, idx row, idx n
   turn(rb, br + loads::BR_POINT, arm_b);
   turn(rc, br + loads::BR_AXIS, direction);   // the pad's axis turns with the carrier
   turn(rc, br + loads::BR_PAD, arm_c);
-  turn(rb, y + 10 * n + 3 * b, omega_b);
-  turn(rc, y + 10 * n + 3 * c, omega_c);
+  turn(rb, y + state::rates(n, b), omega_b);
+  turn(rc, y + state::rates(n, c), omega_c);
   cross(omega_b, arm_b, spin_b);
   cross(omega_c, arm_c, spin_c);
   double gap[3], closing[3], turning[3];
   for (int k = 0; k < 3; ++k) {
-    point[k] = y[3 * b + k] + arm_b[k];
-    gap[k] = point[k] - (y[3 * c + k] + arm_c[k]);
-    closing[k] = (y[3 * n + 3 * b + k] + spin_b[k]) - (y[3 * n + 3 * c + k] + spin_c[k]);
+    point[k] = y[state::position(n, b) + k] + arm_b[k];
+    gap[k] = point[k] - (y[state::position(n, c) + k] + arm_c[k]);
+    closing[k] = (y[state::velocity(n, b) + k] + spin_b[k])
+                 - (y[state::velocity(n, c) + k] + spin_c[k]);
   }
   cross(omega_c, direction, turning);
   // s = -gap . a, and ds/dt = -(d gap/dt . a + gap . (omega_c x a)), a the pad's axis
@@ -83,7 +84,8 @@ bool wrench(const double* y, const double* rot, const Mat& loads, idx row, idx n
   double direction[3];
   double f = push(y, rot, loads, row, n, point, direction, nullptr);
   idx b = static_cast<idx>(loads(row, loads::BR_BODY));
-  double r[3] = {point[0] - y[3 * b], point[1] - y[3 * b + 1], point[2] - y[3 * b + 2]};
+  const double* cg = y + state::position(n, b);
+  double r[3] = {point[0] - cg[0], point[1] - cg[1], point[2] - cg[2]};
   for (int k = 0; k < 3; ++k) out[k] = f * direction[k];
   cross(r, out, out + 3);
   return true;

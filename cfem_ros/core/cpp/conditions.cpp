@@ -15,8 +15,8 @@ void conditions(const double* y, idx size, const IMat& joints_i, const Mat& join
   for (idx w = 0; w < count; ++w) {
     idx k = watch[w];
     idx a = joints_i(k, 0), b = joints_i(k, 1);
-    const double* qa = y + 6 * n + 4 * a;
-    const double* qb = y + 6 * n + 4 * b;
+    const double* qa = y + state::quaternion(n, a);
+    const double* qb = y + state::quaternion(n, b);
     double na = std::sqrt(qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3]);
     double nb = std::sqrt(qb[0] * qb[0] + qb[1] * qb[1] + qb[2] * qb[2] + qb[3] * qb[3]);
     // relative = conj(q0) * conj(qa) * qb, angle = 2 atan2(|v|, |w|)
@@ -31,7 +31,7 @@ void conditions(const double* y, idx size, const IMat& joints_i, const Mat& join
     V3 pb = rotate(rot, jf[3], jf[4], jf[5]);
     double total = 0.0;
     for (int i = 0; i < 3; ++i) {
-      double gap = y[3 * b + i] + pb[i] - y[3 * a + i] - pa[i];
+      double gap = y[state::position(n, b) + i] + pb[i] - y[state::position(n, a) + i] - pa[i];
       total += gap * gap;
     }
     out[w * stride + 1] = std::sqrt(total);

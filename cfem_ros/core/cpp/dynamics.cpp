@@ -30,10 +30,10 @@ void body_terms(const double* y, const System& s, const Work& v, bool need_inver
   const idx n = s.n();
   const Mat& bodies = s.bodies;
   for (idx i = 0; i < n; ++i) {
-    idx o = 6 * n + 4 * i;
+    idx o = state::quaternion(n, i);
     double* rot = v.rot + 9 * i;
     quat_matrix(y[o], y[o + 1], y[o + 2], y[o + 3], rot);
-    o = 10 * n + 3 * i;
+    o = state::rates(n, i);
     V3 w = rotate(rot, y[o], y[o + 1], y[o + 2]);
     v.omega[3 * i] = w.x;
     v.omega[3 * i + 1] = w.y;
@@ -93,18 +93,19 @@ __attribute__((noinline)) void joint_point(const double* y, idx n, const Work& v
   V3 wb = {v.omega[3 * b], v.omega[3 * b + 1], v.omega[3 * b + 2]};
   V3 rho_a = rotate(v.rot + 9 * a, rf[3], rf[4], rf[5]);
   V3 rho_b = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
-  V3 pa = {y[3 * a], y[3 * a + 1], y[3 * a + 2]};
-  V3 t1 = {y[3 * b] + rho_b.x - pa.x, y[3 * b + 1] + rho_b.y - pa.y,
-           y[3 * b + 2] + rho_b.z - pa.z};
+  const double* cg_a = y + state::position(n, a);
+  const double* cg_b = y + state::position(n, b);
+  V3 pa = {cg_a[0], cg_a[1], cg_a[2]};
+  V3 t1 = {cg_b[0] + rho_b.x - pa.x, cg_b[1] + rho_b.y - pa.y, cg_b[2] + rho_b.z - pa.z};
   q.rho_b = rho_b;
   q.t1 = t1;
   q.d = {t1.x - rho_a.x, t1.y - rho_a.y, t1.z - rho_a.z};
   V3 vb = cross(wb, rho_b);
   V3 va = cross(wa, rho_a);
-  idx o = 3 * n;
-  q.d_dot = {y[o + 3 * b] + vb.x - y[o + 3 * a] - va.x,
-             y[o + 3 * b + 1] + vb.y - y[o + 3 * a + 1] - va.y,
-             y[o + 3 * b + 2] + vb.z - y[o + 3 * a + 2] - va.z};
+  const double* vel_a = y + state::velocity(n, a);
+  const double* vel_b = y + state::velocity(n, b);
+  q.d_dot = {vel_b[0] + vb.x - vel_a[0] - va.x, vel_b[1] + vb.y - vel_a[1] - va.y,
+             vel_b[2] + vb.z - vel_a[2] - va.z};
   V3 cb = cross(wb, vb), ca = cross(wa, va);
   q.centripetal = {cb.x - ca.x, cb.y - ca.y, cb.z - ca.z};
 }
@@ -209,15 +210,16 @@ double derivative(const double* y, double* dy, const System& s, const Work& v, b
   if (!solved && !solve(y, s, v)) return -1.0;
   const bool kinematic = motion::any(s.bodies);
   for (idx i = 0; i < n; ++i) {
-    idx o = 6 * n + 4 * i;
+    idx o = state::quaternion(n, i);
     const double* rot = v.rot + 9 * i;
     const double* acc = v.acc + 6 * i;
-    double w0 = y[10 * n + 3 * i], w1 = y[10 * n + 3 * i + 1], w2 = y[10 * n + 3 * i + 2];
+    const double* rates = y + state::rates(n, i);
+    double w0 = rates[0], w1 = rates[1], w2 = rates[2];
     for (int k = 0; k < 3; ++k) {
-      dy[3 * i + k] = y[3 * n + 3 * i + k];
-      dy[3 * n + 3 * i + k] = acc[k];
+      dy[state::position(n, i) + k] = y[state::velocity(n, i) + k];
+      dy[state::velocity(n, i) + k] = acc[k];
       // body-axis angular acceleration: R^T alpha_world
-      dy[10 * n + 3 * i + k] = rot[k] * acc[3] + rot[3 + k] * acc[4] + rot[6 + k] * acc[5];
+      dy[state::rates(n, i) + k] = rot[k] * acc[3] + rot[3 + k] * acc[4] + rot[6 + k] * acc[5];
     }
     if (kinematic && s.bodies(i, motion::M_KIND) > 0.0)
       motion::derivative(s.bodies, i, v.rot, dy, n);  // a kinematic body's own

@@ -442,6 +442,32 @@ CFEM_LEAST_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
 }  // namespace least
 namespace state {
 CFEM_STATE_LAYOUT(CFEM_LAYOUT_COLUMN, CFEM_LAYOUT_NUMBER)
+// The kernel reads y through these offsets, never a number of its own.
+#define CFEM_STATE_WIDTH(group, name, first, width) block == first ? width :
+#define CFEM_STATE_SKIP(type, name, value)
+// The width of the block that starts at block * n (0: no block starts there).
+constexpr int width(int block) {
+  return CFEM_STATE_LAYOUT(CFEM_STATE_WIDTH, CFEM_STATE_SKIP) 0;
+}
+#undef CFEM_STATE_WIDTH
+#undef CFEM_STATE_SKIP
+// Where body i's numbers of a block (Y_*) start in the state y of n bodies.
+template <int block, class N, class I>
+constexpr auto at(N n, I i) {
+  static_assert(width(block) > 0, "not a block of the state");
+  return block * n + width(block) * i;
+}
+template <class N, class I>
+constexpr auto position(N n, I i) { return at<Y_POSITION>(n, i); }
+template <class N, class I>
+constexpr auto velocity(N n, I i) { return at<Y_VELOCITY>(n, i); }
+template <class N, class I>
+constexpr auto quaternion(N n, I i) { return at<Y_QUATERNION>(n, i); }
+template <class N, class I>
+constexpr auto rates(N n, I i) { return at<Y_RATES>(n, i); }
+// The state's size for n bodies.
+template <class N>
+constexpr auto size(N n) { return BODY * n; }
 }  // namespace state
 }  // namespace cfem
 

@@ -21,14 +21,14 @@ void turn(const double* rot, const double* v, double* out) {
 
 // Body i's CG plus its rotation (from its quaternion in y) applied to p.
 V3 carried(const double* y, idx n, idx i, double px, double py, double pz) {
-  idx o = 6 * n + 4 * i;
+  idx o = state::quaternion(n, i);
   Products p = products(y[o], y[o + 1], y[o + 2], y[o + 3]);
   double s = 2.0 / (p.xx + p.yy + p.zz + p.w * p.w);
-  return {y[3 * i] + (1 - s * (p.yy + p.zz)) * px + s * (p.xy - p.wz) * py
+  return {y[state::position(n, i)] + (1 - s * (p.yy + p.zz)) * px + s * (p.xy - p.wz) * py
               + s * (p.xz + p.wy) * pz,
-          y[3 * i + 1] + s * (p.xy + p.wz) * px + (1 - s * (p.xx + p.zz)) * py
+          y[state::position(n, i) + 1] + s * (p.xy + p.wz) * px + (1 - s * (p.xx + p.zz)) * py
               + s * (p.yz - p.wx) * pz,
-          y[3 * i + 2] + s * (p.xz - p.wy) * px + s * (p.yz + p.wx) * py
+          y[state::position(n, i) + 2] + s * (p.xz - p.wy) * px + s * (p.yz + p.wx) * py
               + (1 - s * (p.xx + p.yy)) * pz};
 }
 
@@ -77,7 +77,8 @@ bool scheduled_wrench(const double* y, const double* rot, const Mat& loads, idx 
     }
   }
   idx b = static_cast<idx>(loads(row, S_BODY));
-  double r0 = point[0] - y[3 * b], r1 = point[1] - y[3 * b + 1], r2 = point[2] - y[3 * b + 2];
+  const double* cg = y + state::position(n, b);
+  double r0 = point[0] - cg[0], r1 = point[1] - cg[1], r2 = point[2] - cg[2];
   out[3] = out[9] + r1 * out[2] - r2 * out[1];
   out[4] = out[10] + r2 * out[0] - r0 * out[2];
   out[5] = out[11] + r0 * out[1] - r1 * out[0];
@@ -93,8 +94,9 @@ void aero_wrench(const double* y, const double* rot, const Mat& loads, idx row, 
   idx c = static_cast<idx>(loads(row, A_CARRIER));
   if (c < 0) c = b;   // no proximity table: the carrier is not read
   const double* rb = rot + 9 * b;
-  aero::wrench(Rows{loads.row(static_cast<idx>(loads(row, A_FIRST)))}, y + 3 * b,
-               y + 3 * n + 3 * b, rb, y + 10 * n + 3 * b, y + 3 * c, rot + 9 * c, out, air);
+  aero::wrench(Rows{loads.row(static_cast<idx>(loads(row, A_FIRST)))}, y + state::position(n, b),
+               y + state::velocity(n, b), rb, y + state::rates(n, b), y + state::position(n, c),
+               rot + 9 * c, out, air);
 }
 
 // Where aero row `row`'s body is on each axis at y: values, status, ends (aero_axes).
@@ -104,13 +106,14 @@ void axes_at(const double* y, const Mat& loads, idx row, idx n, double* values, 
   idx c = static_cast<idx>(loads(row, A_CARRIER));
   if (c < 0) c = b;
   double rb[9], rc[9];
-  const double* qb = y + 6 * n + 4 * b;
-  const double* qc = y + 6 * n + 4 * c;
+  const double* qb = y + state::quaternion(n, b);
+  const double* qc = y + state::quaternion(n, c);
   quat_matrix(qb[0], qb[1], qb[2], qb[3], rb);
   quat_matrix(qc[0], qc[1], qc[2], qc[3], rc);
   Rows p{loads.row(static_cast<idx>(loads(row, A_FIRST)))};
   aero::Flow f;
-  aero::flow(p, y + 3 * b, y + 3 * n + 3 * b, rb, y + 3 * c, rc, f);
+  aero::flow(p, y + state::position(n, b), y + state::velocity(n, b), rb,
+             y + state::position(n, c), rc, f);
   int watched[aero::kSlots] = {0};
   int used = aero::ranges(p, watched, low, high);
   for (int k = 0; k < aero::kSlots; ++k) {
@@ -123,11 +126,12 @@ void axes_at(const double* y, const Mat& loads, idx row, idx n, double* values, 
 
 // Body a's pose in body b's axes at y into pose: its CG (3) and quaternion (4, x y z w).
 void relative_pose(const double* y, idx n, idx a, idx b, double* pose) {
-  const double* qa = y + 6 * n + 4 * a;
-  const double* qb = y + 6 * n + 4 * b;
+  const double* qa = y + state::quaternion(n, a);
+  const double* qb = y + state::quaternion(n, b);
   Products pb = products(qb[0], qb[1], qb[2], qb[3]);
-  V3 r = unit_turn(pb, y[3 * a] - y[3 * b], y[3 * a + 1] - y[3 * b + 1],
-                   y[3 * a + 2] - y[3 * b + 2], true);
+  const double* ca = y + state::position(n, a);
+  const double* cb = y + state::position(n, b);
+  V3 r = unit_turn(pb, ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2], true);
   pose[0] = r.x;
   pose[1] = r.y;
   pose[2] = r.z;
@@ -146,8 +150,10 @@ void relative_pose(const double* y, idx n, idx a, idx b, double* pose) {
 // sign of q). Else false, and GJK decides (its distance and pose kept for the next time).
 bool surely_apart(const double* y, const Mat& loads, idx row, idx n) {
   idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
-  double d0 = y[3 * a] - y[3 * b], d1 = y[3 * a + 1] - y[3 * b + 1];
-  double d2 = y[3 * a + 2] - y[3 * b + 2];
+  const double* ca = y + state::position(n, a);
+  const double* cb = y + state::position(n, b);
+  double d0 = ca[0] - cb[0], d1 = ca[1] - cb[1];
+  double d2 = ca[2] - cb[2];
   double radius_a = loads(row, C_RADIUS_A);
   if (std::sqrt(d0 * d0 + d1 * d1 + d2 * d2) - radius_a - loads(row, C_RADIUS_B) > CONTACT_GAP)
     return true;
@@ -173,9 +179,9 @@ bool surely_apart(const double* y, const Mat& loads, idx row, idx n) {
 }
 
 // Add to fhat the opposite of wrench w (force (3), moment about the loaded body's CG (3),
-// world point (6:9), moment given (9:12) or none) on body j about its own CG.
-void react(const double* y, const double* w, bool given, idx j, double* fhat) {
-  double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
+// world point (6:9), moment given (9:12) or none) on body j about its own CG, at cg.
+void react(const double* cg, const double* w, bool given, idx j, double* fhat) {
+  double r0 = w[6] - cg[0], r1 = w[7] - cg[1], r2 = w[8] - cg[2];
   double* fj = fhat + 6 * j;
   fj[0] -= w[0];
   fj[1] -= w[1];
@@ -224,7 +230,8 @@ void add_scheduled(const double* y, const double* rot, const Mat& bodies, const 
     idx b = static_cast<idx>(loads(row, S_BODY));
     for (int k = 0; k < 6; ++k) fhat[6 * b + k] += w[k];
     idx j = static_cast<idx>(loads(row, S_REACT));
-    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) react(y, w, !brace, j, fhat);
+    if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0)
+      react(y + state::position(n, j), w, !brace, j, fhat);
   }
 }
 
@@ -245,7 +252,7 @@ void stage_time(const Mat& loads, idx n, double offset) {
 
 void rotations(const double* y, idx n, double* rot) {
   for (idx i = 0; i < n; ++i) {
-    idx o = 6 * n + 4 * i;
+    idx o = state::quaternion(n, i);
     Products p = products(y[o], y[o + 1], y[o + 2], y[o + 3]);
     double s = 2.0 / (p.xx + p.yy + p.zz + p.w * p.w);
     double* r = rot + 9 * i;
@@ -292,15 +299,15 @@ double contact_gap(const double* y, const Mat& loads, idx row, idx n, double* po
                    int* parts) {
   idx a = static_cast<idx>(loads(row, C_A)), b = static_cast<idx>(loads(row, C_B));
   double rot_a[9], rot_b[9], scratch[closest::WIDTH];
-  const double* qa = y + 6 * n + 4 * a;
-  const double* qb = y + 6 * n + 4 * b;
+  const double* qa = y + state::quaternion(n, a);
+  const double* qb = y + state::quaternion(n, b);
   quat_matrix(qa[0], qa[1], qa[2], qa[3], rot_a);
   quat_matrix(qb[0], qb[1], qb[2], qb[3], rot_b);
   double* p = points ? points : scratch;
   return shapes::any_distance(Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_A)))}, rot_a,
-                              y + 3 * a,
+                              y + state::position(n, a),
                               Rows{loads.row(static_cast<idx>(loads(row, C_SHAPE_B)))}, rot_b,
-                              y + 3 * b, p + closest::P_A, p + closest::P_B,
+                              y + state::position(n, b), p + closest::P_A, p + closest::P_B,
                               loads.row(row) + C_GUESS, parts);
 }
 
@@ -329,7 +336,8 @@ void sample_applied(const double* y, const Mat& bodies, const Mat& loads, double
     o += sample::WRENCH;
     idx j = static_cast<idx>(loads(row, S_REACT));
     if (j >= 0 && bodies(j, motion::B_INV_MASS) > 0.0) {
-      double r0 = w[6] - y[3 * j], r1 = w[7] - y[3 * j + 1], r2 = w[8] - y[3 * j + 2];
+      const double* cg = y + state::position(n, j);
+      double r0 = w[6] - cg[0], r1 = w[7] - cg[1], r2 = w[8] - cg[2];
       double g0 = brace ? 0.0 : w[9], g1 = brace ? 0.0 : w[10], g2 = brace ? 0.0 : w[11];
       double reaction[6] = {-w[0], -w[1], -w[2], -(g0 + r1 * w[2] - r2 * w[1]),
                             -(g1 + r2 * w[0] - r0 * w[2]), -(g2 + r0 * w[1] - r1 * w[0])};

@@ -30,9 +30,10 @@ Q4 exp_map(double rx, double ry, double rz) {
 void constant(const Mat& bodies, idx i, double t, double* y, idx n) {
   const int c = M_DATA;
   for (int k = 0; k < 3; ++k) {
-    y[3 * i + k] = bodies(i, c + D_POSITION + k) + bodies(i, c + D_VELOCITY + k) * t;
-    y[3 * n + 3 * i + k] = bodies(i, c + D_VELOCITY + k);
-    y[10 * n + 3 * i + k] = bodies(i, c + D_RATES + k);
+    y[state::position(n, i) + k] =
+        bodies(i, c + D_POSITION + k) + bodies(i, c + D_VELOCITY + k) * t;
+    y[state::velocity(n, i) + k] = bodies(i, c + D_VELOCITY + k);
+    y[state::rates(n, i) + k] = bodies(i, c + D_RATES + k);
     bodies(i, M_ACC + k) = 0.0;
     bodies(i, M_ACC + 3 + k) = 0.0;  // constant body rates: d(R w)/dt = R (w x w) = 0
   }
@@ -40,10 +41,10 @@ void constant(const Mat& bodies, idx i, double t, double* y, idx n) {
   Q4 e = exp_map(bodies(i, r) * t, bodies(i, r + 1) * t, bodies(i, r + 2) * t);
   Q4 q = qmul(bodies(i, a), bodies(i, a + 1), bodies(i, a + 2), bodies(i, a + 3), e.x, e.y,
               e.z, e.w);
-  y[6 * n + 4 * i] = q.x;
-  y[6 * n + 4 * i + 1] = q.y;
-  y[6 * n + 4 * i + 2] = q.z;
-  y[6 * n + 4 * i + 3] = q.w;
+  y[state::quaternion(n, i)] = q.x;
+  y[state::quaternion(n, i) + 1] = q.y;
+  y[state::quaternion(n, i) + 2] = q.z;
+  y[state::quaternion(n, i) + 3] = q.w;
 }
 
 double poly(const Mat& bodies, idx i, idx o, double s, int order) {
@@ -76,8 +77,8 @@ void table(const Mat& bodies, idx i, double t, double* y, idx n) {
     const idx at = o + G_POSITION + 4 * k;
     double c0 = bodies(i, at), c1 = bodies(i, at + 1);
     double c2 = bodies(i, at + 2), c3 = bodies(i, at + 3);
-    y[3 * i + k] = ((c0 * s + c1) * s + c2) * s + c3;
-    y[3 * n + 3 * i + k] = (3.0 * c0 * s + 2.0 * c1) * s + c2;
+    y[state::position(n, i) + k] = ((c0 * s + c1) * s + c2) * s + c3;
+    y[state::velocity(n, i) + k] = (3.0 * c0 * s + 2.0 * c1) * s + c2;
     bodies(i, M_ACC + k) = 6.0 * c0 * s + 2.0 * c1;
   }
   idx key = o + G_KEY;
@@ -88,10 +89,10 @@ void table(const Mat& bodies, idx i, double t, double* y, idx n) {
   Q4 q = qmul(bodies(i, key), bodies(i, key + 1), bodies(i, key + 2), bodies(i, key + 3), e.x,
               e.y, e.z, e.w);
   double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-  y[6 * n + 4 * i] = q.x / norm;
-  y[6 * n + 4 * i + 1] = q.y / norm;
-  y[6 * n + 4 * i + 2] = q.z / norm;
-  y[6 * n + 4 * i + 3] = q.w / norm;
+  y[state::quaternion(n, i)] = q.x / norm;
+  y[state::quaternion(n, i) + 1] = q.y / norm;
+  y[state::quaternion(n, i) + 2] = q.z / norm;
+  y[state::quaternion(n, i) + 3] = q.w / norm;
   // body rates and their derivative from the rotation vector's (scipy RotationSpline)
   double theta = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z);
   double k1, k2, n1, n2;
@@ -112,14 +113,14 @@ void table(const Mat& bodies, idx i, double t, double* y, idx n) {
   V3 cp = cross(r, rd);
   V3 ccp = cross(r, cp);
   V3 dccp = cross(rd, cp);
-  y[10 * n + 3 * i] = w.x;
-  y[10 * n + 3 * i + 1] = w.y;
-  y[10 * n + 3 * i + 2] = w.z;
+  y[state::rates(n, i)] = w.x;
+  y[state::rates(n, i) + 1] = w.y;
+  y[state::rates(n, i) + 2] = w.z;
   double a0 = linear.x + dp * (n1 * cp.x + n2 * ccp.x) + k2 * dccp.x;
   double a1 = linear.y + dp * (n1 * cp.y + n2 * ccp.y) + k2 * dccp.y;
   double a2 = linear.z + dp * (n1 * cp.z + n2 * ccp.z) + k2 * dccp.z;
   // world angular acceleration: R alpha_body (the w x w term is zero)
-  const double* unit = y + 6 * n + 4 * i;
+  const double* unit = y + state::quaternion(n, i);
   V3 world = unit_turn(products(unit[0], unit[1], unit[2], unit[3]), a0, a1, a2, false);
   bodies(i, M_ACC + 3) = world.x;
   bodies(i, M_ACC + 4) = world.y;
@@ -157,16 +158,16 @@ void arc(const Mat& bodies, idx i, double t, double* y, idx n) {
   const double* q0 = &bodies(i, c + D_QUATERNION);
   V3 moved = turn(q0[0], q0[1], q0[2], q0[3], t * v.x + s1 * wv.x + s2 * wwv.x,
                   t * v.y + s1 * wv.y + s2 * wwv.y, t * v.z + s1 * wv.z + s2 * wwv.z, false);
-  const double* q = y + 6 * n + 4 * i;
+  const double* q = y + state::quaternion(n, i);
   Products now = products(q[0], q[1], q[2], q[3]);
   V3 velocity = unit_turn(now, v.x, v.y, v.z, false);
   V3 acceleration = unit_turn(now, wv.x, wv.y, wv.z, false);
-  y[3 * i] = bodies(i, c + D_POSITION) + moved.x;
-  y[3 * i + 1] = bodies(i, c + D_POSITION + 1) + moved.y;
-  y[3 * i + 2] = bodies(i, c + D_POSITION + 2) + moved.z;
-  y[3 * n + 3 * i] = velocity.x;
-  y[3 * n + 3 * i + 1] = velocity.y;
-  y[3 * n + 3 * i + 2] = velocity.z;
+  y[state::position(n, i)] = bodies(i, c + D_POSITION) + moved.x;
+  y[state::position(n, i) + 1] = bodies(i, c + D_POSITION + 1) + moved.y;
+  y[state::position(n, i) + 2] = bodies(i, c + D_POSITION + 2) + moved.z;
+  y[state::velocity(n, i)] = velocity.x;
+  y[state::velocity(n, i) + 1] = velocity.y;
+  y[state::velocity(n, i) + 2] = velocity.z;
   bodies(i, M_ACC) = acceleration.x;
   bodies(i, M_ACC + 1) = acceleration.y;
   bodies(i, M_ACC + 2) = acceleration.z;
@@ -232,8 +233,10 @@ void sample_relative(const double* y, const Mat& bodies, double* out, idx size) 
   for (idx i = 0; i < n; ++i) {
     idx c = static_cast<idx>(bodies(i, M_REF)) - 1;
     if (c < 0) continue;
-    relative_state(y + 3 * i, y + 3 * n + 3 * i, y + 6 * n + 4 * i, y + 10 * n + 3 * i,
-                   y + 3 * c, y + 3 * n + 3 * c, y + 6 * n + 4 * c, y + 10 * n + 3 * c,
+    relative_state(y + state::position(n, i), y + state::velocity(n, i),
+                   y + state::quaternion(n, i), y + state::rates(n, i),
+                   y + state::position(n, c), y + state::velocity(n, c),
+                   y + state::quaternion(n, c), y + state::rates(n, c),
                    out + o);
     o += sample::BODY;
   }

@@ -27,8 +27,8 @@ inline double known(const double* jac_row, const Mat& bodies, idx a, idx b) {
 inline void derivative(const Mat& bodies, idx i, const double* rot, double* dy, idx n) {
   const double* r = rot + 9 * i;
   for (int k = 0; k < 3; ++k) {
-    dy[3 * n + 3 * i + k] = bodies(i, M_ACC + k);
-    dy[10 * n + 3 * i + k] = r[k] * bodies(i, M_ACC + 3) + r[3 + k] * bodies(i, M_ACC + 4)
+    dy[state::velocity(n, i) + k] = bodies(i, M_ACC + k);
+    dy[state::rates(n, i) + k] = r[k] * bodies(i, M_ACC + 3) + r[3 + k] * bodies(i, M_ACC + 4)
                              + r[6 + k] * bodies(i, M_ACC + 5);
   }
 }

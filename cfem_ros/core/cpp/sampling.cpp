@@ -32,8 +32,9 @@ bool joint_loads(const double* y, const System& s, const Work& v, double* force,
     }
     const double* rf = s.rows_f.row(s.plan(j, P_ROW));
     V3 rho0 = rotate(v.rot + 9 * b, rf[6], rf[7], rf[8]);
-    V3 rho = {rho0.x + y[3 * b] - y[3 * c], rho0.y + y[3 * b + 1] - y[3 * c + 1],
-              rho0.z + y[3 * b + 2] - y[3 * c + 2]};
+    const double* cb = y + state::position(s.n(), b);
+    const double* cc = y + state::position(s.n(), c);
+    V3 rho = {rho0.x + cb[0] - cc[0], rho0.y + cb[1] - cc[1], rho0.z + cb[2] - cc[2]};
     V3 f = {sign * wrench[0], sign * wrench[1], sign * wrench[2]};
     V3 arm = cross(rho, f);
     for (int k = 0; k < 3; ++k) {
@@ -48,18 +49,19 @@ int sample_outputs(const double* y, const System& s, const Work& v, const idx* o
                    double* out, idx size) {
   const idx n = s.n();
   for (idx i = 0; i < n; ++i) {
-    idx o = sample::BODY * i, q = 6 * n + 4 * i;
+    idx o = sample::BODY * i, q = state::quaternion(n, i);
     double norm = std::sqrt(y[q] * y[q] + y[q + 1] * y[q + 1] + y[q + 2] * y[q + 2]
                             + y[q + 3] * y[q + 3]);
     Products p = products(y[q] / norm, y[q + 1] / norm, y[q + 2] / norm, y[q + 3] / norm);
     // R^T v with R the body-to-world matrix of the unit quaternion; its first entry, R's
     // first column . v, summed as the earlier kernel rounded it (dot_yx, algebra.hpp)
-    V3 velocity = {y[3 * n + 3 * i], y[3 * n + 3 * i + 1], y[3 * n + 3 * i + 2]};
+    const double* cg_velocity = y + state::velocity(n, i);
+    V3 velocity = {cg_velocity[0], cg_velocity[1], cg_velocity[2]};
     V3 body = unit_turn(p, velocity.x, velocity.y, velocity.z, true);
     body.x = dot_yx({1 - 2 * (p.yy + p.zz), 2 * (p.xy + p.wz), 2 * (p.xz - p.wy)}, velocity);
     for (int c = 0; c < 3; ++c) {
-      out[o + sample::O_POSITION + c] = y[3 * i + c];
-      out[o + sample::O_RATES + c] = y[10 * n + 3 * i + c];
+      out[o + sample::O_POSITION + c] = y[state::position(n, i) + c];
+      out[o + sample::O_RATES + c] = y[state::rates(n, i) + c];
     }
     for (int c = 0; c < 4; ++c) out[o + sample::O_QUATERNION + c] = y[q + c];
     out[o + sample::O_VELOCITY] = body.x;
@@ -105,8 +107,8 @@ bool project(const double* y, const System& s, const Work& v, double* delta) {
     const double* jac = v.jac + 12 * r;
     double total = 0.0;
     for (int k = 0; k < 3; ++k)
-      total += jac[k] * y[3 * n + 3 * a + k] + jac[3 + k] * v.omega[3 * a + k]
-               + jac[6 + k] * y[3 * n + 3 * b + k] + jac[9 + k] * v.omega[3 * b + k];
+      total += jac[k] * y[state::velocity(n, a) + k] + jac[3 + k] * v.omega[3 * a + k]
+               + jac[6 + k] * y[state::velocity(n, b) + k] + jac[9 + k] * v.omega[3 * b + k];
     v.rhs[r] = -total;
   }
   if (s.dense > 0) {

@@ -74,7 +74,7 @@ double rk4(const double* y, idx size, double h, double* out, const System& s, co
   }
   for (; j < size; ++j) out[j] = y[j] + sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
   for (idx i = 0; i < n; ++i) {
-    double* q = out + 6 * n + 4 * i;
+    double* q = out + state::quaternion(n, i);
     double scale = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     for (int k = 0; k < 4; ++k) q[k] *= scale;
   }
