@@ -75,7 +75,7 @@ PYBIND11_MODULE(_kernel, m) {
                               + ": not a joint of joints_i");
     for (idx k = 0; k < ji.rows; ++k)
       for (idx side = 0; side < 2; ++side)
-        if (ji(k, side) < 0 || 13 * ji(k, side) >= size)
+        if (ji(k, side) < 0 || cfem::state::BODY * ji(k, side) >= size)
           throw py::value_error("joints_i[" + std::to_string(k) + ", " + std::to_string(side)
                                 + "] = " + std::to_string(ji(k, side)) + ": not a body of y");
     py::gil_scoped_release free;

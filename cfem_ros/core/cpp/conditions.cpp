@@ -10,7 +10,7 @@ namespace cfem {
 
 void conditions(const double* y, idx size, const IMat& joints_i, const Mat& joints_f,
                 const idx* watch, idx count, double* out, idx stride) {
-  const idx n = size / 13;
+  const idx n = size / state::BODY;
   double rot[9];
   for (idx w = 0; w < count; ++w) {
     idx k = watch[w];
